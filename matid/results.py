@@ -1,0 +1,240 @@
+"""Results of a study and their export as stiffness tables (data-contract section 4).
+
+Fits produce :class:`TestFit` objects; the pipeline gathers them in a
+:class:`StudyResult`; this module turns that into ``stiffness.csv`` and
+``stiffness.json``. Values are SI inside and converted once here (``--units cgs``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from matid import __version__
+from matid.study import Study, Test
+from matid.units import from_si
+
+#: Quantity kind of every reported parameter (for unit conversion).
+PARAMETER_KINDS: dict[str, str] = {
+    "E_e": "force",
+    "sls_k1": "force",
+    "sls_k2": "force",
+    "sls_eta": "viscosity",
+    "E_b": "bending_stiffness",
+    "E_t": "bending_stiffness",
+    "E_s": "force",
+}
+#: Order of parameters in tables.
+PARAMETER_ORDER = ["E_b", "E_t", "E_s", "E_e", "sls_k1", "sls_k2", "sls_eta"]
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """One fitted (or fixed) parameter of one specimen, in SI."""
+
+    parameter: str
+    value: float
+    stderr: float | None
+    ci95: tuple[float, float] | None
+    n_points: int
+    method: str  # "sls", "linear", "cosserat-fe", "fixed"
+    warnings: tuple[str, ...] = ()
+    extra: Mapping[str, object] = field(default_factory=dict, hash=False)
+
+    def __post_init__(self) -> None:
+        if self.parameter not in PARAMETER_KINDS:
+            raise ValueError(f"unknown parameter {self.parameter!r}")
+        if not math.isfinite(self.value):
+            raise ValueError(f"{self.parameter}: value is not finite ({self.value})")
+
+    @property
+    def kind(self) -> str:
+        return PARAMETER_KINDS[self.parameter]
+
+
+@dataclass(frozen=True)
+class Series:
+    """One data set of a fit, for plots: measured y against x, the model, the points used."""
+
+    label: str
+    x: np.ndarray
+    y: np.ndarray
+    y_fit: np.ndarray | None = None
+    used: np.ndarray | None = None  # bool mask of the points in the fit (None: all)
+
+    @property
+    def residual(self) -> np.ndarray | None:
+        return None if self.y_fit is None else self.y - self.y_fit
+
+
+@dataclass(frozen=True)
+class TestFit:
+    """The fit of all tests of one kind on one specimen."""
+
+    kind: str
+    specimen: str
+    tests: tuple[Test, ...]
+    estimates: tuple[Estimate, ...]
+    series: tuple[Series, ...]
+    x_label: str  # axis labels with SI units, e.g. "tip angle / free length [rad/m]"
+    y_label: str
+    correlation: Mapping[str, float] = field(default_factory=dict, hash=False)  # "a|b" -> r
+    warnings: tuple[str, ...] = ()
+    info: Mapping[str, object] = field(default_factory=dict, hash=False)  # fit window, noise, ...
+
+    def estimate(self, parameter: str) -> Estimate | None:
+        return next((e for e in self.estimates if e.parameter == parameter), None)
+
+
+@dataclass(frozen=True)
+class Failure:
+    """A fit that could not be done, with the reason shown to the user."""
+
+    kind: str
+    specimen: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class InputFile:
+    path: Path
+    sha256: str
+    metadata: Mapping[str, str] = field(default_factory=dict, hash=False)
+    units: Mapping[str, str] = field(default_factory=dict, hash=False)  # column -> unit as written
+    n_rows: int = 0
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    study: Study
+    inputs: tuple[InputFile, ...]
+    fits: tuple[TestFit, ...]
+    failures: tuple[Failure, ...] = ()
+    pending: tuple[Failure, ...] = ()  # tests present but not fitted by design (not an error)
+    fixed: tuple[Estimate, ...] = ()  # [[fixed]] entries as estimates (method "fixed")
+    started: str = ""
+    runtime_s: float = 0.0
+    versions: Mapping[str, str] = field(default_factory=dict, hash=False)
+
+    @property
+    def ok(self) -> bool:
+        return not self.failures
+
+    def warnings(self) -> list[str]:
+        """Every warning of the study, prefixed by where it arose."""
+        out = [f"{f.specimen} {f.kind}: {f.reason}" for f in self.failures]
+        for fit in self.fits:
+            out += [f"{fit.specimen} {fit.kind}: {w}" for w in fit.warnings]
+            for est in fit.estimates:
+                out += [f"{fit.specimen} {est.parameter}: {w}" for w in est.warnings]
+        return out
+
+    def estimates(self) -> dict[str, dict[str, Estimate]]:
+        """specimen -> parameter -> estimate; fixed entries stand where no fit gives the parameter."""
+        table: dict[str, dict[str, Estimate]] = {s.id: {} for s in self.study.specimens}
+        for fit in self.fits:
+            for est in fit.estimates:
+                table[fit.specimen][est.parameter] = est
+        for est in self.fixed:
+            specimen = est.extra.get("specimen")
+            table[str(specimen)].setdefault(est.parameter, est)
+        return {k: dict(sorted(v.items(), key=lambda kv: PARAMETER_ORDER.index(kv[0]))) for k, v in table.items()}
+
+
+def _convert(est: Estimate, units: str) -> tuple[float, float | None, tuple[float, float] | None, str]:
+    value, unit = from_si(est.value, est.kind, units)
+    factor = value / est.value if est.value else from_si(1.0, est.kind, units)[0]
+    stderr = None if est.stderr is None else est.stderr * factor
+    ci = None if est.ci95 is None else (est.ci95[0] * factor, est.ci95[1] * factor)
+    return value, stderr, ci, unit
+
+
+def _clean(x: float | None) -> float | None:
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
+    """The ``stiffness.json`` document (data-contract section 4)."""
+    specimens: dict[str, dict] = {}
+    for sid, params in result.estimates().items():
+        entry = {}
+        for name, est in params.items():
+            value, stderr, ci, unit = _convert(est, units)
+            item: dict[str, object] = {
+                "value": value,
+                "stderr": _clean(stderr),
+                "ci95": None if ci is None else [_clean(ci[0]), _clean(ci[1])],
+                "unit": unit,
+                "n_points": est.n_points,
+                "method": est.method,
+                "warnings": list(est.warnings),
+            }
+            item.update({k: v for k, v in est.extra.items() if k != "specimen"})
+            entry[name] = item
+        specimens[sid] = entry
+    return {
+        "matid_version": __version__,
+        "unit_system": units,
+        "study": result.study.name,
+        "inputs": [{"file": f.path.name, "sha256": f.sha256} for f in result.inputs],
+        "specimens": specimens,
+        "warnings": result.warnings(),
+    }
+
+
+CSV_COLUMNS = ["specimen", "parameter", "value", "stderr", "ci95_low", "ci95_high", "unit", "n_points", "method"]
+
+
+def stiffness_csv(result: StudyResult, units: str = "SI") -> str:
+    """The ``stiffness.csv`` text: one row per specimen and parameter."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+    for sid, params in result.estimates().items():
+        for name, est in params.items():
+            value, stderr, ci, unit = _convert(est, units)
+            writer.writerow(
+                [
+                    sid,
+                    name,
+                    f"{value:.10g}",
+                    "" if _clean(stderr) is None else f"{stderr:.6g}",
+                    "" if ci is None or _clean(ci[0]) is None else f"{ci[0]:.10g}",
+                    "" if ci is None or _clean(ci[1]) is None else f"{ci[1]:.10g}",
+                    unit,
+                    est.n_points,
+                    est.method,
+                ]
+            )
+    return buffer.getvalue()
+
+
+def atomic_write(path: Path, data: str | bytes) -> None:
+    """Write a file whole or not at all: a temporary name in the same folder, then rename."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    mode = "wb" if isinstance(data, bytes) else "w"
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as handle:
+            handle.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_tables(result: StudyResult, out: Path, units: str = "SI") -> list[Path]:
+    """Write stiffness.csv and stiffness.json into ``out``; returns the paths."""
+    json_path, csv_path = out / "stiffness.json", out / "stiffness.csv"
+    atomic_write(json_path, json.dumps(stiffness_json(result, units), indent=2) + "\n")
+    atomic_write(csv_path, stiffness_csv(result, units))
+    return [json_path, csv_path]

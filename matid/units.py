@@ -1,0 +1,167 @@
+"""Units: parsed once on the way in, formatted once on the way out.
+
+Everything inside matid is SI. A quantity in study.toml or a scene is a string
+``"<number> <unit>"`` or a bare number meaning SI; a CSV column carries its unit
+in its header. Both go through :func:`to_si`, which checks the dimension of the
+unit against what the field needs (``"length"``, ``"force"``, ...).
+
+Two units need care with pint's default registry: pint's ``G`` is the
+Gaussian-CGS gauss (sqrt dimensions, not convertible to tesla), and ``emu`` is
+not defined. Lab files mean the magnetic flux density 1 G = 1e-4 T and the
+magnetic moment 1 emu = 1e-3 A m^2, so those tokens are rewritten to SI
+definitions before pint parses them.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from functools import lru_cache
+
+import pint
+
+ureg = pint.UnitRegistry()
+ureg.define("lab_gauss = 1e-4 * tesla")
+ureg.define("lab_emu = 1e-3 * ampere * meter ** 2")
+
+#: pint dimensionality per physical kind of field. Angles and strains are
+#: dimensionless in pint; they are told apart by the unit names allowed.
+DIMENSIONS: dict[str, str] = {
+    "length": "[length]",
+    "force": "[force]",
+    "torque": "[force] * [length]",
+    "time": "[time]",
+    "field": "[mass] / [time] ** 2 / [current]",
+    "moment": "[current] * [length] ** 2",
+    "moment_per_length": "[current] * [length]",
+    "bending_stiffness": "[force] * [length] ** 2",
+    "viscosity": "[force] * [time]",
+    "force_per_length": "[force] / [length]",
+    "curvature": "1 / [length]",
+    "angle": "",
+    "strain": "",
+    "dimensionless": "",
+}
+
+#: The SI unit each kind is reported in.
+SI_UNITS: dict[str, str] = {
+    "length": "m",
+    "force": "N",
+    "torque": "N m",
+    "time": "s",
+    "field": "T",
+    "moment": "A m^2",
+    "moment_per_length": "A",
+    "bending_stiffness": "N m^2",
+    "viscosity": "N s",
+    "force_per_length": "N/m",
+    "curvature": "1/m",
+    "angle": "rad",
+    "strain": "1",
+    "dimensionless": "1",
+}
+
+_ANGLE_UNITS = {"rad", "radian", "radians", "deg", "degree", "degrees", "°", "mrad", "rev", "turn"}
+_STRAIN_UNITS = {"1", "-", "%", "percent", "mm/mm", "m/m", "", "ratio"}
+
+_TOKEN_REWRITES = [
+    (re.compile(r"(?<![A-Za-z_])(G|Gs|gauss)(?![A-Za-z_])"), "lab_gauss"),
+    (re.compile(r"(?<![A-Za-z_])emu(?![A-Za-z_])"), "lab_emu"),
+    (re.compile(r"µ|μ"), "u"),
+    (re.compile(r"°"), "deg"),
+]
+
+
+class UnitError(ValueError):
+    """A unit string pint cannot parse, or of the wrong dimension."""
+
+
+def _normalise(unit: str) -> str:
+    text = unit.strip()
+    for pattern, repl in _TOKEN_REWRITES:
+        text = pattern.sub(repl, text)
+    return text.replace("^", "**")
+
+
+@lru_cache(maxsize=512)
+def si_factor(unit: str, kind: str) -> float:
+    """Multiplier taking a value in ``unit`` to SI for a field of ``kind``.
+
+    Raises UnitError naming the unit when it is unknown or of another dimension.
+    """
+    if kind not in DIMENSIONS:
+        raise ValueError(f"unknown quantity kind {kind!r}")
+    text = unit.strip()
+    if kind == "angle" and text.lower() not in _ANGLE_UNITS:
+        raise UnitError(f"'{unit}' is not an angle unit (use rad or deg)")
+    if kind == "strain":
+        if text.lower() not in _STRAIN_UNITS:
+            raise UnitError(f"'{unit}' is not a strain unit (use 1 or %)")
+        return 0.01 if text.lower() in {"%", "percent"} else 1.0
+    if kind == "dimensionless" and text in {"", "-", "1"}:
+        return 1.0
+    try:
+        quantity = ureg.Quantity(1.0, _normalise(text))
+    except (pint.errors.PintError, AttributeError, TypeError, ValueError, SyntaxError) as exc:
+        raise UnitError(f"unknown unit '{unit}'") from exc
+    want = DIMENSIONS[kind]
+    if kind == "moment_per_length" and quantity.check("[current]"):
+        # data-contract section 6 writes per_length = "0.02 A" for "A m^2 per m":
+        # read a bare current unit as that shorthand.
+        return float(quantity.to("A").magnitude)
+    if want and not quantity.check(want):
+        raise UnitError(f"'{unit}' is not a unit of {kind} (expected like {SI_UNITS[kind]})")
+    if not want and not quantity.dimensionless:
+        raise UnitError(f"'{unit}' is not dimensionless")
+    return float(quantity.to_base_units().magnitude)
+
+
+def to_si(value: object, kind: str) -> float:
+    """Parse ``"<number> <unit>"`` (or a bare number, meaning SI) into SI.
+
+    >>> to_si("30 mm", "length")
+    0.03
+    """
+    if isinstance(value, bool):
+        raise UnitError(f"expected a quantity of {kind}, got {value!r}")
+    if isinstance(value, (int, float)):
+        number = float(value)
+    elif isinstance(value, str):
+        match = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*", value)
+        if match is None:
+            raise UnitError(f"cannot read a quantity from '{value}' (write e.g. '30 mm')")
+        number = float(match.group(1)) * (si_factor(match.group(2), kind) if match.group(2) else 1.0)
+    else:
+        raise UnitError(f"expected a quantity of {kind}, got {value!r}")
+    if not math.isfinite(number):
+        raise UnitError(f"'{value}' is not a finite number")
+    return number
+
+
+def vector_to_si(values: object, kind: str) -> tuple[float, float, float]:
+    """Parse a list of three quantities (a lab-frame vector) into SI."""
+    if not isinstance(values, (list, tuple)) or len(values) != 3:
+        raise UnitError(f"expected a list of three quantities of {kind}, got {values!r}")
+    x, y, z = (to_si(v, kind) for v in values)
+    return (x, y, z)
+
+
+#: Output unit systems: for each reported kind, (unit label, factor from SI).
+UNIT_SYSTEMS: dict[str, dict[str, tuple[str, float]]] = {
+    "SI": {
+        "force": ("N", 1.0),
+        "bending_stiffness": ("N m^2", 1.0),
+        "viscosity": ("N s", 1.0),
+    },
+    "cgs": {
+        "force": ("dyn", 1e5),
+        "bending_stiffness": ("dyn cm^2", 1e9),
+        "viscosity": ("dyn s", 1e5),
+    },
+}
+
+
+def from_si(value: float, kind: str, system: str = "SI") -> tuple[float, str]:
+    """Convert an SI value of ``kind`` to the output unit ``system``; returns (value, unit)."""
+    unit, factor = UNIT_SYSTEMS[system][kind]
+    return value * factor, unit
