@@ -100,9 +100,17 @@ def si_factor(unit: str, kind: str) -> float:
         return 0.01 if text.lower() in {"%", "percent"} else 1.0
     if kind == "dimensionless" and text in {"", "-", "1"}:
         return 1.0
+    # pint's parser raises AssertionError on some malformed strings such as "-".
     try:
         quantity = ureg.Quantity(1.0, _normalise(text))
-    except (pint.errors.PintError, AttributeError, TypeError, ValueError, SyntaxError) as exc:
+    except (
+        pint.errors.PintError,
+        AssertionError,
+        AttributeError,
+        TypeError,
+        ValueError,
+        SyntaxError,
+    ) as exc:
         raise UnitError(f"unknown unit '{unit}'") from exc
     want = DIMENSIONS[kind]
     if kind == "moment_per_length" and quantity.check("[current]"):
