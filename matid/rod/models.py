@@ -1,0 +1,292 @@
+"""The planar and full rod models on a clamped rod, in scaled units.
+
+Scaling (physics.md, "scale the problem before solving it"): lengths by L,
+forces by E_b0/L^2, moments by E_b0/L, energies by E_b0/L, with E_b0 the
+bending stiffness at the clamp. Scaled stiffnesses are then E_b = 1,
+E_t/E_b0, E_s L^2/E_b0, E_e L^2/E_b0; a magnetisation per length mu B becomes
+mu B L^2/E_b0 and a lumped moment m B becomes m B L/E_b0.
+
+Total energy, eq. (10), at load factor lam (loads and precurvature scale with lam):
+
+    S = int_0^1 [W(kappa - lam kappa_ref, nu) - lam mu d3.B + c_u P - lam f.r] ds
+        - lam sum_magnets m d3(s_m).B - lam F.r(1)  [- lam M theta(1), planar]
+
+A dead tip moment in 3D has no potential; its virtual work lam M.dphi with the
+spatial spin dphi = 2 vec(dq * conj(q))/|q|^2 enters the residual directly
+(the tangent is then unsymmetric, which the LU solver handles).
+
+Only the terms a scene has are evaluated: no magnetic term without a field,
+no penalty in the planar model, no precurvature term when it is zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from matid.rod import kinematics as kin
+from matid.rod.fem import Discretisation
+from matid.rod.jet import Jet
+
+PLANAR, FULL = "planar", "full"
+FIELDS = {PLANAR: ("x", "z", "theta"), FULL: ("x", "y", "z", "q0", "q1", "q2", "q3")}
+
+
+@dataclass(frozen=True)
+class Segment:
+    """Scaled properties on [start, end): stiffness factors relative to the base rod."""
+
+    start: float
+    end: float
+    E_b: float
+    E_t: float
+    E_s: float
+    E_e: float
+
+
+@dataclass(frozen=True)
+class ScaledRod:
+    """A clamped rod and its loads in scaled units (see module docstring).
+
+    In the planar model vectors are (transverse, axial) pairs in the plane of
+    the scene and moments/curvatures are about the plane normal.
+    """
+
+    E_t: float = 1.0
+    E_s: float = 1e4
+    E_e: float = 1e4
+    segments: tuple[Segment, ...] = ()
+    kappa_ref: tuple[float, ...] = (0.0, 0.0, 0.0)
+    mu: tuple[tuple[float, float, float], ...] = ()  # (from, to, moment per length) pieces
+    B: tuple[float, ...] = (0.0, 0.0, 0.0)
+    f: tuple[float, ...] = (0.0, 0.0, 0.0)
+    tip_force: tuple[float, ...] = (0.0, 0.0, 0.0)
+    tip_moment: tuple[float, ...] = (0.0, 0.0, 0.0)
+    magnets: tuple[tuple[float, float], ...] = ()  # (s, moment)
+
+    def stiffness_at(self, s: np.ndarray) -> dict[str, np.ndarray]:
+        out = {"E_b": np.ones_like(s), "E_t": np.full_like(s, self.E_t),
+               "E_s": np.full_like(s, self.E_s), "E_e": np.full_like(s, self.E_e)}
+        for seg in self.segments:
+            inside = (s >= seg.start) & (s < seg.end)
+            for name in out:
+                out[name] = np.where(inside, getattr(seg, name), out[name])
+        return out
+
+    def mu_at(self, s: np.ndarray) -> np.ndarray:
+        out = np.zeros_like(s)
+        for start, end, value in self.mu:
+            out += np.where((s >= start) & (s <= end), value, 0.0)
+        return out
+
+    @property
+    def has_field(self) -> bool:
+        return any(self.B) and (bool(self.mu) or bool(self.magnets))
+
+
+@dataclass
+class RodSystem:
+    """Residual and tangent of a clamped rod for :mod:`matid.rod.newton`."""
+
+    disc: Discretisation
+    rod: ScaledRod
+    model: str = PLANAR
+    variant: str = kin.NORMALISED
+    c_u: float = 1.0
+    terms: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        s = self.disc.s_quad
+        self.props = self.rod.stiffness_at(s)
+        self.mu = self.rod.mu_at(s)
+        nf = self.disc.nf
+        free = np.ones(self.disc.n, dtype=bool)
+        free[:nf] = False  # clamp: every field at vertex 0
+        self.disc.set_free(free)
+        self.index = np.full(self.disc.n, -1)
+        self.index[free] = np.arange(int(free.sum()))
+        self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
+        magnets = [(s_m, m) for s_m, m in self.rod.magnets]
+        verts = self.disc.vertices
+        self.magnet_nodes = [(int(np.argmin(np.abs(verts - s_m))), m) for s_m, m in magnets]
+        self.terms = ["bending", "shear", "extension"] + (["twist", "unity penalty"] if self.model == FULL else [])
+        if self.rod.has_field:
+            self.terms.append("magnetic")
+        if any(self.rod.kappa_ref):
+            self.terms.append("precurvature")
+
+    # -- states -------------------------------------------------------------
+    def reference(self) -> np.ndarray:
+        """Straight rod along the axis, identity rotation."""
+        U = np.zeros((self.disc.nscalar, self.disc.nf))
+        U[:, 1 if self.model == PLANAR else 2] = self.disc.s_dof
+        if self.model == FULL:
+            U[:, 3] = 1.0
+        return U.ravel()
+
+    # -- energy density -------------------------------------------------------
+    def density(self, u: list, du: list, lam: float):
+        p, rod = self.props, self.rod
+        if self.model == PLANAR:
+            x, z, th = u
+            k2, nu1, nu3 = kin.planar_strains(du[0], du[1], th, du[2])
+            w = kin.planar_strain_energy(k2, nu1, nu3, p["E_b"], p["E_s"], p["E_e"], lam * rod.kappa_ref[1])
+            if "magnetic" in self.terms:
+                w = w + kin.magnetic_energy(lam * self.mu, [kin.jet.sin(th), 0.0, kin.jet.cos(th)],
+                                            [rod.B[0], 0.0, rod.B[2]])
+            if any(rod.f):
+                w = w - lam * (rod.f[0] * x + rod.f[2] * z)
+            return w
+        r, q, dr, dq = u[:3], u[3:], du[:3], du[3:]
+        kappa, nu = kin.strains(dr, q, dq, self.variant)
+        kref = [lam * k for k in rod.kappa_ref]
+        w = kin.strain_energy(kappa, nu, p["E_b"], p["E_t"], p["E_s"], p["E_e"], kref)
+        if self.variant == kin.RAW:  # the paper's integrated penalty; normalised: see gauge_terms
+            w = w + kin.unity_penalty(q, self.c_u)
+        if "magnetic" in self.terms:
+            w = w + kin.magnetic_energy(lam * self.mu, kin.d3(q, self.variant), rod.B)
+        if any(rod.f):
+            w = w - lam * (rod.f[0] * r[0] + rod.f[1] * r[1] + rod.f[2] * r[2])
+        return w
+
+    def energy_derivatives(self, U: np.ndarray, lam: float, tangent: bool = True):
+        vals, ders = self.disc.interpolate(U)
+        variables = Jet.variables(np.concatenate([vals, ders]), hessian=tangent)
+        nf = self.disc.nf
+        w = self.density(variables[:nf], variables[nf:], lam)
+        return w.g, w.h
+
+    def energy(self, X: np.ndarray, lam: float) -> float | None:
+        """Total potential at load factor lam (scaled), or None when a load has no potential."""
+        if self.model == FULL and any(self.rod.tip_moment):
+            return None  # a dead moment in 3D is not conservative
+        U = self.expand(X)
+        vals, ders = self.disc.interpolate(U)
+        nf = self.disc.nf
+        total = self.disc.integrate(self.density(list(vals), list(ders), lam))
+        node = U.reshape(-1, nf)
+        tip, rod = node[self.tip], self.rod
+        if self.model == PLANAR:
+            total -= lam * (rod.tip_force[0] * tip[0] + rod.tip_force[2] * tip[1] + rod.tip_moment[1] * tip[2])
+            for k, m in self.magnet_nodes:
+                total -= lam * m * (np.sin(node[k, 2]) * rod.B[0] + np.cos(node[k, 2]) * rod.B[2])
+            return total
+        total -= lam * float(np.dot(rod.tip_force, tip[:3]))
+        for k, m in self.magnet_nodes:
+            total += float(kin.magnetic_energy(lam * m, kin.d3(node[k, 3:], self.variant), rod.B))
+        if self.variant == kin.NORMALISED:
+            total += float(np.sum(kin.unity_penalty(node[:, 3:].T, self.c_u)))
+        return total
+
+    @property
+    def roundoff(self) -> float:
+        """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
+        stiff = max(float(np.max(v)) for v in self.props.values())
+        return 1e-15 * max(stiff, 1.0)
+
+    # -- point terms (tip loads, lumped magnets) --------------------------------
+    def point_terms(self, U: np.ndarray, lam: float) -> tuple[np.ndarray, list]:
+        """Residual of the point loads (all dofs) and their tangent blocks [(dofs, matrix)]."""
+        nf = self.disc.nf
+        R = np.zeros(self.disc.n)
+        blocks = []
+        tip = np.arange(self.tip * nf, self.tip * nf + nf)
+        rod = self.rod
+        if self.model == PLANAR:
+            R[tip[0]] -= lam * rod.tip_force[0]
+            R[tip[1]] -= lam * rod.tip_force[2]
+            R[tip[2]] -= lam * rod.tip_moment[1]
+            for node, m in self.magnet_nodes:
+                th = U[node * nf + 2]
+                # -m (sin th Bx + cos th Bz): derivative and second derivative in theta
+                R[node * nf + 2] -= lam * m * (np.cos(th) * rod.B[0] - np.sin(th) * rod.B[2])
+                k = lam * m * (np.sin(th) * rod.B[0] + np.cos(th) * rod.B[2])
+                blocks.append((np.array([node * nf + 2]), np.array([[k]])))
+            return R, blocks
+        R[tip[:3]] -= lam * np.asarray(rod.tip_force)
+        if any(rod.tip_moment):
+            g, h = _moment_work(U[tip[3:]], np.asarray(rod.tip_moment))
+            R[tip[3:]] -= lam * g
+            blocks.append((tip[3:], -lam * h))
+        for node, m in self.magnet_nodes:
+            dofs = np.arange(node * nf + 3, node * nf + 7)
+            qj = Jet.variables(U[dofs].reshape(4, 1))
+            e = kin.magnetic_energy(lam * m, kin.d3(qj, self.variant), rod.B)
+            R[dofs] += e.g[0]
+            blocks.append((dofs, e.h[0]))
+        return R, blocks
+
+    def gauge_terms(self, U: np.ndarray) -> tuple[np.ndarray, list]:
+        """Unity penalty c_u/2 (|q|^2 - 1)^2 at every node (normalised variant).
+
+        With directors from q/|q| no energy depends on |q|: the penalty only fixes
+        that null direction. Applied per node its stiffness does not shrink with
+        the element size, so load terms coupling into |q| (a dead tip moment)
+        cannot swamp it; the physical solution is the same for any c_u > 0.
+        """
+        nf = self.disc.nf
+        Q = U.reshape(-1, nf)[:, 3:]
+        e = np.sum(Q * Q, axis=1) - 1.0
+        R = np.zeros_like(U).reshape(-1, nf)
+        R[:, 3:] = 2.0 * self.c_u * e[:, None] * Q
+        H = self.c_u * (2.0 * e[:, None, None] * np.eye(4) + 4.0 * Q[:, :, None] * Q[:, None, :])
+        dofs = np.arange(Q.shape[0])[:, None] * nf + 3 + np.arange(4)[None, :]
+        return R.ravel(), [(dofs, H)]
+
+    # -- residual and tangent on the free dofs ---------------------------------
+    def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):
+        """Residual on the free dofs and, with ``tangent``, its Jacobian (CSR)."""
+        U = self.expand(X) if U is None else U
+        g, H = self.energy_derivatives(U, lam, tangent)
+        R, K = self.disc.assemble(g, H)
+        Rp, blocks = self.point_terms(U, lam)
+        R = R + Rp
+        if self.model == FULL and self.variant == kin.NORMALISED:
+            Rg, gblocks = self.gauge_terms(U)
+            R = R + Rg
+            blocks = blocks + gblocks
+        if not tangent:
+            return R[self.disc.free], None
+        return R[self.disc.free], K + self._blocks_matrix(blocks, K.shape)
+
+    def _blocks_matrix(self, blocks: list, shape: tuple[int, int]) -> sp.csr_matrix:
+        """Sum of dense blocks (dofs of shape (..., m), matrices (..., m, m)) on the free dofs."""
+        rows, cols, vals = [], [], []
+        for dofs, block in blocks:
+            dofs = np.atleast_2d(dofs)
+            block = block.reshape(dofs.shape[0], dofs.shape[1], dofs.shape[1])
+            idx = self.index[dofs]
+            ii = np.broadcast_to(idx[:, :, None], block.shape)
+            jj = np.broadcast_to(idx[:, None, :], block.shape)
+            ok = (ii >= 0) & (jj >= 0)
+            rows.append(ii[ok]), cols.append(jj[ok]), vals.append(block[ok])
+        if not rows:
+            return sp.csr_matrix(shape)
+        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=shape)
+
+    def expand(self, X: np.ndarray) -> np.ndarray:
+        U = self.reference()
+        U[self.disc.free] = X
+        return U
+
+    def reduce(self, U: np.ndarray) -> np.ndarray:
+        return U[self.disc.free].copy()
+
+
+def _moment_work(q: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Generalised force of a dead moment M on q and its Jacobian.
+
+    dphi = 2 (q0 dv - dq0 v + v x dv)/|q|^2, so Q0 = -2 M.v/|q|^2 and
+    Qv = 2 (q0 M + M x v)/|q|^2.
+    """
+    qj = Jet.variables(q.reshape(4, 1))
+    q0, v = qj[0], qj[1:]
+    inv = 1.0 / kin.norm2(qj)
+    Mxv = [M[1] * v[2] - M[2] * v[1], M[2] * v[0] - M[0] * v[2], M[0] * v[1] - M[1] * v[0]]
+    Q = [-2.0 * (M[0] * v[0] + M[1] * v[1] + M[2] * v[2]) * inv]
+    Q += [2.0 * (q0 * M[i] + Mxv[i]) * inv for i in range(3)]
+    g = np.array([c.v[0] for c in Q])
+    jac = np.array([c.g[0] for c in Q])
+    return g, jac

@@ -1,0 +1,164 @@
+"""Solve a scene: scale, pick the model, continue the load, map back to SI.
+
+Cantilever scenes run the planar model (x, z, theta) when :func:`plane_of`
+finds a plane holding every load, the full model (r, q) otherwise; the
+three-point bend is planar by construction (:mod:`matid.rod.contact`).
+Positions and directors come back in the lab frame and in metres.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from matid.rod import kinematics as kin
+from matid.rod.fem import Discretisation, graded_vertices
+from matid.rod.models import FULL, PLANAR, RodSystem, ScaledRod, Segment
+from matid.rod.newton import NewtonInfo, follow
+from matid.rod.scenes import Scene, plane_of
+
+#: A rigid segment is this many times stiffer than the stiffest part of the rod
+#: (scaled): its deformation is then ~1e-6 of the rest, far below the
+#: discretisation error, while the tangent stays well conditioned (LU, double).
+RIGID_FACTOR = 1e6
+#: Quadrature order per element: 2 = two-point Gauss. Measured (bench): the
+#: three-point rule locks on slender rods, two-point Gauss does not.
+DEFAULT_INTORDER = 2
+DEFAULT_ELEMENTS = 16
+
+
+@dataclass(frozen=True)
+class Solution:
+    """Static equilibrium of a scene, SI, lab frame (data-contract section 6)."""
+
+    scene: Scene
+    model: str
+    elements: int
+    element: str
+    newton_iterations: int
+    load_steps: int
+    runtime_s: float
+    s: np.ndarray
+    position: np.ndarray  # (n, 3)
+    d1: np.ndarray
+    d3: np.ndarray
+    terms: tuple[str, ...] = ()
+    three_point_bend: dict | None = None
+    discretization_error: float | None = None
+    extra: dict = field(default_factory=dict, hash=False)
+    converged: bool = True  # a Solution only exists converged; kept for the JSON contract
+
+    @property
+    def tip(self) -> dict:
+        return {"position": self.position[-1].tolist(), "d1": self.d1[-1].tolist(), "d3": self.d3[-1].tolist()}
+
+
+def _rotate(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rodrigues: rotate the fixed vector v about the unit axis by each angle."""
+    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+    return v * c + np.cross(axis, v)[None, :] * s + axis * (axis @ v) * (1 - c)
+
+
+def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
+    """The scene's rod and loads in scaled units; projected onto the plane when e_a is given."""
+    rod, loads = scene.rod, scene.loads
+    L, Eb = rod.length, rod.E_b
+
+    def vec(v, factor):
+        v = np.asarray(v, float) * factor
+        if e_a is None:
+            return tuple(v)
+        n = np.cross([0.0, 0.0, 1.0], e_a)
+        return (float(v @ e_a), float(v @ n), float(v[2]))
+
+    def moment(v, factor):
+        v = np.asarray(v, float) * factor
+        if e_a is None:
+            return tuple(v)
+        return (0.0, float(v @ np.cross([0.0, 0.0, 1.0], e_a)), 0.0)
+
+    base = {"E_b": 1.0, "E_t": rod.E_t / Eb, "E_s": rod.E_s * L**2 / Eb, "E_e": rod.E_e * L**2 / Eb}
+    stiffest = max(base.values())
+    segments = []
+    for seg in rod.segments:
+        scaled = dict(base)
+        for k, v in seg.overrides.items():
+            if k in scaled:
+                scaled[k] = v / Eb * (1.0 if k in ("E_b", "E_t") else L**2)
+        if seg.rigid:
+            scaled = {k: RIGID_FACTOR * max(stiffest, v) for k, v in scaled.items()}
+        segments.append(Segment(seg.start / L, seg.end / L, **scaled))
+    return ScaledRod(
+        E_t=base["E_t"], E_s=base["E_s"], E_e=base["E_e"], segments=tuple(segments),
+        kappa_ref=moment(rod.precurvature, L),
+        mu=tuple((a / L, b / L, m * L**2 / Eb) for a, b, m in loads.magnetization),
+        B=vec(loads.B, 1.0),
+        f=vec(loads.distributed_force, L**3 / Eb),
+        tip_force=vec(loads.tip_force, L**2 / Eb),
+        tip_moment=moment(loads.tip_moment, L / Eb),
+        magnets=tuple((at / L, m * L / Eb) for at, m in loads.magnets),
+    )
+
+
+def breaks(scene: Scene) -> tuple[float, ...]:
+    """Scaled arc lengths where the mesh needs a vertex (segment ends, magnets, magnetisation ends)."""
+    L = scene.rod.length
+    points = [p for seg in scene.rod.segments for p in (seg.start, seg.end)]
+    points += [at for at, _ in scene.loads.magnets]
+    points += [p for a, b, _ in scene.loads.magnetization for p in (a, b)]
+    return tuple(sorted({p / L for p in points}))
+
+
+def solve_cantilever(
+    scene: Scene,
+    *,
+    elements: int | None = None,
+    model: str = "auto",
+    variant: str = kin.NORMALISED,
+    c_u: float = 1.0,
+    element: str = "P2",
+    intorder: int | None = None,
+    first_step: float = 1.0,
+) -> Solution:
+    """Static equilibrium of a clamped rod (raises ConvergenceError, never returns a failed state)."""
+    t0 = time.perf_counter()
+    plane = plane_of(scene) if model in ("auto", PLANAR) else None
+    if model == PLANAR and plane is None:
+        raise ValueError("the scene is not planar: use model='full' or 'auto'")
+    chosen = PLANAR if plane is not None else FULL
+    e_a = None if chosen == FULL else np.asarray(plane)
+    ne = elements or scene.elements or DEFAULT_ELEMENTS
+    order = intorder or (DEFAULT_INTORDER if element == "P2" else 2)
+    disc = Discretisation(graded_vertices(1.0, ne, breaks=breaks(scene)), 3 if chosen == PLANAR else 7,
+                          element=element, intorder=order)
+    system = RodSystem(disc, scaled_rod(scene, e_a), model=chosen, variant=variant, c_u=c_u)
+    X, info = follow(system, system.reduce(system.reference()), [1.0], first_step=first_step)
+    U = system.expand(X).reshape(disc.nscalar, disc.nf)
+    return _solution(scene, chosen, disc, U, e_a, info, time.perf_counter() - t0, system.terms)
+
+
+def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms) -> Solution:
+    L = scene.rod.length
+    order = np.argsort(disc.s_dof)
+    s, U = disc.s_dof[order] * L, U[order]
+    if chosen == PLANAR:
+        e3 = np.array([0.0, 0.0, 1.0])
+        n = np.cross(e3, e_a)
+        position = (U[:, 0:1] * e_a + U[:, 1:2] * e3) * L
+        theta = U[:, 2]
+        d1 = _rotate(n, theta, np.array([1.0, 0.0, 0.0]))
+        d3 = _rotate(n, theta, e3)
+    else:
+        position = U[:, :3] * L
+        q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
+        R = np.array(kin.directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
+        d1, d3 = R[:, :, 0], R[:, :, 2]
+    if not (np.all(np.isfinite(position)) and np.all(np.isfinite(d1))):
+        raise FloatingPointError("non-finite solution")  # unreachable: Newton rejects NaN
+    return Solution(
+        scene=scene, model=chosen, elements=disc.ne, element=disc.element,
+        newton_iterations=info.iterations, load_steps=info.steps, runtime_s=runtime,
+        s=s, position=position, d1=d1, d3=d3, terms=tuple(terms),
+    )
