@@ -1,0 +1,181 @@
+"""Forward models that make the SYNTHETIC demo data (SI units throughout).
+
+Each function computes the noise-free response of one lab test from known
+stiffnesses; :mod:`matid.example.generate` adds the seeded noise and writes
+the files. The equations are those of ``physics.md``:
+
+- standard linear solid, section 1: ``F = k1 eps + f2``,
+  ``f2' + (k2/eta) f2 = k2 eps'``, integrated exactly for a piecewise-linear
+  strain history with ``f2 <- a f2 + eta r (1 - a)``, ``a = exp(-k2 dt/eta)``;
+- tip magnet in a uniform field, section 5: ``theta = (m B L/E_b) sin(psi - theta)``;
+- torsion: ``tau = E_t phi/L`` in the linear range, plus a documented
+  departure beyond an onset twist per length (``torsion_torque``);
+- three-point bend: ``bend_force``, a closed-form placeholder for the rod solver.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import brentq
+
+
+def sls_force(
+    t: np.ndarray,
+    knots_t: np.ndarray,
+    knots_eps: np.ndarray,
+    *,
+    k1: float,
+    k2: float,
+    eta: float,
+) -> np.ndarray:
+    """Force of the standard linear solid for a piecewise-linear strain history.
+
+    The history is linear between ``(knots_t, knots_eps)`` and starts from rest
+    (``knots_eps[0] == 0``). Merging the knots into the sample times makes the
+    strain rate ``r`` constant on every step, so the exponential update
+    ``f2_i = a f2_{i-1} + eta r (1 - a)``, ``a = exp(-k2 dt / eta)``, is exact
+    (physics.md section 1); ``F = k1 eps + f2``. For a ramp ``eps = r t`` this
+    is ``F = k1 r t + eta r (1 - exp(-k2 t / eta))``.
+    """
+    t = np.asarray(t, dtype=float)
+    knots_t = np.asarray(knots_t, dtype=float)
+    knots_eps = np.asarray(knots_eps, dtype=float)
+    if knots_eps[0] != 0.0 or np.any(np.diff(knots_t) <= 0.0):
+        raise ValueError("knots must start from rest (eps = 0) at increasing times")
+    if t.min() < knots_t[0] or t.max() > knots_t[-1]:
+        raise ValueError("sample times must lie within the strain history")
+    grid = np.union1d(t, knots_t)
+    eps = np.interp(grid, knots_t, knots_eps)
+    f2 = np.zeros_like(grid)
+    for i in range(1, grid.size):
+        dt = grid[i] - grid[i - 1]
+        rate = (eps[i] - eps[i - 1]) / dt
+        a = math.exp(-k2 * dt / eta)
+        f2[i] = a * f2[i - 1] + eta * rate * (1.0 - a)
+    force = k1 * eps + f2
+    return force[np.searchsorted(grid, t)]
+
+
+def ramp(rate: float, eps_max: float, *, hold: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Knots of a constant-rate ramp from rest to ``eps_max``, optionally held ``hold`` s."""
+    t_ramp = eps_max / rate
+    if hold > 0.0:
+        return np.array([0.0, t_ramp, t_ramp + hold]), np.array([0.0, eps_max, eps_max])
+    return np.array([0.0, t_ramp]), np.array([0.0, eps_max])
+
+
+def cycles(
+    rate: float, eps_max: float, n: int, *, eps_min: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Knots of a ramp from rest to ``eps_max`` followed by ``n`` unload-reload cycles
+    down to ``eps_min`` (ending unloaded at ``eps_min``), all at ``rate``."""
+    knots_eps = np.array([0.0] + [eps_max, eps_min] * n)
+    knots_t = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(knots_eps)))]) / rate
+    return knots_t, knots_eps
+
+
+def tip_angle(
+    field: np.ndarray, field_angle: np.ndarray, *, moment: float, length: float, E_b: float
+) -> np.ndarray:
+    """Tip angle of a cantilever with a tip magnet in a uniform field.
+
+    Solves ``theta = (m B L / E_b) sin(psi - theta)`` per point with brentq
+    (physics.md section 5); the root lies between 0 and psi for |psi| < pi.
+    """
+    field, field_angle = np.broadcast_arrays(
+        np.asarray(field, float), np.asarray(field_angle, float)
+    )
+    theta = np.zeros(field.shape)
+    for i, (b, psi) in enumerate(zip(field.flat, field_angle.flat, strict=True)):
+        if not abs(psi) < math.pi:
+            raise ValueError(f"field_angle {psi} rad outside (-pi, pi)")
+        c = moment * b * length / E_b
+        if c == 0.0 or psi == 0.0:
+            continue
+        theta.flat[i] = brentq(
+            lambda th, c=c, psi=psi: th - c * math.sin(psi - th),
+            min(0.0, psi),
+            max(0.0, psi),
+            xtol=1e-15,
+            rtol=4 * np.finfo(float).eps,
+        )
+    return theta
+
+
+def torsion_torque(
+    twist_angle: np.ndarray,
+    *,
+    length: float,
+    E_t: float,
+    onset: float,
+    scale: float,
+    sign: float = -1.0,
+) -> np.ndarray:
+    """Torque of a twisted tube: linear up to an onset twist per length, then curved.
+
+    With ``k = phi / L`` and ``x = max(|k| - onset, 0)``::
+
+        tau = E_t (k + sign * sgn(k) * x^2 / (2 scale))
+
+    i.e. ``tau = E_t phi / L`` exactly while ``|phi|/L <= onset`` (rad/m), and
+    beyond it the tangent stiffness changes linearly with the excess twist,
+    ``dtau/dk = E_t (1 + sign x / scale)``: softening for ``sign = -1``
+    (zero slope at ``x = scale``), stiffening for ``sign = +1``. The law is a
+    material property in twist per length, so a long tube twisted by the same
+    angle stays linear while a short one leaves the linear range (paper, Fig. 3).
+    """
+    k = np.asarray(twist_angle, dtype=float) / length
+    excess = np.maximum(np.abs(k) - onset, 0.0)
+    if sign < 0 and np.any(excess >= scale):
+        raise ValueError("twist beyond the softening law's peak torque")
+    return E_t * (k + sign * np.sign(k) * excess**2 / (2.0 * scale))
+
+
+def bend_force(
+    d: np.ndarray,
+    *,
+    span: float,
+    E_b: float,
+    E_s: float,
+    E_e: float,
+    specimen_length: float,
+    support_radius: float,
+    nose_radius: float,
+    outer_diameter: float,
+) -> np.ndarray:
+    """Nose force of the three-point bend test against nose deflection ``d``.
+
+    PLACEHOLDER: the Timoshenko small-deflection closed form (physics.md
+    section 5), ``d = F S^3 / (48 E_b) + F S / (4 E_s)``, i.e.
+    ``F = d / (S^3 / (48 E_b) + S / (4 E_s))``. It ignores E_e, the contact
+    geometry (support and nose radii, outer diameter, sliding contact points)
+    and large deflection; those arguments are taken so that this one function
+    can be replaced by matid's fine-mesh Cosserat rod solve of the
+    three-point-bend scene without touching its callers.
+    """
+    for name, value in [
+        ("span", span),
+        ("E_b", E_b),
+        ("E_s", E_s),
+        ("E_e", E_e),
+        ("specimen_length", specimen_length),
+        ("support_radius", support_radius),
+        ("nose_radius", nose_radius),
+        ("outer_diameter", outer_diameter),
+    ]:
+        if not value > 0.0:
+            raise ValueError(f"{name} must be positive, got {value}")
+    if specimen_length <= span:
+        raise ValueError("specimen_length must exceed span")
+    compliance = span**3 / (48.0 * E_b) + span / (4.0 * E_s)
+    return np.asarray(d, dtype=float) / compliance
+
+
+def unloading_force(
+    d: np.ndarray, loading_force: np.ndarray, *, d_max: float, hysteresis: float
+) -> np.ndarray:
+    """Force on the unloading branch: below the loading curve by a fraction growing to
+    ``hysteresis`` as the deflection returns to zero, ``F_u = F_l (1 - h (1 - d/d_max))``."""
+    return np.asarray(loading_force) * (1.0 - hysteresis * (1.0 - np.asarray(d) / d_max))
