@@ -132,6 +132,7 @@ class StudyResult:
     def warnings(self) -> list[str]:
         """Every warning of the study, prefixed by where it arose."""
         out = [f"{f.specimen} {f.kind}: {f.reason}" for f in self.failures]
+        out += [f"{p.specimen} {p.kind}: not fitted: {p.reason}" for p in self.pending]
         for fit in self.fits:
             out += [f"{fit.specimen} {fit.kind}: {w}" for w in fit.warnings]
             for est in fit.estimates:
@@ -226,6 +227,9 @@ def atomic_write(path: Path, data: str | bytes) -> None:
     try:
         with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as handle:
             handle.write(data)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs are ordinary files
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

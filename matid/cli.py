@@ -1,0 +1,204 @@
+"""The ``matid`` command line: ``matid fit | demo``.
+
+Each subcommand is registered by its own ``_register_<name>(subparsers)`` and
+runs in a ``_cmd_<name>(args) -> int`` function; :func:`main` maps errors to
+exit codes (data-contract section 5):
+
+- 0: all fits done;
+- 1: some fits failed (the rest written, reasons printed), or another MatidError;
+- 2: the input cannot be used (DataError; also argparse usage errors);
+- 3: an unexpected error (a bug): a short message, the traceback with ``--debug``.
+
+Progress goes to stderr (unless ``--quiet``); the summary of the stiffnesses and
+the output paths go to stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import traceback
+from collections.abc import Sequence
+from importlib import resources
+from pathlib import Path
+
+from matid import __version__
+from matid.errors import DataError, MatidError
+from matid.pipeline import run_study, write_outputs
+from matid.results import Failure, StudyResult, stiffness_json
+from matid.study import load_study, resolve_study_path
+from matid.units import UNIT_SYSTEMS
+
+#: Parameters left out of the console summary (sls_k1 is E_e); the files hold them all.
+_SUMMARY_SKIP = {"sls_k1"}
+#: The parameter each test kind is for, to name what a failure costs.
+_KIND_PARAMETER = {
+    "extension": "E_e",
+    "magnetic_bending": "E_b",
+    "torsion": "E_t",
+    "three_point_bend": "E_s",
+}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``matid`` with ``argv`` (default: the process arguments); returns the exit code."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, usage errors
+        return exc.code if isinstance(exc.code, int) else 2
+    if not hasattr(args, "command"):
+        parser.print_help(sys.stderr)
+        return 2
+    return _guarded(args)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="matid",
+        description="Stiffness identification of catheter tubes for Cosserat rod models.",
+    )
+    parser.add_argument("--version", action="version", version=f"matid {__version__}")
+    subparsers = parser.add_subparsers(title="commands", metavar="COMMAND")
+    _register_fit(subparsers)
+    _register_demo(subparsers)
+    return parser
+
+
+def _common() -> argparse.ArgumentParser:
+    """Options every command takes."""
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+    common.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    return common
+
+
+def _add_units(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--units",
+        choices=sorted(UNIT_SYSTEMS),
+        default="SI",
+        help="unit system of the reported stiffnesses (default SI: N, N m^2, N s; cgs: dyn, dyn cm^2, dyn s)",
+    )
+
+
+def _register_fit(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "fit",
+        parents=[_common()],
+        help="fit a study and write the report and stiffness tables",
+        description="Fit every specimen of a study; write report.html, report.pdf, "
+        "stiffness.csv and stiffness.json into --out.",
+    )
+    parser.add_argument("path", metavar="PATH", help="study folder or its study.toml")
+    parser.add_argument(
+        "--out", metavar="DIR", type=Path, help="output folder (default reports/<study folder>)"
+    )
+    _add_units(parser)
+    parser.set_defaults(command=_cmd_fit)
+
+
+def _cmd_fit(args: argparse.Namespace) -> int:
+    source = resolve_study_path(args.path)
+    out = args.out or Path("reports") / source.resolve().parent.name
+    return fit_and_write(source, out, units=args.units, quiet=args.quiet)
+
+
+def _register_demo(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "demo",
+        parents=[_common()],
+        help="fit the embedded synthetic demo study",
+        description="Fit the synthetic demo study shipped with matid (matid.example).",
+    )
+    parser.add_argument(
+        "--out", metavar="DIR", type=Path, default=Path("reports/demo"),
+        help="output folder (default reports/demo)",
+    )  # fmt: skip
+    _add_units(parser)
+    parser.set_defaults(command=_cmd_demo)
+
+
+def demo_study_path() -> Path:
+    """study.toml of the embedded demo study (the package ``matid.example``)."""
+    path = resources.files("matid.example") / "study.toml"
+    if not isinstance(path, Path):
+        raise MatidError("the demo study is not installed as plain files; reinstall matid")
+    return path
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    return fit_and_write(demo_study_path(), args.out, units=args.units, quiet=args.quiet)
+
+
+def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool) -> int:
+    """Load, fit, write; print progress, failures and the summary. 0 if every fit was done."""
+    clock = time.perf_counter()
+
+    def progress(message: str) -> None:
+        if not quiet:
+            print(f"[{time.perf_counter() - clock:6.1f} s] {message}", file=sys.stderr, flush=True)
+
+    study = load_study(source)
+    result = run_study(study, progress=progress)
+    progress(f"rendering the report and tables into {out}")
+    paths = write_outputs(result, out, units=units)
+    progress("done")
+    for failure in result.failures:
+        print(
+            f"matid: fit failed: {_what(failure)}: {failure.reason}",
+            file=sys.stderr,
+        )
+    print(summary(result, units=units))
+    print("outputs:")
+    for path in paths:
+        print(f"  {path}")
+    return 0 if result.ok else 1
+
+
+def summary(result: StudyResult, *, units: str = "SI") -> str:
+    """A compact table of the stiffnesses (value ± stderr, unit), then what was not fitted."""
+    doc = stiffness_json(result, units)
+    rows = [("specimen", "parameter", "value", "unit", "method")]
+    for sid, params in doc["specimens"].items():
+        for name, item in params.items():
+            if name in _SUMMARY_SKIP:
+                continue
+            value = f"{item['value']:.5g}"
+            if item["stderr"] is not None:
+                value += f" ± {item['stderr']:.2g}"
+            rows.append((sid, name, value, item["unit"], item["method"]))
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in rows]
+    lines += [f"{_what(f)}: could not be fitted: {f.reason}" for f in result.failures]
+    lines += [f"{_what(p)}: not yet fitted ({p.reason})" for p in result.pending]
+    return "\n".join(lines)
+
+
+def _what(failure: Failure) -> str:
+    parameter = _KIND_PARAMETER.get(failure.kind, failure.kind)
+    return f"{failure.specimen} {parameter} ({failure.kind.replace('_', ' ')})"
+
+
+def _guarded(args: argparse.Namespace) -> int:
+    """Run the command; map errors to exit codes and one-line messages."""
+    try:
+        return args.command(args)
+    except DataError as exc:
+        return _fail(args, exc, 2, str(exc))
+    except MatidError as exc:
+        return _fail(args, exc, 1, str(exc))
+    except KeyboardInterrupt:
+        print("matid: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        hint = "" if args.debug else " (rerun with --debug for the traceback)"
+        return _fail(args, exc, 3, f"internal error: {type(exc).__name__}: {exc}{hint}")
+
+
+def _fail(args: argparse.Namespace, exc: BaseException, code: int, message: str) -> int:
+    if args.debug:
+        traceback.print_exception(exc, file=sys.stderr)
+    print(f"matid: error: {message}", file=sys.stderr)
+    return code
