@@ -51,3 +51,11 @@ class ConvergenceError(MatidError):
 
 class FitError(MatidError):
     """A fit could not be completed; the rest of the study still runs."""
+
+
+class SlipOffError(ConvergenceError):
+    """A three-point-bend tube end passed its support: the scene cannot go on."""
+
+    def __init__(self, message: str, *, deflection: float) -> None:
+        self.deflection = deflection
+        super().__init__(f"{message} at nose deflection {deflection:.6g} m")

@@ -63,13 +63,37 @@ class Discretisation:
         self.gdofs = gd  # (ne, nloc*nf), local order (i, c)
         self.set_free(np.ones(self.n, dtype=bool))
 
+        self._vertices = self.mesh.p[0].copy()
+
     @property
     def ne(self) -> int:
         return self.mesh.t.shape[1]
 
     @property
     def vertices(self) -> np.ndarray:
-        return self.mesh.p[0]
+        return self._vertices
+
+    def moved(self, vertices: np.ndarray) -> Discretisation:
+        """A copy on moved vertices (same topology), by rescaling the affine 1D basis tables.
+
+        phi is unchanged, phi' and dx scale with each element's length: cheap
+        enough to differentiate the residual with respect to vertex positions.
+        """
+        new = object.__new__(Discretisation)
+        new.__dict__.update(self.__dict__)
+        vertices = np.asarray(vertices, float)
+        ratio = (np.diff(vertices) / np.diff(self._vertices))[:, None]
+        new._vertices = vertices
+        new.dphi = self.dphi / ratio[None]
+        new.dx = self.dx * ratio
+        new.s_quad = vertices[:-1, None] + (self.s_quad - self._vertices[:-1, None]) * ratio
+        nv = vertices.size
+        new.s_dof = np.concatenate([vertices, 0.5 * (vertices[:-1] + vertices[1:])]) \
+            if self.element == "P2" else vertices.copy()
+        assert new.s_dof.size == self.nscalar and nv == self._vertices.size
+        new.weighted = np.stack([new.phi, new.dphi]) * new.dx[None, None]
+        new.both = np.stack([new.phi, new.dphi])
+        return new
 
     def vertex_dof(self, index: int) -> int:
         """Scalar dof of mesh vertex ``index`` (P1/P2 vertices come first in scikit-fem)."""

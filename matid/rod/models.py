@@ -95,6 +95,7 @@ class RodSystem:
     model: str = PLANAR
     variant: str = kin.NORMALISED
     c_u: float = 1.0
+    fixed: tuple[int, ...] | None = None  # fixed global dofs; default: clamp at s = 0
     terms: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -103,7 +104,7 @@ class RodSystem:
         self.mu = self.rod.mu_at(s)
         nf = self.disc.nf
         free = np.ones(self.disc.n, dtype=bool)
-        free[:nf] = False  # clamp: every field at vertex 0
+        free[list(range(nf)) if self.fixed is None else list(self.fixed)] = False
         self.disc.set_free(free)
         self.index = np.full(self.disc.n, -1)
         self.index[free] = np.arange(int(free.sum()))

@@ -61,6 +61,7 @@ def newton(
     load step is halved by :func:`follow`.
     """
     floor = max(xtol, float(getattr(system, "roundoff", 0.0)))
+    measure = getattr(system, "step_size", None) or (lambda d: float(np.max(np.abs(d))) if d.size else 0.0)
     x = x0.copy()
     sizes: list[float] = []
     for it in range(1, max_iter + 1):
@@ -71,7 +72,7 @@ def newton(
         dx = lu.solve(-R)
         if not np.all(np.isfinite(dx)):
             raise NewtonFailure("Newton correction is not finite")
-        size = float(np.max(np.abs(dx))) if dx.size else 0.0
+        size = measure(dx)
         if size <= xtol or (size <= floor and sizes and size > 0.1 * sizes[-1]):
             return x + dx, it, lu
         if len(sizes) >= 3 and size > sizes[-1] and size > sizes[-3]:

@@ -1,0 +1,298 @@
+"""The three-point-bend scene: deflection-controlled path, nose force, sensitivities.
+
+Scaled by the span S and E_b: lengths /S, forces /(E_b/S^2). Unknowns are the
+free planar dofs of the half rod (:mod:`matid.rod.contact`) and the two contact
+multipliers; the system is bordered,
+
+    [K - sum lam_c d2g_c   -G^T] [du  ]   = -[R - G^T lam]
+    [-G                      0 ] [dlam]      [-g        ]
+
+and the load factor moves the nose: d = lam d_max. A point contact puts a
+corner into the centreline of a shear-deformable rod, so each contact sits on
+a mesh vertex: the nose on vertex 0 (mid-span, by symmetry), the support on a
+vertex that is moved onto the contact section (the root of h in
+:mod:`matid.rod.contact`) after each solve, the state remapped by P2
+interpolation, until the two agree to ``S_TOL``. Sensitivities of the nose
+force to the stiffnesses come from the linearised equilibrium at each converged
+point: A dX/dp = -dR/dp, one back-substitution with the factorised tangent
+(the energy is linear in each stiffness, so dR/dp is the residual of that one
+energy term). The force is homogeneous of degree one in (E_b, E_s, E_e), so
+dF/dE_b = (F - E_s dF/dE_s - E_e dF/dE_e) / E_b.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from matid.errors import ConvergenceError, SlipOffError
+from matid.rod.contact import Circle
+from matid.rod.fem import Discretisation, graded_vertices
+from matid.rod.models import PLANAR, RodSystem, ScaledRod
+from matid.rod.newton import NewtonFailure, NewtonInfo, follow, newton
+
+#: Default elements of the half model (measured: see ``matid bench``).
+DEFAULT_ELEMENTS = 24
+
+
+@dataclass(frozen=True)
+class BendGeometry:
+    """Set-up of a three-point bend (SI)."""
+
+    span: float
+    specimen_length: float
+    support_radius: float
+    nose_radius: float
+    outer_diameter: float
+
+    def __post_init__(self) -> None:
+        if not self.specimen_length > self.span > 0:
+            raise ValueError("three-point bend needs specimen_length > span > 0")
+        if not (self.outer_diameter > 0 and self.support_radius >= 0 and self.nose_radius >= 0):
+            raise ValueError("three-point bend needs outer_diameter > 0 and radii >= 0")
+
+
+@dataclass
+class BendPath:
+    """Nose force along a deflection path (SI) with the converged states for warm starts."""
+
+    deflection: np.ndarray
+    force: np.ndarray
+    dforce: dict[str, np.ndarray]  # parameter -> dF/dp at each deflection
+    support_s: np.ndarray  # arc length of the support contact section from mid-span [m]
+    states: list[np.ndarray] = field(repr=False, default_factory=list)
+    newton_iterations: int = 0
+    load_steps: int = 0
+    runtime_s: float = 0.0
+
+
+class BendSystem:
+    """Residual and tangent of the half-model bend at nose deflection lam * d_max (scaled).
+
+    Unknowns X = (free planar dofs, lam_support, lam_nose, sigma): sigma is the
+    arc length of the support vertex, on which the mesh is built (uniform
+    elements on each side of it). Its equation is h(vertex) = 0: the vertex is
+    the contact section. dR/dsigma is a central difference of the residual on
+    the rescaled mesh (nodal values held), which is smooth in sigma.
+    """
+
+    def __init__(self, rod: RodSystem, model: BendModel, support: Circle, d_max: float):
+        self.rod, self.model, self.support, self.d_max = rod, model, support, d_max
+        self.base = rod.disc
+        self.k = model.support_vertex
+        self.nu = int(rod.disc.free.sum())
+
+    def at(self, sigma: float) -> None:
+        if not 0.0 < sigma < self.model.half:
+            raise NewtonFailure(f"the support contact section left the rod (s = {sigma:.4g} span)")
+        self.rod.disc = self.base.moved(self.model.vertices(sigma))
+
+    def nose(self, lam: float) -> Circle:
+        rho = self.model.nose_rho
+        return Circle(self.rod.disc, (rho - lam * self.d_max, 0.0), rho)
+
+    @property
+    def roundoff(self) -> float:
+        return self.rod.roundoff
+
+    def step_size(self, dx: np.ndarray) -> float:
+        """Trust region and convergence on the displacements and sigma (multipliers follow them)."""
+        return float(max(np.max(np.abs(dx[: self.nu])), abs(dx[-1])))
+
+    def contacts(self, U: np.ndarray, lam: float):
+        """[(gap, dofs, grad, hess, normal)] for the support and the nose, each at its vertex."""
+        nodes = U.reshape(-1, 3)
+        out = []
+        for circle, vertex in ((self.support, self.k), (self.nose(lam), 0)):
+            g, grad, hess = circle.vertex_gap(nodes, vertex)
+            out.append((g, vertex * 3 + np.arange(3), grad, hess, grad[:2]))
+        return out
+
+    def section(self, U: np.ndarray) -> tuple[float, np.ndarray]:
+        """h = (r - c).d3 at the support vertex and its gradient in (x, z, theta) there."""
+        x, z, th = U.reshape(-1, 3)[self.k]
+        dx, dz = x - self.support.centre[0], z - self.support.centre[1]
+        s, c = np.sin(th), np.cos(th)
+        return dx * s + dz * c, np.array([s, c, dx * c - dz * s])
+
+    def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
+        u, mult, sigma = X[: self.nu], X[self.nu : self.nu + 2], X[-1]
+        self.at(sigma)
+        U = self.rod.expand(u)
+        R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
+        index = self.rod.index
+        G = np.zeros((2, self.nu))
+        gaps = np.zeros(2)
+        blocks = []
+        for c, (g, dofs, grad, hess, _) in enumerate(self.contacts(U, lam)):
+            idx = index[dofs]
+            ok = idx >= 0
+            G[c, idx[ok]] = grad[ok]
+            gaps[c] = g
+            blocks.append((dofs, -mult[c] * hess))
+        h, dh = self.section(U)
+        R_all = np.concatenate([R - G.T @ mult, -gaps, [h]])
+        if not tangent:
+            return R_all, None
+        n = self.nu
+        column = self._mesh_derivative(u, U, sigma)
+        idx = index[self.k * 3 + np.arange(3)]
+        rows = [np.repeat(n + np.arange(2), n), np.arange(n), np.full(int((idx >= 0).sum()), n + 2)]
+        cols = [np.tile(np.arange(n), 2), np.full(n, n + 2), idx[idx >= 0]]
+        vals = [-G.ravel(), column, dh[idx >= 0]]
+        rows.append(np.tile(np.arange(n), 2))
+        cols.append(np.repeat(n + np.arange(2), n))
+        vals.append(-G.ravel())
+        border = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                               shape=(n + 3, n + 3))
+        A = K + self.rod._blocks_matrix(blocks, K.shape)
+        A.resize((n + 3, n + 3))
+        A = A + border
+        return R_all, A
+
+    def _mesh_derivative(self, u: np.ndarray, U: np.ndarray, sigma: float) -> np.ndarray:
+        delta = 1e-6 * max(sigma, 1e-3)
+        out = []
+        for s in (sigma + delta, sigma - delta):
+            self.at(s)
+            out.append(self.rod.evaluate(u, 0.0, tangent=False, U=U)[0])
+        self.at(sigma)
+        return (out[0] - out[1]) / (2 * delta)
+
+    def stiffness_derivative(self, X: np.ndarray, name: str) -> np.ndarray:
+        """dR/dp for a scaled stiffness p of the rod (the residual of that energy term alone)."""
+        rod = self.rod
+        self.at(X[-1])
+        saved = rod.props
+        rod.props = {k: (np.ones_like(v) if k == name else np.zeros_like(v)) for k, v in saved.items()}
+        try:
+            R, _ = rod.evaluate(X[: self.nu], 0.0, tangent=False)
+        finally:
+            rod.props = saved
+        return np.concatenate([R, np.zeros(3)])
+
+    def force(self, X: np.ndarray, lam: float) -> float:
+        """Scaled nose force of the whole tube."""
+        self.at(X[-1])
+        normal = self.contacts(self.rod.expand(X[: self.nu]), lam)[1][4]
+        return 2.0 * X[self.nu + 1] * (-normal[0])
+
+    def initial(self) -> np.ndarray:
+        self.at(0.5)
+        return np.concatenate([self.rod.reduce(self.rod.reference()), np.zeros(2), [0.5]])
+
+
+class BendModel:
+    """A three-point bend on a fixed number of elements, solved for any stiffnesses and deflections."""
+
+    def __init__(self, geometry: BendGeometry, *, elements: int = DEFAULT_ELEMENTS):
+        if elements < 2:
+            raise ValueError("the bend half model needs at least 2 elements")
+        self.geometry, self.elements = geometry, elements
+        S = geometry.span
+        self.half = 0.5 * geometry.specimen_length / S
+        R_o = 0.5 * geometry.outer_diameter
+        self.support_rho = (geometry.support_radius + R_o) / S
+        self.nose_rho = (geometry.nose_radius + R_o) / S
+        self.support_vertex = min(max(1, round(elements * 0.5 / self.half)), elements - 1)
+
+    def vertices(self, s_contact: float) -> np.ndarray:
+        """Uniform elements on each side of the support's contact section."""
+        k = self.support_vertex
+        inner = np.linspace(0.0, s_contact, k + 1)
+        outer = np.linspace(s_contact, self.half, self.elements - k + 1)[1:]
+        return np.concatenate([inner, outer])
+
+    def system(self, E_b: float, E_s: float, E_e: float, d_max: float) -> BendSystem:
+        S = self.geometry.span
+        disc = Discretisation(self.vertices(0.5), 3, intorder=2)
+        scaled = ScaledRod(E_t=1.0, E_s=E_s * S**2 / E_b, E_e=E_e * S**2 / E_b)
+        rod = RodSystem(disc, scaled, model=PLANAR, fixed=(1, 2))  # z(0) = 0, theta(0) = 0
+        support = Circle(disc, (-self.support_rho, 0.5), self.support_rho)
+        return BendSystem(rod, self, support, d_max / S)
+
+    def solve(
+        self,
+        E_b: float,
+        E_s: float,
+        E_e: float,
+        deflections: np.ndarray,
+        *,
+        sensitivities: tuple[str, ...] = (),
+        start: BendPath | None = None,
+    ) -> BendPath:
+        """Nose force at each deflection (increasing from 0), following the path by continuation.
+
+        ``start``: the path of an earlier solve at the same deflections (warm
+        start: Newton from each of its states, continuation as the fallback).
+        ``sensitivities``: any of "E_s", "E_e", "E_b" for dF/dp.
+        """
+        t0 = time.perf_counter()
+        d = np.asarray(deflections, float)
+        if d.size == 0 or np.any(d < 0) or np.any(np.diff(d) < 0):
+            raise ValueError("deflections must be non-negative and increasing")
+        d_max = float(d[-1]) if d[-1] > 0 else 1.0
+        S, scale_F = self.geometry.span, E_b / self.geometry.span**2
+        system = self.system(E_b, E_s, E_e, d_max)
+        X = system.initial()
+        info, lam = NewtonInfo(), 0.0
+        rec: dict[str, list] = {"X": [], "F": [], "dF": []}
+        for i, target in enumerate(d / d_max):
+            X = self._step(system, X, lam, target, None if start is None else start.states[i], info, d_max)
+            lam = target
+            self._check(system, X, lam)
+            F = system.force(X, lam)
+            rec["X"].append(X.copy()), rec["F"].append(F)
+            rec["dF"].append(_sensitivities(system, X, info.lu, sensitivities, E_s, E_e, F * scale_F, E_b))
+        dF = {p: np.array([r[p] for r in rec["dF"]]) for p in sensitivities}
+        return BendPath(
+            deflection=d, force=np.array(rec["F"]) * scale_F, dforce=dF,
+            support_s=np.array([x[-1] for x in rec["X"]]) * S, states=rec["X"],
+            newton_iterations=info.iterations, load_steps=info.steps, runtime_s=time.perf_counter() - t0,
+        )
+
+    def _step(self, system, X, lam, target, warm, info: NewtonInfo, d_max: float) -> np.ndarray:
+        if warm is not None:
+            try:
+                X_new, its, info.lu = newton(system, warm, target)
+                info.iterations += its
+                info.steps += 1
+                return X_new
+            except NewtonFailure:
+                info.rejected += 1
+        if target == lam and info.lu is not None:
+            return X
+        try:
+            X, _ = follow(system, X, [target], lam0=lam, first_step=max(target - lam, 1e-3), info=info)
+        except ConvergenceError as exc:
+            if X[-1] > 0.98 * self.half or "left the rod" in str(exc):
+                raise SlipOffError("the tube end reached the support: it slips off",
+                                   deflection=(exc.load_factor or lam) * d_max) from exc
+            raise
+        return X
+
+    @staticmethod
+    def _check(system: BendSystem, X: np.ndarray, lam: float) -> None:
+        mult = X[system.nu : system.nu + 2]
+        if np.any(mult < -1e-9 * max(1.0, np.max(np.abs(mult)))):
+            raise ConvergenceError("a contact pulls (the tube lifts off a support or the nose)",
+                                   load_factor=lam)
+
+
+def _sensitivities(system, X, lu, names, E_s, E_e, F, E_b) -> dict[str, float]:
+    """dF/dp from the linearised equilibrium (SI; see the module docstring)."""
+    out: dict[str, float] = {}
+    if not names:
+        return out
+    system.at(X[-1])
+    normal = system.contacts(system.rod.expand(X[: system.nu]), 0.0)[1][4]
+    for name in ("E_s", "E_e"):
+        if name in names or "E_b" in names:
+            dX = lu.solve(-system.stiffness_derivative(X, name))
+            out[name] = float(2.0 * dX[system.nu + 1] * (-normal[0]))
+    if "E_b" in names:
+        out["E_b"] = (F - E_s * out["E_s"] - E_e * out["E_e"]) / E_b
+    return {k: v for k, v in out.items() if k in names}
