@@ -78,7 +78,14 @@ class Series:
 
 @dataclass(frozen=True)
 class TestFit:
-    """The fit of all tests of one kind on one specimen."""
+    """The fit of all tests of one kind on one specimen.
+
+    Axis labels are written ``"name [SI unit]"`` (the report converts that unit
+    for ``--units cgs``). ``info`` holds fit figures for the report as text, and
+    under ``info["figures"]`` extra figures as (title, PNG bytes) pairs.
+    """
+
+    __test__ = False  # not a pytest class
 
     kind: str
     specimen: str

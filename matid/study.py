@@ -70,6 +70,8 @@ class Specimen:
 class Test:
     """One lab test: a CSV file of one kind on one specimen, with its set-up in SI."""
 
+    __test__ = False  # not a pytest class
+
     kind: str
     specimen: str
     file: Path

@@ -1,0 +1,382 @@
+"""What the report shows, as plain strings and tables, shared by the HTML and PDF renderers.
+
+The report computes nothing: every number comes from the :class:`StudyResult`, and the
+stiffness values go through :func:`matid.results.stiffness_json` so that the report and
+``stiffness.json`` / ``stiffness.csv`` agree digit for digit. This module only formats.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+
+from matid import __version__
+from matid.report.figures import ExtraFigure, extra_figures, has_plot
+from matid.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
+from matid.study import OPTIONAL_KEYS, TEST_KINDS, Test
+
+#: Section titles and the parameters each test kind gives, in report order.
+KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "extension": ("Extension", ("E_e", "sls_k1", "sls_k2", "sls_eta")),
+    "magnetic_bending": ("Magnetic bending", ("E_b",)),
+    "torsion": ("Torsion", ("E_t",)),
+    "three_point_bend": ("Three-point bend", ("E_s",)),
+}
+PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in params}
+
+FIT_COLUMNS = ("parameter", "value", "stderr", "95 % CI", "unit", "n_points", "method", "warnings")
+FIT_NUMERIC = (False, True, True, True, False, True, False, False)
+
+
+@dataclass(frozen=True)
+class Table:
+    header: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+    numeric: tuple[bool, ...]  # right-aligned columns
+
+
+@dataclass(frozen=True)
+class TestView:
+    """One test of a block: its file and how it was set up."""
+
+    file: str
+    sha256: str
+    setup: str
+    exclude: bool
+    note: str
+    metadata: tuple[tuple[str, str], ...]
+    units: tuple[tuple[str, str], ...]
+    n_rows: int | None
+
+    @property
+    def sha_short(self) -> str:
+        return self.sha256[:12] if self.sha256 else "not read"
+
+
+@dataclass(frozen=True)
+class Block:
+    """One specimen within one test-kind section."""
+
+    specimen: str
+    anchor: str
+    messages: tuple[tuple[str, str], ...]  # (status, text), status "failed" | "pending" | "none"
+    fit: TestFit | None
+    plot: bool
+    parameters: Table | None
+    correlation: Table | None
+    info: tuple[tuple[str, str], ...]
+    warnings: tuple[str, ...]
+    tests: tuple[TestView, ...]
+    extras: tuple[ExtraFigure, ...]
+
+
+@dataclass(frozen=True)
+class Section:
+    kind: str
+    anchor: str
+    title: str
+    parameters: str
+    blocks: tuple[Block, ...]
+
+
+@dataclass(frozen=True)
+class Report:
+    study: str
+    temperature: str
+    started: str
+    run_date: datetime | None  # result.started parsed, for the PDF's CreationDate
+    runtime: str
+    matid_version: str
+    versions: tuple[tuple[str, str], ...]
+    units: str
+    summary: Table
+    failures: tuple[str, ...]
+    warnings: tuple[str, ...]
+    pending: tuple[str, ...]
+    sections: tuple[Section, ...]
+    provenance: Table
+
+
+def build_report(result: StudyResult, units: str) -> Report:
+    """Everything the report shows, formatted once for both renderers."""
+    doc = stiffness_json(result, units)
+    # StudyResult.warnings() also lists failures and pending tests, which the report shows apart
+    # (naming the parameter): drop those lines, whatever their wording, by asking without fits.
+    apart = set(replace(result, fits=()).warnings())
+    return Report(
+        study=result.study.name,
+        temperature=result.study.temperature or "not given",
+        started=format_started(result.started),
+        run_date=_parse_started(result.started),
+        runtime=format_runtime(result.runtime_s),
+        matid_version=result.versions.get("matid", __version__),
+        versions=tuple((k, str(v)) for k, v in result.versions.items() if k != "matid"),
+        units=units,
+        summary=summary_table(result, doc),
+        failures=tuple(failure_message(f) for f in result.failures),
+        warnings=tuple(w for w in result.warnings() if w not in apart),
+        pending=tuple(pending_message(p, with_specimen=True) for p in result.pending),
+        sections=tuple(_sections(result, doc)),
+        provenance=provenance_table(result.inputs),
+    )
+
+
+# -- formatting ------------------------------------------------------------------------------
+
+
+def fmt(x: float | None, digits: int = 5) -> str:
+    if x is None or not np.isfinite(x):
+        return "—"
+    text = f"{x:.{digits}g}"
+    if "e+" in text and abs(x) < 1e6:  # 1e+02 reads worse than 100
+        text = f"{float(text):.0f}"
+    return text
+
+
+def format_value(value: object, *, limit: int = 300) -> str:
+    """A readable one-line rendering of an info value (number, list, array, dict, text)."""
+    text = _format(value)
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def _format(value: object, nested: bool = False) -> str:
+    if isinstance(value, np.generic):
+        value = value.item()
+    if value is None:
+        return "—"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return fmt(value)
+    if isinstance(value, Mapping):
+        items = [f"{k} = {_format(v, True)}" for k, v in value.items()]
+        return "{" + ", ".join(items) + "}" if nested else "; ".join(items)
+    if isinstance(value, (list, tuple, np.ndarray)):
+        items = list(np.asarray(value).ravel()) if isinstance(value, np.ndarray) else list(value)
+        if len(items) > 8:
+            shown = [_format(v, True) for v in items[:6]]
+            return f"[{', '.join(shown)}, …, {_format(items[-1], True)}] ({len(items)} values)"
+        return "[" + ", ".join(_format(v, True) for v in items) + "]"
+    return str(value)
+
+
+def format_runtime(seconds: float) -> str:
+    if seconds < 0.1:
+        return f"{seconds * 1e3:.0f} ms"
+    if seconds < 120:
+        return f"{seconds:.1f} s"
+    minutes, rest = divmod(round(seconds), 60)
+    return f"{minutes} min {rest} s"
+
+
+def _parse_started(started: str) -> datetime | None:
+    try:
+        return datetime.fromisoformat(started) if started else None
+    except ValueError:
+        return None
+
+
+def format_started(started: str) -> str:
+    when = _parse_started(started)
+    if when is None:
+        return started or "not recorded"
+    text = when.strftime("%Y-%m-%d %H:%M:%S")
+    return f"{text} {when.strftime('%Z') or when.strftime('%z')}".strip()
+
+
+def _stderr(item: Mapping) -> str:
+    stderr, value = item.get("stderr"), item.get("value")
+    if stderr is None:
+        return "—"
+    if value:
+        return f"{fmt(stderr, 2)} ({abs(stderr / value) * 100:.2g} %)"
+    return fmt(stderr, 2)
+
+
+def _ci(item: Mapping) -> str:
+    ci = item.get("ci95")
+    if not ci or ci[0] is None or ci[1] is None:
+        return "—"
+    return f"[{fmt(ci[0])}, {fmt(ci[1])}]"
+
+
+def _param_row(name: str, item: Mapping) -> tuple[str, ...]:
+    return (
+        name,
+        fmt(item["value"]),
+        _stderr(item),
+        _ci(item),
+        str(item["unit"]),
+        str(item["n_points"]),
+        str(item["method"]),
+        "; ".join(item.get("warnings") or ()),
+    )
+
+
+def _parameters_of(kind: str) -> str:
+    return KINDS[kind][1][0] if kind in KINDS else kind
+
+
+def failure_message(failure: Failure) -> str:
+    kind = _test_kind(failure.kind)
+    title = KINDS[kind][0].lower() if kind in KINDS else failure.kind
+    return f"{failure.specimen}: {_parameters_of(kind)} could not be fitted ({title}): {failure.reason}"
+
+
+def pending_message(pending: Failure, *, with_specimen: bool = False) -> str:
+    text = f"{_parameters_of(_test_kind(pending.kind))}: not yet fitted ({pending.reason})"
+    return f"{pending.specimen}: {text}" if with_specimen else text
+
+
+def _test_kind(kind: str) -> str:
+    """Failures name a test kind; accept a parameter name too."""
+    return PARAMETER_TEST_KIND.get(kind, kind)
+
+
+# -- tables ----------------------------------------------------------------------------------
+
+
+def summary_table(result: StudyResult, doc: Mapping) -> Table:
+    """Specimen x parameter, from stiffness_json; missing parameters say why."""
+    missing = [(f, "could not be fitted") for f in result.failures]
+    missing += [(p, "not yet fitted") for p in result.pending]
+    rows = []
+    for sid, params in doc["specimens"].items():
+        rows += [(sid, *_param_row(name, item)) for name, item in params.items()]
+        for item, status in missing:
+            param = _parameters_of(_test_kind(item.kind))
+            if item.specimen == sid and param not in params:
+                rows.append((sid, param, "—", "—", "—", "—", "—", "—", f"{status}: {item.reason}"))
+    return Table(("specimen", *FIT_COLUMNS), tuple(rows), (False, *FIT_NUMERIC))
+
+
+def provenance_table(inputs: tuple[InputFile, ...]) -> Table:
+    rows = tuple((f.path.name, str(f.n_rows), f.sha256, str(f.path)) for f in inputs)
+    return Table(("file", "rows", "sha256", "path"), rows, (False, True, False, False))
+
+
+def _fit_parameters(fit: TestFit, doc: Mapping) -> Table:
+    items = doc["specimens"].get(fit.specimen, {})
+    rows = tuple(_param_row(e.parameter, items[e.parameter]) for e in fit.estimates if e.parameter in items)
+    return Table(FIT_COLUMNS, rows, FIT_NUMERIC)
+
+
+def _correlation(fit: TestFit) -> Table | None:
+    if not fit.correlation:
+        return None
+    rows = []
+    for pair, r in fit.correlation.items():
+        a, _, b = str(pair).partition("|")
+        strong = "strong: not separately identifiable" if abs(r) >= 0.95 else ""
+        rows.append((a, b or "—", f"{r:+.3f}", strong))
+    return Table(("parameter", "with", "r", ""), tuple(rows), (False, False, True, False))
+
+
+# -- sections --------------------------------------------------------------------------------
+
+
+def _sections(result: StudyResult, doc: Mapping) -> list[Section]:
+    present = {t.kind for t in result.study.tests}
+    present |= {f.kind for f in result.fits}
+    present |= {_test_kind(f.kind) for f in (*result.failures, *result.pending)}
+    sections = []
+    for kind, (title, params) in KINDS.items():
+        if kind not in present:
+            continue
+        blocks = [
+            _block(result, doc, kind, sid, f"{kind}-{i + 1}")
+            for i, sid in enumerate(_specimens_of(result, kind))
+        ]
+        sections.append(Section(kind, kind, title, ", ".join(params), tuple(blocks)))
+    return sections
+
+
+def _specimens_of(result: StudyResult, kind: str) -> list[str]:
+    """Specimens with anything to show for ``kind``, in study order (then any others)."""
+    seen = [t.specimen for t in result.study.tests if t.kind == kind]
+    seen += [f.specimen for f in result.fits if f.kind == kind]
+    seen += [f.specimen for f in (*result.failures, *result.pending) if _test_kind(f.kind) == kind]
+    order = [s.id for s in result.study.specimens]
+    unique = list(dict.fromkeys(seen))
+    return sorted(unique, key=lambda s: order.index(s) if s in order else len(order))
+
+
+def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str) -> Block:
+    fit = next((f for f in result.fits if f.kind == kind and f.specimen == sid), None)
+    mine = [f for f in result.failures if _test_kind(f.kind) == kind and f.specimen == sid]
+    messages = [("failed", failure_message(f)) for f in mine]
+    mine = [p for p in result.pending if _test_kind(p.kind) == kind and p.specimen == sid]
+    messages += [("pending", pending_message(p)) for p in mine]
+    if fit is None and not messages:
+        messages.append(("none", f"{_parameters_of(kind)}: no fit result"))
+    tests = result.study.tests_of(kind, sid, included=False)
+    if fit is not None:
+        known = {(t.file, t.index) for t in tests}
+        tests += [t for t in fit.tests if (t.file, t.index) not in known]
+    return Block(
+        specimen=sid,
+        anchor=anchor,
+        messages=tuple(messages),
+        fit=fit,
+        plot=fit is not None and has_plot(fit),
+        parameters=None if fit is None else _fit_parameters(fit, doc),
+        correlation=None if fit is None else _correlation(fit),
+        info=() if fit is None else _info(fit),
+        warnings=() if fit is None else tuple(fit.warnings),
+        tests=tuple(_test_view(t, result.inputs) for t in tests),
+        extras=() if fit is None else tuple(extra_figures(fit)),
+    )
+
+
+def _info(fit: TestFit) -> tuple[tuple[str, str], ...]:
+    return tuple((str(k).replace("_", " "), format_value(v)) for k, v in fit.info.items() if k != "figures")
+
+
+def _test_view(test: Test, inputs: tuple[InputFile, ...]) -> TestView:
+    source = _input_of(test, inputs)
+    return TestView(
+        file=test.file.name,
+        sha256=source.sha256 if source else "",
+        setup=_setup(test),
+        exclude=test.exclude,
+        note=test.note,
+        metadata=tuple((str(k), str(v)) for k, v in source.metadata.items()) if source else (),
+        units=tuple((str(k), str(v)) for k, v in source.units.items()) if source else (),
+        n_rows=source.n_rows if source else None,
+    )
+
+
+def _input_of(test: Test, inputs: tuple[InputFile, ...]) -> InputFile | None:
+    target = _resolved(test.file)
+    match = next((f for f in inputs if _resolved(f.path) == target), None)
+    if match is None:
+        by_name = [f for f in inputs if f.path.name == test.file.name]
+        match = by_name[0] if len(by_name) == 1 else None
+    return match
+
+
+def _resolved(path: Path) -> str:
+    try:
+        return str(Path(path).resolve())
+    except OSError:
+        return str(path)
+
+
+def _setup(test: Test) -> str:
+    """The set-up of a test in readable units: lengths in mm, the rest in SI."""
+    kinds = {**TEST_KINDS.get(test.kind, {}), **OPTIONAL_KEYS.get(test.kind, {})}
+    parts = []
+    for key, value in test.params.items():
+        if kinds.get(key) == "length":
+            parts.append(f"{key.replace('_', ' ')} {value * 1e3:.4g} mm")
+        elif kinds.get(key) == "moment":
+            parts.append(f"{key.replace('_', ' ')} {value:.4g} A m^2")
+        else:
+            parts.append(f"{key.replace('_', ' ')} {format_value(value)}")
+    return ", ".join(parts)

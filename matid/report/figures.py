@@ -1,0 +1,267 @@
+"""Figures of the report: each fit's data and model with the residuals below, and extra figures.
+
+Figures are built on :class:`matplotlib.figure.Figure` directly, never through pyplot, so the
+report touches no global plotting state and needs no interactive backend.
+
+The fit plot
+    One colour per :class:`~matid.results.Series`: markers for the measured ``y``, a line for
+    ``y_fit`` over the points in the fit (dashed and light over points outside it), points with
+    ``used == False`` hollow grey, labelled "excluded from fit". The residual ``y - y_fit``
+    sits below on a shared x axis. Axis labels come from ``TestFit.x_label`` / ``y_label``
+    (``"name [unit]"`` in SI); for ``units="cgs"`` the units with a plain cgs counterpart
+    (N, N m, N m^2, N s, m, 1/m) are converted, units common to both systems (s, rad, deg,
+    mm, ...) stay, and anything else stays SI and the caption says so.
+
+Extra figures: the ``TestFit.info["figures"]`` hook
+    A fitter may attach figures of its own (the E_s fitter: deformed shapes, sensitivity,
+    error against run time). The preferred form is a list of ``(title, png_bytes)`` pairs::
+
+        info["figures"] = [("Deformed shape at the largest deflection", png_bytes), ...]
+
+    where ``png_bytes`` is a whole PNG file (about 7.5 in wide at 110 dpi renders best; the
+    report scales it to the page). Also accepted: ``(title, callable)`` or a bare callable
+    that takes no argument and returns a ``matplotlib.figure.Figure`` (called once per
+    report), and ``(title, Figure)`` or a bare ``Figure``. An entry of another type, bytes
+    that are not PNG, or a callable that raises, is shown in the report as "figure could not
+    be drawn" with the reason: an extra figure never makes the report fail. The ``figures``
+    key is not listed among the fit's info items.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+
+from matid.results import Series, TestFit
+
+DPI = 110
+FIT_SIZE = (7.5, 5.0)  # inches, for the HTML image
+#: Okabe-Ito colours (colour-blind safe), yellow left out for contrast on white.
+COLOURS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000")
+EXCLUDED = "#9a9a9a"
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+#: SI unit -> (cgs unit, factor) for axis units with a plain cgs counterpart.
+CGS_AXIS_UNITS: dict[str, tuple[str, float]] = {
+    "N": ("dyn", 1e5),
+    "mN": ("dyn", 1e2),
+    "N m": ("dyn cm", 1e7),
+    "mN m": ("dyn cm", 1e4),
+    "N mm": ("dyn cm", 1e4),
+    "N m^2": ("dyn cm^2", 1e9),
+    "N s": ("dyn s", 1e5),
+    "m": ("cm", 1e2),
+    "1/m": ("1/cm", 1e-2),
+    "rad/m": ("rad/cm", 1e-2),
+}
+#: Units that read the same in SI and cgs: never converted, never flagged.
+NEUTRAL_UNITS = {"", "1", "-", "%", "s", "ms", "min", "rad", "deg", "mm", "um", "T", "mT", "G"}
+
+
+@dataclass(frozen=True)
+class AxisUnit:
+    label: str  # the label to print
+    factor: float  # multiply SI data by this
+    kept_si: str | None = None  # the SI unit left unconverted in a cgs report
+
+
+@dataclass(frozen=True)
+class ExtraFigure:
+    """An extra figure of a fit, rendered to PNG (or the reason it could not be)."""
+
+    title: str
+    png: bytes | None
+    error: str | None = None
+
+
+def axis_unit(label: str, units: str) -> AxisUnit:
+    """Convert an SI axis label ``"name [unit]"`` to the report's unit system."""
+    match = re.fullmatch(r"(.*?)\s*\[([^\]]*)\]\s*", label)
+    if units == "SI" or match is None:
+        return AxisUnit(label, 1.0)
+    name, unit = match.group(1), match.group(2).strip()
+    spaced = unit.replace("**", "^").replace("·", " ").replace("*", " ")
+    key = " ".join(spaced.split()).replace(" ^", "^").replace("^ ", "^")
+    if key in CGS_AXIS_UNITS:
+        cgs, factor = CGS_AXIS_UNITS[key]
+        return AxisUnit(f"{name} [{cgs}]", factor)
+    return AxisUnit(label, 1.0, None if key in NEUTRAL_UNITS else unit)
+
+
+def has_plot(fit: TestFit) -> bool:
+    return any(np.size(s.x) and np.size(s.y) for s in fit.series)
+
+
+def unit_note(fit: TestFit, units: str) -> str:
+    """A caption sentence on the axis units."""
+    kept = [a.kept_si for a in (axis_unit(fit.x_label, units), axis_unit(fit.y_label, units))]
+    kept = [k for k in kept if k]
+    if units == "SI":
+        return "Axes in SI units."
+    if kept:
+        return f"Axes in {units} units where they have one; {', '.join(kept)} kept in SI."
+    return f"Axes in {units} units."
+
+
+def caption(fit: TestFit, units: str) -> str:
+    """What the fit plot shows, in words (the figure caption)."""
+    model = any(s.y_fit is not None for s in fit.series)
+    excluded = any(s.used is not None and not np.all(s.used) for s in fit.series)
+    parts = ["Measured points (markers)" + (" and fitted model (lines)" if model else "")]
+    parts.append(", one colour per data set")
+    if excluded:
+        parts.append("; hollow grey points are excluded from the fit")
+    if model:
+        parts.append(". Residuals (measured minus model) below")
+    return "".join(parts) + ". " + unit_note(fit, units)
+
+
+def draw_fit(
+    fig: Figure,
+    fit: TestFit,
+    units: str = "SI",
+    *,
+    rect: tuple[float, float, float, float] = (0.11, 0.1, 0.97, 0.97),
+) -> None:
+    """Draw the data + fit axes and the residual axes of ``fit`` into ``rect`` (l, b, r, t)."""
+    x_unit, y_unit = axis_unit(fit.x_label, units), axis_unit(fit.y_label, units)
+    residuals = any(s.y_fit is not None for s in fit.series)
+    left, bottom, right, top = rect
+    grid = fig.add_gridspec(
+        2 if residuals else 1,
+        1,
+        height_ratios=[3, 1] if residuals else [1],
+        left=left,
+        right=right,
+        bottom=bottom,
+        top=top,
+        hspace=0.16,
+    )
+    ax = fig.add_subplot(grid[0])
+    ax_res = fig.add_subplot(grid[1], sharex=ax) if residuals else None
+    any_excluded = False
+    for i, series in enumerate(fit.series):
+        colour = COLOURS[i % len(COLOURS)]
+        any_excluded |= _draw_series(ax, ax_res, series, colour, x_unit.factor, y_unit.factor)
+    ax.set_ylabel(y_unit.label, parse_math=False)
+    ax.grid(True, color="#e6e6e6", linewidth=0.6)
+    _legend(ax, fit.series, residuals, any_excluded)
+    bottom_ax = ax_res if ax_res is not None else ax
+    bottom_ax.set_xlabel(x_unit.label, parse_math=False)
+    if ax_res is not None:
+        ax_res.axhline(0.0, color="#555555", linewidth=0.8)
+        ax_res.set_ylabel("residual", parse_math=False)
+        ax_res.grid(True, color="#e6e6e6", linewidth=0.6)
+        ax.tick_params(labelbottom=False)
+    for axis in filter(None, (ax, ax_res)):
+        axis.tick_params(labelsize=8)
+        axis.yaxis.label.set_size(9)
+        axis.xaxis.label.set_size(9)
+
+
+def _draw_series(ax, ax_res, series: Series, colour: str, fx: float, fy: float) -> bool:
+    x = np.asarray(series.x, dtype=float) * fx
+    y = np.asarray(series.y, dtype=float) * fy
+    used = np.ones(x.shape, bool) if series.used is None else np.asarray(series.used, bool)
+    heavy = x.size > 1000  # rasterise dense point clouds to keep the PDF light
+    marker = {"linestyle": "none", "marker": "o", "markersize": 3 if x.size < 300 else 2}
+    ax.plot(x[used], y[used], color=colour, alpha=0.75, rasterized=heavy, **marker)
+    ax.plot(x[~used], y[~used], mfc="none", mec=EXCLUDED, rasterized=heavy, **marker)
+    if series.y_fit is not None:
+        y_fit = np.asarray(series.y_fit, dtype=float) * fy
+        if not used.all():
+            ax.plot(x, y_fit, color=colour, linewidth=0.9, linestyle="--", alpha=0.45)
+        ax.plot(x, np.where(used, y_fit, np.nan), color=colour, linewidth=1.6)
+        residual = y - y_fit
+        ax_res.plot(x[used], residual[used], color=colour, alpha=0.75, rasterized=heavy, **marker)
+        ax_res.plot(x[~used], residual[~used], mfc="none", mec=EXCLUDED, rasterized=heavy, **marker)
+    return not used.all()
+
+
+def _legend(ax, series: Sequence[Series], fitted: bool, excluded: bool) -> None:
+    handles = [
+        Line2D([], [], color=COLOURS[i % len(COLOURS)], marker="o", markersize=4, linestyle="none")
+        for i in range(len(series))
+    ]
+    labels = [s.label for s in series]
+    if fitted:
+        handles.append(Line2D([], [], color="#333333", linewidth=1.6))
+        labels.append("model fit")
+    if excluded:
+        handles.append(Line2D([], [], linestyle="none", marker="o", mfc="none", mec=EXCLUDED))
+        labels.append("excluded from fit")
+        if fitted:
+            handles.append(Line2D([], [], color="#333333", linewidth=0.9, linestyle="--", alpha=0.45))
+            labels.append("model outside the fit")
+    legend = ax.legend(handles, labels, fontsize=7, ncol=2 if len(labels) > 5 else 1, framealpha=0.9)
+    for text in legend.get_texts():
+        text.set_parse_math(False)
+
+
+def fit_figure(fit: TestFit, units: str = "SI") -> Figure:
+    fig = Figure(figsize=FIT_SIZE)
+    draw_fit(fig, fit, units)
+    return fig
+
+
+def png_bytes(fig: Figure, dpi: int = DPI, *, tight: bool = False) -> bytes:
+    buffer = io.BytesIO()
+    extra = {"bbox_inches": "tight", "pad_inches": 0.1} if tight else {}
+    fig.savefig(buffer, format="png", dpi=dpi, metadata={"Software": None}, **extra)
+    return buffer.getvalue()
+
+
+def png_size(png: bytes) -> tuple[int, int]:
+    """Width and height in pixels from the PNG header."""
+    return int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
+
+
+def extra_figures(fit: TestFit) -> list[ExtraFigure]:
+    """The fit's ``info["figures"]`` entries as PNG (see the module docstring)."""
+    entries = fit.info.get("figures") or []
+    if not isinstance(entries, (list, tuple)):
+        return [ExtraFigure("extra figures", None, f"info['figures'] is a {type(entries).__name__}")]
+    return [_extra(entry, i) for i, entry in enumerate(entries)]
+
+
+def _extra(entry: object, index: int) -> ExtraFigure:
+    title, item = f"figure {index + 1}", entry
+    if isinstance(entry, tuple) and len(entry) == 2 and isinstance(entry[0], str):
+        title, item = entry
+    elif callable(entry) and not isinstance(entry, Figure):
+        title = _callable_title(entry) or title
+    try:
+        if isinstance(item, (bytes, bytearray)):
+            if not bytes(item[:8]) == PNG_MAGIC:
+                raise ValueError("bytes are not a PNG file")
+            return ExtraFigure(title, bytes(item))
+        if callable(item) and not isinstance(item, Figure):
+            item = item()
+        if isinstance(item, Figure):
+            data = png_bytes(item, tight=True)  # a foreign layout: do not clip its labels
+            _close(item)
+            return ExtraFigure(title, data)
+        raise TypeError(f"expected PNG bytes or a Figure, got {type(item).__name__}")
+    except Exception as exc:  # a broken extra figure must not sink the report
+        return ExtraFigure(title, None, f"{type(exc).__name__}: {exc}")
+
+
+def _callable_title(func: Callable) -> str:
+    doc = (getattr(func, "__doc__", None) or "").strip()
+    if doc and type(func).__doc__ != func.__doc__:
+        return doc.splitlines()[0].rstrip(".")
+    return getattr(func, "__name__", "").replace("_", " ").strip("< >")
+
+
+def _close(fig: Figure) -> None:
+    """Release a figure a callable made through pyplot (only if pyplot is already in use)."""
+    pyplot = sys.modules.get("matplotlib.pyplot")
+    if pyplot is not None:
+        pyplot.close(fig)

@@ -1,0 +1,165 @@
+"""The PDF report: A4 portrait pages drawn with matplotlib and saved through PdfPages.
+
+A title page (header, summary table, warnings), then one part per test-kind section (the
+same plots as the HTML report, drawn as vectors, and the same tables) and the provenance.
+Pages are laid out by :class:`matid.report.layout.Flow`. Fonts are embedded as TrueType so
+the text can be searched and extracted.
+"""
+
+from __future__ import annotations
+
+import io
+from datetime import UTC
+
+import matplotlib
+from matplotlib.backends.backend_pdf import PdfPages
+
+from matid.report.content import Block, Report, Section, Table, TestView
+from matid.report.figures import caption, draw_fit
+from matid.report.layout import SANS, Flow, wrap
+
+AMBER, AMBER_EDGE, GREY_BOX, GREY_EDGE = "#fff4d6", "#e0a800", "#f3f4f6", "#8a94a6"
+RC = {"pdf.fonttype": 42, "font.family": SANS, "axes.unicode_minus": False}
+
+
+def render_pdf(report: Report) -> bytes:
+    """The report as PDF bytes."""
+    buffer = io.BytesIO()
+    metadata = {
+        "Title": f"{report.study}: matid stiffness report",
+        "Subject": "Stiffness identification (E_b, E_t, E_s, E_e) of catheter tubes",
+        "Creator": f"matid {report.matid_version}",
+    }
+    when = report.run_date
+    if when is not None:  # the same result gives the same bytes
+        # in UTC: matplotlib writes the sign of a non-zero utcoffset the wrong way round
+        metadata["CreationDate"] = when.astimezone(UTC) if when.tzinfo else when
+    with matplotlib.rc_context(RC), PdfPages(buffer, metadata=metadata) as pdf:
+        flow = Flow(pdf, footer=f"{report.study} · matid {report.matid_version}")
+        _title_page(flow, report)
+        for section in report.sections:
+            _section(flow, section, report.units)
+        _provenance(flow, report)
+        flow.close()
+    return buffer.getvalue()
+
+
+# -- pages --------------------------------------------------------------------------------------
+
+
+def _title_page(flow: Flow, report: Report) -> None:
+    flow.new_page()
+    flow.paragraph("Stiffness identification report", size=10, color="#5f6368")
+    flow.heading(report.study, level=0)
+    software = ", ".join([f"matid {report.matid_version}", *(f"{k} {v}" for k, v in report.versions)])
+    for key, value in [
+        ("Temperature", report.temperature),
+        ("Run started", report.started),
+        ("Runtime", report.runtime),
+        ("Units", report.units),
+        ("Software", software),
+    ]:
+        flow.paragraph(f"{key}: {value}", size=8.5)
+    flow.space(0.1)
+    if report.sections:
+        flow.paragraph(
+            "Sections: " + "; ".join(f"{s.title} ({s.parameters})" for s in report.sections) + "; Provenance",
+            size=8.5,
+        )
+    flow.heading("Summary of stiffnesses", level=1)
+    flow.paragraph(
+        f"Values in {report.units} units, as in stiffness.json and stiffness.csv; stderr is the "
+        "standard error (relative in brackets), CI the 95 % confidence interval.",
+        size=8,
+        color="#5f6368",
+    )
+    flow.table(report.summary, size=6.5)
+    if report.failures:
+        flow.box("Could not be fitted", list(report.failures), (AMBER, AMBER_EDGE))
+    if report.warnings:
+        flow.box("Warnings from the fits", list(report.warnings), (AMBER, AMBER_EDGE))
+    if not (report.failures or report.warnings):
+        flow.box("Warnings", ["No warnings: every fit completed."], ("#eaf6ec", "#3d9a4b"))
+    if report.pending:
+        flow.box("Not yet fitted (by design, not an error)", list(report.pending), (GREY_BOX, GREY_EDGE))
+
+
+def _section(flow: Flow, section: Section, units: str) -> None:
+    flow.new_page()
+    flow.heading(f"{section.title} ({section.parameters})", level=1)
+    for block in section.blocks:
+        _block(flow, section, block, units)
+
+
+def _block(flow: Flow, section: Section, block: Block, units: str) -> None:
+    flow.heading(f"{section.title}, specimen {block.specimen}", level=2)
+    for status, line in block.messages:
+        colours = (AMBER, AMBER_EDGE) if status == "failed" else (GREY_BOX, GREY_EDGE)
+        flow.lines(
+            wrap(line, flow.width - 0.3, 8.5, mono=False, bold=True),
+            size=8.5,
+            mono=False,
+            box=colours,
+            weight="bold",
+        )
+        flow.space(0.1)
+    if block.plot:
+        fit = block.fit
+        flow.plot(lambda fig, rect: draw_fit(fig, fit, units, rect=rect), height=4.3)
+        flow.paragraph(caption(fit, units), size=7.5, color="#5f6368")
+        flow.space(0.08)
+    if block.parameters and block.parameters.rows:
+        flow.heading("Parameters", level=3)
+        flow.table(block.parameters)
+    if block.correlation:
+        flow.heading("Correlation of the estimates", level=3)
+        flow.table(block.correlation)
+    if block.info:
+        flow.heading("Fit window and details", level=3)
+        flow.table(Table(("item", "value"), block.info, (False, False)))
+    if block.warnings:
+        flow.box("Warnings of this fit", list(block.warnings), (AMBER, AMBER_EDGE))
+    for extra in block.extras:
+        flow.heading(extra.title, level=3)
+        if extra.png:
+            flow.image(extra.png)
+        else:
+            flow.box(f"Figure could not be drawn: {extra.title}", [str(extra.error)], (AMBER, AMBER_EDGE))
+    if block.tests:
+        flow.heading("Tests", level=3)
+        for test in block.tests:
+            _test(flow, test)
+
+
+def _test(flow: Flow, test: TestView) -> None:
+    rows = f", {test.n_rows} rows" if test.n_rows is not None else ""
+    head = f"{test.file}  (sha256 {test.sha_short}{rows})"
+    if test.exclude:
+        head += "  EXCLUDED: exclude = true, left out of the fit"
+    details = []
+    if test.setup:
+        details.append(f"Set-up: {test.setup}")
+    if test.note:
+        details.append(f"Note: {test.note}")
+    if test.units:
+        details.append("Units as written: " + ", ".join(f"{c} [{u}]" for c, u in test.units))
+    details += [f"{k}: {v}" for k, v in test.metadata]
+    head_lines = wrap(head, flow.width, 8, mono=True, bold=True)
+    lines = [line for text in details for line in wrap(text, flow.width - 0.2, 7.5, mono=False)]
+    flow.need(min(len(head_lines) * 8 + len(lines) * 7.5, 400) * 1.35 / 72)  # keep a test together
+    flow.lines(head_lines, size=8, mono=True, weight="bold")
+    flow.lines(lines, size=7.5, mono=False, indent=0.2)
+    flow.space(0.08)
+
+
+def _provenance(flow: Flow, report: Report) -> None:
+    flow.new_page()
+    flow.heading("Provenance", level=1)
+    flow.paragraph("Every input file with its full SHA-256 checksum.", size=8.5)
+    rows = tuple((name, n, sha) for name, n, sha, _ in report.provenance.rows)
+    if rows:
+        flow.table(Table(("file", "rows", "sha256"), rows, (False, True, False)), size=6.5)
+        for name, _, _, path in report.provenance.rows:
+            flow.paragraph(f"{name}: {path}", size=6.5, mono=True, color="#5f6368")
+    else:
+        flow.paragraph("No input files were read.", size=8.5)

@@ -1,0 +1,351 @@
+"""The report layer: HTML and PDF from a hand-built StudyResult (no fitting involved)."""
+
+from __future__ import annotations
+
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+from matid.report import render_report
+from matid.report.content import format_value
+from matid.report.figures import axis_unit, png_bytes
+from matid.results import Estimate, Failure, InputFile, Series, StudyResult, stiffness_json
+from matid.results import TestFit as Fit
+from matid.study import Specimen, Study
+from matid.study import Test as LabTest
+
+pypdf = pytest.importorskip("pypdf")
+
+STUDY_NAME = "Pebax 40D tube, lot 2611"
+ROOT = Path("/lab/study")
+NOTE = "<script>alert('x')</script> re-clamped after run 2"
+BENDING_WARNING = "bending data scatter larger than expected"
+
+
+def _sha(name: str) -> str:
+    return (name.encode().hex() * 8)[:64]
+
+
+def _input(test: LabTest, columns: dict[str, str]) -> InputFile:
+    meta = {"machine": "Zwick Z0.5", "operator": "A. Engineer", "date": "2024-11-26"}
+    return InputFile(test.file, _sha(test.file.name), meta, columns, n_rows=400)
+
+
+def _shape_figure() -> Figure:
+    """Deformed shape at the largest deflection."""
+    fig = Figure(figsize=(5, 3))
+    ax = fig.add_subplot()
+    s = np.linspace(0, 30, 50)
+    ax.plot(s, -0.001 * s**2)
+    ax.set_xlabel("s [mm]")
+    return fig
+
+
+def _extension(specimen: str, tests: list[LabTest], rng: np.random.Generator) -> Fit:
+    k1, k2, tau = 120.0, 45.0, 8.0
+    series = []
+    for i, test in enumerate(tests):
+        t = np.linspace(0, 60, 600)
+        strain = np.minimum(t / 10, 1.0) * 0.02 * (1 + 0.25 * i)
+        relax = np.where(t < 10, t / 10, np.exp(-(t - 10) / tau))
+        model = k1 * strain + k2 * strain.max() * relax
+        series.append(Series(test.file.stem, t, model + rng.normal(0, 0.02, t.size), model))
+    estimates = (
+        Estimate("E_e", k1, 0.8, (k1 - 1.6, k1 + 1.6), 1800, "sls"),
+        Estimate("sls_k1", k1, 0.8, (k1 - 1.6, k1 + 1.6), 1800, "sls"),
+        Estimate("sls_k2", k2, 1.1, (k2 - 2.2, k2 + 2.2), 1800, "sls"),
+        Estimate("sls_eta", k2 * tau, 12.0, (k2 * tau - 24, k2 * tau + 24), 1800, "sls"),
+    )
+    info = {
+        "noise_sd": 0.02,
+        "runs": [t.file.name for t in tests],
+        "optimizer": {"nfev": 41, "success": True},
+    }
+    return Fit(
+        "extension",
+        specimen,
+        tuple(tests),
+        estimates,
+        tuple(series),
+        "time [s]",
+        "force [N]",
+        correlation={"sls_k2|sls_eta": -0.62, "sls_k1|sls_k2": 0.97},
+        info=info,
+    )
+
+
+def _bending(tests: list[LabTest], rng: np.random.Generator) -> Fit:
+    e_b = 6.5e-5
+    series = []
+    for test in tests:
+        x = np.linspace(0, 0.8, 30) / test.params["free_length"]
+        model = e_b * x
+        series.append(
+            Series(
+                f"L = {test.params['free_length'] * 1e3:.0f} mm",
+                x,
+                model * (1 + rng.normal(0, 0.02, x.size)),
+                model,
+            )
+        )
+    est = Estimate("E_b", e_b, 1e-7, (6.48e-5, 6.52e-5), 90, "linear", warnings=(BENDING_WARNING,))
+    return Fit(
+        "magnetic_bending",
+        "T1",
+        tuple(tests),
+        (est,),
+        tuple(series),
+        "tip angle / free length [rad/m]",
+        "torque [N m]",
+    )
+
+
+def _torsion(tests: list[LabTest], *, extras: list | None = None) -> Fit:
+    e_t = 4.4e-5
+    x = np.linspace(0, 60, 80)
+    y = e_t * x - 2e-9 * np.maximum(x - 35, 0) ** 3
+    used = x <= 35
+    info: dict[str, object] = {"fit_window": {"x_min": 0.0, "x_max": 35.0}, "linear_range_rel_dev": 0.01}
+    if extras is not None:
+        info["figures"] = extras
+    est = Estimate("E_t", e_t, 2e-7, (4.36e-5, 4.44e-5), int(used.sum()), "linear")
+    return Fit(
+        "torsion",
+        "T1",
+        tuple(tests),
+        (est,),
+        (Series("torsion T1", x, y, e_t * x, used),),
+        "twist angle / length [rad/m]",
+        "torque [N m]",
+        warnings=("nonlinear above 35 rad/m: points excluded from the fit",),
+        info=info,
+    )
+
+
+def make_result(*, kinds: tuple[str, ...] | None = None, seed: int = 1) -> StudyResult:
+    """A synthetic study: 2 specimens, every test kind, a failure, a pending test, extra figures."""
+    rng = np.random.default_rng(seed)
+    specimens = (Specimen("T1", 2.4e-3, 1.6e-3), Specimen("T2", 2.4e-3, 1.6e-3))
+    ext = [
+        LabTest("extension", s, ROOT / f"extension_{s}_r{i}.csv", {"gauge_length": 0.05}, index=i)
+        for s in ("T1", "T2")
+        for i in (1, 2, 3)
+    ]
+    bend = [
+        LabTest(
+            "magnetic_bending",
+            "T1",
+            ROOT / f"bending_T1_L{n}.csv",
+            {"free_length": n * 1e-3, "magnet_moment": 0.0125},
+            index=10 + n,
+        )
+        for n in (20, 30, 40)
+    ]
+    bend_t2 = LabTest("magnetic_bending", "T2", ROOT / "bending_T2_L30.csv", {"free_length": 0.03}, index=50)
+    tors = [
+        LabTest("torsion", "T1", ROOT / "torsion_T1_L60.csv", {"length": 0.06}, index=60),
+        LabTest(
+            "torsion",
+            "T1",
+            ROOT / "torsion_T1_L60_bad.csv",
+            {"length": 0.06},
+            exclude=True,
+            note=NOTE,
+            index=61,
+        ),
+    ]
+    tpb = LabTest(
+        "three_point_bend",
+        "T1",
+        ROOT / "3pb_T1_S10.csv",
+        {"span": 0.01, "specimen_length": 0.03, "support_radius": 0.002, "nose_radius": 0.002},
+        index=70,
+    )
+    tests = [*ext, *bend, bend_t2, *tors, tpb]
+    if kinds is not None:
+        tests = [t for t in tests if t.kind in kinds]
+    study = Study(STUDY_NAME, ROOT / "study.toml", specimens, tuple(tests), temperature="37 degC")
+    extras = [
+        ("Sensitivity of the torque to E_t", png_bytes(_shape_figure(), dpi=60, tight=True)),
+        _shape_figure,
+    ]
+    fits = [
+        _extension("T1", ext[:3], rng),
+        _extension("T2", ext[3:], rng),
+        _bending(bend, rng),
+        _torsion(tors[:1], extras=extras),
+    ]
+    fits = [f for f in fits if kinds is None or f.kind in kinds]
+    failures = [Failure("magnetic_bending", "T2", "torque column is constant: no slope to fit")]
+    pending = [Failure("three_point_bend", "T1", "the E_s fitter is not available in this version")]
+    units = {
+        "extension": {"time": "s", "force": "N", "elongation": "mm"},
+        "magnetic_bending": {"tip_angle": "deg", "field": "mT", "field_angle": "deg"},
+        "torsion": {"twist_angle": "deg", "torque": "mN mm"},
+        "three_point_bend": {"deflection": "mm", "force": "N"},
+    }
+    return StudyResult(
+        study=study,
+        inputs=tuple(_input(t, units[t.kind]) for t in tests),
+        fits=tuple(fits),
+        failures=tuple(f for f in failures if kinds is None or f.kind in kinds),
+        pending=tuple(p for p in pending if kinds is None or p.kind in kinds),
+        started="2024-11-26T14:03:12+01:00",
+        runtime_s=4.2,
+        versions={"matid": "0.1.0", "numpy": np.__version__, "scipy": "1.14.1"},
+    )
+
+
+@pytest.fixture(scope="module")
+def full() -> tuple[StudyResult, dict[str, bytes]]:
+    result = make_result()
+    return result, render_report(result)
+
+
+@pytest.fixture(scope="module")
+def html(full) -> str:
+    return full[1]["report.html"].decode("utf-8")
+
+
+@pytest.fixture(scope="module")
+def pdf(full) -> pypdf.PdfReader:
+    return pypdf.PdfReader(io.BytesIO(full[1]["report.pdf"]))
+
+
+def test_html_has_one_image_per_plot(full, html):
+    result = full[0]
+    plots = sum(1 for f in result.fits if f.series)
+    extras = sum(len(f.info.get("figures", [])) for f in result.fits)
+    assert plots == 4 and extras == 2
+    assert html.count("<img") == plots + extras
+    assert html.count("<figcaption>") == plots + extras
+    assert "<script" not in html and "http://" not in html and "https://" not in html
+    for img in re.findall(r"<img [^>]*>", html):
+        assert 'src="data:image/png;base64,' in img and 'alt="' in img
+
+
+def test_html_shows_values_warnings_failures_and_pending(full, html):
+    doc = stiffness_json(full[0])
+    for params in doc["specimens"].values():
+        for item in params.values():
+            assert f"{item['value']:.5g}" in html
+    assert BENDING_WARNING in html
+    assert "could not be fitted" in html and "torque column is constant" in html
+    assert "E_s: not yet fitted" in html and "E_s fitter is not available" in html
+    assert "excluded from fit" in html or "excluded from the fit" in html
+    assert "sls_k1" in html and "+0.970" in html  # correlation table
+    assert "fit window" in html and "x_max = 35" in html  # info, formatted
+    assert _sha("torsion_T1_L60.csv")[:12] in html and _sha("torsion_T1_L60.csv") in html
+    assert "Zwick Z0.5" in html and "mN mm" in html and "exclude = true" in html
+
+
+def test_html_sections_only_for_kinds_present(html):
+    for kind in ("extension", "magnetic_bending", "torsion", "three_point_bend"):
+        assert f'<section id="{kind}">' in html
+    only = render_report(make_result(kinds=("torsion",)))["report.html"].decode()
+    assert '<section id="torsion">' in only
+    for kind in ("extension", "magnetic_bending", "three_point_bend"):
+        assert f'id="{kind}"' not in only and f'href="#{kind}"' not in only
+    assert only.count("<img") == 3
+
+
+def test_html_escapes_user_text(html):
+    assert "<script>alert" not in html
+    assert "&lt;script&gt;alert(&#39;x&#39;)&lt;/script&gt;" in html
+
+
+def test_pdf_opens_and_has_the_content(full, pdf):
+    data = full[1]["report.pdf"]
+    assert data.startswith(b"%PDF")
+    sections = 4
+    assert len(pdf.pages) >= sections + 1 + 1  # title, sections, provenance
+    text = "\n".join(page.extract_text() for page in pdf.pages)
+    assert STUDY_NAME in text
+    assert "could not be fitted" in text and "E_s: not yet fitted" in text
+    assert "Magnetic bending" in text and "Provenance" in text
+    assert _sha("torsion_T1_L60.csv") in text
+    assert pdf.metadata.title.startswith(STUDY_NAME)
+    assert pdf.metadata.creator == "matid 0.1.0"
+
+
+def test_cgs_report_shows_dyn():
+    result = make_result(kinds=("torsion", "extension"))
+    out = render_report(result, units="cgs")
+    html = out["report.html"].decode()
+    assert "dyn cm^2" in html and "dyn s" in html and "N m^2" not in html
+    value = stiffness_json(result, "cgs")["specimens"]["T1"]["E_t"]["value"]
+    assert f"{value:.5g}" in html
+    text = "\n".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(out["report.pdf"])).pages)
+    assert "dyn" in text
+
+
+def test_unknown_unit_system_is_refused():
+    with pytest.raises(ValueError, match="units must be one of"):
+        render_report(make_result(kinds=("torsion",)), units="imperial")
+
+
+def test_broken_extra_figure_is_reported_not_raised():
+    def broken() -> Figure:
+        raise RuntimeError("no solver output")
+
+    result = make_result(kinds=("torsion",))
+    fit = _torsion(list(result.study.tests[:1]), extras=[broken, ("not a png", b"GIF89a")])
+    result = StudyResult(result.study, result.inputs, (fit,))
+    html = render_report(result)["report.html"].decode()
+    assert html.count("could not be drawn") == 2 and "no solver output" in html
+
+
+def test_axis_units_convert_for_cgs():
+    assert axis_unit("torque [N m]", "cgs").label == "torque [dyn cm]"
+    assert axis_unit("torque [N m]", "cgs").factor == 1e7
+    assert axis_unit("force [N]", "cgs").factor == 1e5
+    assert axis_unit("tip angle / free length [rad/m]", "cgs").label.endswith("[rad/cm]")
+    assert axis_unit("time [s]", "cgs").kept_si is None
+    assert axis_unit("field [A/m]", "cgs").kept_si == "A/m"
+    assert axis_unit("torque [N m]", "SI").factor == 1.0
+
+
+def test_info_values_are_formatted_readably():
+    assert format_value(0.123456789) == "0.12346"
+    assert format_value({"x_min": 0.0, "x_max": 35.0}) == "x_min = 0; x_max = 35"
+    assert format_value(np.arange(20.0)).endswith("(20 values)")
+    assert format_value([1, 2.5, "a"]) == "[1, 2.5, a]"
+    assert format_value(np.float64(2.0)) == "2"
+
+
+def test_awkward_text_and_partial_fits_render():
+    """Dollars (mathtext in matplotlib), markup, a fit without a model curve, a fixed value."""
+    base = make_result(kinds=("torsion",))
+    test = base.study.tests[0]
+    x = np.linspace(0.0, 1.0, 50)
+    fit = Fit(
+        "torsion",
+        "T1",
+        (test,),
+        (Estimate("E_t", 4e-5, None, None, 50, "linear"),),
+        (Series("cost $5 and $6", x, 2 * x),),
+        "twist [rad]",
+        "torque [N m]",
+        info={"nested": {"a": [1, 2, {"b": 3.0}]}},
+    )
+    fixed = (Estimate("E_s", 21.0, None, None, 0, "fixed", extra={"specimen": "T1"}),)
+    study = Study("Tube $A$ & <b>B</b>", base.study.source, base.study.specimens, (test,))
+    out = render_report(StudyResult(study, (), (fit,), fixed=fixed))
+    html = out["report.html"].decode()
+    assert "Tube $A$ &amp; &lt;b&gt;B&lt;/b&gt;" in html and "<b>B" not in html
+    assert "fixed" in html and "a = [1, 2, {b = 3}]" in html and "not read" in html
+    assert html.count("<img") == 1 and "Residuals" not in html
+    text = "\n".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(out["report.pdf"])).pages)
+    assert "Tube $A$ & <b>B</b>" in text
+
+
+def test_empty_result_renders():
+    study = Study("nothing yet", ROOT / "study.toml", (Specimen("T1", 2e-3),), ())
+    out = render_report(StudyResult(study, (), ()))
+    html = out["report.html"].decode()
+    assert "No warnings" in html and '<section id="torsion">' not in html and "<img" not in html
+    assert len(pypdf.PdfReader(io.BytesIO(out["report.pdf"])).pages) == 2  # title, provenance
