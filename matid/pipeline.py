@@ -35,6 +35,7 @@ from matid.errors import ConvergenceError, DataError, FitError
 from matid.ingest import Measurement, load_measurements
 from matid.linear import fit_bending, fit_torsion
 from matid.report import render_report
+from matid.shear import fit_three_point_bend
 from matid.results import (
     Estimate,
     Failure,
@@ -102,8 +103,7 @@ def _fit_torsion(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
 
 
 def _fit_shear(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
-    # The E_s fitter will use known["E_b"] and known["E_e"] (fitted or fixed).
-    raise NotFitted(E_S_PENDING)
+    return fit_three_point_bend(measurements, specimen=specimen, fixed=fixed, known=known)
 
 
 #: kind -> fitter(measurements, *, specimen, fixed, known). Replace an entry to plug in a fit.

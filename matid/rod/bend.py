@@ -254,6 +254,27 @@ class BendModel:
             newton_iterations=info.iterations, load_steps=info.steps, runtime_s=time.perf_counter() - t0,
         )
 
+    def shape(self, path: BendPath, index: int = -1) -> dict:
+        """The deformed whole tube (mirrored half model) at one path state, SI, with the cylinders.
+
+        Coordinates: z along the span from mid-span, x up; cylinder centres as (z, x).
+        """
+        S, g = self.geometry.span, self.geometry
+        d = float(path.deflection[index])
+        system = self.system(1.0, 1.0, 1.0, float(path.deflection[-1]) or 1.0)
+        X = path.states[index]
+        system.at(X[-1])
+        U = system.rod.expand(X[: system.nu]).reshape(-1, 3)
+        order = np.argsort(system.rod.disc.s_dof)
+        x, z = U[order, 0] * S, U[order, 1] * S
+        return {
+            "z": np.concatenate([-z[::-1], z[1:]]), "x": np.concatenate([x[::-1], x[1:]]),
+            "outer_radius": 0.5 * g.outer_diameter, "deflection": d,
+            "supports": [((side * 0.5 * S, -self.support_rho * S), g.support_radius) for side in (-1, 1)],
+            "nose": ((0.0, self.nose_rho * S - d), g.nose_radius),
+            "support_contact_s": float(X[-1] * S),
+        }
+
     def _step(self, system, X, lam, target, warm, info: NewtonInfo, d_max: float) -> np.ndarray:
         if warm is not None:
             try:
@@ -263,7 +284,10 @@ class BendModel:
                 return X_new
             except NewtonFailure:
                 info.rejected += 1
-        if target == lam and info.lu is not None:
+        if target == lam:  # e.g. a d = 0 row: converge there for the tangent the sensitivities need
+            if info.lu is None:
+                X, its, info.lu = newton(system, X, lam)
+                info.iterations += its
             return X
         try:
             X, _ = follow(system, X, [target], lam0=lam, first_step=max(target - lam, 1e-3), info=info)

@@ -49,7 +49,7 @@ class Discretisation:
         self.nf = nf
         b = self.basis
         nloc = len(b.basis)
-        self.phi = np.array([b.basis[i][0].value for i in range(nloc)])  # (nloc, ne, nq)
+        self.phi = np.array([np.asarray(b.basis[i][0]) for i in range(nloc)])  # (nloc, ne, nq)
         self.dphi = np.array([b.basis[i][0].grad[0] for i in range(nloc)])
         self.dx = b.dx  # (ne, nq)
         self.edofs = b.element_dofs  # (nloc, ne) scalar dofs
