@@ -96,6 +96,7 @@ class RodSystem:
     variant: str = kin.NORMALISED
     c_u: float = 1.0
     fixed: tuple[int, ...] | None = None  # fixed global dofs; default: clamp at s = 0
+    analytic: bool = True  # planar: closed-form derivatives (False: jets, the cross-check)
     terms: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -154,6 +155,8 @@ class RodSystem:
 
     def energy_derivatives(self, U: np.ndarray, lam: float, tangent: bool = True):
         vals, ders = self.disc.interpolate(U)
+        if self.model == PLANAR and self.analytic:
+            return self._planar_derivatives(vals, ders, lam, tangent)
         variables = Jet.variables(np.concatenate([vals, ders]), hessian=tangent)
         nf = self.disc.nf
         w = self.density(variables[:nf], variables[nf:], lam)
@@ -180,6 +183,44 @@ class RodSystem:
         if self.variant == kin.NORMALISED:
             total += float(np.sum(kin.unity_penalty(node[:, 3:].T, self.c_u)))
         return total
+
+    def _planar_derivatives(self, vals, ders, lam: float, tangent: bool):
+        """Closed-form gradient and Hessian of the planar density (the Newton hot path).
+
+        Variables (x, z, t, x', z', t'); with c, s = cos t, sin t,
+        nu1 = x'c - z's, nu3 = x's + z'c, dnu1/dt = -nu3, dnu3/dt = nu1, and
+        W = 1/2 [E_b (t' - k)^2 + E_s nu1^2 + E_e (nu3 - 1)^2] - mu (s Bx + c Bz) - f.r.
+        Checked against the jet derivatives of :meth:`density` in the tests.
+        """
+        p, rod = self.props, self.rod
+        Eb, Es, Ee = p["E_b"], p["E_s"], p["E_e"]
+        th, dx, dz, dth = vals[2], ders[0], ders[1], ders[2]
+        c, s = np.cos(th), np.sin(th)
+        nu1, nu3 = dx * c - dz * s, dx * s + dz * c
+        n1, n3 = Es * nu1, Ee * (nu3 - 1.0)  # internal forces in the director frame
+        g = np.zeros(th.shape + (6,))
+        g[..., 0], g[..., 1] = -lam * rod.f[0], -lam * rod.f[2]
+        g[..., 2] = -n1 * nu3 + n3 * nu1
+        g[..., 3], g[..., 4] = n1 * c + n3 * s, -n1 * s + n3 * c
+        g[..., 5] = Eb * (dth - lam * rod.kappa_ref[1])
+        mag = "magnetic" in self.terms
+        if mag:
+            mu = lam * self.mu
+            g[..., 2] -= mu * (c * rod.B[0] - s * rod.B[2])
+        if not tangent:
+            return g, None
+        H = np.zeros(th.shape + (6, 6))
+        dE = Ee - Es
+        H[..., 2, 2] = (nu1 * nu1 - nu3 * nu3) * dE + Ee * nu3
+        H[..., 2, 3] = H[..., 3, 2] = (c * nu3 + s * nu1) * dE - Ee * c
+        H[..., 2, 4] = H[..., 4, 2] = (c * nu1 - s * nu3) * dE + Ee * s
+        H[..., 3, 3] = Es * c * c + Ee * s * s
+        H[..., 3, 4] = H[..., 4, 3] = dE * s * c
+        H[..., 4, 4] = Es * s * s + Ee * c * c
+        H[..., 5, 5] = Eb
+        if mag:
+            H[..., 2, 2] += mu * (s * rod.B[0] + c * rod.B[2])
+        return g, H
 
     @property
     def roundoff(self) -> float:
