@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import re
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -11,8 +12,10 @@ import pytest
 from matplotlib.figure import Figure
 
 from matid.report import render_report
-from matid.report.content import format_value
+from matid.report.bend import TITLES, outline
+from matid.report.content import build_report, format_value
 from matid.report.figures import axis_unit, png_bytes
+from matid.report.html import render_html
 from matid.results import Estimate, Failure, InputFile, Series, StudyResult, stiffness_json
 from matid.results import TestFit as Fit
 from matid.study import Specimen, Study
@@ -349,3 +352,117 @@ def test_empty_result_renders():
     html = out["report.html"].decode()
     assert "No warnings" in html and '<section id="torsion">' not in html and "<img" not in html
     assert len(pypdf.PdfReader(io.BytesIO(out["report.pdf"])).pages) == 2  # title, provenance
+
+
+# -- three-point bend: figures drawn from info["plot_data"] ----------------------------------
+
+FE = {"element": "P2", "elements": 32, "discretization_error": 3e-7, "runtime_s": 0.9, "rod_solves": 11}
+
+
+def _bend_curve(test: LabTest, span: float, rng: np.random.Generator) -> dict:
+    """One span of plot_data as the E_s fitter leaves it (shapes in SI, z along the span, x up)."""
+    R, r, d_max = 1.2e-3, 2e-3, 1e-3
+    d = np.linspace(0.0, d_max, 25)
+    timoshenko = 2.3e3 * d * (0.01 / span) ** 2
+    model = timoshenko * (1 + 0.25 * d / d_max)
+    z = np.linspace(-0.015, 0.015, 61)
+    x = np.where(np.abs(z) < span / 2, -d_max * (1 - (2 * z / span) ** 2), 0.2 * (np.abs(z) - span / 2))
+    shape = {
+        "z": z,
+        "x": x,
+        "outer_radius": R,
+        "deflection": d_max,
+        "supports": [((side * span / 2, -(R + r)), r) for side in (-1, 1)],
+        "nose": ((0.0, R + r - d_max), r),
+        "support_contact_s": 0.45 * span,
+    }
+    F = model + rng.normal(0, 0.01, d.size)
+    return {"label": test.file.name, "span": span, "d": d, "F": F, "model": model,
+            "timoshenko": timoshenko, "plus10": model * 1.03, "shape": shape}  # fmt: skip
+
+
+def _bend_setup(span: float) -> dict[str, float]:
+    return {"span": span, "specimen_length": 0.03, "support_radius": 0.002, "nose_radius": 0.002}
+
+
+def bend_result(*, plot_data: object = None) -> StudyResult:
+    """A study whose only fit is a three-point bend on two spans, with plot_data and FE figures."""
+    rng = np.random.default_rng(3)
+    tests = [
+        LabTest("three_point_bend", "T1", ROOT / f"3pb_T1_S{n}.csv", _bend_setup(n * 1e-3), index=70 + n)
+        for n in (10, 14)
+    ]
+    curves = [_bend_curve(t, t.params["span"], rng) for t in tests]
+    series = tuple(Series(c["label"], c["d"], c["F"], c["model"]) for c in curves)
+    held = {"E_b": {"dlogEs_dlogp": -1.9, "contribution": 0.0042}}
+    info = {
+        "noise_N": 0.01,
+        "sensitivity_to_noise": 4.2,
+        "held_stiffness_propagation": held,
+        "fe": FE,
+        "plot_data": {"curves": curves, "noise_N": 0.01} if plot_data is None else plot_data,
+    }
+    est = Estimate("E_s", 21.1, 0.1, (20.9, 21.3), 50, "cosserat-fe", extra={"fe": FE})
+    fit = Fit(
+        "three_point_bend", "T1", tuple(tests), (est,), series, "deflection [m]", "force [N]", info=info
+    )
+    study = Study(STUDY_NAME, ROOT / "study.toml", (Specimen("T1", 2.4e-3, 1.6e-3),), tuple(tests))
+    return StudyResult(study, (), (fit,))
+
+
+@pytest.fixture(scope="module")
+def bend_out() -> dict[str, bytes]:
+    return render_report(bend_result())
+
+
+def test_bend_fit_renders_its_figures(bend_out):
+    html = bend_out["report.html"].decode()
+    assert html.count("<img") == 1 + len(TITLES)  # the fit plot, then force, sensitivity, shape
+    for title in TITLES:
+        assert f"<strong>{title}.</strong>" in html
+    assert "Timoshenko" in html and "σ = 10 mN" in html and "RMS force change / noise = 4.2" in html
+    assert "plot_data" not in html and "plot data" not in html and "curves" not in html
+    fe = "FE mesh and solver for E_s: 32 P2 elements, discretisation error 3e-07 of E_s (relative)"
+    assert html.count(fe) == 1  # under the parameters; not repeated among the info items
+    assert "11 rod solves, run time 0.9 s" in html
+    assert "E_b: d ln E_s / d ln E_b = -1.9, adds ±0.42 % to E_s" in html
+    text = "\n".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(bend_out["report.pdf"])).pages)
+    for title in (*TITLES, "FE mesh and solver for E_s", "3pb_T1_S14.csv: span 14 mm"):
+        assert title in text
+    assert "plot_data" not in text
+
+
+def test_bend_figures_in_cgs_show_dyn():
+    html = render_html(build_report(bend_result(), "cgs")).decode()
+    assert "force in dyn" in html and "σ = 1e+03 dyn" in html
+
+
+def test_malformed_plot_data_is_reported_not_raised():
+    out = render_report(bend_result(plot_data={"curves": [{"d": [0.0, 1e-3], "F": [0.0]}]}))
+    html = out["report.html"].decode()
+    assert "could not be drawn" in html and "plot_data curve 1 has no model, timoshenko, plus10, span" in html
+    assert html.count("<img") == 1  # the fit plot still shows
+    assert out["report.pdf"].startswith(b"%PDF")
+
+
+def test_tube_outline_is_the_radius_off_the_centreline():
+    z = np.linspace(-1.0, 1.0, 21)
+    upper, lower = outline(z, 0.5 * z, 0.1)
+    assert np.allclose(np.hypot(*(upper - lower).T), 0.2)
+    assert np.allclose((upper - lower) @ np.array([1.0, 0.5]), 0.0)  # normal to the centreline
+
+
+def test_demo_report_has_the_bend_figures():
+    from matid.pipeline import run_study
+    from matid.study import load_study
+
+    result = run_study(load_study(Path(str(resources.files("matid.example")))))
+    bends = [f for f in result.fits if f.kind == "three_point_bend"]
+    assert bends and all("plot_data" in f.info for f in bends)
+    out = render_report(result)
+    html = out["report.html"].decode()
+    for title in TITLES:
+        assert html.count(f"<strong>{title}.</strong>") == len(bends)
+    assert html.count("FE mesh and solver for E_s") == len(bends) and "plot_data" not in html
+    text = "\n".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(out["report.pdf"])).pages)
+    assert all(title in text for title in TITLES)

@@ -5,7 +5,8 @@ the caller writes them (atomically, see :func:`matid.results.atomic_write`). Con
 once (:mod:`matid.report.content`), then drawn by :mod:`matid.report.html` (jinja2 template,
 plots inlined as PNG) and :mod:`matid.report.pdf` (A4 pages via matplotlib's PdfPages). The
 hook for extra figures of a fit, ``TestFit.info["figures"]``, is described in
-:mod:`matid.report.figures`.
+:mod:`matid.report.figures`; the three-point-bend figures drawn from ``info["plot_data"]`` in
+:mod:`matid.report.bend`.
 """
 
 from __future__ import annotations

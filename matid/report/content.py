@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from matid import __version__
-from matid.report.figures import ExtraFigure, extra_figures, has_plot
+from matid.report.bend import bend_drawings
+from matid.report.figures import Drawing, ExtraFigure, extra_figures, has_plot
 from matid.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
 from matid.study import OPTIONAL_KEYS, TEST_KINDS, Test
 
@@ -30,6 +31,8 @@ PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in p
 
 FIT_COLUMNS = ("parameter", "value", "stderr", "95 % CI", "unit", "n_points", "method", "warnings")
 FIT_NUMERIC = (False, True, True, True, False, True, False, False)
+#: Info items not shown in the details table: figures and the arrays the figures are drawn from.
+HIDDEN_INFO = ("figures", "plot_data")
 
 
 @dataclass(frozen=True)
@@ -68,9 +71,11 @@ class Block:
     plot: bool
     parameters: Table | None
     correlation: Table | None
+    fe_notes: tuple[str, ...]  # mesh and solver figures behind the estimates ("E_s: FE P2, ...")
     info: tuple[tuple[str, str], ...]
     warnings: tuple[str, ...]
     tests: tuple[TestView, ...]
+    drawings: tuple[Drawing, ...]  # figures the report draws from info arrays (bend fits)
     extras: tuple[ExtraFigure, ...]
 
 
@@ -120,7 +125,7 @@ def build_report(result: StudyResult, units: str) -> Report:
         failures=tuple(failure_message(f) for f in result.failures),
         warnings=tuple(w for w in result.warnings() if w not in apart),
         pending=tuple(pending_message(p, with_specimen=True) for p in result.pending),
-        sections=tuple(_sections(result, doc)),
+        sections=tuple(_sections(result, doc, units)),
         provenance=provenance_table(result.inputs),
     )
 
@@ -281,7 +286,7 @@ def _correlation(fit: TestFit) -> Table | None:
 # -- sections --------------------------------------------------------------------------------
 
 
-def _sections(result: StudyResult, doc: Mapping) -> list[Section]:
+def _sections(result: StudyResult, doc: Mapping, units: str) -> list[Section]:
     present = {t.kind for t in result.study.tests}
     present |= {f.kind for f in result.fits}
     present |= {_test_kind(f.kind) for f in (*result.failures, *result.pending)}
@@ -290,7 +295,7 @@ def _sections(result: StudyResult, doc: Mapping) -> list[Section]:
         if kind not in present:
             continue
         blocks = [
-            _block(result, doc, kind, sid, f"{kind}-{i + 1}")
+            _block(result, doc, kind, sid, f"{kind}-{i + 1}", units)
             for i, sid in enumerate(_specimens_of(result, kind))
         ]
         sections.append(Section(kind, kind, title, ", ".join(params), tuple(blocks)))
@@ -307,7 +312,7 @@ def _specimens_of(result: StudyResult, kind: str) -> list[str]:
     return sorted(unique, key=lambda s: order.index(s) if s in order else len(order))
 
 
-def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str) -> Block:
+def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str, units: str) -> Block:
     fit = next((f for f in result.fits if f.kind == kind and f.specimen == sid), None)
     mine = [f for f in result.failures if _test_kind(f.kind) == kind and f.specimen == sid]
     messages = [("failed", failure_message(f)) for f in mine]
@@ -315,6 +320,7 @@ def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str) 
     messages += [("pending", pending_message(p)) for p in mine]
     if fit is None and not messages:
         messages.append(("none", f"{_parameters_of(kind)}: no fit result"))
+    drawings, problems = _drawings(fit, units)
     tests = result.study.tests_of(kind, sid, included=False)
     if fit is not None:
         known = {(t.file, t.index) for t in tests}
@@ -327,15 +333,77 @@ def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str) 
         plot=fit is not None and has_plot(fit),
         parameters=None if fit is None else _fit_parameters(fit, doc),
         correlation=None if fit is None else _correlation(fit),
+        fe_notes=() if fit is None else fe_notes(fit),
         info=() if fit is None else _info(fit),
         warnings=() if fit is None else tuple(fit.warnings),
         tests=tuple(_test_view(t, result.inputs) for t in tests),
-        extras=() if fit is None else tuple(extra_figures(fit)),
+        drawings=drawings,
+        extras=() if fit is None else (*extra_figures(fit), *problems),
     )
 
 
+def _drawings(fit: TestFit | None, units: str) -> tuple[tuple[Drawing, ...], tuple[ExtraFigure, ...]]:
+    """The drawings of ``fit``, or why they cannot be drawn (as a failed extra figure)."""
+    if fit is None:
+        return (), ()
+    try:
+        return tuple(bend_drawings(fit, units)), ()
+    except (KeyError, TypeError, ValueError, IndexError) as exc:  # malformed plot data: say so, go on
+        return (), (ExtraFigure("Three-point bend figures", None, f"{type(exc).__name__}: {exc}"),)
+
+
 def _info(fit: TestFit) -> tuple[tuple[str, str], ...]:
-    return tuple((str(k).replace("_", " "), format_value(v)) for k, v in fit.info.items() if k != "figures")
+    shown = [e.extra["fe"] for e in fit.estimates if isinstance(e.extra.get("fe"), Mapping)]
+    rows = []
+    for key, value in fit.info.items():
+        if key in HIDDEN_INFO or key == "fe" and value in shown:  # fe: under the parameters already
+            continue
+        if key == "fe" and isinstance(value, Mapping):
+            rows.append(("FE mesh and solver", format_fe(value)))
+        elif key == "held_stiffness_propagation" and isinstance(value, Mapping):
+            rows.append(("held stiffness propagation", format_held(value) or "none"))
+        else:
+            rows.append((str(key).replace("_", " "), format_value(value)))
+    return tuple(rows)
+
+
+def fe_notes(fit: TestFit) -> tuple[str, ...]:
+    """One line per distinct ``extra["fe"]`` of the estimates ("FE mesh and solver for E_s: ...")."""
+    groups: dict[str, list[str]] = {}
+    for estimate in fit.estimates:
+        fe = estimate.extra.get("fe")
+        if isinstance(fe, Mapping):
+            groups.setdefault(format_fe(fe), []).append(estimate.parameter)
+    return tuple(f"FE mesh and solver for {', '.join(names)}: {text}" for text, names in groups.items())
+
+
+def format_fe(fe: Mapping) -> str:
+    """The mesh and solver figures of a finite-element fit, in words."""
+    head = " ".join(format_value(fe[k]) for k in ("elements", "element") if k in fe)
+    parts = [f"{head} elements"] if head else []
+    if isinstance(fe.get("discretization_error"), (int, float)):
+        parts.append(f"discretisation error {fmt(fe['discretization_error'], 2)} of E_s (relative)")
+    if "rod_solves" in fe:
+        parts.append(f"{format_value(fe['rod_solves'])} rod solves")
+    if isinstance(fe.get("runtime_s"), (int, float)):
+        parts.append(f"run time {format_runtime(fe['runtime_s'])}")
+    known = {"element", "elements", "discretization_error", "runtime_s", "rod_solves"}
+    parts += [f"{k.replace('_', ' ')} {format_value(v)}" for k, v in fe.items() if k not in known]
+    return ", ".join(parts)
+
+
+def format_held(held: Mapping) -> str:
+    """How the uncertainty of each held stiffness p moves into E_s (d ln E_s / d ln p and its share)."""
+    parts = []
+    for name, item in held.items():
+        if isinstance(item, Mapping) and {"dlogEs_dlogp", "contribution"} <= item.keys():
+            parts.append(
+                f"{name}: d ln E_s / d ln {name} = {fmt(item['dlogEs_dlogp'], 3)}, "
+                f"adds ±{fmt(100 * item['contribution'], 2)} % to E_s"
+            )
+        else:
+            parts.append(f"{name}: {format_value(item)}")
+    return "; ".join(parts)
 
 
 def _test_view(test: Test, inputs: tuple[InputFile, ...]) -> TestView:

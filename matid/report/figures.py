@@ -13,10 +13,10 @@ The fit plot
     mm, ...) stay, and anything else stays SI and the caption says so.
 
 Extra figures: the ``TestFit.info["figures"]`` hook
-    A fitter may attach figures of its own (the E_s fitter: deformed shapes, sensitivity,
-    error against run time). The preferred form is a list of ``(title, png_bytes)`` pairs::
+    A fitter may attach figures of its own (error against run time, say). The preferred form
+    is a list of ``(title, png_bytes)`` pairs::
 
-        info["figures"] = [("Deformed shape at the largest deflection", png_bytes), ...]
+        info["figures"] = [("Error against run time", png_bytes), ...]
 
     where ``png_bytes`` is a whole PNG file (about 7.5 in wide at 110 dpi renders best; the
     report scales it to the page). Also accepted: ``(title, callable)`` or a bare callable
@@ -25,6 +25,12 @@ Extra figures: the ``TestFit.info["figures"]`` hook
     that are not PNG, or a callable that raises, is shown in the report as "figure could not
     be drawn" with the reason: an extra figure never makes the report fail. The ``figures``
     key is not listed among the fit's info items.
+
+Drawings
+    Figures the report draws itself from arrays a fitter leaves in ``info`` (the bend
+    figures of :mod:`matid.report.bend`) are :class:`Drawing` objects: a function that draws
+    into a rectangle of a Figure, rendered to PNG for the HTML page and as vectors on the PDF
+    page, like the fit plot.
 """
 
 from __future__ import annotations
@@ -33,7 +39,7 @@ import io
 import re
 import sys
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -79,6 +85,50 @@ class ExtraFigure:
     title: str
     png: bytes | None
     error: str | None = None
+
+
+Rect = tuple[float, float, float, float]  # left, bottom, right, top, figure fractions
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """A figure the report draws itself: ``draw(fig, rect)`` fills ``rect`` of ``fig``."""
+
+    title: str
+    caption: str
+    alt: str
+    size: tuple[float, float]  # inches, for the HTML image; the PDF keeps the height
+    draw: Callable[[Figure, Rect], None] = field(compare=False, repr=False)
+
+
+#: Room around the axes of a drawing, inches: left (y labels), bottom (x label), right, top.
+DRAWING_MARGINS = (0.85, 0.5, 0.15, 0.12)
+
+
+def drawing_png(drawing: Drawing) -> bytes:
+    """The drawing as PNG, at its size and the report's dpi."""
+    width, height = drawing.size
+    left, bottom, right, top = DRAWING_MARGINS
+    fig = Figure(figsize=drawing.size)
+    drawing.draw(fig, (left / width, bottom / height, 1 - right / width, 1 - top / height))
+    return png_bytes(fig)
+
+
+def style_axes(*axes) -> None:
+    """Tick and label sizes and the light grid of the report's plots."""
+    for ax in axes:
+        ax.grid(True, color="#e6e6e6", linewidth=0.6)
+        ax.tick_params(labelsize=8)
+        ax.yaxis.label.set_size(9)
+        ax.xaxis.label.set_size(9)
+
+
+def quiet_legend(ax, *args, **kwargs):
+    """A legend whose texts are not parsed as mathtext (labels carry file names, dollars)."""
+    legend = ax.legend(*args, **kwargs)
+    for text in legend.get_texts():
+        text.set_parse_math(False)
+    return legend
 
 
 def axis_unit(label: str, units: str) -> AxisUnit:

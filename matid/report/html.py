@@ -12,7 +12,16 @@ from dataclasses import dataclass
 import jinja2
 
 from matid.report.content import KINDS, Block, Report
-from matid.report.figures import DPI, axis_unit, caption, fit_figure, png_bytes, png_size
+from matid.report.figures import (
+    DPI,
+    Drawing,
+    axis_unit,
+    caption,
+    drawing_png,
+    fit_figure,
+    png_bytes,
+    png_size,
+)
 
 
 @dataclass(frozen=True)
@@ -22,6 +31,8 @@ class Image:
     height: int
     alt: str
     caption: str
+    title: str = ""
+    error: str = ""  # why the figure could not be drawn (src empty)
 
 
 def render_html(report: Report) -> bytes:
@@ -39,7 +50,14 @@ def render_html(report: Report) -> bytes:
         for block in section.blocks
         if block.plot
     }
-    page = env.get_template("report.html").render(report=report, plots=plots, data_uri=data_uri)
+    drawings = {
+        block.anchor: [_drawing_image(d) for d in block.drawings]
+        for section in report.sections
+        for block in section.blocks
+    }
+    page = env.get_template("report.html").render(
+        report=report, plots=plots, drawings=drawings, data_uri=data_uri
+    )
     return page.encode("utf-8")
 
 
@@ -60,3 +78,12 @@ def _fit_image(block: Block, units: str, title: str) -> Image:
     text = caption(fit, units)
     text = f"{title}, specimen {fit.specimen}: {text[0].lower()}{text[1:]}"
     return Image(data_uri(png), width, height, alt, text)
+
+
+def _drawing_image(drawing: Drawing) -> Image:
+    try:
+        png = drawing_png(drawing)
+    except Exception as exc:  # a figure that cannot be drawn must not sink the report
+        return Image("", 0, 0, drawing.alt, drawing.caption, drawing.title, f"{type(exc).__name__}: {exc}")
+    width, height = png_size(png)
+    return Image(data_uri(png), width, height, drawing.alt, drawing.caption, drawing.title)

@@ -15,10 +15,12 @@ import matplotlib
 from matplotlib.backends.backend_pdf import PdfPages
 
 from matid.report.content import Block, Report, Section, Table, TestView
-from matid.report.figures import caption, draw_fit
+from matid.report.figures import Drawing, caption, draw_fit
 from matid.report.layout import SANS, Flow, wrap
 
 AMBER, AMBER_EDGE, GREY_BOX, GREY_EDGE = "#fff4d6", "#e0a800", "#f3f4f6", "#8a94a6"
+FIT_HEIGHT = 4.3  # inches of a fit plot on the page
+SQUEEZE = 0.85  # a drawing may shrink to this share of of its height to fit the rest of a page
 RC = {"pdf.fonttype": 42, "font.family": SANS, "axes.unicode_minus": False}
 
 
@@ -92,6 +94,8 @@ def _section(flow: Flow, section: Section, units: str) -> None:
 
 
 def _block(flow: Flow, section: Section, block: Block, units: str) -> None:
+    if block.plot:
+        flow.need(0.45 + FIT_HEIGHT)  # keep the specimen's heading with its fit plot
     flow.heading(f"{section.title}, specimen {block.specimen}", level=2)
     for status, line in block.messages:
         colours = (AMBER, AMBER_EDGE) if status == "failed" else (GREY_BOX, GREY_EDGE)
@@ -105,15 +109,20 @@ def _block(flow: Flow, section: Section, block: Block, units: str) -> None:
         flow.space(0.1)
     if block.plot:
         fit = block.fit
-        flow.plot(lambda fig, rect: draw_fit(fig, fit, units, rect=rect), height=4.3)
+        flow.plot(lambda fig, rect: draw_fit(fig, fit, units, rect=rect), height=FIT_HEIGHT)
         flow.paragraph(caption(fit, units), size=7.5, color="#5f6368")
         flow.space(0.08)
     if block.parameters and block.parameters.rows:
         flow.heading("Parameters", level=3)
         flow.table(block.parameters)
+    for note in block.fe_notes:
+        flow.paragraph(note, size=7.5, color="#5f6368")
+        flow.space(0.08)
     if block.correlation:
         flow.heading("Correlation of the estimates", level=3)
         flow.table(block.correlation)
+    for drawing in block.drawings:
+        _drawing(flow, drawing)
     if block.info:
         flow.heading("Fit window and details", level=3)
         flow.table(Table(("item", "value"), block.info, (False, False)))
@@ -129,6 +138,31 @@ def _block(flow: Flow, section: Section, block: Block, units: str) -> None:
         flow.heading("Tests", level=3)
         for test in block.tests:
             _test(flow, test)
+
+
+def _drawing(flow: Flow, drawing: Drawing) -> None:
+    """A drawing as vectors under its title, its caption below."""
+    caption_lines = wrap(drawing.caption, flow.width, 7.5, mono=False)
+    around = 0.3 + len(caption_lines) * 7.5 * 1.35 / 72  # title and caption, kept with the plot
+    height = drawing.size[1]
+    if around + height > flow.room() >= around + SQUEEZE * height:
+        height = flow.room() - around  # a little lower rather than a new page for want of a few lines
+    flow.need(around + height)
+    flow.heading(drawing.title, level=3)
+    before = set(flow.fig.axes)
+    try:
+        flow.plot(drawing.draw, height=height)
+    except Exception as exc:  # a figure that cannot be drawn must not sink the report
+        for ax in set(flow.fig.axes) - before:
+            ax.remove()
+        flow.box(
+            f"Figure could not be drawn: {drawing.title}",
+            [f"{type(exc).__name__}: {exc}"],
+            (AMBER, AMBER_EDGE),
+        )
+        return
+    flow.lines(caption_lines, size=7.5, mono=False, color="#5f6368")
+    flow.space(0.08)
 
 
 def _test(flow: Flow, test: TestView) -> None:
