@@ -86,7 +86,6 @@ class NotFitted(Exception):
     """Raised by a fitter for a kind that is present but not fitted by design."""
 
 
-E_S_PENDING = "the E_s identification is not implemented yet"
 
 
 def _fit_extension(measurements, *, specimen: Specimen, fixed, known) -> TestFit:

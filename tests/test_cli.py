@@ -30,6 +30,7 @@ SI_UNITS = {
     "sls_k1": "N",
     "sls_k2": "N",
     "sls_eta": "N s",
+    "E_s": "N",
 }
 CGS = {"N": ("dyn", 1e5), "N m^2": ("dyn cm^2", 1e9), "N s": ("dyn s", 1e5)}
 
@@ -112,7 +113,7 @@ def test_demo_prints_progress_summary_and_paths(demo_run):
     _, out, err, folder = demo_run
     assert "fitting extension T1" in err and re.search(r"\[\s*\d+\.\d s\]", err)
     assert re.search(r"T1\s+E_b\s+6\.\d+e-05 ± \S+\s+N m\^2", out)
-    assert "T1 E_s (three point bend): not yet fitted" in out
+    assert re.search(r"T1\s+E_s\s+2\d\.\d+ ± \S+\s+N\s+cosserat-fe", out)
     for name in OUTPUTS:
         assert str(Path("reports") / "demo" / name) in out
 
@@ -126,7 +127,10 @@ def test_json_follows_the_contract(demo_run):
     assert all(re.fullmatch(r"[0-9a-f]{64}", i["sha256"]) for i in doc["inputs"])
     assert set(doc["specimens"]) == {"T1", "T2"}
     for params in doc["specimens"].values():
-        assert set(params) == set(SI_UNITS)  # E_s is not fitted yet
+        assert set(params) == set(SI_UNITS)
+        fe = params["E_s"]["fe"]  # issue 5: how accurate the FE answer is and what it cost
+        assert fe["element"] == "P2" and fe["elements"] >= 2 and fe["runtime_s"] > 0
+        assert 0 < fe["discretization_error"] < 0.1 * params["E_s"]["stderr"] / params["E_s"]["value"]
         for name, item in params.items():
             assert set(item) >= {"value", "stderr", "ci95", "unit", "n_points", "method"}
             assert item["unit"] == SI_UNITS[name]
@@ -148,6 +152,9 @@ def test_demo_recovers_the_ground_truth(demo_run):
     for sid, expected in truth.items():
         assert fitted[sid]["E_e"]["value"] == pytest.approx(expected["E_e"], rel=0.005)
         assert fitted[sid]["E_b"]["value"] == pytest.approx(expected["E_b"], rel=0.005)
+        low, high = fitted[sid]["E_s"]["ci95"]  # bend data from the rod model at 96 elements
+        assert fitted[sid]["E_s"]["value"] == pytest.approx(expected["E_s"], rel=0.01)
+        assert fitted[sid]["E_s"]["method"] == "cosserat-fe" and low < expected["E_s"] < high
         assert fitted[sid]["E_t"]["value"] == pytest.approx(expected["E_t"], rel=0.01)
 
 

@@ -14,7 +14,7 @@ import pytest
 
 from matid import pipeline
 from matid.errors import ConvergenceError, DataError, FitError
-from matid.pipeline import FITTERS, NotFitted, run_study, write_outputs
+from matid.pipeline import FITTERS, run_study, write_outputs
 from matid.results import Estimate
 from matid.results import TestFit as Fit
 from matid.study import load_study
@@ -96,13 +96,14 @@ def test_demo_fits_close_to_ground_truth(demo):
     assert demo.ok and not demo.failures
 
 
-def test_demo_e_s_is_pending_not_failed(demo):
-    assert [(p.kind, p.specimen) for p in demo.pending] == [
-        ("three_point_bend", "T1"),
-        ("three_point_bend", "T2"),
-    ]
-    assert all(p.reason == pipeline.E_S_PENDING for p in demo.pending)
-    assert all("E_s" not in params for params in demo.estimates().values())
+def test_demo_fits_e_s_after_e_b_and_e_e(demo):
+    assert not demo.pending and not demo.failures
+    for sid, params in demo.estimates().items():
+        assert params["E_s"].method == "cosserat-fe"
+        bend = next(f for f in demo.fits if f.kind == "three_point_bend" and f.specimen == sid)
+        # the bend fit held the specimen's own fitted E_b and E_e
+        assert bend.info["E_b_used"] == params["E_b"].value
+        assert bend.info["E_e_used"] == params["E_e"].value
 
 
 def test_demo_records_every_input_file(demo):
@@ -224,8 +225,8 @@ def test_programming_errors_are_not_swallowed(tmp_path, monkeypatch):
         run_study(load_study(small_study(tmp_path)))
 
 
-def test_default_bend_fitter_says_pending():
-    with pytest.raises(NotFitted, match="not implemented"):
+def test_bend_fitter_without_tests_fails_clearly():
+    with pytest.raises(FitError, match="no three-point-bend tests"):
         FITTERS["three_point_bend"]([], specimen=None, fixed={}, known={})
 
 
