@@ -30,7 +30,7 @@ import scipy.sparse as sp
 
 from matid.errors import ConvergenceError, SlipOffError
 from matid.rod.contact import Circle
-from matid.rod.fem import Discretisation, graded_vertices
+from matid.rod.fem import Discretisation
 from matid.rod.models import PLANAR, RodSystem, ScaledRod
 from matid.rod.newton import NewtonFailure, NewtonInfo, follow, newton
 
@@ -180,6 +180,14 @@ class BendSystem:
         normal = self.contacts(self.rod.expand(X[: self.nu]), lam)[1][4]
         return 2.0 * X[self.nu + 1] * (-normal[0])
 
+    def reject(self, X: np.ndarray, lam: float) -> str | None:
+        """A pulling contact is no answer: g = |r - c| - rho = 0 also holds on the far side of a
+        cylinder, where Newton lands after a step longer than rho (see newton.follow)."""
+        mult = X[self.nu : self.nu + 2]
+        if np.any(mult < -1e-9 * max(1.0, float(np.max(np.abs(mult))))):
+            return "a contact pulls (the tube crossed a cylinder or lifts off)"
+        return None
+
     def initial(self) -> np.ndarray:
         self.at(0.5)
         return np.concatenate([self.rod.reduce(self.rod.reference()), np.zeros(2), [0.5]])
@@ -278,10 +286,13 @@ class BendModel:
     def _step(self, system, X, lam, target, warm, info: NewtonInfo, d_max: float) -> np.ndarray:
         if warm is not None:
             try:
-                X_new, its, info.lu = newton(system, warm, target)
-                info.iterations += its
-                info.steps += 1
-                return X_new
+                X_new, its, lu = newton(system, warm, target)
+                if system.reject(X_new, target) is None:
+                    info.iterations += its
+                    info.steps += 1
+                    info.lu = lu
+                    return X_new
+                info.rejected += 1
             except NewtonFailure:
                 info.rejected += 1
         if target == lam:  # e.g. a d = 0 row: converge there for the tangent the sensitivities need

@@ -41,7 +41,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from matid.rod import jet
 from matid.rod.fem import Discretisation
@@ -125,7 +124,7 @@ class Circle:
     def vertex_gap(self, U: np.ndarray, vertex: int) -> tuple[float, np.ndarray, np.ndarray]:
         """Gap at a mesh vertex, g = |r_v - c| - rho, with dg/d(x_v, z_v, theta_v) and d2g."""
         r = U[vertex, :2]
-        d = float(np.linalg.norm(r - self.centre))
+        d = max(float(np.linalg.norm(r - self.centre)), 1e-300)  # a wild iterate may hit the centre
         n = (r - self.centre) / d
         grad = np.array([n[0], n[1], 0.0])
         hess = np.zeros((3, 3))

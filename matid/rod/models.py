@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from matid.rod import kinematics as kin
 from matid.rod.fem import Discretisation
@@ -292,6 +293,34 @@ class RodSystem:
         if not tangent:
             return R[self.disc.free], None
         return R[self.disc.free], K + self._blocks_matrix(blocks, K.shape)
+
+    def reject(self, X: np.ndarray, lam: float) -> str | None:
+        """Why a converged state is no answer, or None: a saddle of the potential is not an equilibrium
+        a rod can hold (used by :func:`matid.rod.newton.follow` to halve the load step)."""
+        if self.negative_modes(X, lam):
+            return "unstable equilibrium (the tangent stiffness is not positive definite: buckling or snap)"
+        return None
+
+    def negative_modes(self, X: np.ndarray, lam: float) -> int | None:
+        """Non-positive pivots of the tangent at X: 0 iff it is positive definite (a stable state).
+
+        The test of Cholesky: SuperLU in symmetric mode without off-diagonal
+        pivoting (checked: perm_r == perm_c) computes K = L D L^T, and every
+        pivot of D is positive iff K is (for a positive definite K this
+        elimination is backward stable, so a pivot <= 0 is no round-off).
+        None when the tangent is not symmetric or the test cannot be made.
+        """
+        if self.model == FULL and any(self.rod.tip_moment):
+            return None  # a dead moment in 3D has no potential: the tangent is unsymmetric
+        _, K = self.evaluate(X, lam)
+        try:
+            lu = spla.splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                           options={"SymmetricMode": True})
+        except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
+            return 1
+        if not np.array_equal(lu.perm_r, lu.perm_c):
+            return None
+        return int(np.sum(lu.U.diagonal() <= 0.0))
 
     def _blocks_matrix(self, blocks: list, shape: tuple[int, int]) -> sp.csr_matrix:
         """Sum of dense blocks (dofs of shape (..., m), matrices (..., m, m)) on the free dofs."""

@@ -99,6 +99,21 @@ def tangent(system: System, x: np.ndarray, lam: float, lu: object) -> np.ndarray
     return lu.solve(-(R1 - R0))
 
 
+def _check_admissible(system: System, x: np.ndarray, lam: float) -> None:
+    """Reject a converged state the system says is no answer (``system.reject(x, lam)`` -> reason or None).
+
+    Newton converges to any root: from the straight rod in a field beyond the
+    buckling load it can land on the unstable branch (a saddle of the
+    potential), and a contact held by |r - c| = rho can jump to the far side of
+    a small cylinder (a pulling contact). Rejected, the step is halved, so the
+    continuation follows the admissible branch, or fails where there is none.
+    """
+    reject = getattr(system, "reject", None)
+    reason = reject(x, lam) if reject is not None else None
+    if reason:
+        raise NewtonFailure(reason)
+
+
 def follow(
     system: System,
     x: np.ndarray,
@@ -128,6 +143,7 @@ def follow(
             guess = x if slope is None else x + slope * (lam_try - lam)
             try:
                 x_new, its, lu = newton(system, guess, lam_try, **opts)
+                _check_admissible(system, x_new, lam_try)
             except NewtonFailure as exc:
                 info.rejected += 1
                 step *= 0.5

@@ -202,8 +202,16 @@ def _stiffness_from_json(ref: dict, root: Path | None) -> dict:
     return {k: float(params[k]["value"]) for k in ("E_b", "E_t", "E_s", "E_e") if k in params}
 
 
+#: Top-level keys of a scene file (data-contract section 6); anything else is a typo to report.
+SCENE_KEYS = {"scene", "elements", "tolerance", "rod", "segment", "load", "magnet", "magnetization",
+              "field", "tip", "three_point_bend"}
+
+
 def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     """Build a Scene from the parsed TOML mapping (quantities as strings or SI numbers)."""
+    unknown = sorted(set(raw) - SCENE_KEYS)
+    if unknown:
+        raise ValueError(f"unknown key or table '{unknown[0]}' (known: {', '.join(sorted(SCENE_KEYS))})")
     kind = raw.get("scene", "cantilever")
     rod = _rod(raw, root)
     load, field_ = raw.get("load", {}), raw.get("field", {})

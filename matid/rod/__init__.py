@@ -1,0 +1,13 @@
+"""The static Cosserat rod solver: scenes -> solve -> solution.
+
+    >>> from matid.rod import load_scene, solve
+    >>> sol = solve(load_scene("examples/scenes/magnetic_cantilever.toml"))  # doctest: +SKIP
+    >>> sol.model, sol.tip["position"]  # doctest: +SKIP
+"""
+
+from matid.rod.api import solve
+from matid.rod.bend import BendGeometry, BendModel
+from matid.rod.scenes import Scene, load_scene
+from matid.rod.solve import Solution
+
+__all__ = ["BendGeometry", "BendModel", "Scene", "Solution", "load_scene", "solve"]

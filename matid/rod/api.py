@@ -1,0 +1,142 @@
+"""One entry point for every scene: ``solve(scene) -> Solution``.
+
+Cantilever scenes go to :func:`matid.rod.solve.solve_cantilever` (planar or
+full model); three-point-bend scenes to the half model of
+:class:`matid.rod.bend.BendModel`, whose state at the largest deflection is
+mirrored onto the whole tube in the lab frame of data-contract section 6:
+before loading the tube lies along +z with s = 0 at one end, mid-span at
+z = L/2, and x points up (the nose pushes towards -x). In the half model
+(scaled by the span S) x is vertical and z runs from mid-span to the free
+end, so the right half is r = (S x, 0, L/2 + S z) with angle theta and the
+left half its mirror image z -> -z, theta -> -theta.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from matid.errors import DataError
+from matid.rod import kinematics as kin
+from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
+from matid.rod.bend import BendGeometry, BendModel, BendPath
+from matid.rod.fem import ELEMENTS
+from matid.rod.models import FULL, PLANAR
+from matid.rod.accuracy import refine
+from matid.rod.scenes import Scene, plane_of
+from matid.rod.solve import Solution, solve_cantilever
+
+MODELS = ("auto", PLANAR, FULL)
+#: Energy terms of the bend half model (no field, no twist: planar by construction).
+BEND_TERMS = ("bending", "shear", "extension", "contact")
+
+
+def resolve_model(scene: Scene, model: str = "auto") -> str:
+    """The model that will run for ``model`` ("auto", "planar" or "full"); ValueError if it cannot."""
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {', '.join(MODELS)}, got {model!r}")
+    if scene.kind == "three_point_bend":
+        if model == FULL:
+            raise ValueError("the three-point bend runs the planar half model only: model 'auto' or 'planar'")
+        return PLANAR
+    planar = plane_of(scene) is not None
+    if model == PLANAR and not planar:
+        raise ValueError("the scene is not planar (a load, moment or precurvature leaves the plane): "
+                         "use model 'full' or 'auto'")
+    return model if model != "auto" else (PLANAR if planar else FULL)
+
+
+def solve(
+    scene: Scene,
+    *,
+    elements: int | None = None,
+    model: str = "auto",
+    variant: str = kin.NORMALISED,
+    element: str = "P2",
+) -> Solution:
+    """Static equilibrium of a scene, SI, lab frame. Raises ConvergenceError (SlipOffError) on failure.
+
+    ``elements`` overrides the scene's; for the three-point bend it counts the
+    elements of the half model. ``variant`` ("normalised" or "raw") and
+    ``element`` ("P2" or "P1") apply to the cantilever models.
+    """
+    if variant not in (kin.NORMALISED, kin.RAW):
+        raise ValueError(f"variant must be 'normalised' or 'raw', got {variant!r}")
+    if element not in ELEMENTS:
+        raise ValueError(f"element must be one of {', '.join(ELEMENTS)}, got {element!r}")
+    if elements is not None and elements < 1:
+        raise ValueError(f"elements must be at least 1, got {elements}")
+    chosen = resolve_model(scene, model)
+
+    def at(n: int):
+        if scene.kind == "cantilever":
+            sol = solve_cantilever(scene, elements=n, model=chosen, variant=variant, element=element)
+            quantity = np.concatenate([sol.position[-1] / scene.rod.length, sol.d3[-1]])
+        else:
+            sol = solve_bend(scene, elements=n)
+            force = np.asarray(sol.three_point_bend["force"])
+            quantity = force / max(float(np.max(np.abs(force))), 1e-300)
+        return sol, quantity, sol.runtime_s
+
+    fixed = elements or scene.elements
+    sol, est = refine(at, tolerance=scene.tolerance, fixed=fixed, start=8)
+    total = sum(t for _, t in est.history)
+    return replace(sol, discretization_error=est.error, extra={
+        **sol.extra, "error_estimate": {"method": "richardson", "order": est.order,
+                                        "meshes": [n for n, _ in est.history],
+                                        "total_runtime_s": total,
+                                        "tolerance": None if fixed else scene.tolerance}})
+
+
+def solve_bend(scene: Scene, *, elements: int | None = None) -> Solution:
+    """The three-point bend of a scene: nose force at each deflection and the shape at the last one."""
+    rod, bend = scene.rod, scene.bend
+    _check_bend(scene)
+    geometry = BendGeometry(bend.span, rod.length, bend.support_radius, bend.nose_radius, rod.outer_diameter)
+    n = elements or scene.elements or BEND_ELEMENTS
+    if n < 2:
+        raise DataError(f"elements: the three-point-bend half model needs at least 2, got {n}")
+    model = BendModel(geometry, elements=n)
+    path = model.solve(rod.E_b, rod.E_s, rod.E_e, np.asarray(bend.deflections))
+    s, position, d1, d3 = whole_tube(model, path, E=(rod.E_b, rod.E_s, rod.E_e))
+    return Solution(
+        scene=scene, model=PLANAR, elements=model.elements, element="P2",
+        newton_iterations=path.newton_iterations, load_steps=path.load_steps, runtime_s=path.runtime_s,
+        s=s, position=position, d1=d1, d3=d3, terms=BEND_TERMS,
+        three_point_bend={"deflection": path.deflection.tolist(), "force": path.force.tolist(),
+                          "support_contact_s": path.support_s.tolist()},
+    )
+
+
+def _check_bend(scene: Scene) -> None:
+    """The bend half model has a uniform, straight, unloaded tube; say so rather than ignore the rest."""
+    loads, rod = scene.loads, scene.rod
+    ignored = [name for name, present in (
+        ("[[segment]]", rod.segments), ("rod.precurvature", any(rod.precurvature)),
+        ("[field]", any(loads.B)), ("[load]", any(loads.distributed_force)),
+        ("[tip]", any(loads.tip_force) or any(loads.tip_moment)),
+        ("[[magnet]]", loads.magnets), ("[[magnetization]]", loads.magnetization)) if present]
+    if ignored:
+        raise DataError(f"three_point_bend: {', '.join(ignored)} not supported (a uniform straight tube)")
+    if any(b < a for a, b in zip(scene.bend.deflections, scene.bend.deflections[1:], strict=False)):
+        raise DataError("three_point_bend.deflection: give the nose displacements in increasing order")
+
+
+def whole_tube(model: BendModel, path: BendPath, *, E: tuple[float, float, float]):
+    """(s, position, d1, d3) of the whole tube at the last deflection, mirrored from the half model."""
+    S, L = model.geometry.span, model.geometry.specimen_length
+    system = model.system(*E, d_max=max(float(path.deflection[-1]), 1e-300))
+    X = path.states[-1]
+    system.at(X[-1])
+    order = np.argsort(system.rod.disc.s_dof)
+    s_half = system.rod.disc.s_dof[order] * S
+    x, z, theta = system.rod.expand(X[: system.nu]).reshape(-1, 3)[order].T * np.array([[S], [S], [1.0]])
+    right = (L / 2 + s_half, x, L / 2 + z, theta)
+    left = tuple(np.flip(a[1:]) for a in (L / 2 - s_half, x, L / 2 - z, -theta))
+    s, x, z, theta = (np.concatenate([a, b]) for a, b in zip(left, right, strict=True))
+    zero = np.zeros_like(s)
+    position = np.column_stack([x, zero, z])
+    d1 = np.column_stack([np.cos(theta), zero, -np.sin(theta)])
+    d3 = np.column_stack([np.sin(theta), zero, np.cos(theta)])
+    return s, position, d1, d3
