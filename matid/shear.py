@@ -47,8 +47,10 @@ from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.study import Specimen
 
 MIN_SHEAR_SHARE = 0.05
-#: The FE error must stay below this fraction of the statistical standard error.
+#: The FE error must stay below this fraction of the statistical standard error
+#: (or below FE_ERROR_FLOOR, for noise-free data whose standard error is zero).
 FE_ERROR_FRACTION = 0.1
+FE_ERROR_FLOOR = 1e-6
 START_ELEMENTS = 16
 MAX_ELEMENTS = 256
 ORDER = 4.0  # measured P2 order of the bend force (bench)
@@ -218,7 +220,8 @@ def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progre
         solves += problem.solves + len(data)
         if progress:
             progress(f"E_s fit at {n} elements: E_s = {np.exp(x[0]):.6g} N, FE error {fe:.2e}")
-        if elements or fe <= FE_ERROR_FRACTION * np.sqrt(cov[0, 0]) or 2 * n > MAX_ELEMENTS:
+        target = max(FE_ERROR_FRACTION * float(np.sqrt(cov[0, 0])), FE_ERROR_FLOOR)
+        if elements or fe <= target or 2 * n > MAX_ELEMENTS:
             return Outcome(x, r, J, cov, sigma, fe, n, solves, problem)
         n *= 2
 
