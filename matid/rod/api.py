@@ -99,7 +99,7 @@ def solve_bend(scene: Scene, *, elements: int | None = None) -> Solution:
         raise DataError(f"elements: the three-point-bend half model needs at least 2, got {n}")
     model = BendModel(geometry, elements=n)
     path = model.solve(rod.E_b, rod.E_s, rod.E_e, np.asarray(bend.deflections))
-    s, position, d1, d3 = whole_tube(model, path, E=(rod.E_b, rod.E_s, rod.E_e))
+    s, position, d1, d3 = whole_tube(model, path)
     return Solution(
         scene=scene, model=PLANAR, elements=model.elements, element="P2",
         newton_iterations=path.newton_iterations, load_steps=path.load_steps, runtime_s=path.runtime_s,
@@ -123,15 +123,10 @@ def _check_bend(scene: Scene) -> None:
         raise DataError("three_point_bend.deflection: give the nose displacements in increasing order")
 
 
-def whole_tube(model: BendModel, path: BendPath, *, E: tuple[float, float, float]):
+def whole_tube(model: BendModel, path: BendPath):
     """(s, position, d1, d3) of the whole tube at the last deflection, mirrored from the half model."""
-    S, L = model.geometry.span, model.geometry.specimen_length
-    system = model.system(*E, d_max=max(float(path.deflection[-1]), 1e-300))
-    X = path.states[-1]
-    system.at(X[-1])
-    order = np.argsort(system.rod.disc.s_dof)
-    s_half = system.rod.disc.s_dof[order] * S
-    x, z, theta = system.rod.expand(X[: system.nu]).reshape(-1, 3)[order].T * np.array([[S], [S], [1.0]])
+    L = model.geometry.specimen_length
+    s_half, x, z, theta = model.half_state(path)
     right = (L / 2 + s_half, x, L / 2 + z, theta)
     left = tuple(np.flip(a[1:]) for a in (L / 2 - s_half, x, L / 2 - z, -theta))
     s, x, z, theta = (np.concatenate([a, b]) for a, b in zip(left, right, strict=True))

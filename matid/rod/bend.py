@@ -262,6 +262,16 @@ class BendModel:
             newton_iterations=info.iterations, load_steps=info.steps, runtime_s=time.perf_counter() - t0,
         )
 
+    def half_state(self, path: BendPath, index: int = -1) -> tuple[np.ndarray, ...]:
+        """(s, x, z, theta) of the half model at one path state, SI, sorted by s from mid-span."""
+        S = self.geometry.span
+        system = self.system(1.0, 1.0, 1.0, float(path.deflection[-1]) or 1.0)  # geometry only
+        X = path.states[index]
+        system.at(X[-1])
+        order = np.argsort(system.rod.disc.s_dof)
+        x, z, theta = system.rod.expand(X[: system.nu]).reshape(-1, 3)[order].T
+        return system.rod.disc.s_dof[order] * S, x * S, z * S, theta
+
     def shape(self, path: BendPath, index: int = -1) -> dict:
         """The deformed whole tube (mirrored half model) at one path state, SI, with the cylinders.
 
@@ -269,18 +279,13 @@ class BendModel:
         """
         S, g = self.geometry.span, self.geometry
         d = float(path.deflection[index])
-        system = self.system(1.0, 1.0, 1.0, float(path.deflection[-1]) or 1.0)
-        X = path.states[index]
-        system.at(X[-1])
-        U = system.rod.expand(X[: system.nu]).reshape(-1, 3)
-        order = np.argsort(system.rod.disc.s_dof)
-        x, z = U[order, 0] * S, U[order, 1] * S
+        _, x, z, _ = self.half_state(path, index)
         return {
             "z": np.concatenate([-z[::-1], z[1:]]), "x": np.concatenate([x[::-1], x[1:]]),
             "outer_radius": 0.5 * g.outer_diameter, "deflection": d,
             "supports": [((side * 0.5 * S, -self.support_rho * S), g.support_radius) for side in (-1, 1)],
             "nose": ((0.0, self.nose_rho * S - d), g.nose_radius),
-            "support_contact_s": float(X[-1] * S),
+            "support_contact_s": float(path.states[index][-1] * S),
         }
 
     def _step(self, system, X, lam, target, warm, info: NewtonInfo, d_max: float) -> np.ndarray:
