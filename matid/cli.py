@@ -1,11 +1,12 @@
-"""The ``matid`` command line: ``matid fit | demo``.
+"""The ``matid`` command line: ``matid fit | demo | solve``.
 
 Each subcommand is registered by its own ``_register_<name>(subparsers)`` and
 runs in a ``_cmd_<name>(args) -> int`` function; :func:`main` maps errors to
 exit codes (data-contract section 5):
 
-- 0: all fits done;
-- 1: some fits failed (the rest written, reasons printed), or another MatidError;
+- 0: all fits done (solve: the scene converged);
+- 1: some fits failed (the rest written, reasons printed), or another MatidError
+  (solve: no convergence, nothing written);
 - 2: the input cannot be used (DataError; also argparse usage errors);
 - 3: an unexpected error (a bug): a short message, the traceback with ``--debug``.
 
@@ -16,6 +17,8 @@ the output paths go to stdout.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import json
 import sys
 import time
 import traceback
@@ -24,9 +27,12 @@ from importlib import resources
 from pathlib import Path
 
 from matid import __version__
-from matid.errors import DataError, MatidError
+from matid.errors import ConvergenceError, DataError, MatidError, SlipOffError
 from matid.pipeline import run_study, write_outputs
-from matid.results import Failure, StudyResult, stiffness_json
+from matid.results import Failure, StudyResult, atomic_write, stiffness_json
+from matid.rod.api import resolve_model, solve
+from matid.rod.output import shape_png, solution_json
+from matid.rod.scenes import load_scene
 from matid.study import load_study, resolve_study_path
 from matid.units import UNIT_SYSTEMS
 
@@ -63,6 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(title="commands", metavar="COMMAND")
     _register_fit(subparsers)
     _register_demo(subparsers)
+    _register_solve(subparsers)
     return parser
 
 
@@ -130,6 +137,86 @@ def demo_study_path() -> Path:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     return fit_and_write(demo_study_path(), args.out, units=args.units, quiet=args.quiet)
+
+
+def _register_solve(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "solve",
+        parents=[_common()],
+        help="solve a rod scene (cantilever or three-point bend)",
+        description="Forward solve of a scene TOML; write solution.json and shape.png into --out.",
+    )
+    parser.add_argument("scene", metavar="SCENE.toml", type=Path, help="scene file (data contract section 6)")
+    parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder")
+    parser.add_argument("--elements", metavar="N", type=_positive_int,
+                        help="number of elements (three-point bend: of the half model); overrides the scene")
+    parser.add_argument("--tolerance", metavar="T", type=_fraction,
+                        help="relative discretisation error to reach when no element count is given: "
+                             "the mesh is doubled until the Richardson estimate is below it "
+                             "(default: the scene's, else 1e-6); overrides the scene's")
+    parser.add_argument("--model", choices=("auto", "planar", "full"), default="auto",
+                        help="rod model (default auto: planar when every load lies in one plane)")
+    parser.set_defaults(command=_cmd_solve)
+
+
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _fraction(text: str) -> float:
+    value = float(text)
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"must be in (0, 1), got {value}")
+    return value
+
+
+def _cmd_solve(args: argparse.Namespace) -> int:
+    """Load, solve, write solution.json and shape.png whole (nothing at all when the solve fails)."""
+    scene = load_scene(args.scene)
+    if args.tolerance is not None:
+        scene = dataclasses.replace(scene, tolerance=args.tolerance)
+    try:
+        resolve_model(scene, args.model)
+    except ValueError as exc:
+        raise DataError(f"--model {args.model}: {exc}", file=args.scene) from exc
+    try:
+        sol = solve(scene, elements=args.elements, model=args.model)
+    except DataError as exc:  # scene content the solver cannot take: name the file
+        raise exc if exc.file else DataError(exc.detail, file=args.scene) from exc
+    except ConvergenceError as exc:
+        reached = _deflection_reached(scene, exc)
+        raise ConvergenceError(f"{args.scene}: no equilibrium: {exc}{reached}") from exc
+    doc = json.dumps(solution_json(sol), indent=1) + "\n"
+    png = shape_png(sol)
+    json_path, png_path = args.out / "solution.json", args.out / "shape.png"
+    atomic_write(json_path, doc)
+    atomic_write(png_path, png)
+    print(solve_summary(sol))
+    if not args.quiet:
+        print(f"outputs:\n  {json_path}\n  {png_path}")
+    return 0
+
+
+def _deflection_reached(scene, exc: ConvergenceError) -> str:
+    """The bend's load factor is a fraction of the largest deflection: say which deflection that is."""
+    if scene.kind != "three_point_bend" or isinstance(exc, SlipOffError) or exc.load_factor is None:
+        return ""
+    return f" = nose deflection {exc.load_factor * max(scene.bend.deflections) * 1e3:.6g} mm"
+
+
+def solve_summary(sol) -> str:
+    """One line: model, elements, the tip position in mm (or the force at the largest deflection), cost."""
+    if sol.three_point_bend is not None:
+        d, F = sol.three_point_bend["deflection"][-1], sol.three_point_bend["force"][-1]
+        what = f"nose force {F:.6g} N at {d * 1e3:.6g} mm"
+    else:
+        x, y, z = (v * 1e3 for v in sol.tip["position"])
+        what = f"tip at ({x:.6g}, {y:.6g}, {z:.6g}) mm"
+    return (f"{sol.scene.kind}: {sol.model} model, {sol.elements} {sol.element} elements: {what}; "
+            f"{sol.newton_iterations} Newton iterations, {sol.runtime_s:.3g} s")
 
 
 def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool) -> int:
