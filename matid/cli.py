@@ -148,14 +148,26 @@ def _register_solve(subparsers) -> None:
     )
     parser.add_argument("scene", metavar="SCENE.toml", type=Path, help="scene file (data contract section 6)")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder")
-    parser.add_argument("--elements", metavar="N", type=_positive_int,
-                        help="number of elements (three-point bend: of the half model); overrides the scene")
-    parser.add_argument("--tolerance", metavar="T", type=_fraction,
-                        help="relative discretisation error to reach when no element count is given: "
-                             "the mesh is doubled until the Richardson estimate is below it "
-                             "(default: the scene's, else 1e-6); overrides the scene's")
-    parser.add_argument("--model", choices=("auto", "planar", "full"), default="auto",
-                        help="rod model (default auto: planar when every load lies in one plane)")
+    parser.add_argument(
+        "--elements",
+        metavar="N",
+        type=_positive_int,
+        help="number of elements (three-point bend: of the half model); overrides the scene",
+    )
+    parser.add_argument(
+        "--tolerance",
+        metavar="T",
+        type=_fraction,
+        help="relative discretisation error to reach when no element count is given: "
+        "the mesh is doubled until the Richardson estimate is below it "
+        "(default: the scene's, else 1e-6); overrides the scene's",
+    )
+    parser.add_argument(
+        "--model",
+        choices=("auto", "planar", "full"),
+        default="auto",
+        help="rod model (default auto: planar when every load lies in one plane)",
+    )
     parser.set_defaults(command=_cmd_solve)
 
 
@@ -215,8 +227,10 @@ def solve_summary(sol) -> str:
     else:
         x, y, z = (v * 1e3 for v in sol.tip["position"])
         what = f"tip at ({x:.6g}, {y:.6g}, {z:.6g}) mm"
-    return (f"{sol.scene.kind}: {sol.model} model, {sol.elements} {sol.element} elements: {what}; "
-            f"{sol.newton_iterations} Newton iterations, {sol.runtime_s:.3g} s")
+    return (
+        f"{sol.scene.kind}: {sol.model} model, {sol.elements} {sol.element} elements: {what}; "
+        f"{sol.newton_iterations} Newton iterations, {sol.runtime_s:.3g} s"
+    )
 
 
 def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool) -> int:

@@ -147,8 +147,7 @@ def read_table(path: str | Path, kind: str) -> Table:
     rows = _data_rows(lines, data_at, delimiter, len(columns), path)
     decimal_comma = delimiter != ","
     values = {
-        c.name: _convert(c, f, rows, decimal_comma, path)
-        for c, f in zip(columns, factors, strict=True)
+        c.name: _convert(c, f, rows, decimal_comma, path) for c, f in zip(columns, factors, strict=True)
     }
     values = {name: v for name, v in values.items() if v is not None}
     return Table(
@@ -241,9 +240,7 @@ def _detect_delimiter(lines: list[str], header_at: int) -> str:
     return max(_DELIMITERS, key=header.count) if any(d in header for d in _DELIMITERS) else ","
 
 
-def _header(
-    lines: list[str], header_at: int, delimiter: str, path: Path
-) -> tuple[list[_Column], int]:
+def _header(lines: list[str], header_at: int, delimiter: str, path: Path) -> tuple[list[_Column], int]:
     """Columns from the header row (and a units row if present); index of first data line."""
     cells = _split(lines[header_at], delimiter)
     if not cells:
@@ -337,9 +334,7 @@ def _data_rows(
         rows.append((i + 1, cells))
     if len(rows) < MIN_ROWS:
         last = rows[-1][0] if rows else data_at
-        raise DataError(
-            f"only {len(rows)} data rows, need at least {MIN_ROWS}", file=path, row=last
-        )
+        raise DataError(f"only {len(rows)} data rows, need at least {MIN_ROWS}", file=path, row=last)
     return rows
 
 

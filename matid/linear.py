@@ -101,9 +101,9 @@ def weighted_joint_slope(xs: Sequence[np.ndarray], ys: Sequence[np.ndarray]) -> 
     if len(xs) == 1:
         return slope_through_origin(xs[0], ys[0])
     for _ in range(3):
-        s2 = [float(np.sum((y - slope * x) ** 2)) / max(x.size - 1, 1) for x, y in zip(xs, ys)]
+        s2 = [float(np.sum((y - slope * x) ** 2)) / max(x.size - 1, 1) for x, y in zip(xs, ys, strict=True)]
         floor = 1e-30 + 1e-12 * max(s2)
-        w = [np.full(x.size, 1.0 / max(s, floor)) for x, s in zip(xs, s2)]
+        w = [np.full(x.size, 1.0 / max(s, floor)) for x, s in zip(xs, s2, strict=True)]
         W, X, Y = np.concatenate(w), np.concatenate(xs), np.concatenate(ys)
         slope = float(np.sum(W * X * Y) / np.sum(W * X * X))
     chi2 = float(np.sum(W * (Y - slope * X) ** 2)) / (n - 1)
@@ -284,7 +284,9 @@ def linear_range(
     u, yy = x[index] / np.max(np.abs(x[index])), y[index]
     if _curvature_p(u, yy) >= alpha:
         return ok
-    sizes = np.unique(np.linspace(min_points, n - 2, min(max(n - 1 - min_points, 1), max_windows)).astype(int))
+    sizes = np.unique(
+        np.linspace(min_points, n - 2, min(max(n - 1 - min_points, 1), max_windows)).astype(int)
+    )
     rss = [_onset_rss(u, yy, abs(u[k - 1])) for k in sizes]
     k = int(sizes[int(np.argmin(rss))])
     if _curvature_p(u[:k], yy[:k]) < alpha:

@@ -35,7 +35,6 @@ from matid.errors import ConvergenceError, DataError, FitError
 from matid.ingest import Measurement, load_measurements
 from matid.linear import fit_bending, fit_torsion
 from matid.report import render_report
-from matid.shear import fit_three_point_bend
 from matid.results import (
     Estimate,
     Failure,
@@ -46,6 +45,7 @@ from matid.results import (
     stiffness_csv,
     stiffness_json,
 )
+from matid.shear import fit_three_point_bend
 from matid.study import Specimen, Study
 from matid.viscoelastic import fit_extension
 
@@ -84,8 +84,6 @@ VERSION_PACKAGES = ("numpy", "scipy", "lmfit", "scikit-fem", "pint", "matplotlib
 
 class NotFitted(Exception):
     """Raised by a fitter for a kind that is present but not fitted by design."""
-
-
 
 
 def _fit_extension(measurements, *, specimen: Specimen, fixed, known) -> TestFit:

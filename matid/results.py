@@ -13,9 +13,9 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 
@@ -155,7 +155,9 @@ class StudyResult:
         for est in self.fixed:
             specimen = est.extra.get("specimen")
             table[str(specimen)].setdefault(est.parameter, est)
-        return {k: dict(sorted(v.items(), key=lambda kv: PARAMETER_ORDER.index(kv[0]))) for k, v in table.items()}
+        return {
+            k: dict(sorted(v.items(), key=lambda kv: PARAMETER_ORDER.index(kv[0]))) for k, v in table.items()
+        }
 
 
 def _convert(est: Estimate, units: str) -> tuple[float, float | None, tuple[float, float] | None, str]:
@@ -199,7 +201,17 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
     }
 
 
-CSV_COLUMNS = ["specimen", "parameter", "value", "stderr", "ci95_low", "ci95_high", "unit", "n_points", "method"]
+CSV_COLUMNS = [
+    "specimen",
+    "parameter",
+    "value",
+    "stderr",
+    "ci95_low",
+    "ci95_high",
+    "unit",
+    "n_points",
+    "method",
+]
 
 
 def stiffness_csv(result: StudyResult, units: str = "SI") -> str:

@@ -34,8 +34,8 @@ tenth of the statistical standard error.
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Mapping, Sequence
 
 import numpy as np
 from scipy import optimize, stats
@@ -77,8 +77,9 @@ def loading_branch(d: np.ndarray, F: np.ndarray) -> np.ndarray:
 def bend_data(m: Measurement, specimen: Specimen) -> BendData:
     p = m.test.params
     try:
-        geometry = BendGeometry(p["span"], p["specimen_length"], p["support_radius"], p["nose_radius"],
-                                specimen.outer_diameter)
+        geometry = BendGeometry(
+            p["span"], p["specimen_length"], p["support_radius"], p["nose_radius"], specimen.outer_diameter
+        )
     except ValueError as exc:
         raise DataError(str(exc), file=m.test.file) from exc
     d, F = np.asarray(m.table["deflection"]), np.asarray(m.table["force"])
@@ -130,7 +131,7 @@ class Problem:
         E_s, E_b = self.params(x)
         names = ("E_s", "E_b", "E_e")  # extra back-substitutions on the same factorisation
         res, jac = [], []
-        for k, (b, model) in enumerate(zip(self.data, self.models)):
+        for k, (b, model) in enumerate(zip(self.data, self.models, strict=True)):
             path = model.solve(E_b, E_s, self.E_e, b.d, sensitivities=names, start=self.paths[k])
             self.paths[k] = path
             self.solves += 1
@@ -196,11 +197,14 @@ def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) 
     """
     r, J = problem.evaluate(x)
     picks = [np.unique(np.r_[np.arange(0, b.d.size, 3), b.d.size - 1]) for b in data]
-    sub = [BendData(b.measurement, b.geometry, b.d[k], b.F[k], b.loading) for b, k in zip(data, picks)]
+    sub = [
+        BendData(b.measurement, b.geometry, b.d[k], b.F[k], b.loading)
+        for b, k in zip(data, picks, strict=True)
+    ]
     coarse = Problem(sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=max(problem.models[0].elements // 2, 2))
     r_coarse, _ = coarse.evaluate(x)
     offsets = np.cumsum([0] + [b.d.size for b in data[:-1]])
-    rows = np.concatenate([o + k for o, k in zip(offsets, picks)])
+    rows = np.concatenate([o + k for o, k in zip(offsets, picks, strict=True)])
     dF = (r[rows] - r_coarse) / (2.0**ORDER - 1.0)  # error of the fine forces at those points
     dx, *_ = np.linalg.lstsq(J[rows], dF, rcond=None)
     return float(abs(dx[0]))
@@ -226,7 +230,6 @@ def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progre
         n *= 2
 
 
-
 def fit_three_point_bend(
     measurements: Sequence[Measurement],
     *,
@@ -246,28 +249,59 @@ def fit_three_point_bend(
     data = [bend_data(m, specimen) for m in measurements]
     if fit_E_b and len({b.geometry.span for b in data}) < 2:
         raise FitError("fitting E_b jointly with E_s needs bend tests at two or more spans")
-    out = _fit_adaptive(data, E_b_est.value, E_e_est.value, fit_E_b=fit_E_b, elements=elements,
-                        progress=progress)
+    out = _fit_adaptive(
+        data, E_b_est.value, E_e_est.value, fit_E_b=fit_E_b, elements=elements, progress=progress
+    )
     E_s = float(np.exp(out.x[0]))
     var_log, held = _propagated_variance(out, E_b_est, E_e_est, fit_E_b)
     m = out.r.size
     t = float(stats.t.ppf(0.975, max(m - out.J.shape[1], 1)))
     sd_log = float(np.sqrt(var_log))
-    shares = [_shear_share(b.geometry.span, float(np.exp(out.x[1])) if fit_E_b else E_b_est.value, E_s)
-              for b in data]
+    shares = [
+        _shear_share(b.geometry.span, float(np.exp(out.x[1])) if fit_E_b else E_b_est.value, E_s)
+        for b in data
+    ]
     warnings = _warnings(shares, sd_log, out)
-    fe = {"element": "P2", "elements": out.elements, "discretization_error": out.fe_error,
-          "runtime_s": round(time.perf_counter() - t0, 4), "rod_solves": out.solves}
-    estimates = [Estimate("E_s", E_s, E_s * sd_log, (E_s * np.exp(-t * sd_log), E_s * np.exp(t * sd_log)),
-                          n_points=m, method="cosserat-fe", warnings=tuple(warnings), extra={"fe": fe})]
+    fe = {
+        "element": "P2",
+        "elements": out.elements,
+        "discretization_error": out.fe_error,
+        "runtime_s": round(time.perf_counter() - t0, 4),
+        "rod_solves": out.solves,
+    }
+    estimates = [
+        Estimate(
+            "E_s",
+            E_s,
+            E_s * sd_log,
+            (E_s * np.exp(-t * sd_log), E_s * np.exp(t * sd_log)),
+            n_points=m,
+            method="cosserat-fe",
+            warnings=tuple(warnings),
+            extra={"fe": fe},
+        )
+    ]
     if fit_E_b:
         E_b, sd_b = float(np.exp(out.x[1])), float(np.sqrt(out.cov_log[1, 1]))
-        estimates.append(Estimate("E_b", E_b, E_b * sd_b, (E_b * np.exp(-t * sd_b), E_b * np.exp(t * sd_b)),
-                                  n_points=m, method="cosserat-fe", extra={"fe": fe}))
+        estimates.append(
+            Estimate(
+                "E_b",
+                E_b,
+                E_b * sd_b,
+                (E_b * np.exp(-t * sd_b), E_b * np.exp(t * sd_b)),
+                n_points=m,
+                method="cosserat-fe",
+                extra={"fe": fe},
+            )
+        )
     return TestFit(
-        kind="three_point_bend", specimen=specimen.id, tests=tuple(b.measurement.test for b in data),
-        estimates=tuple(estimates), series=tuple(_series(b, path) for b, path in zip(data, out.problem.paths)),
-        x_label="deflection [m]", y_label="force [N]",
+        kind="three_point_bend",
+        specimen=specimen.id,
+        tests=tuple(b.measurement.test for b in data),
+        estimates=tuple(estimates),
+        series=tuple(_series(b, path) for b, path in zip(data, out.problem.paths, strict=True)),
+        x_label="deflection [m]",
+        y_label="force [N]",
         correlation=_correlation(out.cov_log) if fit_E_b else {},
         info=_info(data, out, shares, held, E_s, fe),
     )
@@ -301,7 +335,8 @@ def _warnings(shares: list[float], sd_log: float, out: Outcome) -> list[str]:
         warnings.append(
             f"E_s is not identifiable from these spans: shear is only {100 * share:.1f} % of the bend "
             f"compliance, so a 1 % error in E_b moves E_s by about {(1 - share) / share:.0f} %; "
-            "use shorter spans")
+            "use shorter spans"
+        )
     if sd_log > 0.1:
         warnings.append(f"E_s is poorly determined: relative standard error {100 * sd_log:.0f} %")
     return warnings
@@ -328,7 +363,8 @@ def _info(data, out: Outcome, shares, held, E_s: float, fe: dict) -> dict:
     return {
         "spans_mm": [round(1e3 * b.geometry.span, 6) for b in data],
         "shear_share": [round(s, 4) for s in shares],
-        "E_b_used": E_b, "E_e_used": out.problem.E_e,
+        "E_b_used": E_b,
+        "E_e_used": out.problem.E_e,
         "timoshenko_start_N": timoshenko_start(data, out.problem.E_b),
         "noise_N": out.sigma,
         "force_change_for_10pct_E_s_N (linearised)": change,
@@ -344,12 +380,19 @@ def _plot_data(data, out: Outcome, r10: np.ndarray) -> dict:
     """Arrays the report draws: Timoshenko-only curves, +10 % E_s curves, the deformed shape."""
     E_s, E_b = out.problem.params(out.x)
     curves, start = [], 0
-    for b, path, model in zip(data, out.problem.paths, out.problem.models):
+    for b, path, model in zip(data, out.problem.paths, out.problem.models, strict=True):
         n = b.d.size
-        curves.append({
-            "label": b.measurement.test.file.name, "span": b.geometry.span, "d": b.d, "F": b.F,
-            "model": path.force, "timoshenko": timoshenko_force(b.d, b.geometry.span, E_b, E_s),
-            "plus10": r10[start:start + n] + b.F, "shape": model.shape(path),
-        })
+        curves.append(
+            {
+                "label": b.measurement.test.file.name,
+                "span": b.geometry.span,
+                "d": b.d,
+                "F": b.F,
+                "model": path.force,
+                "timoshenko": timoshenko_force(b.d, b.geometry.span, E_b, E_s),
+                "plus10": r10[start : start + n] + b.F,
+                "shape": model.shape(path),
+            }
+        )
         start += n
     return {"curves": curves, "noise_N": out.sigma}

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import math
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Mapping
 
 from matid.errors import DataError
 from matid.units import UnitError, to_si
@@ -206,7 +206,11 @@ def _specimen(source: Path, index: int, entry: dict) -> Specimen:
     if not sid:
         raise DataError(f"{where}: missing 'id'", file=source)
     outer = _quantity(source, f"specimen {sid}", entry, "outer_diameter", "length")
-    inner = _quantity(source, f"specimen {sid}", entry, "inner_diameter", "length") if "inner_diameter" in entry else 0.0
+    inner = (
+        _quantity(source, f"specimen {sid}", entry, "inner_diameter", "length")
+        if "inner_diameter" in entry
+        else 0.0
+    )
     try:
         return Specimen(sid, outer, inner)
     except ValueError as exc:

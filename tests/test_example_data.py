@@ -19,9 +19,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from matid.study import load_study
+
 from matid.example import forward
 from matid.example.generate import PARAMETER_UNITS, generate
+from matid.study import load_study
 
 EXAMPLE = Path(forward.__file__).parent
 
@@ -217,9 +218,7 @@ def test_demo_files_exercise_the_csv_contract(demo):
     folder, truth = demo
     texts = {t["file"]: (folder / t["file"]).read_bytes().decode() for t in truth["tests"]}
     firsts = [text.splitlines()[0] for text in texts.values()]
-    assert any(
-        line.startswith("# machine:") for text in texts.values() for line in text.splitlines()
-    )
+    assert any(line.startswith("# machine:") for text in texts.values() for line in text.splitlines())
     assert any(";" in line and "," in line for text in texts.values() for line in text.splitlines())
     assert "time,force,elongation" in firsts  # units row after the header
     heads = "\n".join(texts.values())

@@ -12,8 +12,12 @@ L, EB = 0.03, 6.5e-5
 
 def _end_moment(theta: float):
     stiff = 1e8 * EB / L**2  # scaled E_s = E_e = 1e8: the inextensible circle is the answer
-    return scene_from_dict({"rod": {"length": L, "E_b": EB, "E_t": 4e-5, "E_s": stiff, "E_e": stiff},
-                            "tip": {"moment": [0.0, theta * EB / L, 0.0]}})
+    return scene_from_dict(
+        {
+            "rod": {"length": L, "E_b": EB, "E_t": 4e-5, "E_s": stiff, "E_e": stiff},
+            "tip": {"moment": [0.0, theta * EB / L, 0.0]},
+        }
+    )
 
 
 def _tip_error(theta: float, position: np.ndarray) -> float:

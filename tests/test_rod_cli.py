@@ -16,8 +16,19 @@ import pytest
 from matid.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "scenes"
-CONTRACT_KEYS = {"scene", "converged", "model", "elements", "newton_iterations", "runtime_s",
-                 "s", "position", "d1", "d3", "tip"}
+CONTRACT_KEYS = {
+    "scene",
+    "converged",
+    "model",
+    "elements",
+    "newton_iterations",
+    "runtime_s",
+    "s",
+    "position",
+    "d1",
+    "d3",
+    "tip",
+}
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
@@ -112,8 +123,9 @@ def test_console_script_runs(tmp_path):
     exe = shutil.which("matid")
     argv = [exe] if exe else [sys.executable, "-m", "matid"]
     scene = str(EXAMPLES / "magnetic_cantilever.toml")
-    proc = subprocess.run(argv + ["solve", scene, "--out", str(tmp_path)], capture_output=True, text=True,
-                          timeout=120)
+    proc = subprocess.run(
+        argv + ["solve", scene, "--out", str(tmp_path)], capture_output=True, text=True, timeout=120
+    )
     assert proc.returncode == 0, proc.stderr
     assert "tip at (25.0256, 0, 8.71892) mm" in proc.stdout
     assert json.loads((tmp_path / "solution.json").read_text())["elements"] == 20

@@ -39,8 +39,11 @@ def field(B: float, psi: float) -> dict:
 @pytest.mark.parametrize(("model", "elements", "tol"), [("planar", 16, 1e-8), ("full", 32, 1e-8)])
 def test_pure_end_moment_bends_a_circle(model, elements, tol):
     theta = 1.0
-    sol = solve(scene_from_dict({"rod": rod(), "tip": {"moment": [0.0, theta * EB / L, 0.0]}}),
-                elements=elements, model=model)
+    sol = solve(
+        scene_from_dict({"rod": rod(), "tip": {"moment": [0.0, theta * EB / L, 0.0]}}),
+        elements=elements,
+        model=model,
+    )
     exact = np.array([(1 - np.cos(theta)) / theta, 0.0, np.sin(theta) / theta])
     assert sol.model == model
     # measured: planar 3.0e-9 (16 elements), full 4.3e-10 (32); P2 tip error ~ h^4
@@ -53,8 +56,9 @@ def test_tip_magnet_matches_its_scalar_equation(psi_deg):
     """theta = (m B L / E_b) sin(psi - theta); with k = 2 the root in (0, psi) is unique and stable."""
     k, B, psi = 2.0, 0.02, np.radians(psi_deg)
     exact = brentq(lambda t: t - k * np.sin(psi - t), 0.0, psi, xtol=1e-15)
-    scene = scene_from_dict({"rod": rod(), "magnet": [{"at": L, "moment": k * EB / (B * L)}],
-                             "field": field(B, psi)})
+    scene = scene_from_dict(
+        {"rod": rod(), "magnet": [{"at": L, "moment": k * EB / (B * L)}], "field": field(B, psi)}
+    )
     sol = solve(scene, elements=4)
     assert sol.model == "planar"
     assert tip_angle(sol) == pytest.approx(exact, abs=1e-6)  # measured: 2e-15 (a pure couple: theta linear)
@@ -63,8 +67,13 @@ def test_tip_magnet_matches_its_scalar_equation(psi_deg):
 def test_magnetic_cantilever_benchmark():
     """Distributed magnetisation, q = mu B L^2 / E_b = 6.4, field at 120 deg."""
     B, psi = 0.04, np.radians(120)
-    scene = scene_from_dict({"rod": rod(), "field": field(B, psi),
-                             "magnetization": [{"from": 0.0, "to": L, "per_length": 6.4 * EB / (B * L**2)}]})
+    scene = scene_from_dict(
+        {
+            "rod": rod(),
+            "field": field(B, psi),
+            "magnetization": [{"from": 0.0, "to": L, "per_length": 6.4 * EB / (B * L**2)}],
+        }
+    )
     sol = solve(scene, elements=16)
     assert np.degrees(tip_angle(sol)) == pytest.approx(98.636, abs=5e-4)
     x, _, z = sol.position[-1] / L
@@ -95,6 +104,7 @@ def elastica_tip(alpha: float) -> tuple[float, float]:
 
     theta'' = -alpha cos(theta), theta(0) = 0, theta'(1) = 0, by shooting on theta'(0).
     """
+
     def rhs(_, y):
         return [y[1], -alpha * np.cos(y[0]), np.sin(y[0]), np.cos(y[0])]
 
@@ -156,8 +166,13 @@ def test_bend_force_converges_at_order_four():
 
 def test_planar_and_full_models_agree():
     k, B, psi = 2.0, 0.02, np.radians(120)
-    scene = scene_from_dict({"rod": rod(E_s=1e4 * EB / L**2, E_e=1e4 * EB / L**2),
-                             "magnet": [{"at": L, "moment": k * EB / (B * L)}], "field": field(B, psi)})
+    scene = scene_from_dict(
+        {
+            "rod": rod(E_s=1e4 * EB / L**2, E_e=1e4 * EB / L**2),
+            "magnet": [{"at": L, "moment": k * EB / (B * L)}],
+            "field": field(B, psi),
+        }
+    )
     planar, full = solve(scene, elements=16), solve(scene, elements=16, model="full")
     assert (planar.model, full.model) == ("planar", "full")
     assert np.max(np.abs(planar.position - full.position)) / L < 1e-7  # measured 3.3e-8
@@ -172,8 +187,9 @@ def test_antiparallel_field_beyond_buckling_has_no_stable_answer():
     unstable past load factor 1/2 (the Euler-like buckling load), and no other state is reached by
     continuation. The solver must say so, not return the saddle."""
     k, B = 2.0, 0.02
-    scene = scene_from_dict({"rod": rod(), "magnet": [{"at": L, "moment": k * EB / (B * L)}],
-                             "field": {"B": [0.0, 0.0, -B]}})
+    scene = scene_from_dict(
+        {"rod": rod(), "magnet": [{"at": L, "moment": k * EB / (B * L)}], "field": {"B": [0.0, 0.0, -B]}}
+    )
     with pytest.raises(ConvergenceError, match="unstable equilibrium") as info:
         solve(scene, elements=4)
     assert info.value.load_factor == pytest.approx(0.5, abs=1e-4)
@@ -183,8 +199,9 @@ def test_nearly_antiparallel_field_follows_the_stable_branch():
     """At 179 deg Newton from the straight rod also converges to theta = -2 deg, an unstable
     equilibrium; the continuation must reject it and reach the stable root near 108 deg."""
     k, B, psi = 2.0, 0.02, np.radians(179)
-    scene = scene_from_dict({"rod": rod(), "magnet": [{"at": L, "moment": k * EB / (B * L)}],
-                             "field": field(B, psi)})
+    scene = scene_from_dict(
+        {"rod": rod(), "magnet": [{"at": L, "moment": k * EB / (B * L)}], "field": field(B, psi)}
+    )
     assert np.degrees(tip_angle(solve(scene, elements=4))) == pytest.approx(108.21, abs=0.01)
 
 

@@ -28,8 +28,19 @@ support_radius = "2 mm"
 nose_radius = "2 mm"
 deflection = ["0.1 mm", "0.5 mm", "1 mm"]
 """
-CONTRACT_KEYS = {"scene", "converged", "model", "elements", "newton_iterations", "runtime_s",
-                 "s", "position", "d1", "d3", "tip"}
+CONTRACT_KEYS = {
+    "scene",
+    "converged",
+    "model",
+    "elements",
+    "newton_iterations",
+    "runtime_s",
+    "s",
+    "position",
+    "d1",
+    "d3",
+    "tip",
+}
 
 
 def write(tmp_path: Path, text: str) -> Path:
@@ -40,16 +51,24 @@ def write(tmp_path: Path, text: str) -> Path:
 
 # -- bad input: a DataError naming the file and the key ------------------------------
 
-@pytest.mark.parametrize(("text", "match"), [
-    ('scene = "cantilever"\n[tip]\nforce = ["1 N", "0 N", "0 N"]\n', r"missing \[rod\]"),
-    (ROD.replace('"21 N"', '"21 parsec"'), r"rod\.E_s: 'parsec' is not a unit of force"),
-    (ROD + '[[magnet]]\nat = "31 mm"\nmoment = "0.01 A m^2"\n', r"\[\[magnet\]\] at 0\.031 m is not on"),
-    ('scene = "three_point_bend"\n' + ROD + BEND.replace('deflection = ["0.1 mm", "0.5 mm", "1 mm"]', ""),
-     r"three_point_bend\.deflection"),
-    (ROD.replace('"6.5e-5 N m^2"', '"-6.5e-5 N m^2"'), r"rod E_b must be positive"),
-    ('scene = "three_point_bend"\n' + ROD, r"needs a \[three_point_bend\] table"),
-    ("[rod\nlength = 1", "not valid TOML"),
-])
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ('scene = "cantilever"\n[tip]\nforce = ["1 N", "0 N", "0 N"]\n', r"missing \[rod\]"),
+        (ROD.replace('"21 N"', '"21 parsec"'), r"rod\.E_s: 'parsec' is not a unit of force"),
+        (ROD + '[[magnet]]\nat = "31 mm"\nmoment = "0.01 A m^2"\n', r"\[\[magnet\]\] at 0\.031 m is not on"),
+        (
+            'scene = "three_point_bend"\n'
+            + ROD
+            + BEND.replace('deflection = ["0.1 mm", "0.5 mm", "1 mm"]', ""),
+            r"three_point_bend\.deflection",
+        ),
+        (ROD.replace('"6.5e-5 N m^2"', '"-6.5e-5 N m^2"'), r"rod E_b must be positive"),
+        ('scene = "three_point_bend"\n' + ROD, r"needs a \[three_point_bend\] table"),
+        ("[rod\nlength = 1", "not valid TOML"),
+    ],
+)
 def test_malformed_scene_is_a_data_error_naming_the_file(tmp_path, text, match):
     path = write(tmp_path, text)
     with pytest.raises(DataError, match=match) as info:
@@ -63,16 +82,23 @@ def test_missing_scene_file_is_a_data_error(tmp_path):
 
 
 def test_bend_scene_with_loads_it_cannot_model_is_refused(tmp_path):
-    scene = load_scene(write(tmp_path, 'scene = "three_point_bend"\n' + ROD + BEND
-                             + '[field]\nB = ["10 mT", "0 mT", "0 mT"]\n'))
+    scene = load_scene(
+        write(
+            tmp_path, 'scene = "three_point_bend"\n' + ROD + BEND + '[field]\nB = ["10 mT", "0 mT", "0 mT"]\n'
+        )
+    )
     with pytest.raises(DataError, match=r"\[field\] not supported"):
         solve(scene)
 
 
 def test_model_option_is_checked_against_the_scene(tmp_path):
     planar = load_scene(write(tmp_path, ROD + '[tip]\nforce = ["0.01 N", "0 N", "0 N"]\n'))
-    twisted = scene_from_dict({"rod": {"length": 0.03, "E_b": 6.5e-5, "E_t": 4.4e-5, "E_s": 21, "E_e": 120},
-                               "tip": {"moment": [0.0, 0.0, 1e-4]}})
+    twisted = scene_from_dict(
+        {
+            "rod": {"length": 0.03, "E_b": 6.5e-5, "E_t": 4.4e-5, "E_s": 21, "E_e": 120},
+            "tip": {"moment": [0.0, 0.0, 1e-4]},
+        }
+    )
     assert resolve_model(planar) == "planar" and resolve_model(planar, "full") == "full"
     assert resolve_model(twisted) == "full"
     with pytest.raises(ValueError, match="not planar"):
@@ -84,6 +110,7 @@ def test_model_option_is_checked_against_the_scene(tmp_path):
 
 
 # -- model choice ----------------------------------------------------------------------
+
 
 def test_field_out_of_the_plane_of_a_tip_force_runs_the_full_model():
     rod = {"length": 0.03, "E_b": 6.5e-5, "E_t": 4.4e-5, "E_s": 21.0, "E_e": 120.0}
@@ -108,6 +135,7 @@ def test_planar_scene_in_a_tilted_plane_comes_back_in_the_lab_frame():
 
 
 # -- the three-point bend as a whole tube ----------------------------------------------
+
 
 def test_bend_solution_is_the_whole_tube_in_the_lab_frame(tmp_path):
     scene = load_scene(write(tmp_path, 'scene = "three_point_bend"\n' + ROD + BEND))
@@ -134,13 +162,20 @@ def test_bend_solution_is_the_whole_tube_in_the_lab_frame(tmp_path):
 
 
 def test_decreasing_deflections_are_refused(tmp_path):
-    scene = load_scene(write(tmp_path, 'scene = "three_point_bend"\n' + ROD
-                             + BEND.replace('"0.1 mm", "0.5 mm", "1 mm"', '"1 mm", "0.5 mm"')))
+    scene = load_scene(
+        write(
+            tmp_path,
+            'scene = "three_point_bend"\n'
+            + ROD
+            + BEND.replace('"0.1 mm", "0.5 mm", "1 mm"', '"1 mm", "0.5 mm"'),
+        )
+    )
     with pytest.raises(DataError, match="increasing order"):
         solve(scene)
 
 
 # -- outputs ---------------------------------------------------------------------------
+
 
 def test_solution_json_has_the_contract_keys(tmp_path):
     sol = solve(load_scene(write(tmp_path, ROD + '[tip]\nforce = ["0.01 N", "0 N", "0 N"]\n')), elements=4)
@@ -157,6 +192,7 @@ def test_solution_json_has_the_contract_keys(tmp_path):
 
 # -- the shipped example scenes --------------------------------------------------------
 
+
 def test_example_magnetic_cantilever_is_the_benchmark():
     sol = solve(load_scene(EXAMPLES / "magnetic_cantilever.toml"))
     x, _, z = sol.position[-1] / 0.03
@@ -165,8 +201,9 @@ def test_example_magnetic_cantilever_is_the_benchmark():
     assert np.degrees(np.arctan2(sol.d3[-1][0], sol.d3[-1][2])) == pytest.approx(98.636, abs=5e-4)
 
 
-@pytest.mark.parametrize(("name", "model"), [("tip_force", "planar"), ("precurved_3d", "full"),
-                                             ("three_point_bend", "planar")])
+@pytest.mark.parametrize(
+    ("name", "model"), [("tip_force", "planar"), ("precurved_3d", "full"), ("three_point_bend", "planar")]
+)
 def test_example_scenes_load_and_solve(name, model):
     scene = load_scene(EXAMPLES / f"{name}.toml")
     sol = solve(scene)

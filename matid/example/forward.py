@@ -66,9 +66,7 @@ def ramp(rate: float, eps_max: float, *, hold: float = 0.0) -> tuple[np.ndarray,
     return np.array([0.0, t_ramp]), np.array([0.0, eps_max])
 
 
-def cycles(
-    rate: float, eps_max: float, n: int, *, eps_min: float = 0.0
-) -> tuple[np.ndarray, np.ndarray]:
+def cycles(rate: float, eps_max: float, n: int, *, eps_min: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Knots of a ramp from rest to ``eps_max`` followed by ``n`` unload-reload cycles
     down to ``eps_min`` (ending unloaded at ``eps_min``), all at ``rate``."""
     knots_eps = np.array([0.0] + [eps_max, eps_min] * n)
@@ -84,9 +82,7 @@ def tip_angle(
     Solves ``theta = (m B L / E_b) sin(psi - theta)`` per point with brentq
     (physics.md section 5); the root lies between 0 and psi for |psi| < pi.
     """
-    field, field_angle = np.broadcast_arrays(
-        np.asarray(field, float), np.asarray(field_angle, float)
-    )
+    field, field_angle = np.broadcast_arrays(np.asarray(field, float), np.asarray(field_angle, float))
     theta = np.zeros(field.shape)
     for i, (b, psi) in enumerate(zip(field.flat, field_angle.flat, strict=True)):
         if not abs(psi) < math.pi:

@@ -221,9 +221,7 @@ def _ground_truth(layout: dict, truth: dict, variant: str, seed: int) -> dict:
     }  # fmt: skip
 
 
-def generate(
-    out: Path, *, seed: int = 2611, variant: str = "demo", truth: dict | None = None
-) -> dict:
+def generate(out: Path, *, seed: int = 2611, variant: str = "demo", truth: dict | None = None) -> dict:
     """Write the SYNTHETIC study ``variant`` into ``out``; return its ground truth.
 
     ``truth`` optionally overrides stiffnesses, shaped like the returned dict:

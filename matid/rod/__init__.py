@@ -1,8 +1,8 @@
 """The static Cosserat rod solver: scenes -> solve -> solution.
 
-    >>> from matid.rod import load_scene, solve
-    >>> sol = solve(load_scene("examples/scenes/magnetic_cantilever.toml"))  # doctest: +SKIP
-    >>> sol.model, sol.tip["position"]  # doctest: +SKIP
+>>> from matid.rod import load_scene, solve
+>>> sol = solve(load_scene("examples/scenes/magnetic_cantilever.toml"))  # doctest: +SKIP
+>>> sol.model, sol.tip["position"]  # doctest: +SKIP
 """
 
 from matid.rod.api import solve

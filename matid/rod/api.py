@@ -19,11 +19,11 @@ import numpy as np
 
 from matid.errors import DataError
 from matid.rod import kinematics as kin
+from matid.rod.accuracy import refine
 from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
-from matid.rod.accuracy import refine
 from matid.rod.scenes import Scene, plane_of
 from matid.rod.solve import Solution, solve_cantilever
 
@@ -42,8 +42,10 @@ def resolve_model(scene: Scene, model: str = "auto") -> str:
         return PLANAR
     planar = plane_of(scene) is not None
     if model == PLANAR and not planar:
-        raise ValueError("the scene is not planar (a load, moment or precurvature leaves the plane): "
-                         "use model 'full' or 'auto'")
+        raise ValueError(
+            "the scene is not planar (a load, moment or precurvature leaves the plane): "
+            "use model 'full' or 'auto'"
+        )
     return model if model != "auto" else (PLANAR if planar else FULL)
 
 
@@ -82,11 +84,20 @@ def solve(
     fixed = elements or scene.elements
     sol, est = refine(at, tolerance=scene.tolerance, fixed=fixed, start=8)
     total = sum(t for _, t in est.history)
-    return replace(sol, discretization_error=est.error, extra={
-        **sol.extra, "error_estimate": {"method": "richardson", "order": est.order,
-                                        "meshes": [n for n, _ in est.history],
-                                        "total_runtime_s": total,
-                                        "tolerance": None if fixed else scene.tolerance}})
+    return replace(
+        sol,
+        discretization_error=est.error,
+        extra={
+            **sol.extra,
+            "error_estimate": {
+                "method": "richardson",
+                "order": est.order,
+                "meshes": [n for n, _ in est.history],
+                "total_runtime_s": total,
+                "tolerance": None if fixed else scene.tolerance,
+            },
+        },
+    )
 
 
 def solve_bend(scene: Scene, *, elements: int | None = None) -> Solution:
@@ -101,22 +112,42 @@ def solve_bend(scene: Scene, *, elements: int | None = None) -> Solution:
     path = model.solve(rod.E_b, rod.E_s, rod.E_e, np.asarray(bend.deflections))
     s, position, d1, d3 = whole_tube(model, path)
     return Solution(
-        scene=scene, model=PLANAR, elements=model.elements, element="P2",
-        newton_iterations=path.newton_iterations, load_steps=path.load_steps, runtime_s=path.runtime_s,
-        s=s, position=position, d1=d1, d3=d3, terms=BEND_TERMS,
-        three_point_bend={"deflection": path.deflection.tolist(), "force": path.force.tolist(),
-                          "support_contact_s": path.support_s.tolist()},
+        scene=scene,
+        model=PLANAR,
+        elements=model.elements,
+        element="P2",
+        newton_iterations=path.newton_iterations,
+        load_steps=path.load_steps,
+        runtime_s=path.runtime_s,
+        s=s,
+        position=position,
+        d1=d1,
+        d3=d3,
+        terms=BEND_TERMS,
+        three_point_bend={
+            "deflection": path.deflection.tolist(),
+            "force": path.force.tolist(),
+            "support_contact_s": path.support_s.tolist(),
+        },
     )
 
 
 def _check_bend(scene: Scene) -> None:
     """The bend half model has a uniform, straight, unloaded tube; say so rather than ignore the rest."""
     loads, rod = scene.loads, scene.rod
-    ignored = [name for name, present in (
-        ("[[segment]]", rod.segments), ("rod.precurvature", any(rod.precurvature)),
-        ("[field]", any(loads.B)), ("[load]", any(loads.distributed_force)),
-        ("[tip]", any(loads.tip_force) or any(loads.tip_moment)),
-        ("[[magnet]]", loads.magnets), ("[[magnetization]]", loads.magnetization)) if present]
+    ignored = [
+        name
+        for name, present in (
+            ("[[segment]]", rod.segments),
+            ("rod.precurvature", any(rod.precurvature)),
+            ("[field]", any(loads.B)),
+            ("[load]", any(loads.distributed_force)),
+            ("[tip]", any(loads.tip_force) or any(loads.tip_moment)),
+            ("[[magnet]]", loads.magnets),
+            ("[[magnetization]]", loads.magnetization),
+        )
+        if present
+    ]
     if ignored:
         raise DataError(f"three_point_bend: {', '.join(ignored)} not supported (a uniform straight tube)")
     if any(b < a for a, b in zip(scene.bend.deflections, scene.bend.deflections[1:], strict=False)):

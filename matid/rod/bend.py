@@ -146,8 +146,9 @@ class BendSystem:
         rows.append(np.tile(np.arange(n), 2))
         cols.append(np.repeat(n + np.arange(2), n))
         vals.append(-G.ravel())
-        border = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                               shape=(n + 3, n + 3))
+        border = sp.csr_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n + 3, n + 3)
+        )
         A = K + self.rod._blocks_matrix(blocks, K.shape)
         A.resize((n + 3, n + 3))
         A = A + border
@@ -257,9 +258,14 @@ class BendModel:
             rec["dF"].append(_sensitivities(system, X, info.lu, sensitivities, E_s, E_e, F * scale_F, E_b))
         dF = {p: np.array([r[p] for r in rec["dF"]]) for p in sensitivities}
         return BendPath(
-            deflection=d, force=np.array(rec["F"]) * scale_F, dforce=dF,
-            support_s=np.array([x[-1] for x in rec["X"]]) * S, states=rec["X"],
-            newton_iterations=info.iterations, load_steps=info.steps, runtime_s=time.perf_counter() - t0,
+            deflection=d,
+            force=np.array(rec["F"]) * scale_F,
+            dforce=dF,
+            support_s=np.array([x[-1] for x in rec["X"]]) * S,
+            states=rec["X"],
+            newton_iterations=info.iterations,
+            load_steps=info.steps,
+            runtime_s=time.perf_counter() - t0,
         )
 
     def half_state(self, path: BendPath, index: int = -1) -> tuple[np.ndarray, ...]:
@@ -281,8 +287,10 @@ class BendModel:
         d = float(path.deflection[index])
         _, x, z, _ = self.half_state(path, index)
         return {
-            "z": np.concatenate([-z[::-1], z[1:]]), "x": np.concatenate([x[::-1], x[1:]]),
-            "outer_radius": 0.5 * g.outer_diameter, "deflection": d,
+            "z": np.concatenate([-z[::-1], z[1:]]),
+            "x": np.concatenate([x[::-1], x[1:]]),
+            "outer_radius": 0.5 * g.outer_diameter,
+            "deflection": d,
             "supports": [((side * 0.5 * S, -self.support_rho * S), g.support_radius) for side in (-1, 1)],
             "nose": ((0.0, self.nose_rho * S - d), g.nose_radius),
             "support_contact_s": float(path.states[index][-1] * S),
@@ -309,8 +317,10 @@ class BendModel:
             X, _ = follow(system, X, [target], lam0=lam, first_step=max(target - lam, 1e-3), info=info)
         except ConvergenceError as exc:
             if X[-1] > 0.98 * self.half or "left the rod" in str(exc):
-                raise SlipOffError("the tube end reached the support: it slips off",
-                                   deflection=(exc.load_factor or lam) * d_max) from exc
+                raise SlipOffError(
+                    "the tube end reached the support: it slips off",
+                    deflection=(exc.load_factor or lam) * d_max,
+                ) from exc
             raise
         return X
 
@@ -318,8 +328,9 @@ class BendModel:
     def _check(system: BendSystem, X: np.ndarray, lam: float) -> None:
         mult = X[system.nu : system.nu + 2]
         if np.any(mult < -1e-9 * max(1.0, np.max(np.abs(mult)))):
-            raise ConvergenceError("a contact pulls (the tube lifts off a support or the nose)",
-                                   load_factor=lam)
+            raise ConvergenceError(
+                "a contact pulls (the tube lifts off a support or the nose)", load_factor=lam
+            )
 
 
 def _sensitivities(system, X, lu, names, E_s, E_e, F, E_b) -> dict[str, float]:

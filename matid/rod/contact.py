@@ -118,8 +118,16 @@ class Circle:
         r = N @ nodal[:, :2]
         dist = float(np.linalg.norm(r - self.centre))
         interior = 0.0 < t < 1.0 or (t == 0.0 and e > 0) or (t == 1.0 and e < self.disc.ne - 1)
-        return ClosestPoint(e, t, float(verts[e] + t * (verts[e + 1] - verts[e])), dist,
-                            (r - self.centre) / dist, self.disc.edofs[:, e].copy(), N, interior)
+        return ClosestPoint(
+            e,
+            t,
+            float(verts[e] + t * (verts[e + 1] - verts[e])),
+            dist,
+            (r - self.centre) / dist,
+            self.disc.edofs[:, e].copy(),
+            N,
+            interior,
+        )
 
     def vertex_gap(self, U: np.ndarray, vertex: int) -> tuple[float, np.ndarray, np.ndarray]:
         """Gap at a mesh vertex, g = |r_v - c| - rho, with dg/d(x_v, z_v, theta_v) and d2g."""
@@ -137,9 +145,12 @@ class Circle:
         values = np.concatenate([nodal.ravel(), [cp.t]])[:, None]
         v = jet.Jet.variables(values)
         d2, h = self._local(np.array(v[:9], dtype=object).reshape(3, 3), v[9])
-        dist = jet.Jet(np.sqrt(d2.v), d2.g / (2 * np.sqrt(d2.v))[:, None],
-                       d2.h / (2 * np.sqrt(d2.v))[:, None, None]
-                       - np.einsum("pi,pj->pij", d2.g, d2.g) / (4 * d2.v**1.5)[:, None, None])
+        dist = jet.Jet(
+            np.sqrt(d2.v),
+            d2.g / (2 * np.sqrt(d2.v))[:, None],
+            d2.h / (2 * np.sqrt(d2.v))[:, None, None]
+            - np.einsum("pi,pj->pij", d2.g, d2.g) / (4 * d2.v**1.5)[:, None, None],
+        )
         pu, pt = dist.g[0, :9], dist.g[0, 9]
         puu, put, ptt = dist.h[0, :9, :9], dist.h[0, :9, 9], dist.h[0, 9, 9]
         if not cp.interior:  # the section sits at an end of the rod: t is held there

@@ -88,8 +88,11 @@ class Discretisation:
         new.dx = self.dx * ratio
         new.s_quad = vertices[:-1, None] + (self.s_quad - self._vertices[:-1, None]) * ratio
         nv = vertices.size
-        new.s_dof = np.concatenate([vertices, 0.5 * (vertices[:-1] + vertices[1:])]) \
-            if self.element == "P2" else vertices.copy()
+        new.s_dof = (
+            np.concatenate([vertices, 0.5 * (vertices[:-1] + vertices[1:])])
+            if self.element == "P2"
+            else vertices.copy()
+        )
         assert new.s_dof.size == self.nscalar and nv == self._vertices.size
         new.weighted = np.stack([new.phi, new.dphi]) * new.dx[None, None]
         new.both = np.stack([new.phi, new.dphi])

@@ -37,9 +37,7 @@ class Jet:
         shape = values.shape[1:]
         eye = np.eye(n)
         zero_h = np.zeros(shape + (n, n)) if hessian else None
-        return [
-            cls(values[k], np.broadcast_to(eye[k], shape + (n,)), zero_h) for k in range(n)
-        ]
+        return [cls(values[k], np.broadcast_to(eye[k], shape + (n,)), zero_h) for k in range(n)]
 
     # -- arithmetic -------------------------------------------------------
     def __add__(self, other: object) -> Jet:
@@ -66,7 +64,12 @@ class Jet:
             h = None
             if a.h is not None:
                 cross = ga[..., :, None] * gb[..., None, :]
-                h = a.v[..., None, None] * b.h + b.v[..., None, None] * a.h + cross + np.swapaxes(cross, -1, -2)
+                h = (
+                    a.v[..., None, None] * b.h
+                    + b.v[..., None, None] * a.h
+                    + cross
+                    + np.swapaxes(cross, -1, -2)
+                )
             return Jet(a.v * b.v, a.v[..., None] * gb + b.v[..., None] * ga, h)
         c = np.asarray(other)
         h = None if self.h is None else self.h * c[..., None, None]

@@ -94,7 +94,10 @@ def strain_energy(kappa: Sequence, nu: Sequence, E_b, E_t, E_s, E_e, kappa_ref=(
     k1, k2, k3 = (kappa[i] - kappa_ref[i] for i in range(3))
     nu3 = nu[2] - 1.0
     return 0.5 * (
-        E_b * (k1 * k1 + k2 * k2) + E_t * (k3 * k3) + E_s * (nu[0] * nu[0] + nu[1] * nu[1]) + E_e * (nu3 * nu3)
+        E_b * (k1 * k1 + k2 * k2)
+        + E_t * (k3 * k3)
+        + E_s * (nu[0] * nu[0] + nu[1] * nu[1])
+        + E_e * (nu3 * nu3)
     )
 
 

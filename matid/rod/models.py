@@ -68,8 +68,12 @@ class ScaledRod:
     magnets: tuple[tuple[float, float], ...] = ()  # (s, moment)
 
     def stiffness_at(self, s: np.ndarray) -> dict[str, np.ndarray]:
-        out = {"E_b": np.ones_like(s), "E_t": np.full_like(s, self.E_t),
-               "E_s": np.full_like(s, self.E_s), "E_e": np.full_like(s, self.E_e)}
+        out = {
+            "E_b": np.ones_like(s),
+            "E_t": np.full_like(s, self.E_t),
+            "E_s": np.full_like(s, self.E_s),
+            "E_e": np.full_like(s, self.E_e),
+        }
         for seg in self.segments:
             inside = (s >= seg.start) & (s < seg.end)
             for name in out:
@@ -114,7 +118,9 @@ class RodSystem:
         magnets = [(s_m, m) for s_m, m in self.rod.magnets]
         verts = self.disc.vertices
         self.magnet_nodes = [(int(np.argmin(np.abs(verts - s_m))), m) for s_m, m in magnets]
-        self.terms = ["bending", "shear", "extension"] + (["twist", "unity penalty"] if self.model == FULL else [])
+        self.terms = ["bending", "shear", "extension"] + (
+            ["twist", "unity penalty"] if self.model == FULL else []
+        )
         if self.rod.has_field:
             self.terms.append("magnetic")
         if any(self.rod.kappa_ref):
@@ -137,8 +143,9 @@ class RodSystem:
             k2, nu1, nu3 = kin.planar_strains(du[0], du[1], th, du[2])
             w = kin.planar_strain_energy(k2, nu1, nu3, p["E_b"], p["E_s"], p["E_e"], lam * rod.kappa_ref[1])
             if "magnetic" in self.terms:
-                w = w + kin.magnetic_energy(lam * self.mu, [kin.jet.sin(th), 0.0, kin.jet.cos(th)],
-                                            [rod.B[0], 0.0, rod.B[2]])
+                w = w + kin.magnetic_energy(
+                    lam * self.mu, [kin.jet.sin(th), 0.0, kin.jet.cos(th)], [rod.B[0], 0.0, rod.B[2]]
+                )
             if any(rod.f):
                 w = w - lam * (rod.f[0] * x + rod.f[2] * z)
             return w
@@ -174,7 +181,9 @@ class RodSystem:
         node = U.reshape(-1, nf)
         tip, rod = node[self.tip], self.rod
         if self.model == PLANAR:
-            total -= lam * (rod.tip_force[0] * tip[0] + rod.tip_force[2] * tip[1] + rod.tip_moment[1] * tip[2])
+            total -= lam * (
+                rod.tip_force[0] * tip[0] + rod.tip_force[2] * tip[1] + rod.tip_moment[1] * tip[2]
+            )
             for k, m in self.magnet_nodes:
                 total -= lam * m * (np.sin(node[k, 2]) * rod.B[0] + np.cos(node[k, 2]) * rod.B[2])
             return total
@@ -314,8 +323,9 @@ class RodSystem:
             return None  # a dead moment in 3D has no potential: the tangent is unsymmetric
         _, K = self.evaluate(X, lam)
         try:
-            lu = spla.splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                           options={"SymmetricMode": True})
+            lu = spla.splu(
+                K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+            )
         except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
             return 1
         if not np.array_equal(lu.perm_r, lu.perm_c):
@@ -335,7 +345,9 @@ class RodSystem:
             rows.append(ii[ok]), cols.append(jj[ok]), vals.append(block[ok])
         if not rows:
             return sp.csr_matrix(shape)
-        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=shape)
+        return sp.csr_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=shape
+        )
 
     def expand(self, X: np.ndarray) -> np.ndarray:
         U = self.reference()

@@ -4,9 +4,10 @@ in a continuity scheme").
 A system exposes ``evaluate(x, lam) -> (R, K)`` for the residual R(x; lam) and
 its tangent K = dR/dx at load factor lam. :func:`newton` solves R = 0 from a
 guess; :func:`follow` walks lam from its current value to each target in turn,
-predicting each step by secant extrapolation from the tangent at the last
-converged state (one back-substitution with its factorised tangent), halving the step when Newton fails and doubling it when Newton
-converges in a few iterations. A state is returned only when converged; when
+predicting each step from the tangent dx/dlam at the last converged state
+(one back-substitution with its factorised tangent), halving the step when
+Newton fails and doubling it when Newton converges in a few iterations. A state
+is returned only when converged; when
 the step falls below ``min_step`` a ConvergenceError names the last load factor
 reached. NaN is a failure, never a value.
 """

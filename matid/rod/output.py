@@ -91,8 +91,10 @@ def _bend_setup(ax, sol: Solution) -> None:
     rod, bend = sol.scene.rod, sol.scene.bend
     R_o, L = 0.5 * rod.outer_diameter, rod.length
     d = bend.deflections[-1]
-    cylinders = [((-(bend.support_radius + R_o)), L / 2 + sign * bend.span / 2, bend.support_radius)
-                 for sign in (-1, 1)]
+    cylinders = [
+        ((-(bend.support_radius + R_o)), L / 2 + sign * bend.span / 2, bend.support_radius)
+        for sign in (-1, 1)
+    ]
     cylinders.append((bend.nose_radius + R_o - d, L / 2, bend.nose_radius))
     for x, z, radius in cylinders:
         ax.add_patch(Circle((z * MM, x * MM), radius * MM, facecolor="0.85", edgecolor="0.3"))

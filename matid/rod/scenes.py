@@ -50,7 +50,9 @@ class Rod:
                 raise ValueError(f"rod {name} must be positive and finite, got {value}")
         for seg in self.segments:
             if not 0.0 <= seg.start < seg.end <= self.length * (1 + 1e-12):
-                raise ValueError(f"segment [{seg.start}, {seg.end}] m is not inside the rod [0, {self.length}] m")
+                raise ValueError(
+                    f"segment [{seg.start}, {seg.end}] m is not inside the rod [0, {self.length}] m"
+                )
 
 
 @dataclass(frozen=True)
@@ -126,6 +128,7 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
 
 # -- loading -----------------------------------------------------------------
 
+
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene TOML; every problem is a DataError naming the file and key."""
     path = Path(path)
@@ -170,11 +173,28 @@ def _rod(raw: dict, root: Path | None) -> Rod:
     segments = []
     for i, seg in enumerate(raw.get("segment", [])):
         where = f"[[segment]] #{i + 1}"
-        overrides = {k: _q(seg, k, "bending_stiffness" if k in ("E_b", "E_t") else
-                           "length" if k == "outer_diameter" else "force", where)
-                     for k in ("E_b", "E_t", "E_s", "E_e", "outer_diameter") if k in seg}
-        segments.append(SegmentSpec(_q(seg, "from", "length", where), _q(seg, "to", "length", where),
-                                    overrides, bool(seg.get("rigid", False))))
+        overrides = {
+            k: _q(
+                seg,
+                k,
+                "bending_stiffness"
+                if k in ("E_b", "E_t")
+                else "length"
+                if k == "outer_diameter"
+                else "force",
+                where,
+            )
+            for k in ("E_b", "E_t", "E_s", "E_e", "outer_diameter")
+            if k in seg
+        }
+        segments.append(
+            SegmentSpec(
+                _q(seg, "from", "length", where),
+                _q(seg, "to", "length", where),
+                overrides,
+                bool(seg.get("rigid", False)),
+            )
+        )
     return Rod(
         length=_q(table, "length", "length", "rod"),
         E_b=_q(table, "E_b", "bending_stiffness", "rod"),
@@ -203,8 +223,19 @@ def _stiffness_from_json(ref: dict, root: Path | None) -> dict:
 
 
 #: Top-level keys of a scene file (data-contract section 6); anything else is a typo to report.
-SCENE_KEYS = {"scene", "elements", "tolerance", "rod", "segment", "load", "magnet", "magnetization",
-              "field", "tip", "three_point_bend"}
+SCENE_KEYS = {
+    "scene",
+    "elements",
+    "tolerance",
+    "rod",
+    "segment",
+    "load",
+    "magnet",
+    "magnetization",
+    "field",
+    "tip",
+    "three_point_bend",
+}
 
 
 def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
@@ -251,5 +282,11 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     elements = raw.get("elements")
     if elements is not None and (not isinstance(elements, int) or isinstance(elements, bool)):
         raise ValueError(f"elements must be a whole number, got {elements!r}")
-    return Scene(kind=kind, rod=rod, loads=loads, bend=bend, elements=elements,
-                 tolerance=float(raw.get("tolerance", 1e-6)))
+    return Scene(
+        kind=kind,
+        rod=rod,
+        loads=loads,
+        bend=bend,
+        elements=elements,
+        tolerance=float(raw.get("tolerance", 1e-6)),
+    )

@@ -52,7 +52,11 @@ class Solution:
 
     @property
     def tip(self) -> dict:
-        return {"position": self.position[-1].tolist(), "d1": self.d1[-1].tolist(), "d3": self.d3[-1].tolist()}
+        return {
+            "position": self.position[-1].tolist(),
+            "d1": self.d1[-1].tolist(),
+            "d3": self.d3[-1].tolist(),
+        }
 
 
 def _rotate(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -91,7 +95,10 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
             scaled = {k: RIGID_FACTOR * max(stiffest, v) for k, v in scaled.items()}
         segments.append(Segment(seg.start / L, seg.end / L, **scaled))
     return ScaledRod(
-        E_t=base["E_t"], E_s=base["E_s"], E_e=base["E_e"], segments=tuple(segments),
+        E_t=base["E_t"],
+        E_s=base["E_s"],
+        E_e=base["E_e"],
+        segments=tuple(segments),
         kappa_ref=moment(rod.precurvature, L),
         mu=tuple((a / L, b / L, m * L**2 / Eb) for a, b, m in loads.magnetization),
         B=vec(loads.B, 1.0),
@@ -146,8 +153,12 @@ def solve_cantilever(
     e_a = None if chosen == FULL else np.asarray(plane)
     ne = elements or scene.elements or DEFAULT_ELEMENTS
     order = intorder or (DEFAULT_INTORDER if element == "P2" else 2)
-    disc = Discretisation(graded_vertices(1.0, ne, breaks=breaks(scene)), 3 if chosen == PLANAR else 7,
-                          element=element, intorder=order)
+    disc = Discretisation(
+        graded_vertices(1.0, ne, breaks=breaks(scene)),
+        3 if chosen == PLANAR else 7,
+        element=element,
+        intorder=order,
+    )
     rod = scaled_rod(scene, e_a)
     system = RodSystem(disc, rod, model=chosen, variant=variant, c_u=c_u or default_penalty(rod, variant))
     X, info = follow(system, system.reduce(system.reference()), [1.0], first_step=first_step)
@@ -174,7 +185,16 @@ def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms) -> 
     if not (np.all(np.isfinite(position)) and np.all(np.isfinite(d1))):
         raise FloatingPointError("non-finite solution")  # unreachable: Newton rejects NaN
     return Solution(
-        scene=scene, model=chosen, elements=disc.ne, element=disc.element,
-        newton_iterations=info.iterations, load_steps=info.steps, runtime_s=runtime,
-        s=s, position=position, d1=d1, d3=d3, terms=tuple(terms),
+        scene=scene,
+        model=chosen,
+        elements=disc.ne,
+        element=disc.element,
+        newton_iterations=info.iterations,
+        load_steps=info.steps,
+        runtime_s=runtime,
+        s=s,
+        position=position,
+        d1=d1,
+        d3=d3,
+        terms=tuple(terms),
     )
