@@ -269,31 +269,10 @@ def fit_three_point_bend(
         "runtime_s": round(time.perf_counter() - t0, 4),
         "rod_solves": out.solves,
     }
-    estimates = [
-        Estimate(
-            "E_s",
-            E_s,
-            E_s * sd_log,
-            (E_s * np.exp(-t * sd_log), E_s * np.exp(t * sd_log)),
-            n_points=m,
-            method="cosserat-fe",
-            warnings=tuple(warnings),
-            extra={"fe": fe},
-        )
-    ]
+    estimates = [_log_estimate("E_s", E_s, sd_log, t, m, fe, tuple(warnings))]
     if fit_E_b:
-        E_b, sd_b = float(np.exp(out.x[1])), float(np.sqrt(out.cov_log[1, 1]))
-        estimates.append(
-            Estimate(
-                "E_b",
-                E_b,
-                E_b * sd_b,
-                (E_b * np.exp(-t * sd_b), E_b * np.exp(t * sd_b)),
-                n_points=m,
-                method="cosserat-fe",
-                extra={"fe": fe},
-            )
-        )
+        E_b = float(np.exp(out.x[1]))
+        estimates.append(_log_estimate("E_b", E_b, float(np.sqrt(out.cov_log[1, 1])), t, m, fe, ()))
     return TestFit(
         kind="three_point_bend",
         specimen=specimen.id,
@@ -304,6 +283,14 @@ def fit_three_point_bend(
         y_label="force [N]",
         correlation=_correlation(out.cov_log) if fit_E_b else {},
         info=_info(data, out, shares, held, E_s, fe),
+    )
+
+
+def _log_estimate(name: str, value: float, sd_log: float, t: float, n: int, fe: dict, warnings) -> Estimate:
+    """An estimate fitted in log space: stderr value * sd_log, interval value * exp(+-t sd_log)."""
+    ci = (value * float(np.exp(-t * sd_log)), value * float(np.exp(t * sd_log)))
+    return Estimate(
+        name, value, value * sd_log, ci, n_points=n, method="cosserat-fe", warnings=warnings, extra={"fe": fe}
     )
 
 
