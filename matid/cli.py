@@ -27,6 +27,7 @@ from importlib import resources
 from pathlib import Path
 
 from matid import __version__
+from matid.bench.cli import register as _register_bench
 from matid.errors import ConvergenceError, DataError, MatidError, SlipOffError
 from matid.pipeline import run_study, write_outputs
 from matid.results import Failure, StudyResult, atomic_write, stiffness_json
@@ -70,6 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
     _register_fit(subparsers)
     _register_demo(subparsers)
     _register_solve(subparsers)
+    _register_bench(subparsers)
     return parser
 
 

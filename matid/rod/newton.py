@@ -40,6 +40,15 @@ class NewtonFailure(Exception):
     pass
 
 
+class RoundoffStagnation(NewtonFailure):
+    """Newton corrections stopped shrinking above the attainable precision: a smaller
+    load step cannot help (the floor is set by the stiffness spread and the mesh)."""
+
+
+#: No correction larger than this is ever accepted as "at the round-off floor".
+FLOOR_CAP = 1e-7
+
+
 def newton(
     system: System,
     x0: np.ndarray,
@@ -61,7 +70,7 @@ def newton(
     Armijo search on the potential). Divergence is caught early instead and the
     load step is halved by :func:`follow`.
     """
-    floor = max(xtol, float(getattr(system, "roundoff", 0.0)))
+    floor = min(max(xtol, float(getattr(system, "roundoff", 0.0))), FLOOR_CAP)
     measure = getattr(system, "step_size", None) or (lambda d: float(np.max(np.abs(d))) if d.size else 0.0)
     x = x0.copy()
     sizes: list[float] = []
@@ -77,6 +86,11 @@ def newton(
         if size <= xtol or (size <= floor and sizes and size > 0.1 * sizes[-1]):
             return x + dx, it, lu
         if len(sizes) >= 3 and size > sizes[-1] and size > sizes[-3]:
+            if size < 1e-3 and max(sizes[-3:]) < 10 * min(sizes[-3:]) and size < 1e-2 * sizes[0]:
+                raise RoundoffStagnation(
+                    f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
+                    f"{sizes[0]:.2g}: the precision double arithmetic allows for this mesh and stiffness "
+                    "spread; use fewer elements or a less extreme stiffness ratio")
             raise NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}")
         sizes.append(size)
         x = x + dx * min(1.0, max_step / size)
@@ -145,6 +159,8 @@ def follow(
             try:
                 x_new, its, lu = newton(system, guess, lam_try, **opts)
                 _check_admissible(system, x_new, lam_try)
+            except RoundoffStagnation as exc:
+                raise ConvergenceError(str(exc), load_factor=lam) from exc
             except NewtonFailure as exc:
                 info.rejected += 1
                 step *= 0.5

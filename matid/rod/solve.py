@@ -19,9 +19,13 @@ from matid.rod.models import FULL, PLANAR, RodSystem, ScaledRod, Segment
 from matid.rod.newton import NewtonInfo, follow
 from matid.rod.scenes import Scene, plane_of
 
-#: A rigid segment is this many times stiffer than the stiffest part of the rod
-#: (scaled): its deformation is then ~1e-6 of the rest, far below the
-#: discretisation error, while the tangent stays well conditioned (LU, double).
+#: A rigid segment: bending and twist RIGID_FACTOR times the rod's, shear and
+#: extension at least RIGID_FACTOR (scaled by E_b/L^2). Its share of the rod's
+#: compliance (bending, O(1) scaled) is then ~1e-6, far below the
+#: discretisation error, and it never widens the stiffness spread beyond
+#: max(RIGID_FACTOR, the rod's own E_s, E_e) - which sets Newton's round-off
+#: floor. (Multiplying every term by 1e6 x the stiffest gave 1e14 on a slender
+#: rod: Newton then took corrections of 0.1 for round-off - found by matid bench.)
 RIGID_FACTOR = 1e6
 #: Quadrature order per element: 2 = two-point Gauss. Measured (bench): the
 #: three-point rule locks on slender rods, two-point Gauss does not.
@@ -84,7 +88,6 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
         return (0.0, float(v @ np.cross([0.0, 0.0, 1.0], e_a)), 0.0)
 
     base = {"E_b": 1.0, "E_t": rod.E_t / Eb, "E_s": rod.E_s * L**2 / Eb, "E_e": rod.E_e * L**2 / Eb}
-    stiffest = max(base.values())
     segments = []
     for seg in rod.segments:
         scaled = dict(base)
@@ -92,7 +95,8 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
             if k in scaled:
                 scaled[k] = v / Eb * (1.0 if k in ("E_b", "E_t") else L**2)
         if seg.rigid:
-            scaled = {k: RIGID_FACTOR * max(stiffest, v) for k, v in scaled.items()}
+            scaled = {"E_b": RIGID_FACTOR * scaled["E_b"], "E_t": RIGID_FACTOR * scaled["E_t"],
+                      "E_s": max(scaled["E_s"], RIGID_FACTOR), "E_e": max(scaled["E_e"], RIGID_FACTOR)}
         segments.append(Segment(seg.start / L, seg.end / L, **scaled))
     return ScaledRod(
         E_t=base["E_t"],

@@ -1,0 +1,15 @@
+"""``matid bench``: accuracy, cost and robustness of the rod solver, measured.
+
+Sections (each a module with ``run(quick) -> dict``):
+
+- :mod:`matid.bench.convergence`: error against elements and against run time
+  for each element and quadrature choice, with the observed order;
+- :mod:`matid.bench.stability`: stiff and extreme cases, each classified as
+  "ok", "raised ConvergenceError", or a loud failure ("wrong", ...);
+- :mod:`matid.bench.leave_out`: which model and energy terms ran, and the time
+  the planar reduction saves;
+- ``vs_3d``: :mod:`matid.bench.vs3d` when it is installed.
+
+:func:`matid.bench.cli.run_bench` writes ``bench.json``, ``bench.html`` and the
+plots; references are computed at run time, never stored.
+"""

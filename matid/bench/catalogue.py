@@ -1,0 +1,441 @@
+"""The stability catalogue: each case's scene, solve, reference, tolerance and basis.
+
+References are independent of the solver where one exists (closed forms, the
+elastica BVP of :mod:`matid.bench.references`) and are computed once, on first
+use, so the quick subset computes only what it needs. Where no independent
+reference exists (3D scenes) a fine-mesh or Richardson solve says so.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from functools import cache
+
+import numpy as np
+
+from matid.bench import scenes as S
+from matid.bench.checks import planar_state_check
+from matid.bench.common import tip_xz
+from matid.bench.references import (
+    Elastica,
+    circle_shape,
+    first_branch,
+    follow_elastica,
+    richardson,
+    rigid_tip_magnet,
+)
+from matid.bench.stability import PENALTY_C, Q_CRIT, Case
+from matid.rod.bend import BendModel
+from matid.rod.solve import solve_cantilever
+
+# -- references (computed once, on first use) ---------------------------------------------------
+
+
+@cache
+def _elastica(
+    alpha: float = 0.0, E_s: float = math.inf, E_e: float = math.inf, q: float = 0.0, psi_deg: float = 0.0
+) -> np.ndarray:
+    rod = Elastica(force=(alpha, 0.0), q=q, field_angle=math.radians(psi_deg), E_s=E_s, E_e=E_e)
+    return follow_elastica(rod)["tip"][:2]
+
+
+@cache
+def _first_branch(q: float, psi_deg: float) -> np.ndarray:
+    """Tip (x, z)/L of the first-mode branch bending towards +x (shooting scan; see references)."""
+    return first_branch(Elastica(q=q, field_angle=math.radians(psi_deg)))["tip"][:2]
+
+
+@cache
+def _spatial(elements: int, stiff: float = 1e6, rigid: bool = False) -> np.ndarray:
+    return (
+        np.asarray(solve_cantilever(S.spatial(stiff=stiff, rigid=rigid), elements=elements).position[-1])
+        / S.L
+    )
+
+
+@cache
+def _bend_reference(n: int, specimen: float, deflections: tuple[float, ...]) -> np.ndarray:
+    E = S.BEND_E
+    forces = [
+        BendModel(S.bend_geometry(specimen), elements=m).solve(*E, deflections).force for m in (n, 2 * n)
+    ]
+    return richardson(*forces)
+
+
+def _tip_error(reference: Callable[[], np.ndarray]) -> Callable[[object], float]:
+    return lambda sol: float(np.linalg.norm(tip_xz(sol, S.L) - reference()))
+
+
+def _tip3_error(reference: Callable[[], np.ndarray]) -> Callable[[object], float]:
+    return lambda sol: float(np.linalg.norm(np.asarray(sol.position[-1]) / S.L - reference()))
+
+
+def _arc_error(turns: float) -> Callable[[object], float]:
+    def error(sol) -> float:
+        exact = circle_shape(np.asarray(sol.s) / S.L, turns)
+        p = np.asarray(sol.position) / S.L
+        return float(
+            np.max(np.sqrt((p[:, 0] - exact[:, 0]) ** 2 + p[:, 1] ** 2 + (p[:, 2] - exact[:, 1]) ** 2))
+        )
+
+    return error
+
+
+def _straight_error(sol) -> float:
+    p = np.asarray(sol.position)
+    return float(np.max(np.abs(p - np.column_stack([0 * p[:, 0], 0 * p[:, 0], sol.s])))) / S.L
+
+
+def _solver(scene, **options) -> Callable[[], object]:
+    return lambda: solve_cantilever(scene, **options)
+
+
+def _planar_check(scene) -> Callable[[object], dict]:
+    return lambda sol: planar_state_check(scene, sol)
+
+
+# -- the cases --------------------------------------------------------------------------------------
+
+
+def cases(quick: bool = False) -> list[Case]:
+    """Every case (``quick``: the representative subset marked quick)."""
+    every = (
+        _penalty_cases()
+        + _stiffness_cases()
+        + _rotation_cases()
+        + _bifurcation_cases()
+        + _bend_cases(quick)
+        + _mesh_cases()
+        + _rigid_cases()
+    )
+    return [c for c in every if c.quick] if quick else every
+
+
+def _penalty_cases() -> list[Case]:
+    out = []
+    scene = S.spatial(stiff=1e6)
+    for c_u in (1e2, 1e4, 1e6, 1e8, 1e10, 1e12):
+        out.append(
+            Case(
+                "raw-quaternion penalty",
+                f"raw q, c_u = {c_u:.0e}",
+                {
+                    "scene": "3D: precurved, tip magnet, tip force; E_s = E_e = 1e6 E_b/L^2",
+                    "model": "full",
+                    "variant": "raw",
+                    "c_u (scaled)": c_u,
+                    "elements": 16,
+                },
+                _solver(scene, elements=16, model="full", variant="raw", c_u=c_u),
+                _tip3_error(lambda: _spatial(16)),
+                "normalised variant on the same mesh (isolates the penalty error)",
+                tolerance=1e-3,
+                penalty_c_u=c_u,
+                quick=c_u in (1e2, 1e6),
+                basis=f"0.1 % of L; the raw penalty's own error is <= {PENALTY_C:g}/c_u (measured ~1.4/c_u)",
+            )
+        )
+    out.append(
+        Case(
+            "precurved 3D rod",
+            "normalised q, default c_u",
+            {
+                "scene": "3D: precurved, tip magnet, tip force; E_s = E_e = 1e6 E_b/L^2",
+                "model": "full",
+                "variant": "normalised",
+                "elements": 16,
+            },
+            _solver(scene, elements=16, model="full"),
+            _tip3_error(lambda: richardson(_spatial(64), _spatial(128))),
+            "Richardson extrapolation of the normalised variant on 64 and 128 elements",
+            quick=True,
+        )
+    )
+    return out
+
+
+def _stiffness_cases() -> list[Case]:
+    out = []
+    for E in (1e2, 1e4, 1e6, 1e8, 1e10):
+        scene = S.tip_force(2.0, E_s=E, E_e=E)
+        out.append(
+            Case(
+                "slenderness",
+                f"tip force, E_s = E_e = {E:.0e}",
+                {"scene": "tip force F L^2/E_b = 2", "E_s L^2/E_b": E, "E_e L^2/E_b": E, "elements": 16},
+                _solver(scene, elements=16),
+                _tip_error(lambda E=E: _elastica(2.0, E, E)),
+                "planar rod BVP with the same E_s, E_e (solve_bvp, checked by shooting)",
+                check=_planar_check(scene),
+                quick=E in (1e2, 1e10),
+            )
+        )
+    for E in (1e2, 1e10):
+        scene = S.magnetic(6.4, 120.0, E_s=E, E_e=E)
+        out.append(
+            Case(
+                "slenderness",
+                f"magnetic cantilever, E_s = E_e = {E:.0e}",
+                {
+                    "scene": "magnetic cantilever q = 6.4, 120 deg",
+                    "E_s L^2/E_b": E,
+                    "E_e L^2/E_b": E,
+                    "elements": 16,
+                },
+                _solver(scene, elements=16),
+                _tip_error(lambda: _elastica(q=6.4, psi_deg=120.0)),
+                "elastica BVP (exact for any E_s, E_e: a uniform field exerts no force)",
+                check=_planar_check(scene),
+            )
+        )
+    for name, E_s, E_e, quick in (
+        ("Kirchhoff limit, E_s = 1e12", 1e12, 1e8, False),
+        ("soft shear, E_s = 1", 1.0, 1e4, True),
+    ):
+        scene = S.tip_force(2.0, E_s=E_s, E_e=E_e)
+        out.append(
+            Case(
+                "shear stiffness",
+                name,
+                {"scene": "tip force F L^2/E_b = 2", "E_s L^2/E_b": E_s, "E_e L^2/E_b": E_e, "elements": 16},
+                _solver(scene, elements=16),
+                _tip_error(lambda E_s=E_s, E_e=E_e: _elastica(2.0, E_s, E_e)),
+                "planar rod BVP with the same E_s, E_e (solve_bvp, checked by shooting)",
+                check=_planar_check(scene),
+                quick=quick,
+            )
+        )
+    return out
+
+
+def _rotation_cases() -> list[Case]:
+    out = []
+    for turns, model, quick in (
+        (0.625, "auto", True),
+        (1.0, "auto", False),
+        (1.5, "auto", False),
+        (1.0, "full", False),
+    ):
+        scene = S.end_moment(turns)
+        out.append(
+            Case(
+                "large rotation",
+                f"end moment, tip at {360 * turns:.0f} deg ({model})",
+                {"scene": "pure end moment", "M L/E_b": 2 * math.pi * turns, "model": model, "elements": 16},
+                _solver(scene, elements=16, model=model),
+                _arc_error(turns),
+                "closed form (circular arc), largest nodal error",
+                tolerance=1e-4,
+                basis="P2 at 16 elements: 3e-6 per turn^4 (convergence section, circle); factor >= 10",
+                check=_planar_check(scene) if model == "auto" else None,
+                quick=quick,
+            )
+        )
+    return out
+
+
+def _bifurcation_cases() -> list[Case]:
+    out = []
+    for factor, quick in ((0.95, False), (1.05, True)):
+        q = factor * Q_CRIT
+        scene = S.magnetic(q, 179.5)
+        out.append(
+            Case(
+                "near bifurcation",
+                f"field 179.5 deg, q = {factor:g} q_c",
+                {
+                    "scene": "magnetic cantilever",
+                    "q": q,
+                    "q_c": Q_CRIT,
+                    "field angle (deg)": 179.5,
+                    "elements": 16,
+                },
+                _solver(scene, elements=16),
+                _tip_error(lambda q=q: _first_branch(q, 179.5)),
+                "elastica, first-mode branch towards +x (shooting scan, checked by solve_bvp); "
+                "stability: tangent eigenvalues",
+                check=_planar_check(scene),
+                quick=quick,
+            )
+        )
+    scene = S.magnetic(0.9 * Q_CRIT, 180.0)
+    out.append(
+        Case(
+            "field reversal",
+            "field 180 deg, q = 0.9 q_c",
+            {"scene": "magnetic cantilever", "q": 0.9 * Q_CRIT, "field angle (deg)": 180.0, "elements": 16},
+            _solver(scene, elements=16),
+            _tip_error(lambda: np.array([0.0, 1.0])),
+            "the straight rod (stable below q_c)",
+            check=_planar_check(scene),
+        )
+    )
+    q = 1.2 * Q_CRIT
+    scene = S.magnetic(q, 180.0)
+    out.append(
+        Case(
+            "field reversal",
+            "field 180 deg, q = 1.2 q_c",
+            {"scene": "magnetic cantilever", "q": q, "field angle (deg)": 180.0, "elements": 16},
+            _solver(scene, elements=16),
+            lambda sol: float(
+                min(
+                    np.linalg.norm(tip_xz(sol, S.L) - _first_branch(q, 180.0) * [sign, 1.0])
+                    for sign in (1, -1)
+                )
+            ),
+            "the buckled state (either mirror image; elastica, shooting scan): the straight "
+            "rod is an equilibrium but unstable beyond q_c",
+            check=_planar_check(scene),
+            quick=True,
+        )
+    )
+    return out
+
+
+def _bend_cases(quick: bool) -> list[Case]:
+    E, n_ref = S.BEND_E, (128 if quick else 512)
+    d = (0.0005, 0.001, 0.0015, 0.002)
+    model = BendModel(S.bend_geometry(), elements=24)
+    slip = BendModel(S.bend_geometry(0.0105), elements=24)
+    path = tuple(np.linspace(0.0005, 0.012, 24))
+    return [
+        Case(
+            "three-point bend",
+            "to 20 % of the span (d = 2 mm)",
+            {"span (mm)": 10, "specimen (mm)": 30, "deflections (mm)": [1e3 * v for v in d], "elements": 24},
+            lambda: model.solve(*E, d),
+            lambda p: float(
+                np.max(
+                    np.abs(p.force - _bend_reference(n_ref, 0.03, d))
+                    / np.abs(_bend_reference(n_ref, 0.03, d))
+                )
+            ),
+            f"Richardson extrapolation of BendModel on {n_ref} and {2 * n_ref} elements",
+            tolerance=1e-4,
+            basis="relative force; 24 elements give ~1e-6 (convergence section); factor 100",
+            quick=True,
+        ),
+        Case(
+            "three-point bend",
+            "until slip-off (specimen 10.5 mm on a 10 mm span)",
+            {
+                "span (mm)": 10,
+                "specimen (mm)": 10.5,
+                "deflections (mm)": "0.5 ... 12 (24 steps)",
+                "elements": 24,
+            },
+            lambda: slip.solve(*E, path),
+            None,
+            "SlipOffError expected (a ConvergenceError subclass); converging to 12 mm would be wrong",
+            tolerance=None,
+            basis="must raise",
+            expect="SlipOffError",
+            quick=True,
+        ),
+    ]
+
+
+def _mesh_cases() -> list[Case]:
+    magnetic = S.magnetic(6.4, 120.0)
+    mag_ref = _tip_error(lambda: _elastica(q=6.4, psi_deg=120.0))
+    zero = S.magnetic(0.0, 120.0)
+    return [
+        Case(
+            "zero load",
+            "no field (planar)",
+            {"scene": "magnetic cantilever, q = 0", "elements": 16},
+            _solver(zero, elements=16),
+            _straight_error,
+            "the straight rod",
+            tolerance=1e-12,
+            basis="exact (round-off)",
+            check=_planar_check(zero),
+            quick=True,
+        ),
+        Case(
+            "zero load",
+            "no load (full model)",
+            {"scene": "tip force 0", "model": "full", "elements": 16},
+            _solver(S.tip_force(0.0), elements=16, model="full"),
+            _straight_error,
+            "the straight rod",
+            tolerance=1e-12,
+            basis="exact (round-off)",
+        ),
+        Case(
+            "mesh extremes",
+            "a single element",
+            {"scene": "magnetic cantilever q = 6.4", "elements": 1},
+            _solver(magnetic, elements=1),
+            mag_ref,
+            "elastica BVP",
+            tolerance=0.1,
+            basis="P2 error at 2 elements is 3e-3 and grows ~h^4: one element may be off by a few %",
+            quick=True,
+        ),
+        Case(
+            "mesh extremes",
+            "10^4 elements, E_s = E_e = 1e6",
+            {"scene": "magnetic cantilever q = 6.4", "E_s L^2/E_b": 1e6, "elements": 10_000},
+            _solver(S.magnetic(6.4, 120.0, E_s=1e6, E_e=1e6), elements=10_000),
+            mag_ref,
+            "elastica BVP",
+            tolerance=1e-6,
+            basis="discretisation error ~1e-16: only round-off (condition ~E h^-2)",
+        ),
+        Case(
+            "mesh extremes",
+            "10^4 elements, E_s = E_e = 1e8",
+            {"scene": "magnetic cantilever q = 6.4", "E_s L^2/E_b": 1e8, "elements": 10_000},
+            _solver(magnetic, elements=10_000),
+            mag_ref,
+            "elastica BVP",
+            tolerance=1e-6,
+            basis="discretisation error ~1e-16: only round-off (condition ~E h^-2 = 1e16)",
+            timeout_s=90.0,
+        ),
+    ]
+
+
+def _rigid_cases() -> list[Case]:
+    out = []
+    ref = rigid_tip_magnet(0.9, 0.1, 2.0, math.radians(120.0))[:2]
+    for stiff, n, quick in ((1e4, 16, False), (1e8, 16, True), (1e8, 64, False)):
+        scene = S.rigid_tip_magnet(stiff=stiff)
+        out.append(
+            Case(
+                "rigid segment",
+                f"rigid magnet body, E_s = E_e = {stiff:.0e}, {n} elements",
+                {
+                    "scene": "tip magnet m B L/E_b = 2 at 120 deg in a rigid body over the last 10 %",
+                    "E_s L^2/E_b": stiff,
+                    "E_e L^2/E_b": stiff,
+                    "elements": n,
+                },
+                _solver(scene, elements=n),
+                _tip_error(lambda: ref),
+                "closed form: arc under the magnet's torque, then the straight rigid body",
+                check=_planar_check(scene),
+                quick=quick,
+                basis="10 x the rigid body's own compliance (matid.rod.solve.RIGID_FACTOR = 1e6: ~1e-6)",
+            )
+        )
+    for stiff in (1e3, 1e6):
+        out.append(
+            Case(
+                "rigid segment",
+                f"3D, rigid magnet body, E_s = E_e = {stiff:.0e}",
+                {
+                    "scene": "3D: precurved, tip magnet in a rigid body (last 10 %), tip force",
+                    "E_s L^2/E_b": stiff,
+                    "model": "full",
+                    "elements": 16,
+                },
+                _solver(S.spatial(stiff=stiff, rigid=True), elements=16),
+                _tip3_error(lambda stiff=stiff: _spatial(48, stiff, True)),
+                "the same scene on 48 elements (self-convergence: no independent 3D reference)",
+            )
+        )
+    return out

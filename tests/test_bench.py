@@ -1,0 +1,199 @@
+"""matid bench: the quick run writes its outputs; every stability case class ends ok or in a named error.
+
+Each class of stability case has a fast representative here, asserting "ok" or a
+raised ConvergenceError (never a converged answer outside its tolerance); the
+classification itself is tested on stand-in results, so a bad answer can never
+be called ok. The full bench (all cases, fine meshes) is not run here.
+"""
+
+import argparse
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+from matid.bench import stability
+from matid.bench.catalogue import cases
+from matid.bench.cli import SECTIONS, parse_sections, register, run_bench
+from matid.errors import ConvergenceError
+
+CATALOGUE = {case.name: case for case in cases(quick=False)}
+
+#: One fast representative per case class (family): it must end ok or raise ConvergenceError.
+REPRESENTATIVES = [
+    "raw q, c_u = 1e+06",
+    "normalised q, default c_u",
+    "tip force, E_s = E_e = 1e+10",
+    "magnetic cantilever, E_s = E_e = 1e+02",
+    "soft shear, E_s = 1",
+    "Kirchhoff limit, E_s = 1e12",
+    "end moment, tip at 225 deg (auto)",
+    "end moment, tip at 540 deg (auto)",
+    "field 179.5 deg, q = 1.05 q_c",
+    "field 180 deg, q = 0.9 q_c",
+    "field 180 deg, q = 1.2 q_c",
+    "to 20 % of the span (d = 2 mm)",
+    "no field (planar)",
+    "no load (full model)",
+    "a single element",
+    "rigid magnet body, E_s = E_e = 1e+04, 16 elements",
+    "rigid magnet body, E_s = E_e = 1e+08, 16 elements",
+]
+
+
+def test_representatives_cover_every_case_class():
+    covered = {CATALOGUE[name].family for name in REPRESENTATIVES} | {"three-point bend", "mesh extremes"}
+    assert covered == {case.family for case in CATALOGUE.values()}
+
+
+@pytest.mark.parametrize("name", REPRESENTATIVES)
+def test_case_is_ok_or_raises_never_silently_wrong(name):
+    row = stability.run_case(CATALOGUE[name])
+    assert row["outcome"] in (stability.OK, stability.RAISED), (
+        f"{name}: {row['outcome']}, error {row['error']}, tolerance {row['tolerance']}: {row.get('message')}"
+    )
+    if row["outcome"] == stability.RAISED:
+        assert row["raised"] and row["message"]
+
+
+def test_slip_off_raises_slip_off_error():
+    row = stability.run_case(CATALOGUE["until slip-off (specimen 10.5 mm on a 10 mm span)"])
+    assert row["outcome"] == stability.RAISED
+    assert row["raised"] == "SlipOffError"
+
+
+def test_raw_penalty_at_small_c_u_is_flagged_not_ok():
+    row = stability.run_case(CATALOGUE["raw q, c_u = 1e+02"])
+    assert row["outcome"] in (stability.INACCURATE, stability.RAISED)
+    if row["outcome"] == stability.INACCURATE:
+        assert row["tolerance"] < row["error"] <= row["penalty_bound"]
+
+
+# -- the classification, on stand-in results -----------------------------------------------------
+
+
+def _case(**overrides) -> stability.Case:
+    base = dict(
+        family="test",
+        name="stand-in",
+        parameters={},
+        solve=lambda: None,
+        error=lambda r: r.err,
+        reference="none",
+        tolerance=1e-5,
+    )
+    return stability.Case(**{**base, **overrides})
+
+
+def _result(err: float):
+    return SimpleNamespace(err=err, newton_iterations=3, load_steps=1)
+
+
+@pytest.mark.parametrize(
+    ("err", "case", "outcome"),
+    [
+        (1e-7, {}, stability.OK),
+        (1e-3, {}, stability.WRONG),
+        (float("nan"), {}, stability.WRONG),
+        (1e-3, {"penalty_c_u": 1e2, "tolerance": 1e-4}, stability.INACCURATE),
+        (1.0, {"penalty_c_u": 1e2, "tolerance": 1e-4}, stability.WRONG),
+        (1e-7, {"check": lambda r: {"stable": False}}, stability.WRONG),
+        (1e-7, {"expect": "SlipOffError", "error": None}, stability.WRONG),
+    ],
+)
+def test_classification_never_calls_a_bad_answer_ok(err, case, outcome):
+    assert stability._judge(_case(**case), _result(err), 0.1, 1)["outcome"] == outcome
+
+
+def test_other_exceptions_are_crashes_not_hidden():
+    def boom():
+        raise FloatingPointError("NaN in the tangent")
+
+    assert stability.run_case(_case(solve=boom))["outcome"] == stability.CRASHED
+
+
+def test_a_failing_reference_is_not_blamed_on_the_case():
+    def no_reference(result):
+        raise ConvergenceError("the fine mesh failed")
+
+    assert stability.run_case(_case(solve=lambda: _result(0.0), error=no_reference))["outcome"] == (
+        stability.UNVERIFIED
+    )
+
+
+def test_raised_convergence_error_is_recorded():
+    def fail():
+        raise ConvergenceError("no way", load_factor=0.5)
+
+    row = stability.run_case(_case(solve=fail))
+    assert row["outcome"] == stability.RAISED and row["load_factor"] == 0.5 and not row["converged"]
+
+
+# -- command line and outputs -----------------------------------------------------------------------
+
+
+def test_register_adds_bench_with_defaults():
+    parser = argparse.ArgumentParser()
+    register(parser.add_subparsers())
+    args = parser.parse_args(["bench", "--quick"])
+    assert (
+        args.quick and args.out == Path("reports/bench") and parse_sections(args.sections) == list(SECTIONS)
+    )
+
+
+def test_unknown_section_is_named():
+    with pytest.raises(ValueError, match="sections: unknown nope"):
+        parse_sections("convergence,nope")
+
+
+def test_missing_vs3d_is_reported_not_faked(monkeypatch, tmp_path):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "matid.bench.vs3d" else real(name, *a)
+    )
+    run_bench(tmp_path, quick=True, sections="vs_3d")
+    doc = json.loads((tmp_path / "bench.json").read_text())
+    assert doc["sections"]["vs_3d"]["status"].startswith("not available")
+
+
+def test_quick_bench_writes_json_html_and_plots(tmp_path):
+    sections = ["convergence", "stability", "leave_out"]
+    code = run_bench(tmp_path, quick=True, sections=sections)
+    doc = json.loads((tmp_path / "bench.json").read_text())
+    assert code in (0, 1)  # 1 flags a stability case outside its tolerance; the files say which
+    assert set(doc["sections"]) == set(sections)
+    assert {"platform", "cpu", "cores", "python", "numpy", "scipy", "scikit-fem"} <= set(doc["machine"])
+    for name in ("convergence_error_vs_time.png", "convergence_error_vs_elements.png"):
+        assert (tmp_path / name).read_bytes().startswith(b"\x89PNG")
+    html = (tmp_path / "bench.html").read_text()
+    assert html.count("data:image/png;base64,") >= 2 and "Observed orders" in html
+    rows = doc["sections"]["convergence"]["rows"]
+    keys = {"scene", "model", "element", "quadrature", "elements", "runtime_s", "error", "reference"}
+    assert all(keys <= set(r) for r in rows)
+    orders = {
+        (o["scene"], o["element"], o["quadrature"]): o["observed_order"]
+        for o in doc["sections"]["convergence"]["orders"]
+    }
+    for scene in ("magnetic cantilever", "tip force", "circle"):
+        assert orders[(scene, "P2", "2-point Gauss")] > 3.5  # fourth order at the tip (nodes for the circle)
+        assert orders[(scene, "P1", "2-point Gauss")] < 1.0  # locked
+    rows = doc["sections"]["stability"]["rows"]
+    assert len(rows) >= 10
+    assert all(
+        {
+            "case",
+            "parameters",
+            "converged",
+            "newton_iterations",
+            "load_steps",
+            "runtime_s",
+            "error",
+            "outcome",
+        }
+        <= set(r)
+        for r in rows
+    )
+    assert {r["model"] for r in doc["sections"]["leave_out"]["rows"]} == {"planar", "full"}
