@@ -120,6 +120,7 @@ class Problem:
         self.paths: list[BendPath | None] = [None] * len(data)
         self.cache: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.solves = 0
+        self.cold_runtime_s: float | None = None  # one solve of every curve from scratch
 
     def params(self, x: np.ndarray) -> tuple[float, float]:
         E_s = float(np.exp(x[0]))
@@ -128,6 +129,7 @@ class Problem:
     def evaluate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.cache is not None and np.array_equal(self.cache[0], x):
             return self.cache[1], self.cache[2]
+        t0 = time.perf_counter()
         E_s, E_b = self.params(x)
         names = ("E_s", "E_b", "E_e")  # extra back-substitutions on the same factorisation
         res, jac = [], []
@@ -139,6 +141,8 @@ class Problem:
             cols = [path.dforce["E_s"] * E_s] + ([path.dforce["E_b"] * E_b] if self.fit_E_b else [])
             jac.append(np.column_stack(cols))  # d r / d log p
         r, J = np.concatenate(res), np.vstack(jac)
+        if self.cold_runtime_s is None:
+            self.cold_runtime_s = time.perf_counter() - t0
         self.cache = (x.copy(), r, J)
         return r, J
 
@@ -181,6 +185,7 @@ class Outcome:
     elements: int
     solves: int
     problem: Problem
+    levels: list  # [{elements, discretization_error, runtime_s}] of every mesh tried
 
 
 def _statistics(r: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, float]:
@@ -189,11 +194,13 @@ def _statistics(r: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, float]:
     return s2 * np.linalg.inv(J.T @ J), float(np.sqrt(s2))
 
 
-def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) -> float:
+def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) -> tuple[float, list]:
     """Richardson estimate of the relative error of E_s from a solve at half the elements.
 
     The coarse solve runs on every third point of each curve (and its last):
-    enough to map the force error into E_s, a third of the cost.
+    enough to map the force error into E_s, a third of the cost. Returns the
+    error and the two mesh levels as (elements, estimated error of E_s, run time
+    of one cold solve of all curves) - the coarse time scaled to all points.
     """
     r, J = problem.evaluate(x)
     picks = [np.unique(np.r_[np.arange(0, b.d.size, 3), b.d.size - 1]) for b in data]
@@ -203,30 +210,45 @@ def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) 
     ]
     coarse = Problem(sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=max(problem.models[0].elements // 2, 2))
     r_coarse, _ = coarse.evaluate(x)
+    scale = sum(b.d.size for b in data) / sum(b.d.size for b in sub)
     offsets = np.cumsum([0] + [b.d.size for b in data[:-1]])
     rows = np.concatenate([o + k for o, k in zip(offsets, picks, strict=True)])
     dF = (r[rows] - r_coarse) / (2.0**ORDER - 1.0)  # error of the fine forces at those points
     dx, *_ = np.linalg.lstsq(J[rows], dF, rcond=None)
-    return float(abs(dx[0]))
+    error = float(abs(dx[0]))
+    levels = [
+        {
+            "elements": coarse.models[0].elements,
+            "discretization_error": error * 2.0**ORDER,
+            "runtime_s": coarse.cold_runtime_s * scale,
+        },
+        {
+            "elements": problem.models[0].elements,
+            "discretization_error": error,
+            "runtime_s": problem.cold_runtime_s,
+        },
+    ]
+    return error, levels
 
 
 def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progress) -> Outcome:
     x = np.log([timoshenko_start(data, E_b)] + ([E_b] if fit_E_b else []))
     n = elements or START_ELEMENTS
-    solves = 0
+    solves, levels = 0, []
     while True:
         problem = Problem(data, E_b, E_e, fit_E_b=fit_E_b, elements=n)
         result = _solve(problem, x)
         x = result.x
         r, J = problem.evaluate(x)
         cov, sigma = _statistics(r, J)
-        fe = _fe_error(problem, x, data, E_e, fit_E_b)
+        fe, tried = _fe_error(problem, x, data, E_e, fit_E_b)
+        levels += [lvl for lvl in tried if lvl["elements"] not in {m["elements"] for m in levels}]
         solves += problem.solves + len(data)
         if progress:
             progress(f"E_s fit at {n} elements: E_s = {np.exp(x[0]):.6g} N, FE error {fe:.2e}")
         target = max(FE_ERROR_FRACTION * float(np.sqrt(cov[0, 0])), FE_ERROR_FLOOR)
         if elements or fe <= target or 2 * n > MAX_ELEMENTS:
-            return Outcome(x, r, J, cov, sigma, fe, n, solves, problem)
+            return Outcome(x, r, J, cov, sigma, fe, n, solves, problem, levels)
         n *= 2
 
 
@@ -268,6 +290,7 @@ def fit_three_point_bend(
         "discretization_error": out.fe_error,
         "runtime_s": round(time.perf_counter() - t0, 4),
         "rod_solves": out.solves,
+        "levels": out.levels,  # error against run time of every mesh level tried
     }
     estimates = [_log_estimate("E_s", E_s, sd_log, t, m, fe, tuple(warnings))]
     if fit_E_b:

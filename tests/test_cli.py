@@ -343,3 +343,16 @@ def _raise(exc: BaseException):
         raise exc
 
     return fit
+
+
+def test_e_s_reports_error_against_run_time(demo_run):
+    """Issue 5: every FE answer says how accurate it is and what it cost, per mesh level."""
+    fe = read_json(demo_run[3])["specimens"]["T1"]["E_s"]["fe"]
+    levels = fe["levels"]
+    assert len(levels) >= 2 and levels[-1]["elements"] == fe["elements"]
+    coarse, fine = levels[-2], levels[-1]
+    assert coarse["elements"] < fine["elements"]
+    assert coarse["discretization_error"] > fine["discretization_error"] > 0
+    assert all(level["runtime_s"] > 0 for level in levels)
+    html = (demo_run[3] / "report.html").read_text(encoding="utf-8")
+    assert html.count("Error against run time") >= 2  # one figure per specimen

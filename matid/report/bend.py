@@ -31,6 +31,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Polygon
+from matplotlib.ticker import NullFormatter
 
 from matid.report.figures import (
     COLOURS,
@@ -153,6 +154,20 @@ def bend_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
             partial(draw_sensitivity, plots=plots, units=units),
         ),
     ]
+    fe = (fit.estimate("E_s").extra.get("fe") if fit.estimate("E_s") else None) or {}
+    if fe.get("levels"):
+        est = fit.estimate("E_s")
+        drawings.append(
+            Drawing(
+                "Error against run time",
+                _fe_caption(fe, est.stderr / est.value if est.stderr else None),
+                f"Discretisation error of E_s against run time, {who}",
+                (FIT_SIZE[0], 2.8),
+                partial(
+                    draw_fe_levels, levels=fe["levels"], stat=est.stderr / est.value if est.stderr else None
+                ),
+            )
+        )
     shaped = tuple(c for c in plots.curves if c.shape is not None)
     if shaped:
         drawings.append(
@@ -165,6 +180,49 @@ def bend_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
             )
         )
     return drawings
+
+
+def draw_fe_levels(fig: Figure, rect: Rect, *, levels: Sequence[Mapping], stat: float | None) -> None:
+    """Estimated relative error of E_s against the run time of one cold solve, per mesh level."""
+    ax = _axes(fig, rect)
+    t = [float(lv["runtime_s"]) for lv in levels]
+    e = [max(float(lv["discretization_error"]), 1e-16) for lv in levels]
+    ax.loglog(t, e, "o-", color=COLOURS[0], linewidth=1.4, markersize=4)
+    for lv, ti, ei in zip(levels, t, e, strict=True):
+        ax.annotate(f"{lv['elements']} P2", (ti, ei), textcoords="offset points", xytext=(5, 4), fontsize=7)
+    if stat:
+        ax.axhline(stat, color="#999999", linestyle="--", linewidth=1)
+        ax.axhline(0.1 * stat, color="#bbbbbb", linestyle=":", linewidth=1)
+        quiet_legend(
+            ax,
+            [Line2D([], [], color="#999999", linestyle="--"), Line2D([], [], color="#bbbbbb", linestyle=":")],
+            ["statistical error of E_s (relative)", "FE target: a tenth of it"],
+            fontsize=7,
+            loc="upper right",
+            framealpha=0.9,
+        )
+    ax.set_xlim(min(t) / 1.5, max(t) * 1.5)
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xlabel("run time of one solve of all curves [s]")
+    ax.set_ylabel("discretisation error of E_s")
+    style_axes(ax)
+
+
+def _fe_caption(fe: Mapping, stat: float | None) -> str:
+    rows = "; ".join(
+        f"{lv['elements']} elements: error {float(lv['discretization_error']):.1e}, "
+        f"{float(lv['runtime_s']):.3f} s"
+        for lv in fe["levels"]
+    )
+    target = (
+        f" The fit kept the mesh where the error is below a tenth of the statistical error ({stat:.1e})."
+        if stat
+        else ""
+    )
+    return (
+        f"Richardson estimate (P2, order 4) of the relative discretisation error of E_s on each mesh "
+        f"level, against the time of one solve of all force curves from scratch: {rows}.{target}"
+    )
 
 
 def _span(curve: Curve) -> str:
