@@ -47,6 +47,13 @@ class RoundoffStagnation(NewtonFailure):
 
 #: No correction larger than this is ever accepted as "at the round-off floor".
 FLOOR_CAP = 1e-7
+#: Continuation effort before it gives up: Newton iterations x unknowns (and at least
+#: MIN_ITERATIONS iterations). Measured: the Kirchhoff-limit case (E_s L^2/E_b = 1e12,
+#: 99 unknowns) needs 1598 iterations in 253 steps (budget 1e5); 10^4 elements at
+#: E L^2/E_b = 1e8 crawl at steps of 5e-4 for minutes against round-off, which this
+#: bound (166 iterations there) turns into a ConvergenceError after ~11 s.
+WORK_BUDGET = 1e7
+MIN_ITERATIONS = 200
 
 
 def newton(
@@ -149,6 +156,7 @@ def follow(
     """
     info = info or NewtonInfo()
     opts = newton_options or {}
+    budget = max(MIN_ITERATIONS, int(WORK_BUDGET / max(x.size, 1)))
     lam, step = lam0, first_step
     slope: np.ndarray | None = None  # dx/dlam at the last converged state (tangent predictor)
     for target in targets:
@@ -172,6 +180,12 @@ def follow(
             info.iterations += its
             info.steps += 1
             info.lu = lu
+            if info.iterations > budget:
+                raise ConvergenceError(
+                    f"continuation gave up after {info.iterations} Newton iterations in {info.steps} "
+                    f"load steps (steps down to {step:.2g}): too little progress for the effort",
+                    load_factor=lam_try,
+                )
             lam, x = lam_try, x_new
             slope = tangent(system, x, lam, lu) if lam != targets[-1] else None
             if its <= fast:
