@@ -7,9 +7,10 @@ guess; :func:`follow` walks lam from its current value to each target in turn,
 predicting each step from the tangent dx/dlam at the last converged state
 (one back-substitution with its factorised tangent), halving the step when
 Newton fails and doubling it when Newton converges in a few iterations. A state
-is returned only when converged; when
-the step falls below ``min_step`` a ConvergenceError names the last load factor
-reached. NaN is a failure, never a value.
+is returned only when converged and admissible (``system.reject``); when the
+step falls below ``min_step``, Newton stagnates at round-off, or the work budget
+is spent, a ConvergenceError names the last load factor reached. NaN is a
+failure, never a value.
 """
 
 from __future__ import annotations
