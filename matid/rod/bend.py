@@ -1,18 +1,18 @@
 """The three-point-bend scene: deflection-controlled path, nose force, sensitivities.
 
 Scaled by the span S and E_b: lengths /S, forces /(E_b/S^2). Unknowns are the
-free planar dofs of the half rod (:mod:`matid.rod.contact`) and the two contact
-multipliers; the system is bordered,
+free planar dofs of the half rod (:mod:`matid.rod.contact`), the two contact
+multipliers and sigma, the arc length of the support vertex; the system is
 
-    [K - sum lam_c d2g_c   -G^T] [du  ]   = -[R - G^T lam]
-    [-G                      0 ] [dlam]      [-g        ]
+    [K - sum lam_c d2g_c   -G^T   dR/dsigma] [du    ]   = -[R - G^T lam]
+    [-G                      0       0     ] [dlam  ]      [-g        ]
+    [dh/du                   0       0     ] [dsigma]      [h         ]
 
 and the load factor moves the nose: d = lam d_max. A point contact puts a
 corner into the centreline of a shear-deformable rod, so each contact sits on
-a mesh vertex: the nose on vertex 0 (mid-span, by symmetry), the support on a
-vertex that is moved onto the contact section (the root of h in
-:mod:`matid.rod.contact`) after each solve, the state remapped by P2
-interpolation, until the two agree to ``S_TOL``. Sensitivities of the nose
+a mesh vertex: the nose on vertex 0 (mid-span, by symmetry), the support on the
+vertex at sigma, the mesh built around it, and h = 0 makes that vertex the
+contact section. Sensitivities of the nose
 force to the stiffnesses come from the linearised equilibrium at each converged
 point: A dX/dp = -dR/dp, one back-substitution with the factorised tangent
 (the energy is linear in each stiffness, so dR/dp is the residual of that one
@@ -92,7 +92,7 @@ class BendSystem:
 
     def nose(self, lam: float) -> Circle:
         rho = self.model.nose_rho
-        return Circle(self.rod.disc, (rho - lam * self.d_max, 0.0), rho)
+        return Circle((rho - lam * self.d_max, 0.0), rho)
 
     @property
     def roundoff(self) -> float:
@@ -111,13 +111,6 @@ class BendSystem:
             out.append((g, vertex * 3 + np.arange(3), grad, hess, grad[:2]))
         return out
 
-    def section(self, U: np.ndarray) -> tuple[float, np.ndarray]:
-        """h = (r - c).d3 at the support vertex and its gradient in (x, z, theta) there."""
-        x, z, th = U.reshape(-1, 3)[self.k]
-        dx, dz = x - self.support.centre[0], z - self.support.centre[1]
-        s, c = np.sin(th), np.cos(th)
-        return dx * s + dz * c, np.array([s, c, dx * c - dz * s])
-
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
         u, mult, sigma = X[: self.nu], X[self.nu : self.nu + 2], X[-1]
         self.at(sigma)
@@ -133,7 +126,7 @@ class BendSystem:
             G[c, idx[ok]] = grad[ok]
             gaps[c] = g
             blocks.append((dofs, -mult[c] * hess))
-        h, dh = self.section(U)
+        h, dh = self.support.section(U.reshape(-1, 3), self.k)
         R_all = np.concatenate([R - G.T @ mult, -gaps, [h]])
         if not tangent:
             return R_all, None
@@ -220,7 +213,7 @@ class BendModel:
         disc = Discretisation(self.vertices(0.5), 3, intorder=2)
         scaled = ScaledRod(E_t=1.0, E_s=E_s * S**2 / E_b, E_e=E_e * S**2 / E_b)
         rod = RodSystem(disc, scaled, model=PLANAR, fixed=(1, 2))  # z(0) = 0, theta(0) = 0
-        support = Circle(disc, (-self.support_rho, 0.5), self.support_rho)
+        support = Circle((-self.support_rho, 0.5), self.support_rho)
         return BendSystem(rod, self, support, d_max / S)
 
     def solve(

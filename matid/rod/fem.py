@@ -141,10 +141,6 @@ class Discretisation:
         Ke = np.einsum("eqkcld,kieq,ljeq->eicjd", H6, self.weighted, self.both, optimize=True)
         return R, self.pattern.matrix(Ke)
 
-    def integrate(self, w: np.ndarray) -> float:
-        """Integral of a pointwise density over the rod."""
-        return float(np.sum(w * self.dx))
-
 
 def graded_vertices(length: float, elements: int, *, breaks: tuple[float, ...] = ()) -> np.ndarray:
     """Uniform vertices on [0, length] with nodes forced at the ``breaks`` (segment ends, magnets)."""

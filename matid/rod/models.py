@@ -170,30 +170,6 @@ class RodSystem:
         w = self.density(variables[:nf], variables[nf:], lam)
         return w.g, w.h
 
-    def energy(self, X: np.ndarray, lam: float) -> float | None:
-        """Total potential at load factor lam (scaled), or None when a load has no potential."""
-        if self.model == FULL and any(self.rod.tip_moment):
-            return None  # a dead moment in 3D is not conservative
-        U = self.expand(X)
-        vals, ders = self.disc.interpolate(U)
-        nf = self.disc.nf
-        total = self.disc.integrate(self.density(list(vals), list(ders), lam))
-        node = U.reshape(-1, nf)
-        tip, rod = node[self.tip], self.rod
-        if self.model == PLANAR:
-            total -= lam * (
-                rod.tip_force[0] * tip[0] + rod.tip_force[2] * tip[1] + rod.tip_moment[1] * tip[2]
-            )
-            for k, m in self.magnet_nodes:
-                total -= lam * m * (np.sin(node[k, 2]) * rod.B[0] + np.cos(node[k, 2]) * rod.B[2])
-            return total
-        total -= lam * float(np.dot(rod.tip_force, tip[:3]))
-        for k, m in self.magnet_nodes:
-            total += float(kin.magnetic_energy(lam * m, kin.d3(node[k, 3:], self.variant), rod.B))
-        if self.variant == kin.NORMALISED:
-            total += float(np.sum(kin.unity_penalty(node[:, 3:].T, self.c_u)))
-        return total
-
     def _planar_derivatives(self, vals, ders, lam: float, tangent: bool):
         """Closed-form gradient and Hessian of the planar density (the Newton hot path).
 
