@@ -32,8 +32,10 @@ import numpy as np
 
 from matid import __version__
 from matid.errors import ConvergenceError, DataError, FitError
+from matid.fits.extension import fit_extension
+from matid.fits.linear import fit_bending, fit_torsion
+from matid.fits.shear import fit_three_point_bend
 from matid.ingest import Measurement, load_measurements
-from matid.linear import fit_bending, fit_torsion
 from matid.report import render_report
 from matid.results import (
     Estimate,
@@ -45,9 +47,7 @@ from matid.results import (
     stiffness_csv,
     stiffness_json,
 )
-from matid.shear import fit_three_point_bend
 from matid.study import Specimen, Study
-from matid.viscoelastic import fit_extension
 
 Progress = Callable[[str], None]
 

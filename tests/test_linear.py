@@ -10,8 +10,8 @@ from scipy.optimize import brentq
 
 from matid import study
 from matid.errors import DataError, FitError
+from matid.fits.linear import bending_torque, fit_bending, fit_torsion, linear_range, magnet_torque
 from matid.ingest import Measurement, Table
-from matid.linear import bending_torque, fit_bending, fit_torsion, linear_range, magnet_torque
 
 E_B = 2.0e-4  # N m^2
 E_T = 1.5e-4  # N m^2

@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from matid import shear, study
+from matid import study
 from matid.errors import FitError
 from matid.example.forward import bend_force, unloading_force
+from matid.fits import shear
 from matid.ingest import Measurement, Table
 from matid.pipeline import run_study
 from matid.results import Estimate, stiffness_json

@@ -11,8 +11,8 @@ from scipy.integrate import solve_ivp
 
 from matid import study
 from matid.errors import DataError, FitError
+from matid.fits.extension import fit_extension, sls_force, sls_ramp
 from matid.ingest import Measurement, Table
-from matid.viscoelastic import fit_extension, sls_force, sls_ramp
 
 K1, K2, ETA = 50.0, 30.0, 300.0  # N, N, N s: tau = 10 s
 TAU = ETA / K2
