@@ -112,6 +112,21 @@ class Measurement:
     test: Test
     table: Table
 
+    def in_window(self) -> np.ndarray:
+        """Rows inside every range of the test's ``window`` (all rows when it has none).
+
+        A window on a column the table lacks selects nothing; the study loader
+        rejects such windows at input, so this does not happen for loaded studies.
+        """
+        n = len(next(iter(self.table.columns.values()), ()))
+        mask = np.ones(n, dtype=bool)
+        for name, (low, high) in self.test.window.items():
+            values = self.table.columns.get(name)
+            if values is None:
+                return np.zeros(n, dtype=bool)
+            mask &= (values >= low) & (values <= high)
+        return mask
+
 
 @dataclass(frozen=True)
 class _Column:

@@ -51,6 +51,8 @@ class Specimen:
     id: str
     outer_diameter: float
     inner_diameter: float = 0.0
+    #: Poisson's ratio for the shear coefficient of E_s from torsion (None: stated default range).
+    poisson_ratio: float | None = None
 
     def __post_init__(self) -> None:
         if not self.id:
@@ -79,11 +81,19 @@ class Test:
     exclude: bool = False
     note: str = ""
     index: int = 0  #: position in study.toml, for messages
+    #: matid column name -> (low, high) in SI: only rows inside every range enter the fit
+    #: (data-contract section 7, ``window``); rows outside are shown, marked.
+    window: Mapping[str, tuple[float, float]] = field(default_factory=dict, hash=False)
+    #: three_point_bend: where deflection is measured, "nose" (crosshead) or "centreline".
+    deflection_at: str = "nose"
 
     def __post_init__(self) -> None:
         if self.kind not in TEST_KINDS:
             raise ValueError(f"unknown test kind {self.kind!r}")
         object.__setattr__(self, "params", MappingProxyType(dict(self.params)))
+        object.__setattr__(self, "window", MappingProxyType(dict(self.window)))
+        if self.deflection_at not in ("nose", "centreline"):
+            raise ValueError(f"deflection_at must be 'nose' or 'centreline', got {self.deflection_at!r}")
         for key in TEST_KINDS[self.kind]:
             value = self.params.get(key)
             if value is None or not value > 0:
