@@ -32,9 +32,10 @@ PARAMETER_KINDS: dict[str, str] = {
     "E_b": "bending_stiffness",
     "E_t": "bending_stiffness",
     "E_s": "force",
+    "E_s_torsion": "force",
 }
 #: Order of parameters in tables.
-PARAMETER_ORDER = ["E_b", "E_t", "E_s", "E_e", "sls_k1", "sls_k2", "sls_eta"]
+PARAMETER_ORDER = ["E_b", "E_t", "E_s", "E_s_torsion", "E_e", "sls_k1", "sls_k2", "sls_eta"]
 
 
 @dataclass(frozen=True)
@@ -46,7 +47,7 @@ class Estimate:
     stderr: float | None
     ci95: tuple[float, float] | None
     n_points: int
-    method: str  # "sls", "linear", "cosserat-fe", "fixed"
+    method: str  # "sls", "linear", "cosserat-fe", "shear-coefficient", "fixed"
     warnings: tuple[str, ...] = ()
     extra: Mapping[str, object] = field(default_factory=dict, hash=False)
 

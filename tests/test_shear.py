@@ -57,6 +57,11 @@ def noisy(force: np.ndarray, seed: int) -> np.ndarray:
     return force + rng.normal(0.0, NOISE * force.max(), force.size)
 
 
+def fit_rod(*args, **kwargs):
+    """The shear fit on data of the rod model itself, which has no local contact compliance."""
+    return shear.fit_three_point_bend(*args, local_compliance=(0.0, 0.0), **kwargs)
+
+
 def known(E_b: float = E_B, sd_b: float = 0.0, E_e: float = E_E, sd_e: float = 0.0) -> dict[str, Estimate]:
     """E_b and E_e as the earlier fits (or [[fixed]] entries) hand them to the shear fit."""
     return {
@@ -83,9 +88,7 @@ def with_unloading(curve10):
         hysteresis=0.08,
     )
     all_d, all_f = np.concatenate([d, d_un]), noisy(np.concatenate([force, f_un]), 12)
-    fit = shear.fit_three_point_bend(
-        [measurement(all_d, all_f, rig(0.010))], specimen=SPECIMEN, known=known()
-    )
+    fit = fit_rod([measurement(all_d, all_f, rig(0.010))], specimen=SPECIMEN, known=known())
     return all_d, all_f, fit
 
 
@@ -108,7 +111,7 @@ def test_round_trip_one_span(with_unloading):
     assert [e.parameter for e in fit.estimates] == ["E_s"]
     info = fit.info
     assert info["spans_mm"] == [10.0]
-    assert info["shear_share"][0] == pytest.approx(shear._shear_share(0.01, E_B, est.value), abs=1e-4)
+    assert info["shear_share"][0] == pytest.approx(shear.shear_share(0.01, E_B, est.value), abs=1e-4)
     assert info["E_b_used"] == E_B and info["E_e_used"] == E_E
     assert info["noise_N"] == pytest.approx(NOISE * fit.series[0].y.max(), rel=0.3)
     assert info["sensitivity_to_noise"] > 3  # a 10 % change in E_s stands well above the noise
@@ -125,9 +128,7 @@ def test_unloading_rows_are_excluded_and_counted(with_unloading):
     assert fit.info["unloading_rows_excluded"] == 8
     assert fit.estimate("E_s").n_points == 30
     # the same fit without the unloading rows gives the same E_s: they carry no weight
-    alone = shear.fit_three_point_bend(
-        [measurement(d[used], force[used], rig(0.010))], specimen=SPECIMEN, known=known()
-    )
+    alone = fit_rod([measurement(d[used], force[used], rig(0.010))], specimen=SPECIMEN, known=known())
     assert alone.estimate("E_s").value == pytest.approx(fit.estimate("E_s").value, rel=1e-8)
     assert alone.info["unloading_rows_excluded"] == 0
 
@@ -136,8 +137,8 @@ def test_held_stiffness_uncertainty_is_propagated(curve10):
     """A wrong E_b moves E_s as dlogE_s/dlogE_b says; its stderr enters the interval."""
     d, force = curve10
     data = [measurement(d, noisy(force, 5), rig(0.010))]
-    base = shear.fit_three_point_bend(data, specimen=SPECIMEN, known=known(sd_b=0.002 * E_B, sd_e=0.01 * E_E))
-    moved = shear.fit_three_point_bend(data, specimen=SPECIMEN, known=known(E_b=1.01 * E_B))
+    base = fit_rod(data, specimen=SPECIMEN, known=known(sd_b=0.002 * E_B, sd_e=0.01 * E_E))
+    moved = fit_rod(data, specimen=SPECIMEN, known=known(E_b=1.01 * E_B))
     held = base.info["held_stiffness_propagation"]
     assert set(held) == {"E_b", "E_e"}
     slope = np.log(moved.estimate("E_s").value / base.estimate("E_s").value) / np.log(1.01)
@@ -165,7 +166,7 @@ def test_two_spans_fit_E_s_and_E_b_jointly():
     for span, seed in rng_seeds.items():
         d, force = rod_curve(span)
         tests.append(measurement(d, noisy(force, seed), rig(span), name=f"3pb_S{1e3 * span:g}.csv"))
-    fit = shear.fit_three_point_bend(tests, specimen=SPECIMEN, known=known(E_b=1.05 * E_B), fit_E_b=True)
+    fit = fit_rod(tests, specimen=SPECIMEN, known=known(E_b=1.05 * E_B), fit_E_b=True)
     es, eb = fit.estimate("E_s"), fit.estimate("E_b")
     assert es.value == pytest.approx(E_S, rel=0.02)
     assert eb.value == pytest.approx(E_B, rel=0.015)
@@ -184,9 +185,7 @@ def test_two_spans_fit_E_s_and_E_b_jointly():
 def test_fit_E_b_needs_two_spans(curve10):
     d, force = curve10
     with pytest.raises(FitError, match="two or more spans"):
-        shear.fit_three_point_bend(
-            [measurement(d, force, rig(0.010))], specimen=SPECIMEN, known=known(), fit_E_b=True
-        )
+        fit_rod([measurement(d, force, rig(0.010))], specimen=SPECIMEN, known=known(), fit_E_b=True)
 
 
 # --------------------------------------------------------------------------- limits and warnings
@@ -204,14 +203,14 @@ def test_small_deflection_limit_is_timoshenko():
     d = np.linspace(0.0, 1e-5 * span, 15)
     force = shear.timoshenko_force(d, span, E_B, E_S)
     force = force + np.random.default_rng(0).normal(0.0, 1e-6 * force.max(), d.size)
-    fit = shear.fit_three_point_bend([measurement(d, force, rig(span))], specimen=SPECIMEN, known=known())
+    fit = fit_rod([measurement(d, force, rig(span))], specimen=SPECIMEN, known=known())
     assert fit.estimate("E_s").value == pytest.approx(E_S, rel=1e-3)
     assert fit.info["timoshenko_start_N"] == pytest.approx(E_S, rel=1e-3)
 
 
 def test_slender_span_is_flagged_short_span_is_not(with_unloading):
     d, force = rod_curve(0.040, specimen_length=0.06, d_max=0.002)
-    fit = shear.fit_three_point_bend(
+    fit = fit_rod(
         [measurement(d, noisy(force, 3), rig(0.040, 0.06))],
         specimen=SPECIMEN,
         known=known(sd_b=0.002 * E_B),
@@ -228,7 +227,7 @@ def test_coverage_of_the_interval(curve10):
     d, force = curve10
     covered = 0
     for seed in range(100, 110):
-        est = shear.fit_three_point_bend(
+        est = fit_rod(
             [measurement(d, noisy(force, seed), rig(0.010))], specimen=SPECIMEN, known=known()
         ).estimate("E_s")
         covered += est.ci95[0] < E_S < est.ci95[1]
@@ -241,9 +240,7 @@ def test_coverage_of_the_interval(curve10):
 def test_missing_E_b_names_it_and_the_specimen(curve10):
     d, force = curve10
     with pytest.raises(FitError, match=r"E_b.*T1|T1.*E_b"):
-        shear.fit_three_point_bend(
-            [measurement(d, force, rig(0.010))], specimen=SPECIMEN, known={"E_e": known()["E_e"]}
-        )
+        fit_rod([measurement(d, force, rig(0.010))], specimen=SPECIMEN, known={"E_e": known()["E_e"]})
 
 
 STUDY = """
@@ -288,19 +285,16 @@ def test_pipeline_with_fixed_E_b_and_E_e(tmp_path, with_unloading):
     (failure,) = failed.failures
     assert failure.kind == "three_point_bend" and "E_b" in failure.reason and "T1" in failure.reason
 
+    # nose travel at 10 mm on this tube: the local contact compliance (predicted from E_e and the
+    # wall) is 2-4x the shear compliance, so E_s is withheld with what to measure instead
     (tmp_path / "study.toml").write_text(STUDY + FIXED, encoding="utf-8")
     result = run_study(load_study(tmp_path))
-    assert result.ok and [f.kind for f in result.fits] == ["three_point_bend"]
+    assert not result.ok and result.fits == ()
+    (failure,) = result.failures
+    assert failure.kind == "three_point_bend" and failure.reason.startswith("E_s withheld")
+    assert "centreline" in failure.reason and "E_s_torsion" in failure.reason
     doc = json.loads(json.dumps(stiffness_json(result)))
-    entry = doc["specimens"]["T1"]
-    assert set(entry) == {"E_b", "E_s", "E_e"}
-    assert entry["E_b"]["method"] == entry["E_e"]["method"] == "fixed"
-    es = entry["E_s"]
-    assert es["method"] == "cosserat-fe" and es["unit"] == "N" and es["n_points"] == 30
-    assert es["value"] == pytest.approx(E_S, rel=0.01)
-    assert es["ci95"][0] < es["value"] < es["ci95"][1] and es["warnings"] == []
-    assert {"element", "elements", "discretization_error", "runtime_s"} <= set(es["fe"])
-    assert es["fe"]["element"] == "P2" and es["fe"]["discretization_error"] < 0.1 * es["stderr"] / es["value"]
+    assert set(doc["specimens"]["T1"]) == {"E_b", "E_e"}
 
 
 # --------------------------------------------------------------------------- the direct Jacobian
@@ -313,7 +307,9 @@ def test_jacobian_matches_central_differences(fit_E_b):
     for span in spans:
         d = np.linspace(0.0, 0.1 * span, 10)
         data.append(
-            shear.bend_data(measurement(d, shear.timoshenko_force(d, span, E_B, E_S), rig(span)), SPECIMEN)
+            shear.bend_data(
+                measurement(d, shear.timoshenko_force(d, span, E_B, E_S), rig(span)), SPECIMEN, E_B
+            )
         )
     problem = shear.Problem(data, E_B, E_E, fit_E_b=fit_E_b, elements=16)
     x = np.log([23.0, 6.0e-5][: 1 + fit_E_b])  # away from the data's values: non-zero residuals

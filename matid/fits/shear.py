@@ -35,18 +35,20 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import optimize, stats
 
 from matid.errors import ConvergenceError, DataError, FitError
+from matid.fits.bend_checks import MIN_SHEAR_SHARE, assess, consistency, shear_share
+from matid.fits.bend_window import Cut, check_plausible, cut
+from matid.fits.shear_torsion import agreement
 from matid.ingest import Measurement
 from matid.results import Estimate, Series, TestFit
 from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.study import Specimen
 
-MIN_SHEAR_SHARE = 0.05
 #: The FE error must stay below this fraction of the statistical standard error
 #: (or below FE_ERROR_FLOOR, for noise-free data whose standard error is zero).
 FE_ERROR_FRACTION = 0.1
@@ -58,23 +60,24 @@ ORDER = 4.0  # measured P2 order of the bend force (bench)
 
 @dataclass
 class BendData:
-    """One bend test: its geometry and loading branch (sorted by deflection)."""
+    """One bend test: its geometry and the rows in the fit (loading branch, sorted by deflection).
+
+    ``d`` is the nose travel, or with ``centreline`` the mid-span centreline
+    deflection relative to the support sections (contract section 7,
+    ``deflection_at``), in both cases after the toe compensation ``cut.d0``.
+    """
 
     measurement: Measurement
     geometry: BendGeometry
-    d: np.ndarray  # loading branch, increasing
+    d: np.ndarray  # rows in the fit, increasing
     F: np.ndarray
-    loading: np.ndarray  # mask over all rows of the file
+    loading: np.ndarray  # mask over all rows of the file: the rows in the fit
+    centreline: bool = False
+    cut: Cut | None = None
 
 
-def loading_branch(d: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Rows up to the largest deflection; the rows after it are the unloading branch."""
-    mask = np.zeros(d.size, dtype=bool)
-    mask[: int(np.argmax(d)) + 1] = True
-    return mask
-
-
-def bend_data(m: Measurement, specimen: Specimen) -> BendData:
+def bend_data(m: Measurement, specimen: Specimen, E_b: float) -> BendData:
+    """The rows of one bend file that enter the fit (:mod:`matid.fits.bend_window`), checked."""
     p = m.test.params
     try:
         geometry = BendGeometry(
@@ -82,15 +85,34 @@ def bend_data(m: Measurement, specimen: Specimen) -> BendData:
         )
     except ValueError as exc:
         raise DataError(str(exc), file=m.test.file) from exc
-    d, F = np.asarray(m.table["deflection"]), np.asarray(m.table["force"])
-    mask = loading_branch(d, F)
-    order = np.argsort(d[mask], kind="stable")
-    dl, Fl = d[mask][order], F[mask][order]
+    d, F = np.asarray(m.table["deflection"], float), np.asarray(m.table["force"], float)
+    window = m.in_window()
+    if not np.any(F[window] > 0):
+        check_plausible(d[window], F[window], span=geometry.span, E_b=E_b, file=m.test.file)
+    c = cut(d, F, window)
+    dl, Fl = d[c.used] - c.d0, F[c.used]
     if dl.size < 3 or dl[-1] <= 0:
         raise FitError(f"{m.test.file.name}: fewer than 3 loading points with positive deflection")
     if np.any(dl < 0):
         raise DataError("negative deflection on the loading branch", file=m.test.file, column="deflection")
-    return BendData(m, geometry, dl, Fl, mask)
+    check_plausible(dl, Fl, span=geometry.span, E_b=E_b, file=m.test.file)
+    centreline = getattr(m.test, "deflection_at", "nose") == "centreline"
+    return BendData(m, geometry, dl, Fl, c.used, centreline, c)
+
+
+def centreline_deflection(model: BendModel, path: BendPath) -> np.ndarray:
+    """Mid-span centreline deflection relative to the material sections over the supports (s = S/2).
+
+    From the solved states' public shape (``BendModel.half_state``): x(S/2) - x(0),
+    x up. It differs from the nose travel by the rotation of the support sections
+    (second order: +0.8 % at d/S = 1 % on a 8 mm span).
+    """
+    half = 0.5 * model.geometry.span
+    out = np.zeros(path.deflection.size)
+    for i in range(path.deflection.size):
+        s, x, _, _ = model.half_state(path, i)
+        out[i] = float(np.interp(half, s, x) - x[0])
+    return out
 
 
 def timoshenko_force(d: np.ndarray, S: float, E_b: float, E_s: float) -> np.ndarray:
@@ -118,6 +140,7 @@ class Problem:
         self.data, self.E_b, self.E_e, self.fit_E_b = data, E_b, E_e, fit_E_b
         self.models = [BendModel(b.geometry, elements=elements) for b in data]
         self.paths: list[BendPath | None] = [None] * len(data)
+        self.nose = [b.d.copy() for b in data]  # nose travel of the model at each row
         self.cache: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.solves = 0
         self.cold_runtime_s: float | None = None  # one solve of every curve from scratch
@@ -134,9 +157,7 @@ class Problem:
         names = ("E_s", "E_b", "E_e")  # extra back-substitutions on the same factorisation
         res, jac = [], []
         for k, (b, model) in enumerate(zip(self.data, self.models, strict=True)):
-            path = model.solve(E_b, E_s, self.E_e, b.d, sensitivities=names, start=self.paths[k])
-            self.paths[k] = path
-            self.solves += 1
+            path = self._path(k, b, model, E_b, E_s, names)
             res.append(path.force - b.F)
             cols = [path.dforce["E_s"] * E_s] + ([path.dforce["E_b"] * E_b] if self.fit_E_b else [])
             jac.append(np.column_stack(cols))  # d r / d log p
@@ -145,6 +166,29 @@ class Problem:
             self.cold_runtime_s = time.perf_counter() - t0
         self.cache = (x.copy(), r, J)
         return r, J
+
+    def _path(self, k: int, b: BendData, model: BendModel, E_b: float, E_s: float, names) -> BendPath:
+        """The solved path at the rows of test k: at the measured nose travel, or for centreline
+        data at the nose travel whose centreline deflection is the measured one (fixed point
+        d <- d * target / centreline(d); converges at the rate of the ~1 % difference).
+
+        The Jacobian neglects how that nose travel moves with the stiffnesses (a
+        second-order effect), which changes the convergence rate only, not the optimum.
+        """
+        for _ in range(8):
+            path = model.solve(E_b, E_s, self.E_e, self.nose[k], sensitivities=names, start=self.paths[k])
+            self.paths[k] = path
+            self.solves += 1
+            if not b.centreline:
+                return path
+            dc = centreline_deflection(model, path)
+            if np.all(np.abs(dc - b.d) <= 1e-9 * b.d[-1]):
+                return path
+            ratio = np.where(dc > 0, b.d / np.where(dc > 0, dc, 1.0), 1.0)
+            self.nose[k] = np.maximum.accumulate(self.nose[k] * ratio)
+        raise FitError(
+            f"{b.measurement.test.file.name}: the centreline deflection of the model did not match"
+        )
 
     def sensitivity(self, name: str) -> np.ndarray:
         """dF/dp at the last evaluation for any stiffness, stacked over tests."""
@@ -204,10 +248,7 @@ def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) 
     """
     r, J = problem.evaluate(x)
     picks = [np.unique(np.r_[np.arange(0, b.d.size, 3), b.d.size - 1]) for b in data]
-    sub = [
-        BendData(b.measurement, b.geometry, b.d[k], b.F[k], b.loading)
-        for b, k in zip(data, picks, strict=True)
-    ]
+    sub = [replace(b, d=b.d[k], F=b.F[k]) for b, k in zip(data, picks, strict=True)]
     coarse = Problem(sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=max(problem.models[0].elements // 2, 2))
     r_coarse, _ = coarse.evaluate(x)
     scale = sum(b.d.size for b in data) / sum(b.d.size for b in sub)
@@ -261,16 +302,31 @@ def fit_three_point_bend(
     fit_E_b: bool = False,
     elements: int | None = None,
     progress=None,
+    local_compliance: tuple[float, float] | None = None,
 ) -> TestFit:
-    """E_s (and E_b with ``fit_E_b``) of one specimen from all its bend tests (module docstring)."""
+    """E_s (and E_b with ``fit_E_b``) of one specimen from all its bend tests (module docstring).
+
+    Centreline tests, when there are any, are fitted alone and nose-travel tests
+    are shown but left out. Nose travel alone is assessed by
+    :func:`matid.fits.bend_checks.assess` (withheld or warned when the local
+    contact compliance would bias E_s); ``local_compliance`` (low, high) [m/N]
+    replaces its prediction, e.g. (0, 0) for data of the rod model itself.
+    """
     t0 = time.perf_counter()
     if not measurements:
         raise FitError("no three-point-bend tests to fit")
     E_b_est = _held(known, "E_b", specimen.id)
     E_e_est = _held(known, "E_e", specimen.id)
-    data = [bend_data(m, specimen) for m in measurements]
-    if fit_E_b and len({b.geometry.span for b in data}) < 2:
+    every = [bend_data(m, specimen, E_b_est.value) for m in measurements]
+    data = [b for b in every if b.centreline] or every
+    left_out = [b for b in every if b not in data]
+    nose = not data[0].centreline
+    spans = sorted({b.geometry.span for b in data})
+    if fit_E_b and len(spans) < 2:
         raise FitError("fitting E_b jointly with E_s needs bend tests at two or more spans")
+    check = assess(spans, E_b_est.value, specimen, known, nose=nose, local=local_compliance)
+    if check.withhold:
+        raise FitError(check.withhold)
     out = _fit_adaptive(
         data, E_b_est.value, E_e_est.value, fit_E_b=fit_E_b, elements=elements, progress=progress
     )
@@ -279,11 +335,28 @@ def fit_three_point_bend(
     m = out.r.size
     t = float(stats.t.ppf(0.975, max(m - out.J.shape[1], 1)))
     sd_log = float(np.sqrt(var_log))
-    shares = [
-        _shear_share(b.geometry.span, float(np.exp(out.x[1])) if fit_E_b else E_b_est.value, E_s)
-        for b in data
-    ]
-    warnings = _warnings(shares, sd_log, out)
+    E_b = float(np.exp(out.x[1])) if fit_E_b else E_b_est.value
+    shares = [shear_share(b.geometry.span, E_b, E_s) for b in data]
+    warnings = list(check.warnings)
+    if "reference_kGA_N" not in check.info and max(shares) < MIN_SHEAR_SHARE:
+        warnings.append(
+            f"E_s is not identifiable: shear is only {100 * max(shares):.1f} % of the bend compliance"
+        )
+    if sd_log > 0.1:
+        warnings.append(f"E_s is poorly determined: relative standard error {100 * sd_log:.0f} %")
+    per_span = _per_span(data, out, E_b, E_e_est.value, spans)
+    extra_info = {"assessment": check.info, "per_span": per_span}
+    if per_span:
+        extra_info["span_consistency"], warning = consistency(
+            [(p["span"], p["E_s"], p["sd_log"]) for p in per_span], E_s
+        )
+        warnings += [warning] if warning else []
+    if left_out:
+        extra_info["left_out_tests"] = {
+            b.measurement.test.file.name: "nose travel, left out: centreline tests of this specimen "
+            "are fitted (nose travel includes the local contact compliance)"
+            for b in left_out
+        }
     fe = {
         "element": "P2",
         "elements": out.elements,
@@ -292,21 +365,41 @@ def fit_three_point_bend(
         "rod_solves": out.solves,
         "levels": out.levels,  # error against run time of every mesh level tried
     }
-    estimates = [_log_estimate("E_s", E_s, sd_log, t, m, fe, tuple(warnings))]
+    est = _log_estimate("E_s", E_s, sd_log, t, m, fe, ())
+    if "E_s_torsion" in known:
+        extra_info["torsion_check"] = text = agreement(est, known["E_s_torsion"])
+        warnings += [text] if "disagree" in text else []
+    estimates = [replace(est, warnings=tuple(warnings))]
     if fit_E_b:
-        E_b = float(np.exp(out.x[1]))
         estimates.append(_log_estimate("E_b", E_b, float(np.sqrt(out.cov_log[1, 1])), t, m, fe, ()))
+    info = _info(data, out, shares, held, E_s, fe)
+    info.update(extra_info)
+    info["measurement"] = "nose travel" if nose else "centreline deflection"
     return TestFit(
         kind="three_point_bend",
         specimen=specimen.id,
-        tests=tuple(b.measurement.test for b in data),
+        tests=tuple(b.measurement.test for b in every),
         estimates=tuple(estimates),
-        series=tuple(_series(b, path) for b, path in zip(data, out.problem.paths, strict=True)),
+        series=tuple(_series(b, path) for b, path in zip(data, out.problem.paths, strict=True))
+        + tuple(_series(b, None) for b in left_out),
         x_label="deflection [m]",
         y_label="force [N]",
         correlation=_correlation(out.cov_log) if fit_E_b else {},
-        info=_info(data, out, shares, held, E_s, fe),
+        info=info,
     )
+
+
+def _per_span(data, out: Outcome, E_b: float, E_e: float, spans) -> list[dict]:
+    """E_s of each span alone (E_b held at the joint value, the joint mesh), for the consistency test."""
+    if len(spans) < 2:
+        return []
+    rows = []
+    for S in spans:
+        group = [b for b in data if b.geometry.span == S]
+        one = _fit_adaptive(group, E_b, E_e, fit_E_b=False, elements=out.elements, progress=None)
+        sd = float(np.sqrt(one.cov_log[0, 0]))
+        rows.append({"span": S, "span_mm": 1e3 * S, "E_s": float(np.exp(one.x[0])), "sd_log": sd})
+    return rows
 
 
 def _log_estimate(name: str, value: float, sd_log: float, t: float, n: int, fe: dict, warnings) -> Estimate:
@@ -315,11 +408,6 @@ def _log_estimate(name: str, value: float, sd_log: float, t: float, n: int, fe: 
     return Estimate(
         name, value, value * sd_log, ci, n_points=n, method="cosserat-fe", warnings=warnings, extra={"fe": fe}
     )
-
-
-def _shear_share(S: float, E_b: float, E_s: float) -> float:
-    shear, bend = S / (4 * E_s), S**3 / (48 * E_b)
-    return shear / (shear + bend)
 
 
 def _propagated_variance(out: Outcome, E_b: Estimate, E_e: Estimate, fit_E_b: bool):
@@ -338,27 +426,16 @@ def _propagated_variance(out: Outcome, E_b: Estimate, E_e: Estimate, fit_E_b: bo
     return var, held
 
 
-def _warnings(shares: list[float], sd_log: float, out: Outcome) -> list[str]:
-    warnings = []
-    share = max(shares)
-    if share < MIN_SHEAR_SHARE:
-        warnings.append(
-            f"E_s is not identifiable from these spans: shear is only {100 * share:.1f} % of the bend "
-            f"compliance, so a 1 % error in E_b moves E_s by about {(1 - share) / share:.0f} %; "
-            "use shorter spans"
-        )
-    if sd_log > 0.1:
-        warnings.append(f"E_s is poorly determined: relative standard error {100 * sd_log:.0f} %")
-    return warnings
-
-
-def _series(b: BendData, path: BendPath) -> Series:
+def _series(b: BendData, path: BendPath | None) -> Series:
+    """The whole file, with the model at the rows in the fit (none for a test left out)."""
     d = np.asarray(b.measurement.table["deflection"])
     y_fit = np.full(d.size, np.nan)
-    idx = np.nonzero(b.loading)[0][np.argsort(d[b.loading], kind="stable")]
-    y_fit[idx] = path.force
-    label = f"{b.measurement.test.file.name} (span {1e3 * b.geometry.span:g} mm)"
-    return Series(label, d, np.asarray(b.measurement.table["force"]), y_fit, b.loading)
+    used = b.loading if path is not None else np.zeros(d.size, dtype=bool)
+    if path is not None:
+        y_fit[np.nonzero(b.loading)[0]] = path.force  # loading rows are increasing in d (bend_window)
+    where = "centreline" if b.centreline else "nose"
+    label = f"{b.measurement.test.file.name} (span {1e3 * b.geometry.span:g} mm, {where})"
+    return Series(label, d, np.asarray(b.measurement.table["force"]), y_fit, used)
 
 
 def _correlation(cov: np.ndarray) -> dict[str, float]:
@@ -381,6 +458,10 @@ def _info(data, out: Outcome, shares, held, E_s: float, fe: dict) -> dict:
         "sensitivity_to_noise": change / out.sigma if out.sigma > 0 else float("inf"),
         "held_stiffness_propagation": held,
         "unloading_rows_excluded": int(sum((~b.loading).sum() for b in data)),
+        "rows_left_out": {
+            b.measurement.test.file.name: b.cut.reasons for b in data if b.cut and b.cut.reasons
+        },
+        "toe_offset_m": {b.measurement.test.file.name: b.cut.d0 for b in data if b.cut and b.cut.d0 > 0},
         "fe": fe,
         "plot_data": _plot_data(data, out, r10),
     }

@@ -1,0 +1,131 @@
+"""Whether a bend fit can stand as E_s: identifiability, nose-travel bias, span consistency.
+
+None of these use the fitted E_s, which may itself be biased (issue 11): the
+shear share and the local-compliance bias come from a reference k G A
+(torsion or extension, :func:`matid.fits.shear_torsion.reference_kGA`).
+
+Nose travel (physics.md section 7) adds a local contact compliance c_loc to the
+rod's compliance; a rod fit attributes it to shear,
+
+    1/E_s,fit = 1/E_s + 4 c_loc / S   ->   E_s,fit / E_s = c_s / (c_s + c_loc),  c_s = S / (4 E_s).
+
+With the predicted ranges of c_loc and k G A: if even the most favourable
+span gives E_s,fit / E_s < ``WITHHOLD_RATIO`` (a number 2x wrong), E_s is
+withheld with what to measure instead; if the least favourable gives a bias
+beyond ``WARN_BIAS``, it carries a warning saying so.
+
+Several spans: the chi^2 of the per-span estimates about the joint one,
+sum_k (ln E_k - ln E)^2 / sd_k^2 on K - 1 degrees of freedom, warns at p < ``CONSISTENCY_P``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+from scipy import stats
+
+from matid.fits.shear_torsion import local_compliance, reference_kGA, young_modulus
+from matid.results import Estimate
+from matid.study import Specimen
+
+MIN_SHEAR_SHARE = 0.05
+WITHHOLD_RATIO = 0.5
+WARN_BIAS = 0.1
+CONSISTENCY_P = 0.01
+#: Relative sd floor of a per-span estimate (discretisation, model form) for the chi^2.
+SPAN_SD_FLOOR = 0.003
+
+
+def shear_share(S: float, E_b: float, E_s: float) -> float:
+    """(S/4E_s) / (S^3/48E_b + S/4E_s): the shear part of the bend compliance."""
+    shear, bend = S / (4 * E_s), S**3 / (48 * E_b)
+    return shear / (shear + bend)
+
+
+@dataclass
+class Assessment:
+    withhold: str | None = None
+    warnings: list[str] = field(default_factory=list)
+    info: dict = field(default_factory=dict)
+
+
+def assess(
+    spans: Sequence[float],
+    E_b: float,
+    specimen: Specimen,
+    known: Mapping[str, Estimate],
+    *,
+    nose: bool,
+    local: tuple[float, float] | None,
+) -> Assessment:
+    """Identifiability and (for nose travel) local-compliance bias, from the reference k G A."""
+    out = Assessment()
+    ref = reference_kGA(known, specimen)
+    if ref is None:
+        return out
+    lo, hi, source = ref
+    shares = [shear_share(S, E_b, hi) for S in spans]
+    out.info.update(
+        {"reference_kGA_N": [lo, hi], "reference_source": source, "reference_shear_share": shares}
+    )
+    share = max(shares)
+    if share < MIN_SHEAR_SHARE:
+        out.warnings.append(
+            f"E_s is not identifiable from these spans: with k G A about {hi:.3g} N ({source}) shear is only "
+            f"{100 * share:.1f} % of the bend compliance, so a 1 % error in E_b moves E_s by about "
+            f"{(1 - share) / share:.0f} %; use shorter spans"
+        )
+    if not nose:
+        return out
+    if local is None:
+        E = young_modulus(known, specimen)
+        local = local_compliance(specimen, E) if E else (0.0, 0.0)
+    out.info["local_compliance_m_per_N"] = list(local)
+    if local[1] <= 0:
+        return out
+    best = max(_ratio(S, lo, local[0]) for S in spans)
+    worst = min(_ratio(S, hi, local[1]) for S in spans)
+    out.info["nose_bias_ratio"] = [worst, best]
+    S_best = max(spans)
+    why = (
+        f"the nose travel includes a local contact compliance (indentation and ovalisation of the wall, "
+        f"about {1e3 * local[0]:.2g}-{1e3 * local[1]:.2g} mm/N predicted from the wall and E) that is "
+        f"{local[0] / (S_best / (4 * lo)):.2g}-{local[1] / (S_best / (4 * hi)):.2g} times "
+        "the shear compliance "
+        f"S/(4 E_s) at span {1e3 * S_best:g} mm (k G A {lo:.3g}-{hi:.3g} N from {source}), so a rod fit to "
+        f"nose travel returns E_s at {worst:.2f}-{best:.2f} of its value"
+    )
+    instead = (
+        'measure the mid-span centreline deflection relative to the supports (deflection_at = "centreline", '
+        "side camera or DIC) or use E_s_torsion from a torsion test"
+    )
+    if best < WITHHOLD_RATIO:
+        out.withhold = f"E_s withheld: {why}; {instead}"
+    elif worst < 1 - WARN_BIAS:
+        out.warnings.append(f"E_s is likely too low: {why}; {instead}")
+    return out
+
+
+def _ratio(S: float, kGA: float, c_loc: float) -> float:
+    c_s = S / (4 * kGA)
+    return c_s / (c_s + c_loc)
+
+
+def consistency(per_span: Sequence[tuple[float, float, float]], joint: float) -> tuple[dict, str | None]:
+    """chi^2 of per-span (span, E_s, sd of ln E_s) about the joint E_s; a warning when they disagree."""
+    chi2 = 0.0
+    for _, value, sd in per_span:
+        chi2 += (math.log(value / joint) / max(sd, SPAN_SD_FLOOR)) ** 2
+    dof = len(per_span) - 1
+    p = float(stats.chi2.sf(chi2, dof))
+    info = {"chi2": chi2, "dof": dof, "p": p}
+    if p >= CONSISTENCY_P:
+        return info, None
+    values = ", ".join(f"{v:.3g} N at {1e3 * S:g} mm" for S, v, _ in per_span)
+    return info, (
+        f"the spans disagree beyond their noise (per-span E_s {values}; chi2 = {chi2:.3g} on {dof} dof, "
+        f"p = {p:.2g}): the joint E_s hides a span-dependent error such as local contact compliance "
+        "(measure the centreline deflection) or a wrong E_b"
+    )

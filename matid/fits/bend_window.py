@@ -1,0 +1,127 @@
+"""Which rows of a three-point bend enter the E_s fit, and why the others do not.
+
+A bend record is cut in three steps, each shown in the report (``Series.used``
+and ``info["rows_left_out"]``):
+
+1. ``window`` of the test (data-contract section 7, ``Measurement.in_window``).
+2. The **loading branch** ends at the peak force: rows after it (yield,
+   fracture, or unloading at falling deflection) are left out. Rows before the
+   peak at a deflection not above every earlier one (a crosshead reversal) are
+   left out too.
+3. The **toe** (slack taken up at low force) is compensated as ASTM D790
+   (section 12.1) does: the tangent of steepest slope of the loading curve is
+   extended to zero force; its deflection intercept d0 becomes the zero of
+   deflection (d <- d - d0) and rows at d <= d0 are left out. It is applied
+   only when a toe is there (:func:`toe_offset`) and d0 > 0.
+
+Before any solver runs, :func:`check_plausible` rejects data that make the
+specimen absurd: an initial compliance d/F below the pure-bending compliance
+S^3/(48 E_b) means a negative shear compliance, e.g. a force column in a wrong
+unit (DataError naming file and column); an all-zero force column is a FitError.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from matid.errors import DataError, FitError
+
+#: A toe is compensated when the initial slope is below this fraction of the typical early slope.
+TOE_SLOPE_RATIO = 0.5
+#: Compliance below this fraction of pure bending: the data are absurd (wrong unit), not noisy.
+ABSURD_COMPLIANCE_RATIO = 0.5
+
+
+@dataclass(frozen=True)
+class Cut:
+    """Rows of one bend file in the fit (``used``), the toe shift d0, and why rows were left out."""
+
+    used: np.ndarray  # bool over all rows of the file
+    d0: float  # deflection zero moved by the toe compensation [m]
+    reasons: dict[str, int]  # reason -> rows left out for it
+
+
+def _slopes(d: np.ndarray, F: np.ndarray, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares slope dF/dd and intercept of every run of ``width`` consecutive rows."""
+    k = np.arange(d.size - width + 1)
+    idx = k[:, None] + np.arange(width)[None, :]
+    x, y = d[idx], F[idx]
+    xm, ym = x.mean(axis=1, keepdims=True), y.mean(axis=1, keepdims=True)
+    sxx = ((x - xm) ** 2).sum(axis=1)
+    slope = np.where(sxx > 0, ((x - xm) * (y - ym)).sum(axis=1) / np.where(sxx > 0, sxx, 1.0), 0.0)
+    return slope, ym[:, 0] - slope * xm[:, 0]
+
+
+def toe_offset(d: np.ndarray, F: np.ndarray) -> float:
+    """ASTM D790 toe compensation: deflection where the tangent after the toe reaches zero force.
+
+    A toe is there when the initial slope is below ``TOE_SLOPE_RATIO`` of the
+    median slope over the first half of the branch (a smoothly stiffening curve,
+    as the rod's on round rollers, stays near it). The tangent is taken where the
+    slope has levelled off after the toe (within 5 % of the slope one window
+    later), as D790 takes it on the linear region. 0 when there is no toe.
+    """
+    width = max(4, d.size // 8)
+    if d.size < 3 * width:
+        return 0.0
+    slope, intercept = _slopes(d, F, width)
+    reference = float(np.median(slope[: max(1, slope.size // 2)]))
+    if reference <= 0 or slope[0] >= TOE_SLOPE_RATIO * reference:
+        return 0.0
+    later = slope[np.minimum(np.arange(slope.size) + width, slope.size - 1)]
+    level = np.nonzero((slope >= 0.95 * later) & (slope > TOE_SLOPE_RATIO * reference))[0]
+    j = int(level[0]) if level.size else int(np.argmax(slope))
+    d0 = -intercept[j] / slope[j]
+    return float(d0) if d0 > 0 else 0.0
+
+
+def cut(d: np.ndarray, F: np.ndarray, window: np.ndarray) -> Cut:
+    """The rows of a bend record that enter the fit (module docstring, steps 1-3)."""
+    reasons: dict[str, int] = {}
+    used = window.copy()
+    if (~window).any():
+        reasons["outside the test's window"] = int((~window).sum())
+    idx = np.nonzero(used)[0]
+    if idx.size:
+        peak = idx[int(np.argmax(F[idx]))]
+        after = used & (np.arange(d.size) > peak)
+        if after.any():
+            reasons["after the peak force (yield, fracture or unloading)"] = int(after.sum())
+        used &= ~after
+        earlier = np.r_[-np.inf, np.maximum.accumulate(np.where(used, d, -np.inf))[:-1]]
+        back = used & (d <= earlier)
+        if back.any():
+            reasons["deflection not above every earlier row (reversal)"] = int(back.sum())
+        used &= ~back
+    idx = np.nonzero(used)[0]
+    d0 = toe_offset(d[idx], F[idx]) if idx.size else 0.0
+    if d0 > 0:
+        toe = used & (d <= d0)
+        reasons[f"toe (slack) before the ASTM D790 zero at {1e3 * d0:.4g} mm"] = int(toe.sum())
+        used &= ~toe
+    return Cut(used, d0, reasons)
+
+
+def check_plausible(d: np.ndarray, F: np.ndarray, *, span: float, E_b: float, file) -> None:
+    """Reject bend data that no tube can give, before the solver (module docstring)."""
+    if not np.any(F > 0):
+        raise FitError(
+            f"{file.name}: the force column has no positive value on the loading branch "
+            '(all zero, or compression recorded as negative: see negate = ["force"])'
+        )
+    n = max(3, d.size // 5)
+    dd, ff = d[:n], F[:n]
+    if np.dot(dd, ff) <= 0:
+        raise FitError(f"{file.name}: no rising force at the start of the loading branch")
+    compliance = float(np.dot(dd, dd) / np.dot(dd, ff))
+    bending = span**3 / (48.0 * E_b)
+    if compliance < ABSURD_COMPLIANCE_RATIO * bending:
+        raise DataError(
+            f"the initial slope F/d = {1 / compliance:.4g} N/m is {bending / compliance:.3g} times "
+            f"stiffer than bending alone with E_b = {E_b:.4g} N m^2 (negative shear compliance): "
+            "check the units of the force and deflection columns",
+            file=file,
+            column="force",
+        )
