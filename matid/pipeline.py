@@ -35,6 +35,7 @@ from matid.errors import ConvergenceError, DataError, FitError
 from matid.fits.extension import fit_extension
 from matid.fits.linear import fit_bending, fit_torsion
 from matid.fits.shear import fit_three_point_bend
+from matid.fits.shear_torsion import with_E_s_torsion
 from matid.ingest import Measurement, load_measurements
 from matid.report import render_report
 from matid.results import (
@@ -96,7 +97,7 @@ def _fit_bending(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
 
 
 def _fit_torsion(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
-    return fit_torsion(measurements, specimen=specimen.id)
+    return with_E_s_torsion(fit_torsion(measurements, specimen=specimen.id), specimen)
 
 
 def _fit_shear(measurements, *, specimen: Specimen, fixed, known) -> TestFit:

@@ -41,7 +41,7 @@ import numpy as np
 from scipy import optimize, stats
 
 from matid.errors import ConvergenceError, DataError, FitError
-from matid.fits.bend_checks import MIN_SHEAR_SHARE, assess, consistency, shear_share
+from matid.fits.bend_checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
 from matid.fits.bend_window import Cut, check_plausible, cut
 from matid.fits.shear_torsion import agreement
 from matid.ingest import Measurement
@@ -303,6 +303,7 @@ def fit_three_point_bend(
     elements: int | None = None,
     progress=None,
     local_compliance: tuple[float, float] | None = None,
+    model_form: float | None = None,
 ) -> TestFit:
     """E_s (and E_b with ``fit_E_b``) of one specimen from all its bend tests (module docstring).
 
@@ -311,6 +312,9 @@ def fit_three_point_bend(
     :func:`matid.fits.bend_checks.assess` (withheld or warned when the local
     contact compliance would bias E_s); ``local_compliance`` (low, high) [m/N]
     replaces its prediction, e.g. (0, 0) for data of the rod model itself.
+    ``model_form``: relative compliance uncertainty of the rod model against a
+    continuum (default :func:`matid.fits.bend_checks.model_form_variance`; 0 for
+    data of the rod model itself).
     """
     t0 = time.perf_counter()
     if not measurements:
@@ -332,6 +336,8 @@ def fit_three_point_bend(
     )
     E_s = float(np.exp(out.x[0]))
     var_log, held = _propagated_variance(out, E_b_est, E_e_est, fit_E_b)
+    mf = model_form_variance(data, E_b_est.value, check.info, float(np.exp(out.x[0])), model_form)
+    var_log += mf["var_log"]
     m = out.r.size
     t = float(stats.t.ppf(0.975, max(m - out.J.shape[1], 1)))
     sd_log = float(np.sqrt(var_log))
@@ -345,7 +351,7 @@ def fit_three_point_bend(
     if sd_log > 0.1:
         warnings.append(f"E_s is poorly determined: relative standard error {100 * sd_log:.0f} %")
     per_span = _per_span(data, out, E_b, E_e_est.value, spans)
-    extra_info = {"assessment": check.info, "per_span": per_span}
+    extra_info = {"assessment": check.info, "per_span": per_span, "model_form": mf}
     if per_span:
         extra_info["span_consistency"], warning = consistency(
             [(p["span"], p["E_s"], p["sd_log"]) for p in per_span], E_s
@@ -366,6 +372,8 @@ def fit_three_point_bend(
         "levels": out.levels,  # error against run time of every mesh level tried
     }
     est = _log_estimate("E_s", E_s, sd_log, t, m, fe, ())
+    if check.widen > 1:
+        est = replace(est, ci95=(est.ci95[0], est.ci95[1] * check.widen))
     if "E_s_torsion" in known:
         extra_info["torsion_check"] = text = agreement(est, known["E_s_torsion"])
         warnings += [text] if "disagree" in text else []

@@ -32,10 +32,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 
-from matid.results import Estimate
+from matid.results import Estimate, TestFit
 from matid.study import Specimen
 
 #: Poisson's ratio range used when the specimen does not give one (polymers).
@@ -102,6 +103,14 @@ def e_s_torsion(E_t: Estimate, specimen: Specimen) -> Estimate:
         warnings=warnings,
         extra=extra,
     )
+
+
+def with_E_s_torsion(fit: TestFit, specimen: Specimen) -> TestFit:
+    """The torsion fit with E_s_torsion added next to E_t (data-contract section 7)."""
+    E_t = fit.estimate("E_t")
+    if E_t is None:
+        return fit
+    return replace(fit, estimates=(*fit.estimates, e_s_torsion(E_t, specimen)))
 
 
 def reference_kGA(known: Mapping[str, Estimate], specimen: Specimen) -> tuple[float, float, str] | None:
