@@ -22,6 +22,7 @@ import pytest
 
 from matid.example import forward
 from matid.example.generate import PARAMETER_UNITS, generate
+from matid.fits.shear_torsion import hutchinson_k
 from matid.study import load_study
 
 EXAMPLE = Path(forward.__file__).parent
@@ -175,10 +176,46 @@ def test_ground_truth_has_every_parameter(demo, alt):
             assert p["sls_k1"] == p["E_e"]
             assert 5e-5 <= p["E_b"] <= 1e-4
             assert 0.6 <= p["E_t"] / p["E_b"] <= 0.8
-            assert 100 <= p["E_e"] <= 200 and 10 <= p["E_s"] <= 30
+            assert 100 <= p["E_e"] <= 200 and 10 <= p["E_s"] <= 50
             assert 0.5 <= p["sls_k2"] / p["sls_k1"] <= 1.0
             assert 2.0 <= p["sls_eta"] / p["sls_k2"] <= 20.0
             assert truth["relaxation_time_s"][sid] == pytest.approx(p["sls_eta"] / p["sls_k2"])
+
+
+def test_demo_E_s_is_the_shear_coefficient_times_G_A(demo):
+    """Demo truth follows physics.md section 7: E_s = k(nu) A E_t / J (Hutchinson), nu = the
+    specimen's poisson_ratio (T1: 0.42) or 0.4 (T2 states none); T1 has a centreline bend."""
+    folder, truth = demo
+    study = tomllib.loads((folder / "study.toml").read_text(encoding="utf-8"))
+    for entry in study["specimen"]:
+        a = 0.5e-3 * float(entry["outer_diameter"].split()[0])
+        b = 0.5e-3 * float(entry["inner_diameter"].split()[0])
+        nu = entry.get("poisson_ratio", 0.4)
+        p = truth["specimens"][entry["id"]]
+        A, J = math.pi * (a * a - b * b), math.pi / 2 * (a**4 - b**4)
+        assert p["E_s"] == pytest.approx(hutchinson_k(nu, a, b) * A * p["E_t"] / J, rel=1e-3)
+    assert study["specimen"][0]["poisson_ratio"] == 0.42
+    centre = [t for t in study["test"] if t.get("deflection_at") == "centreline"]
+    assert [(t["specimen"], t["file"]) for t in centre] == [("T1", "3pb_T1_S10_centreline.csv")]
+
+
+def test_centreline_file_holds_the_rod_models_centreline(demo):
+    """Deflection column = the rod's centreline at the nose travels of the setup (um), force in mN."""
+    folder, truth = demo
+    spec = next(t for t in truth["tests"] if t["file"] == "3pb_T1_S10_centreline.csv")
+    _, columns = read_csv(folder / spec["file"])
+    assert columns["deflection"][0] == "um" and columns["force"][0] == "mN"
+    s = spec["setup_si"]
+    p = truth["specimens"]["T1"]
+    nose = np.linspace(0.0, s["d_max"], s["n_load"])
+    rig = {k: s[k] for k in ("span", "specimen_length", "support_radius", "nose_radius")}
+    centre, force = forward.bend_centreline(
+        nose, E_b=p["E_b"], E_s=p["E_s"], E_e=p["E_e"], outer_diameter=2.4e-3, **rig
+    )
+    assert np.allclose(columns["deflection"][1] * 1e-6, centre, atol=1e-9)
+    assert np.all(centre[1:] > nose[1:])  # the support sections rotate: centreline > nose travel
+    noise = truth["noise"]["bend_force_rel_sd"] * force.max()
+    assert np.std(columns["force"][1] * 1e-3 - force) < 2 * noise
 
 
 def test_study_toml_names_existing_files_and_says_synthetic(demo, alt):
@@ -265,6 +302,8 @@ def test_files_hold_the_ground_truth(request, variant):
                                            E_t=p["E_t"], onset=law["onset"], scale=law["scale"],
                                            sign=law["sign"])  # fmt: skip
             ratio = _residual_ratio(si(cols, "torque"), model, 0.005 * np.max(np.abs(model)))
+        elif setup.get("deflection_at") == "centreline":
+            continue  # test_centreline_file_holds_the_rod_models_centreline
         else:
             d, force = si(cols, "deflection"), si(cols, "force")
             n = setup["n_load"]

@@ -168,6 +168,26 @@ def bend_force(
     return force.reshape(d.shape)
 
 
+def bend_centreline(d: np.ndarray, **kwargs) -> tuple[np.ndarray, np.ndarray]:
+    """(centreline deflection, force) at increasing nose deflections ``d`` (same keywords as
+    :func:`bend_force`): the mid-span centreline relative to the sections over the supports
+    (:func:`matid.fits.shear.centreline_deflection`), as a side camera measures it."""
+    from matid.fits.shear import centreline_deflection
+    from matid.rod.bend import BendGeometry, BendModel
+
+    stiff = {k: kwargs.pop(k) for k in ("E_b", "E_s", "E_e")}
+    geometry = BendGeometry(
+        kwargs["span"],
+        kwargs["specimen_length"],
+        kwargs["support_radius"],
+        kwargs["nose_radius"],
+        kwargs["outer_diameter"],
+    )
+    model = BendModel(geometry, elements=BEND_ELEMENTS)
+    path = model.solve(stiff["E_b"], stiff["E_s"], stiff["E_e"], np.asarray(d, dtype=float))
+    return centreline_deflection(model, path), path.force
+
+
 def unloading_force(
     d: np.ndarray, loading_force: np.ndarray, *, d_max: float, hysteresis: float
 ) -> np.ndarray:

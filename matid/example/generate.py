@@ -33,6 +33,7 @@ import numpy as np
 
 from .files import TestSpec, render_csv, render_toml
 from .forward import (
+    bend_centreline,
     bend_force,
     sls_force,
     tip_angle,
@@ -106,6 +107,12 @@ def simulate_three_point(spec: TestSpec, p: dict, outer: float, rng: np.random.G
     def model(d: np.ndarray) -> np.ndarray:
         return bend_force(d, E_b=p["E_b"], E_s=p["E_s"], E_e=p["E_e"], outer_diameter=outer,
                           **geometry)  # fmt: skip
+
+    if s.get("deflection_at") == "centreline":  # the tube's centreline, loading only
+        centre, force = bend_centreline(load, E_b=p["E_b"], E_s=p["E_s"], E_e=p["E_e"],
+                                        outer_diameter=outer, **geometry)  # fmt: skip
+        force = force + rng.normal(0.0, NOISE["bend_force_rel_sd"] * np.max(force), force.size)
+        return {"time": load / s["rate"], "deflection": centre, "force": force}
 
     force = np.concatenate([
         model(load),

@@ -26,11 +26,12 @@ MT = 1e-3
 MM = 1e-3
 
 #: Ground truth of the demo (SI): E_b = EI and E_t = GJ [N m^2], E_e = EA and E_s = kGA [N],
-#: SLS k1, k2 [N], eta [N s].
+#: SLS k1, k2 [N], eta [N s]. E_s = k(nu) A E_t / J with Hutchinson's k (physics.md section 7):
+#: T1 at its stated poisson_ratio 0.42, T2 at nu = 0.4 (its study entry states none).
 DEMO_TRUTH = {
-    "T1": {"E_b": 6.5e-5, "E_t": 4.4e-5, "E_e": 120.0, "E_s": 21.0,
+    "T1": {"E_b": 6.5e-5, "E_t": 4.4e-5, "E_e": 120.0, "E_s": 26.31,
            "sls_k1": 120.0, "sls_k2": 90.0, "sls_eta": 450.0},  # tau = 5 s
-    "T2": {"E_b": 9.0e-5, "E_t": 6.5e-5, "E_e": 190.0, "E_s": 28.0,
+    "T2": {"E_b": 9.0e-5, "E_t": 6.5e-5, "E_e": 190.0, "E_s": 47.9,
            "sls_k1": 190.0, "sls_k2": 114.0, "sls_eta": 1368.0},  # tau = 12 s
 }  # fmt: skip
 
@@ -95,6 +96,20 @@ def _three_point(sid, columns, dialect, *, preamble="short"):
     )  # fmt: skip
 
 
+def _centreline(sid, columns, dialect):
+    """A bend whose deflection is the tube's mid-span centreline relative to the supports (video/DIC)."""
+    return TestSpec(
+        kind="three_point_bend", specimen=sid, file=f"3pb_{sid}_S10_centreline.csv",
+        setup={"span": 10 * MM, "specimen_length": 30 * MM, "support_radius": 2 * MM,
+               "nose_radius": 2 * MM, "d_max": 0.3 * MM, "n_load": 20, "n_unload": 0,
+               "rate": 0.01 * MM, "deflection_at": "centreline"},
+        toml={"span": "10 mm", "specimen_length": "30 mm", "support_radius": "2 mm",
+              "nose_radius": "2 mm", "deflection_at": "centreline"},
+        columns=columns, dialect=dialect,
+        description="span 10 mm, centreline deflection by side camera 0..0.3 mm (20 rows), loading only",
+    )  # fmt: skip
+
+
 def demo_layout() -> dict:
     """The committed demo study; every choice here is fixed (the seed only sets the noise)."""
     t_f_e = (("time", "s"), ("force", "N"), ("elongation", "mm"))
@@ -116,6 +131,7 @@ def demo_layout() -> dict:
         _torsion("T1", 60, (("twist_angle", "deg"), ("torque", "mN mm")), Dialect()),
         _torsion("T1", 26, (("twist_angle", "rad"), ("torque", "dyn cm")), Dialect()),
         _three_point("T1", (("deflection", "mm"), ("force", "N")), Dialect(), preamble="full"),
+        _centreline("T1", (("time", "s"), ("deflection", "um"), ("force", "mN")), Dialect()),
         _extension("T2", "r1", ramp(0.001, 0.05), "ramp 0.1 %/s to 5 % strain", t_f_e, SEMICOLON),
         _extension("T2", "r2", ramp(0.01, 0.05), "ramp 1 %/s to 5 % strain",
                    (("time", "s"), ("force", "dyn"), ("strain", "%")), Dialect()),
@@ -134,7 +150,7 @@ def demo_layout() -> dict:
     return {
         "name": "SYNTHETIC demo: Pebax-like catheter tubes T1, T2 (matid example)",
         "specimens": [
-            {"id": "T1", "outer_diameter": "2.4 mm", "inner_diameter": "1.6 mm"},
+            {"id": "T1", "outer_diameter": "2.4 mm", "inner_diameter": "1.6 mm", "poisson_ratio": 0.42},
             {"id": "T2", "outer_diameter": "2.2 mm", "inner_diameter": "1.4 mm"},
         ],
         "truth": DEMO_TRUTH,
