@@ -72,6 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
     _register_demo(subparsers)
     _register_solve(subparsers)
     _register_bench(subparsers)
+    _register_design(subparsers)
     return parser
 
 
@@ -305,3 +306,54 @@ def _fail(args: argparse.Namespace, exc: BaseException, code: int, message: str)
         traceback.print_exception(exc, file=sys.stderr)
     print(f"matid: error: {message}", file=sys.stderr)
     return code
+
+
+def _register_design(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "design",
+        parents=[_common()],
+        help="which spans and which bend measurement identify E_s to a given precision",
+        description="Experiment design for E_s (matid.design): predicted precision of E_s per span for "
+        "centreline deflection and nose travel, from the tube's section, E_b and E_e or E_t.",
+    )
+    parser.add_argument("--outer-diameter", required=True, help='e.g. "2.4 mm"')
+    parser.add_argument("--inner-diameter", default="0 mm", help='e.g. "1.6 mm" (default solid)')
+    parser.add_argument("--E-b", dest="E_b", required=True, help='bending stiffness, e.g. "6.5e-5 N m^2"')
+    parser.add_argument("--E-e", dest="E_e", help='extension stiffness, e.g. "120 N"')
+    parser.add_argument("--E-t", dest="E_t", help='torsion stiffness, e.g. "4.4e-5 N m^2"')
+    parser.add_argument("--poisson-ratio", type=float, help="default: the range 0.3-0.5")
+    parser.add_argument("--precision", type=_fraction, default=0.05, help="relative sd wanted (default 0.05)")
+    parser.add_argument("--spans", default="6,8,10,15,20,30", help="spans in mm, comma-separated")
+    parser.set_defaults(command=_cmd_design)
+
+
+def _cmd_design(args: argparse.Namespace) -> int:
+    from matid.design import design
+    from matid.design import summary as design_summary
+    from matid.study import Specimen
+    from matid.units import UnitError, to_si
+
+    try:
+        values = {
+            "outer": to_si(args.outer_diameter, "length"),
+            "inner": to_si(args.inner_diameter, "length"),
+            "E_b": to_si(args.E_b, "bending_stiffness"),
+            "E_e": to_si(args.E_e, "force") if args.E_e else None,
+            "E_t": to_si(args.E_t, "bending_stiffness") if args.E_t else None,
+        }
+        spans = [1e-3 * float(s) for s in args.spans.split(",")]
+        specimen = Specimen("design", values["outer"], values["inner"], args.poisson_ratio)
+    except (UnitError, ValueError) as exc:
+        raise DataError(f"matid design: {exc}") from exc
+    if not (values["E_e"] or values["E_t"]):
+        raise DataError("matid design: give --E-e or --E-t (the shear reference k G A comes from them)")
+    options = design(
+        specimen,
+        E_b=values["E_b"],
+        E_e=values["E_e"],
+        E_t=values["E_t"],
+        precision=args.precision,
+        spans=spans,
+    )
+    print(design_summary(options, args.precision))
+    return 0
