@@ -36,6 +36,7 @@ Public API (stable, used by linear, extension, shear fits):
 - :func:`lag1` (residuals, segments) -> float
 - :func:`runs` (residuals, segments) -> (n_runs, expected, p_too_few)
 - :func:`effective_n` (residuals, segments) -> float
+- :func:`variance_factor` (residuals, segments, n_params) -> ((1 + rho) / (1 - rho), n_eff)
 - :func:`ar1_covariance` (jacobian, residuals, segments) -> :class:`Covariance`
 - :func:`lack_of_fit` (residuals, n_params, noise=None, segments=None) -> :class:`LackOfFit`
 - :func:`interval` (value, se, dof) -> (low, high)
@@ -282,9 +283,9 @@ class LackOfFit:
             f"; the interval is widened {inflation:.1f}x for it" if inflation and inflation > 1.05 else ""
         )
         text = (
-            f"{model} does not describe the data within their noise: residual rms {self.rms:.3g} is "
-            f"{math.sqrt(self.reduced_chi2):.1f}x the point-to-point noise {self.noise:.3g} "
-            f"(reduced chi2 {self.reduced_chi2:.3g}) and the residuals run in long stretches of one "
+            f"{model} does not describe the data within their noise: the residuals are "
+            f"{math.sqrt(self.reduced_chi2):.1f}x the point-to-point noise "
+            f"(reduced chi2 {self.reduced_chi2:.3g}) and run in long stretches of one "
             f"sign ({self.runs} runs where {self.runs_expected:.0f} are expected, lag-1 r = "
             f"{self.lag1:.2f}): a systematic misfit, or noise that wanders slowly{widened}"
         )
@@ -312,3 +313,14 @@ def lack_of_fit(
     chi2 = (rms / sd) ** 2 if sd > 0 else (math.inf if rms > 0 else 1.0)
     observed, expected, p = runs(r, segments)
     return LackOfFit(n, n_params, sd, rms, chi2, lag1(r, segments), observed, expected, p, n >= MIN_POINTS)
+
+
+def variance_factor(
+    residuals: np.ndarray, segments: Sequence[int] | None = None, n_params: int = 0
+) -> tuple[float, float]:
+    """(f, n_eff): the AR(1) factor ``f = (1 + rho) / (1 - rho)`` by which correlated residuals
+    inflate the variance of a smooth contrast (a slope, a curvature term), and the
+    effective sample size ``n / f``; (1, n) when rho is not significant."""
+    r = np.asarray(residuals)
+    rho = _rho(r, segments, n_params)
+    return (1.0 + rho) / (1.0 - rho), _neff(r.size, rho)
