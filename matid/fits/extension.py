@@ -190,7 +190,18 @@ def _run(m: Measurement) -> _Run:
     if used.sum() < 5:
         raise DataError(f"only {int(used.sum())} rows inside the window; a fit needs 5", file=table.path)
     outside = {"outside the window": int((~used).sum())} if not used.all() else {}
+    # provisionally slack: near zero after the strip was loaded; the fit then decides
+    loaded = np.cumsum(force > 0.1 * float(np.max(force))) > 0
+    provisional = used & loaded & _near_zero(force, noise)
+    if provisional.any() and (used & ~provisional).sum() >= 5:
+        outside[SLACK] = int(provisional.sum())
+        return _Run(name, t, eps, force, noise, rate, used, used & ~provisional, outside)
     return _Run(name, t, eps, force, noise, rate, used, used, outside)
+
+
+def _near_zero(force: np.ndarray, noise: float) -> np.ndarray:
+    """Rows whose force is within 3 noise plus 2 % of the run's peak of zero, or below."""
+    return force < 3.0 * noise + 0.02 * float(np.max(np.abs(force)))
 
 
 # --------------------------------------------------------------------------- starts
@@ -343,11 +354,12 @@ SLACK = "slack strip (force about 0 while the model would push)"
 def _slack(runs: Sequence[_Run], k: Mapping[str, float]) -> list[_Run]:
     """Runs with their slack rows left out: a strip carries no compression, so where the
     model force is below -3 noise while the measured force stays within 3 noise plus 2 %
-    of the run's peak of zero (or below), the strip is slack and the SLS does not apply."""
+    of the run's peak of zero (or below), the strip is slack and the SLS does not apply.
+    Rows near zero force after loading start out left out (:func:`_run`): a fit through
+    them would not predict the compression that gives them away."""
     out = []
     for run, f in zip(runs, _models(runs, k), strict=True):
-        near_zero = run.force < 3.0 * run.noise + 0.02 * float(np.max(np.abs(run.force)))
-        slack = run.window & (f < -3.0 * run.noise) & near_zero
+        slack = run.window & (f < -3.0 * run.noise) & _near_zero(run.force, run.noise)
         left = {key: v for key, v in run.left_out.items() if key != SLACK}
         if slack.any():
             left[SLACK] = int(slack.sum())

@@ -16,9 +16,11 @@ noise sigma_j. The covariance of (log k0, log k_i, log tau_i) is the AR(1) sandw
 :mod:`matid.fits.stats` on the numerical Jacobian.
 
 Choice (:func:`choose`): n = 1, 2, 3 by the Bayesian information criterion on the same
-weights, BIC_n = N ln(RSS_n / N) + (2n + 1) ln N; a model with more arms is preferred
-only when it lowers BIC by more than BIC_MARGIN (strong evidence, Kass & Raftery 1995).
-AIC = N ln(RSS/N) + 2 (2n + 1) is reported beside it.
+weights, BIC_n = N' ln(RSS_n / N) + (2n + 1) ln N', with N' the effective number of
+independent residuals of the SLS fit (N' = N for uncorrelated residuals; correlated noise
+would otherwise buy arms); a model with more arms is preferred only when it lowers BIC by
+more than BIC_MARGIN (strong evidence, Kass & Raftery 1995). AIC = N' ln(RSS/N) +
+2 (2n + 1) is reported beside it.
 
 Reported parameter names: ``prony_k0`` (equilibrium stiffness, N), ``prony_k1`` ..
 ``prony_k3`` (arm stiffnesses, N), ``prony_tau1`` .. ``prony_tau3`` (relaxation times, s),
@@ -123,11 +125,18 @@ class PronyFit:
 
     @property
     def bic(self) -> float:
-        return self.n * math.log(self.rss / self.n) + self.n_params * math.log(self.n)
+        return self.bic_at(self.n)
 
     @property
     def aic(self) -> float:
-        return self.n * math.log(self.rss / self.n) + 2.0 * self.n_params
+        return self.aic_at(self.n)
+
+    def bic_at(self, n_eff: float) -> float:
+        """BIC with the information of ``n_eff`` independent residuals."""
+        return n_eff * math.log(self.rss / self.n) + self.n_params * math.log(n_eff)
+
+    def aic_at(self, n_eff: float) -> float:
+        return n_eff * math.log(self.rss / self.n) + 2.0 * self.n_params
 
     def values(self) -> dict[str, float]:
         """Parameter name -> value, arms fastest first."""
@@ -215,16 +224,21 @@ class Choice:
 
     fits: dict[int, PronyFit]
     best: int
+    n_eff: float  # independent residuals the criteria count (see choose)
 
     @property
     def delta_bic(self) -> float:
         """BIC of the SLS minus that of the preferred model (0 when the SLS is preferred)."""
-        return self.fits[1].bic - self.fits[self.best].bic
+        return self.fits[1].bic_at(self.n_eff) - self.fits[self.best].bic_at(self.n_eff)
 
     def table(self) -> dict[str, dict[str, float]]:
         """n arms -> BIC, AIC and weighted RSS, for ``TestFit.info``."""
         return {
-            f"{n} arm{'s' if n > 1 else ''}": {"bic": f.bic, "aic": f.aic, "rss_weighted": f.rss}
+            f"{n} arm{'s' if n > 1 else ''}": {
+                "bic": f.bic_at(self.n_eff),
+                "aic": f.aic_at(self.n_eff),
+                "rss_weighted": f.rss,
+            }
             for n, f in sorted(self.fits.items())
         }
 
@@ -239,11 +253,15 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
         fits[n] = fit
     if 1 not in fits:
         return None
+    # correlated residuals carry less information than their count: the criteria use the
+    # SLS fit's effective sample size, else slow noise wander buys extra arms
+    cov = fits[1].covariance
+    n_eff = cov.n_eff if cov is not None else float(fits[1].n)
     best = 1
     for n in sorted(fits)[1:]:
-        if fits[best].bic - fits[n].bic > BIC_MARGIN:
+        if fits[best].bic_at(n_eff) - fits[n].bic_at(n_eff) > BIC_MARGIN:
             best = n
-    return Choice(fits, best)
+    return Choice(fits, best, n_eff)
 
 
 # --------------------------------------------------------------------------- reporting
