@@ -17,7 +17,7 @@ noise sigma_j. The covariance of (log k0, log k_i, log tau_i) is the AR(1) sandw
 
 Choice (:func:`choose`): n = 1, 2, 3 by the Bayesian information criterion on the same
 weights, BIC_n = N' ln(RSS_n / N) + (2n + 1) ln N', with N' the effective number of
-independent residuals of the SLS fit (N' = N for uncorrelated residuals; correlated noise
+independent residuals of the fit with the most arms (N' = N for uncorrelated residuals; correlated noise
 would otherwise buy arms); a model with more arms is preferred only when it lowers BIC by
 more than BIC_MARGIN (strong evidence, Kass & Raftery 1995). AIC = N' ln(RSS/N) +
 2 (2n + 1) is reported beside it.
@@ -194,8 +194,8 @@ def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
     return PronyFit(
         n_terms,
         float(coef[0]),
-        tuple(coef[1:]),
-        tuple(np.exp(log_taus)),
+        tuple(float(k) for k in coef[1:]),
+        tuple(float(t) for t in np.exp(log_taus)),
         resid,
         resid.size,
         _cov(data, x, n_terms),
@@ -254,8 +254,9 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
     if 1 not in fits:
         return None
     # correlated residuals carry less information than their count: the criteria use the
-    # SLS fit's effective sample size, else slow noise wander buys extra arms
-    cov = fits[1].covariance
+    # effective sample size of the richest fit (its residuals are the closest to the noise;
+    # the SLS's own would count a misfit as correlated noise), else noise wander buys arms
+    cov = fits[max(fits)].covariance
     n_eff = cov.n_eff if cov is not None else float(fits[1].n)
     best = 1
     for n in sorted(fits)[1:]:
