@@ -377,3 +377,23 @@ def test_torsion_interval_coverage(phi, low, high):
     assert low <= hits <= high
     if phi == 0.0:
         assert warned <= 3  # i.i.d. noise on a true line: (almost) never a warning
+
+
+@pytest.mark.parametrize("phi, low, high", [(0.0, 90, 98), (0.95, 85, 100)])
+def test_bending_interval_coverage_dense_records(phi, low, high):
+    """95 % intervals of E_b over 100 seeded records (two lengths, 300 rows each, torque
+    column with a tare offset), i.i.d. or AR(1)-correlated noise."""
+    hits = 0
+    for seed in range(100):
+        rng = np.random.default_rng(2000 + seed)
+        runs = []
+        for i, length in enumerate((0.03, 0.05)):
+            theta = np.linspace(0.0, 1.0, 300)
+            full = E_B * 1.0 / length
+            wander = ar1_noise(rng, 300, phi) if phi else rng.normal(size=300)
+            torque = E_B * theta / length + 0.003 * full + 0.01 * full * wander
+            params = {"free_length": length}
+            runs.append(measurement("magnetic_bending", f"b{i}.csv", params, tip_angle=theta, torque=torque))
+        est = fit_bending(runs, specimen="T1").estimate("E_b")
+        hits += est.ci95[0] < E_B < est.ci95[1]
+    assert low <= hits <= high
