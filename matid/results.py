@@ -33,9 +33,18 @@ PARAMETER_KINDS: dict[str, str] = {
     "E_t": "bending_stiffness",
     "E_s": "force",
     "E_s_torsion": "force",
+    # n-term Prony (generalised Maxwell) solid, matid.fits.prony
+    "prony_k0": "force",
+    "prony_k1": "force",
+    "prony_k2": "force",
+    "prony_k3": "force",
+    "prony_tau1": "time",
+    "prony_tau2": "time",
+    "prony_tau3": "time",
 }
 #: Order of parameters in tables.
 PARAMETER_ORDER = ["E_b", "E_t", "E_s", "E_s_torsion", "E_e", "sls_k1", "sls_k2", "sls_eta"]
+PARAMETER_ORDER += ["prony_k0", "prony_k1", "prony_tau1", "prony_k2", "prony_tau2", "prony_k3", "prony_tau3"]
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ from matid import study
 from matid.errors import DataError, FitError
 from matid.example.forward import bend_force
 from matid.fits import bend_window, shear, shear_torsion
-from matid.fits.linear import fit_torsion
+from matid.fits.torsion import fit_torsion
 from matid.ingest import Measurement, Table
 from matid.results import Estimate
 

@@ -12,6 +12,7 @@ from scipy.integrate import solve_ivp
 from matid import study
 from matid.errors import DataError, FitError
 from matid.fits.extension import fit_extension, sls_force, sls_ramp
+from matid.fits.prony import prony_force
 from matid.ingest import Measurement, Table
 
 K1, K2, ETA = 50.0, 30.0, 300.0  # N, N, N s: tau = 10 s
@@ -213,3 +214,94 @@ def test_bad_runs_raise_named_errors():
         fit_extension([Measurement(test, table)], specimen="T1")
     with pytest.raises(FitError, match="no extension runs"):
         fit_extension([], specimen="T1")
+
+
+# --------------------------------------------------------------------------- real-data artefacts
+
+
+def ramp_hold(rng, name, rise, hold, force_fn, *, n=300, eps_max=0.05, noise=0.003):
+    """A ramp to eps_max in `rise` s held to `hold` s; force from force_fn(t, eps)."""
+    t, eps = piecewise(np.array([0.0, rise, hold]), np.array([0.0, eps_max, eps_max]), n)
+    force = force_fn(t, eps)
+    return measurement(name, t, eps, force + rng.normal(0.0, noise * force.max(), t.size))
+
+
+def two_arm(t, eps):
+    """k0 = 50 N, arms (30 N, 1 s) and (40 N, 100 s): relaxation over two decades."""
+    return prony_force(t, eps, 50.0, [30.0, 40.0], [1.0, 100.0])
+
+
+def test_prony_force_is_the_sls_for_one_arm():
+    t, eps = piecewise(np.array([0.0, 3.0, 9.0]), np.array([0.0, 0.04, 0.01]))
+    assert np.allclose(prony_force(t, eps, K1, [K2], [TAU]), sls_force(t, eps, K1, K2, ETA))
+
+
+def test_two_arm_solid_is_not_passed_off_as_an_sls():
+    rng = np.random.default_rng(21)
+    runs = [ramp_hold(rng, f"hold{i}.csv", rise, 600.0, two_arm) for i, rise in enumerate([0.5, 20.0])]
+    fit = fit_extension(runs, specimen="T1")
+    e_e = fit.estimate("E_e")
+    assert e_e.method == "prony" and e_e.value == pytest.approx(50.0, rel=0.02)
+    assert e_e.ci95[0] < 50.0 < e_e.ci95[1]
+    assert e_e.warnings[0].startswith("the standard linear solid does not describe these runs")
+    assert fit.info["model_choice"]["arms_preferred"] == 2
+    for name in ("sls_k1", "sls_k2", "sls_eta"):
+        assert any("standard linear solid does not describe" in w for w in fit.estimate(name).warnings)
+    assert fit.estimate("prony_tau1").value == pytest.approx(1.0, rel=0.1)
+    assert fit.estimate("prony_tau2").value == pytest.approx(100.0, rel=0.1)
+    assert fit.estimate("prony_k2").value == pytest.approx(40.0, rel=0.05)
+    plot = fit.info["plot_data"]["force_time"]["hold0.csv"]
+    assert set(plot) == {"time_s", "force_N", "model_N", "used"} and plot["time_s"].size == 601
+
+
+def test_an_sls_stays_an_sls():
+    rng = np.random.default_rng(22)
+    runs = [
+        ramp_hold(rng, f"h{i}.csv", rise, 100.0, lambda t, e: sls_force(t, e, K1, K2, ETA))
+        for i, rise in enumerate([0.5, 20.0])
+    ]
+    fit = fit_extension(runs, specimen="T1")
+    assert fit.info["model_choice"]["arms_preferred"] == 1
+    assert fit.estimate("prony_k0") is None
+    assert all(e.warnings == () for e in fit.estimates)
+    assert not fit.info["lack_of_fit"]["misfit"]
+
+
+def test_slack_rows_are_left_out_and_marked():
+    """Fast unloading: the SLS would push (F < 0) but the strip goes slack (F = 0)."""
+    rng = np.random.default_rng(23)
+    knots_t, knots_eps = np.array([0.0, 10.0, 11.0, 40.0]), np.array([0.0, 0.05, 0.0, 0.0])
+    t, eps = piecewise(knots_t, knots_eps, 150)
+    model = sls_force(t, eps, K1, K2, ETA)
+    assert model.min() < -0.5  # the SLS pulls the strip into compression
+    force = np.maximum(model, 0.0) + rng.normal(0.0, 0.005, t.size)
+    runs = [measurement("slack.csv", t, eps, force)] + ramps([10 * TAU, TAU, 0.1 * TAU], rng)
+    fit = fit_extension(runs, specimen="T1")
+    assert fit.estimate("E_e").value == pytest.approx(K1, rel=0.01)
+    assert fit.estimate("sls_eta").value == pytest.approx(ETA, rel=0.05)
+    used = fit.series[0].used
+    slack = model < -0.1
+    assert not used[slack].any() and used[model > 0.1].all()
+    assert (
+        fit.info["left_out"]["slack.csv"]["slack strip (force about 0 while the model would push)"]
+        >= slack.sum()
+    )
+
+
+def test_window_on_extension_rows():
+    rng = np.random.default_rng(24)
+    runs = ramps([10 * TAU, TAU], rng)
+    t = np.linspace(0.0, TAU, 400)
+    eps = 0.05 * t / TAU
+    force = sls_ramp(t, 0.05 / TAU, K1, K2, ETA)
+    force[t > 0.8 * TAU] *= 0.5  # the strip tears: outside the window
+    test = study.Test(
+        "extension", "T1", Path("torn.csv"), {"gauge_length": GAUGE}, window={"strain": (0.0, 0.04)}
+    )
+    runs.append(
+        Measurement(test, Table(Path("torn.csv"), {"time": t, "force": force, "strain": eps}, {}, {}, ""))
+    )
+    fit = fit_extension(runs, specimen="T1")
+    assert fit.estimate("E_e").value == pytest.approx(K1, rel=0.005)
+    assert np.array_equal(fit.series[2].used, eps <= 0.04)
+    assert fit.info["left_out"] == {"torn.csv": {"outside the window": int(np.sum(eps > 0.04))}}

@@ -1,6 +1,9 @@
 """Identification: one module per test kind, plus the statistics they share.
 
 - :mod:`matid.fits.extension`: standard linear solid (and beyond) on extension runs -> E_e
-- :mod:`matid.fits.linear`: E_b (magnetic bending) and E_t (torsion), linear range
+- :mod:`matid.fits.linear`: lines with tare offsets, linear range, sign (shared by the next two)
+- :mod:`matid.fits.bending`: E_b from magnetic bending
+- :mod:`matid.fits.torsion`: E_t from torsion
+- :mod:`matid.fits.stats`: noise, lack of fit, intervals under correlated residuals
 - :mod:`matid.fits.shear`: E_s from the three-point bend by the Cosserat rod model
 """

@@ -31,15 +31,17 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import lmfit
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
+from scipy import stats as sstats
 
 from matid.errors import DataError, FitError
+from matid.fits import prony, stats
 from matid.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
@@ -125,6 +127,9 @@ class _Run:
     force: np.ndarray
     noise: float  # from second differences, before any fit
     rate: float  # typical |strain rate| while straining [1/s]
+    window: np.ndarray  # rows inside the test's window
+    used: np.ndarray  # rows whose residuals enter the fit (the model runs over all rows)
+    left_out: Mapping[str, int] = field(default_factory=dict)  # reason -> rows
 
     @property
     def duration(self) -> float:
@@ -181,7 +186,22 @@ def _run(m: Measurement) -> _Run:
     r = np.abs(np.diff(eps) / np.diff(t))
     rate = float(np.median(r[r > 0.1 * r.max()]))
     noise = difference_noise(force) or 1e-9 * float(np.max(np.abs(force)))
-    return _Run(name, t, eps, force, noise, rate)
+    used = np.asarray(m.in_window(), dtype=bool)
+    if used.sum() < 5:
+        raise DataError(f"only {int(used.sum())} rows inside the window; a fit needs 5", file=table.path)
+    outside = {"outside the window": int((~used).sum())} if not used.all() else {}
+    # provisionally slack: near zero after the strip was loaded; the fit then decides
+    loaded = np.cumsum(force > 0.1 * float(np.max(force))) > 0
+    provisional = used & loaded & _near_zero(force, noise)
+    if provisional.any() and (used & ~provisional).sum() >= 5:
+        outside[SLACK] = int(provisional.sum())
+        return _Run(name, t, eps, force, noise, rate, used, used & ~provisional, outside)
+    return _Run(name, t, eps, force, noise, rate, used, used, outside)
+
+
+def _near_zero(force: np.ndarray, noise: float) -> np.ndarray:
+    """Rows whose force is within 3 noise plus 2 % of the run's peak of zero, or below."""
+    return force < 3.0 * noise + 0.02 * float(np.max(np.abs(force)))
 
 
 # --------------------------------------------------------------------------- starts
@@ -203,11 +223,14 @@ def _profile_point(
 
     Returns (cost, k1, eta); fixed k1, eta (or eta = k2 tau for fixed k2) are held.
     """
-    eps = np.concatenate([run.eps / s for run, s in zip(runs, sigma, strict=True)])
+    eps = np.concatenate([run.eps[run.used] / s for run, s in zip(runs, sigma, strict=True)])
     g = np.concatenate(
-        [sls_force(run.t, run.eps, 0.0, 1.0 / tau, 1.0) / s for run, s in zip(runs, sigma, strict=True)]
+        [
+            sls_force(run.t, run.eps, 0.0, 1.0 / tau, 1.0)[run.used] / s
+            for run, s in zip(runs, sigma, strict=True)
+        ]
     )
-    y = np.concatenate([run.force / s for run, s in zip(runs, sigma, strict=True)])
+    y = np.concatenate([run.force[run.used] / s for run, s in zip(runs, sigma, strict=True)])
     known = {"k1": fixed.get("k1"), "eta": fixed.get("eta")}
     if "k2" in fixed:
         known["eta"] = fixed["k2"] * tau
@@ -269,7 +292,9 @@ def _models(runs: Sequence[_Run], k: Mapping[str, float]) -> list[np.ndarray]:
 def _residual(params, runs, sigma, ref) -> np.ndarray:
     """Weighted residuals (F_model - F) / sigma_run over all runs."""
     models = _models(runs, _values(params, ref))
-    return np.concatenate([(f - run.force) / s for f, run, s in zip(models, runs, sigma, strict=True)])
+    return np.concatenate(
+        [(f - run.force)[run.used] / s for f, run, s in zip(models, runs, sigma, strict=True)]
+    )
 
 
 def _minimise(runs, sigma, starts, ref, fixed) -> tuple[lmfit.Minimizer, lmfit.minimizer.MinimizerResult]:
@@ -290,7 +315,7 @@ def _minimise(runs, sigma, starts, ref, fixed) -> tuple[lmfit.Minimizer, lmfit.m
 
 def _run_noise(result, runs: Sequence[_Run], sigma: np.ndarray) -> np.ndarray:
     """Noise of each run from its own residuals, each run taking its share of the dof."""
-    n = np.array([run.t.size for run in runs])
+    n = np.array([int(run.used.sum()) for run in runs])
     share = 1.0 - result.nvarys / n.sum()
     pieces = np.split(result.residual, np.cumsum(n)[:-1])
     return np.array(
@@ -306,6 +331,12 @@ def _solve(runs: Sequence[_Run], fixed: Mapping[str, float], reweight: int = 2):
         raise FitError("no starting point: the relaxation-time profile has no minimum")
     ref = starts[0]
     minimizer, result = _minimise(runs, sigma, starts, ref, fixed)
+    for _ in range(3):  # slack rows bend the fit; leave them out and look again
+        slack = _slack(runs, _values(result.params, ref))
+        if all(np.array_equal(a.used, b.used) for a, b in zip(runs, slack, strict=True)):
+            break
+        runs = slack
+        minimizer, result = _minimise(runs, sigma, [_values(result.params, ref)], ref, fixed)
     for _ in range(reweight):
         sigma = _run_noise(result, runs, sigma)
         if not np.all(sigma > 0):
@@ -313,7 +344,27 @@ def _solve(runs: Sequence[_Run], fixed: Mapping[str, float], reweight: int = 2):
         minimizer, result = _minimise(runs, sigma, [_values(result.params, ref)], ref, fixed)
     if not result.success or not np.all(np.isfinite(result.residual)):
         raise FitError(f"the SLS least-squares fit did not converge: {result.message}")
-    return minimizer, result, ref, sigma
+    return runs, minimizer, result, ref, sigma
+
+
+#: Why slack rows are left out (a key of ``_Run.left_out`` and ``info["left_out"]``).
+SLACK = "slack strip (force about 0 while the model would push)"
+
+
+def _slack(runs: Sequence[_Run], k: Mapping[str, float]) -> list[_Run]:
+    """Runs with their slack rows left out: a strip carries no compression, so where the
+    model force is below -3 noise while the measured force stays within 3 noise plus 2 %
+    of the run's peak of zero (or below), the strip is slack and the SLS does not apply.
+    Rows near zero force after loading start out left out (:func:`_run`): a fit through
+    them would not predict the compression that gives them away."""
+    out = []
+    for run, f in zip(runs, _models(runs, k), strict=True):
+        slack = run.window & (f < -3.0 * run.noise) & _near_zero(run.force, run.noise)
+        left = {key: v for key, v in run.left_out.items() if key != SLACK}
+        if slack.any():
+            left[SLACK] = int(slack.sum())
+        out.append(replace(run, used=run.window & ~slack, left_out=left))
+    return out
 
 
 # --------------------------------------------------------------------------- uncertainty
@@ -340,6 +391,38 @@ def _stderr(result, ref: Mapping[str, float]) -> dict[str, float | None]:
         se_log = result.params[name].stderr if result.params[name].vary else None
         out[name] = None if se_log is None or not np.isfinite(se_log) else k[name] * se_log
     return out
+
+
+def _sandwich(result, runs, sigma, ref, se):
+    """Standard errors from the AR(1) sandwich covariance of :mod:`matid.fits.stats`.
+
+    Dense extension records have correlated residuals (and a misfit looks the same):
+    the i.i.d. errors of lmfit then shrink with the sampling rate, not with the
+    information. The Jacobian of the weighted residuals in the log-parameters is taken
+    by central differences. Returns (se, covariance); the covariance is None (and se
+    unchanged) when a parameter has no error.
+    """
+    names = [n for n in _ORDER if result.params[n].vary]
+    if not names or any(se[n] is None for n in names):
+        return se, None
+    h = 1e-6
+    columns = []
+    for name in names:
+        up, down = result.params.copy(), result.params.copy()
+        up[name].value += h
+        down[name].value -= h
+        columns.append((_residual(up, runs, sigma, ref) - _residual(down, runs, sigma, ref)) / (2 * h))
+    try:
+        cov = stats.ar1_covariance(
+            np.column_stack(columns), result.residual, [int(r.used.sum()) for r in runs]
+        )
+    except (ValueError, np.linalg.LinAlgError):
+        return se, None
+    k = _values(result.params, ref)
+    out = dict(se)
+    for name, se_log in zip(names, cov.stderr, strict=True):
+        out[name] = k[name] * float(se_log)
+    return out, cov
 
 
 def _correlation(result) -> dict[str, float]:
@@ -375,7 +458,7 @@ def _profile(minimizer, result, ref, names: Sequence[str]) -> dict[str, tuple[fl
     return out
 
 
-def _intervals(minimizer, result, ref, se, *, profile: bool) -> dict[str, tuple]:
+def _intervals(minimizer, result, ref, se, *, profile: bool, dof: float) -> dict[str, tuple]:
     """95 % intervals: (low, high, method) per fitted parameter.
 
     k1 enters F linearly: a t-interval. k2 and eta act through exp(-t k2/eta), so the
@@ -383,7 +466,7 @@ def _intervals(minimizer, result, ref, se, *, profile: bool) -> dict[str, tuple]
     profile likelihood, else (or if profiling fails) the t-interval of log k.
     """
     k = _values(result.params, ref)
-    tq = float(stats.t.ppf(0.975, result.nfree))
+    tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
     out = {}
     for name in _ORDER:
         if se[name] is not None:
@@ -485,31 +568,72 @@ def _estimate(parameter, name, k, se, ci, n, fixed, warn=()) -> Estimate:
 
 def _series(runs: Sequence[_Run], models: Sequence[np.ndarray]) -> tuple[Series, ...]:
     return tuple(
-        Series(f"{run.name}, strain rate {run.rate:.3g} 1/s", run.eps, run.force, f)
+        Series(f"{run.name}, strain rate {run.rate:.3g} 1/s", run.eps, run.force, f, run.used)
         for run, f in zip(runs, models, strict=True)
     )
 
 
 def _info(runs, models, k, sigma, nfree: int) -> dict[str, object]:
     """Fit summary. reduced_chi2 is measured against the model-free (second-difference)
-    noise, not the residual noise used as weights, so values well above 1 flag misfit."""
-    chi2 = sum(float(np.sum(((f - run.force) / run.noise) ** 2)) for f, run in zip(models, runs, strict=True))
+    noise, not the residual noise used as weights, so values well above 1 flag misfit.
+    ``plot_data["force_time"]`` holds, per run, time, measured and model force and the
+    rows used, for a force-against-time figure of ramp-hold and relaxation runs."""
+    chi2 = sum(
+        float(np.sum(((f - run.force)[run.used] / run.noise) ** 2))
+        for f, run in zip(models, runs, strict=True)
+    )
     return {
         "tau_s": k["eta"] / k["k2"],
         "time_window_s": [min(run.dt for run in runs), max(run.duration for run in runs)],
         "reduced_chi2": chi2 / nfree,
         "noise_N": {run.name: float(s) for run, s in zip(runs, sigma, strict=True)},
         "n_runs": len(runs),
+        "left_out": {run.name: dict(run.left_out) for run in runs if run.left_out},
+        "plot_data": {
+            "force_time": {
+                run.name: {"time_s": run.t, "force_N": run.force, "model_N": f, "used": run.used}
+                for run, f in zip(runs, models, strict=True)
+            }
+        },
     }
+
+
+_ADVICE = (
+    "Check the fit plots; a model with more arms (prony_*) or a window on the part the model "
+    "follows may describe the runs"
+)
+
+
+def _misfit(result, runs, cov) -> tuple[stats.LackOfFit, str | None]:
+    """Lack of fit of the SLS on the weighted residuals, and its warning (None if it fits)."""
+    lof = stats.lack_of_fit(result.residual, result.nvarys, segments=[int(r.used.sum()) for r in runs])
+    widening = float(np.max(cov.inflation)) if cov is not None else None
+    return lof, lof.warning("the standard linear solid", widening, _ADVICE)
+
+
+def _prony(runs, sigma, k, fixed_k):
+    """The Prony comparison: (choice or None, extra estimates, E_e warning, sls warning)."""
+    if fixed_k:
+        return None, (), None, None
+    data = [prony.Data(r.t, r.eps, r.force, r.used, float(s)) for r, s in zip(runs, sigma, strict=True)]
+    choice = prony.choose(data)
+    if choice is None or choice.best == 1:
+        return choice, (), None, None
+    longest = max(run.duration for run in runs)
+    estimates, e_e, sls = prony.preferred(choice, k["k1"], longest)
+    return choice, estimates, e_e, sls
 
 
 def fit_extension(
     measurements: Sequence[Measurement], *, specimen: str, fixed: Mapping[str, float] = {}
 ) -> TestFit:
-    """Joint SLS fit of all extension runs of one specimen: E_e = k1, k2, eta with 95 % intervals.
+    """Joint SLS fit of all extension runs of one specimen: E_e = k1, k2, eta with 95 % intervals,
+    and beside it the Prony model BIC prefers (:mod:`matid.fits.prony`).
 
     Residuals of run j are weighted by 1/sigma_j, its own noise estimated from its
-    residuals. ``fixed`` may hold any of E_e (= sls_k1), sls_k2, sls_eta in SI.
+    residuals; only rows inside the window and not slack enter (the model runs over
+    every row: it has a memory). Intervals are the AR(1) sandwich of
+    :mod:`matid.fits.stats`. ``fixed`` may hold any of E_e (= sls_k1), sls_k2, sls_eta.
     """
     fixed_k = _fixed(fixed)
     if not measurements:
@@ -517,23 +641,39 @@ def fit_extension(
     if len(fixed_k) == 3:
         raise FitError(f"specimen {specimen}: k1, k2 and eta are all fixed; nothing to fit")
     runs = _unique([_run(m) for m in measurements])
-    minimizer, result, ref, sigma = _solve(runs, fixed_k)
+    runs, minimizer, result, ref, sigma = _solve(runs, fixed_k)
     minimizer, result = _covariance_fit(runs, sigma, minimizer, result, ref, fixed_k)
     k = _values(result.params, ref)
-    se = _stderr(result, ref)
+    se, cov = _sandwich(result, runs, sigma, ref, _stderr(result, ref))
     corr = _correlation(result)
     reasons = _unidentifiable(k, se, corr, runs, fixed_k)
-    ci = _intervals(minimizer, result, ref, se, profile=not reasons)
+    correlated = cov is not None and cov.rho > 0
+    dof = cov.dof if cov is not None else result.nfree
+    ci = _intervals(minimizer, result, ref, se, profile=not reasons and not correlated, dof=dof)
     n = int(result.ndata)
-    why = (f"k2 and eta are not identifiable from the rates given: {'; '.join(reasons)}",) if reasons else ()
-    k1_warn = _k1_warnings(k, se, runs, bool(reasons)) if "k1" not in fixed_k else ()
+    lof, misfit = _misfit(result, runs, cov)
+    choice, prony_estimates, prony_e_e, prony_sls = _prony(runs, sigma, k, fixed_k)
+    why = [f"k2 and eta are not identifiable from the rates given: {'; '.join(reasons)}"] if reasons else []
+    sls_warn = [w for w in (misfit, prony_sls) if w]
+    k1_warn = list(_k1_warnings(k, se, runs, bool(reasons))) if "k1" not in fixed_k else []
+    e_e = _estimate("E_e", "k1", k, se, ci, n, fixed_k, [*k1_warn, *sls_warn])
+    if prony_estimates:
+        k0 = prony_estimates[0]
+        e_e = replace(k0, parameter="E_e", warnings=(prony_e_e, *k0.warnings))
     estimates = (
-        _estimate("E_e", "k1", k, se, ci, n, fixed_k, k1_warn),
-        _estimate("sls_k1", "k1", k, se, ci, n, fixed_k, k1_warn),
-        _estimate("sls_k2", "k2", k, se, ci, n, fixed_k, why),
-        _estimate("sls_eta", "eta", k, se, ci, n, fixed_k, why),
+        e_e,
+        _estimate("sls_k1", "k1", k, se, ci, n, fixed_k, [*k1_warn, *sls_warn]),
+        _estimate("sls_k2", "k2", k, se, ci, n, fixed_k, [*why, *sls_warn]),
+        _estimate("sls_eta", "eta", k, se, ci, n, fixed_k, [*why, *sls_warn]),
+        *prony_estimates,
     )
     models = _models(runs, k)
+    info = _info(runs, models, k, sigma, result.nfree)
+    info["lack_of_fit"] = lof.as_info()
+    info["n_effective"] = cov.n_eff if cov is not None else float(n)
+    info["interval_widening"] = float(np.max(cov.inflation)) if cov is not None else 1.0
+    if choice is not None:
+        info["model_choice"] = {"arms_preferred": choice.best, **choice.table()}
     return TestFit(
         kind="extension",
         specimen=specimen,
@@ -543,5 +683,5 @@ def fit_extension(
         x_label="strain [1]",
         y_label="force [N]",
         correlation=corr,
-        info=_info(runs, models, k, sigma, result.nfree),
+        info=info,
     )

@@ -1,0 +1,137 @@
+r"""E_b from magnetic bending (physics.md section 2).
+
+A tip magnet of moment m in a uniform field B at angle psi applies a pure end torque,
+and a pure end moment bends an inextensible rod into a circular arc, so at any
+deflection::
+
+    tau = m B sin(psi - theta) = E_b theta / L          (theta tip angle, L free length)
+
+E_b is the slope of torque against theta / L, fitted jointly over all files (lengths)
+of one specimen with a tare offset per file (:func:`matid.fits.linear.fit_lines`), on
+the rows inside the test's ``window``. Per-length slopes are compared: a disagreement
+beyond their errors says E_b depends on length (clamp compliance, shear).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy import stats as sstats
+
+from matid.errors import DataError, FitError
+from matid.fits import linear
+from matid.results import Estimate, Series, TestFit
+
+if TYPE_CHECKING:
+    from matid.ingest import Measurement, Table
+    from matid.study import Test
+
+#: p-value below which per-length bending slopes are said to disagree.
+SLOPES_ALPHA = 0.01
+_ADVICE = (
+    "Check the fit plot; set a window on tip_angle to the part the line follows, or check "
+    "the field and angle channels"
+)
+
+
+def magnet_torque(
+    moment: float, field: np.ndarray, field_angle: np.ndarray, tip_angle: np.ndarray
+) -> np.ndarray:
+    """End torque of a tip magnet in a uniform field: ``tau = m B sin(psi - theta)``."""
+    return moment * np.asarray(field) * np.sin(np.asarray(field_angle) - np.asarray(tip_angle))
+
+
+def bending_torque(table: Table, test: Test) -> np.ndarray:
+    """Torque [N m]: the torque column, else ``m B sin(psi - theta)`` from the test's
+    magnet_moment m and the field B, field_angle psi and tip_angle theta columns."""
+    if "torque" in table:
+        return np.asarray(table["torque"], dtype=float)
+    moment = test.params.get("magnet_moment")
+    if moment is None:
+        raise DataError(
+            "no 'torque' column, and the test has no magnet_moment in study.toml to compute "
+            "it from field and field_angle",
+            file=table.path,
+        )
+    for column in ("field", "field_angle", "tip_angle"):
+        if column not in table:
+            raise DataError(f"no 'torque' column and no '{column}' column", file=table.path)
+    return magnet_torque(moment, table["field"], table["field_angle"], table["tip_angle"])
+
+
+def _record(m: Measurement) -> tuple[linear.Record, float]:
+    """The file as a record x = tip_angle / free_length [rad/m], y = torque [N m], and L."""
+    if "tip_angle" not in m.table:
+        raise DataError("magnetic bending needs a 'tip_angle' column", file=m.table.path)
+    length = float(m.test.params["free_length"])
+    x = np.asarray(m.table["tip_angle"], dtype=float) / length
+    rec = linear.record(m.table.path.name, x, bending_torque(m.table, m.test), m.in_window())
+    if not rec.used.any():
+        raise DataError("no row with finite values inside the window", file=m.table.path)
+    return rec, length
+
+
+def _per_length(records, lengths) -> tuple[dict[str, dict[str, float]], float | None]:
+    """Slope per free length and the p-value of their agreement (chi-square on k - 1 dof)."""
+    out: dict[str, dict[str, float]] = {}
+    for length in sorted(set(lengths)):
+        pick = [r for r, value in zip(records, lengths, strict=True) if value == length]
+        try:
+            fit = linear.fit_lines(pick)
+        except FitError:
+            continue
+        out[f"{length:.6g}"] = {"E_b": fit.slope, "stderr": fit.stderr, "n_points": fit.n}
+    slopes = np.array([v["E_b"] for v in out.values()])
+    se = np.array([v["stderr"] for v in out.values()])
+    if slopes.size < 2 or not np.all(se > 0):
+        return out, None
+    w = 1.0 / se**2
+    mean = np.sum(w * slopes) / np.sum(w)
+    chi2 = float(np.sum(w * (slopes - mean) ** 2))
+    return out, float(sstats.chi2.sf(chi2, slopes.size - 1))
+
+
+def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFit:
+    """E_b: slope of torque against tip_angle / free_length, all lengths jointly, with offsets."""
+    if not measurements:
+        raise FitError(f"specimen {specimen}: no magnetic bending tests to fit")
+    pairs = [_record(m) for m in measurements]
+    lengths = [length for _, length in pairs]
+    records, warnings = linear.orient([r for r, _ in pairs], "torque", "tip angle")
+    try:
+        fit = linear.fit_lines(records)
+        warnings += linear.check_sign(fit, "E_b", "torque", "tip angle")
+    except FitError as exc:
+        raise FitError(f"specimen {specimen}: {exc}") from exc
+    misfit = fit.lof.warning("the line torque = c + E_b theta / L", fit.inflation, _ADVICE)
+    warnings += [misfit] if misfit else []
+    per_length, p = _per_length(records, lengths)
+    if p is not None and p < SLOPES_ALPHA:
+        warnings.append(
+            f"slopes at different free lengths disagree beyond their errors (p = {p:.2g}): "
+            "E_b seems to depend on length; see the per-length slopes"
+        )
+    series = tuple(
+        Series(f"{r.name} (L = {length * 1e3:.4g} mm)", r.x, r.y, fit.model(r), r.used)
+        for r, length in zip(records, lengths, strict=True)
+    )
+    extra = {"ci_method": "t-ar1" if fit.covariance.rho else "t", "tare_offset_N_m": fit.intercepts}
+    return TestFit(
+        kind="magnetic_bending",
+        specimen=specimen,
+        tests=tuple(m.test for m in measurements),
+        estimates=(Estimate("E_b", *fit.value, "linear", tuple(warnings), extra),),
+        series=series,
+        x_label="tip angle / free length [rad/m]",
+        y_label="torque [N m]",
+        info={
+            "free_lengths_m": sorted(set(lengths)),
+            "r2": linear.r2(records, fit),
+            "per_length_slopes": per_length,
+            "left_out": linear.left_out_info(records),
+            "sign_flipped": [r.name for r in records if r.flipped],
+            **fit.info(),
+        },
+    )
