@@ -44,6 +44,7 @@ from matid.errors import ConvergenceError, DataError, FitError
 from matid.fits.bend_checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
 from matid.fits.bend_window import Cut, check_plausible, cut
 from matid.fits.shear_torsion import agreement
+from matid.fits.stats import Covariance, ar1_covariance, lack_of_fit
 from matid.ingest import Measurement
 from matid.results import Estimate, Series, TestFit
 from matid.rod.bend import BendGeometry, BendModel, BendPath
@@ -230,12 +231,15 @@ class Outcome:
     solves: int
     problem: Problem
     levels: list  # [{elements, discretization_error, runtime_s}] of every mesh tried
+    covariance: Covariance | None = None  # AR(1) sandwich of matid.fits.stats (rho, n_eff, dof)
 
 
-def _statistics(r: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, float]:
+def _statistics(r: np.ndarray, J: np.ndarray, segments) -> tuple[np.ndarray, float, Covariance]:
+    """Covariance of the log parameters under AR(1)-correlated residuals within each file
+    (:func:`matid.fits.stats.ar1_covariance`; the textbook one when rho is not significant)."""
     dof = max(r.size - J.shape[1], 1)
-    s2 = float(r @ r) / dof
-    return s2 * np.linalg.inv(J.T @ J), float(np.sqrt(s2))
+    cov = ar1_covariance(J, r, segments)
+    return cov.cov, float(np.sqrt(float(r @ r) / dof)), cov
 
 
 def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) -> tuple[float, list]:
@@ -281,7 +285,7 @@ def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progre
         result = _solve(problem, x)
         x = result.x
         r, J = problem.evaluate(x)
-        cov, sigma = _statistics(r, J)
+        cov, sigma, full = _statistics(r, J, [b.d.size for b in data])
         fe, tried = _fe_error(problem, x, data, E_e, fit_E_b)
         levels += [lvl for lvl in tried if lvl["elements"] not in {m["elements"] for m in levels}]
         solves += problem.solves + len(data)
@@ -289,7 +293,7 @@ def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progre
             progress(f"E_s fit at {n} elements: E_s = {np.exp(x[0]):.6g} N, FE error {fe:.2e}")
         target = max(FE_ERROR_FRACTION * float(np.sqrt(cov[0, 0])), FE_ERROR_FLOOR)
         if elements or fe <= target or 2 * n > MAX_ELEMENTS:
-            return Outcome(x, r, J, cov, sigma, fe, n, solves, problem, levels)
+            return Outcome(x, r, J, cov, sigma, fe, n, solves, problem, levels, full)
         n *= 2
 
 
@@ -339,7 +343,7 @@ def fit_three_point_bend(
     mf = model_form_variance(data, E_b_est.value, check.info, float(np.exp(out.x[0])), model_form)
     var_log += mf["var_log"]
     m = out.r.size
-    t = float(stats.t.ppf(0.975, max(m - out.J.shape[1], 1)))
+    t = float(stats.t.ppf(0.975, out.covariance.dof))
     sd_log = float(np.sqrt(var_log))
     E_b = float(np.exp(out.x[1])) if fit_E_b else E_b_est.value
     shares = [shear_share(b.geometry.span, E_b, E_s) for b in data]
@@ -350,8 +354,21 @@ def fit_three_point_bend(
         )
     if sd_log > 0.1:
         warnings.append(f"E_s is poorly determined: relative standard error {100 * sd_log:.0f} %")
+    fit_check = lack_of_fit(out.r, out.J.shape[1], segments=[b.d.size for b in data])
+    misfit = fit_check.warning(
+        "The rod model of the bend",
+        float(out.covariance.inflation[0]),
+        "Check the window (toe, yield), the unit of the force, and the set-up (span, radii).",
+    )
+    warnings += [misfit] if misfit else []
     per_span = _per_span(data, out, E_b, E_e_est.value, spans)
     extra_info = {"assessment": check.info, "per_span": per_span, "model_form": mf}
+    extra_info["lack_of_fit"] = fit_check.as_info()
+    extra_info["residual_correlation"] = {
+        "rho": out.covariance.rho,
+        "n_eff": out.covariance.n_eff,
+        "interval_inflation": float(out.covariance.inflation[0]),
+    }
     if per_span:
         extra_info["span_consistency"], warning = consistency(
             [(p["span"], p["E_s"], p["sd_log"]) for p in per_span], E_s
