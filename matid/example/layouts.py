@@ -101,12 +101,12 @@ def _centreline(sid, columns, dialect):
     return TestSpec(
         kind="three_point_bend", specimen=sid, file=f"3pb_{sid}_S10_centreline.csv",
         setup={"span": 10 * MM, "specimen_length": 30 * MM, "support_radius": 2 * MM,
-               "nose_radius": 2 * MM, "d_max": 0.3 * MM, "n_load": 20, "n_unload": 0,
+               "nose_radius": 2 * MM, "d_max": 0.3 * MM, "n_load": 30, "n_unload": 0,
                "rate": 0.01 * MM, "deflection_at": "centreline"},
         toml={"span": "10 mm", "specimen_length": "30 mm", "support_radius": "2 mm",
               "nose_radius": "2 mm", "deflection_at": "centreline"},
         columns=columns, dialect=dialect,
-        description="span 10 mm, centreline deflection by side camera 0..0.3 mm (20 rows), loading only",
+        description="span 10 mm, centreline deflection by side camera 0..0.3 mm (30 rows), loading only",
     )  # fmt: skip
 
 

@@ -364,6 +364,7 @@ def fit_three_point_bend(
     per_span = _per_span(data, out, E_b, E_e_est.value, spans)
     extra_info = {"assessment": check.info, "per_span": per_span, "model_form": mf}
     extra_info["lack_of_fit"] = fit_check.as_info()
+    extra_info["experiment_design"] = _design_note(specimen, known, E_b_est.value)
     extra_info["residual_correlation"] = {
         "rho": out.covariance.rho,
         "n_eff": out.covariance.n_eff,
@@ -412,6 +413,17 @@ def fit_three_point_bend(
         correlation=_correlation(out.cov_log) if fit_E_b else {},
         info=info,
     )
+
+
+def _design_note(specimen: Specimen, known: Mapping[str, Estimate], E_b: float) -> str:
+    """The recommendation of :func:`matid.design.design` for this tube (E_s to 5 %)."""
+    from matid.design import design, summary  # design builds on these fits: import at use
+
+    E_t = known.get("E_t")
+    options = design(
+        specimen, E_b=E_b, E_e=known["E_e"].value, E_t=E_t.value if E_t else None, precision=0.05
+    )
+    return "E_s to 5 %: " + summary(options, 0.05).splitlines()[-1]
 
 
 def _per_span(data, out: Outcome, E_b: float, E_e: float, spans) -> list[dict]:
