@@ -31,6 +31,7 @@ SI_UNITS = {
     "sls_k2": "N",
     "sls_eta": "N s",
     "E_s": "N",
+    "E_s_torsion": "N",
 }
 CGS = {"N": ("dyn", 1e5), "N m^2": ("dyn cm^2", 1e9), "N s": ("dyn s", 1e5)}
 
@@ -287,7 +288,7 @@ def test_failed_fit_exits_1_and_writes_the_rest(tmp_path):
     assert all(not p.read_text(errors="replace").startswith("old") for p in out.iterdir())
     assert {p.name for p in out.iterdir()} == OUTPUTS  # fully replaced, no temporary files left
     doc = read_json(out)
-    assert set(doc["specimens"]["T1"]) == {"E_b", "E_t"}
+    assert set(doc["specimens"]["T1"]) == {"E_b", "E_t", "E_s_torsion"}
     assert any("only 4 samples" in w for w in doc["warnings"])
 
 
