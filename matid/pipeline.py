@@ -32,11 +32,11 @@ import numpy as np
 
 from matid import __version__
 from matid.errors import ConvergenceError, DataError, FitError
-from matid.fits.extension import fit_extension
 from matid.fits.bending import fit_bending
-from matid.fits.torsion import fit_torsion
+from matid.fits.extension import fit_extension
 from matid.fits.shear import fit_three_point_bend
 from matid.fits.shear_torsion import with_E_s_torsion
+from matid.fits.torsion import fit_torsion
 from matid.ingest import Measurement, load_measurements
 from matid.report import render_report
 from matid.results import (
