@@ -391,7 +391,7 @@ def fit_three_point_bend(
     }
     est = _log_estimate("E_s", E_s, sd_log, t, m, fe, ())
     if check.widen > 1:
-        est = replace(est, ci95=(est.ci95[0], est.ci95[1] * check.widen))
+        est = replace(est, ci95=(est.ci95[0], float(est.ci95[1] * check.widen)))
     if "E_s_torsion" in known:
         extra_info["torsion_check"] = text = agreement(est, known["E_s_torsion"])
         warnings += [text] if "disagree" in text else []
