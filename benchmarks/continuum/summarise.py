@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
 HERE = Path(__file__).parent / "results"
 
 
@@ -59,6 +61,13 @@ def tubes() -> None:
                 f"  d/S {row['delta'] / p['S']:.4f}: F {row['F']:.5f} dc {row['delta_centroid']:.5f}"
                 f" local {row['local_compliance']:.4f} mm/N  E*local {p['E'] * row['local_compliance']:.2f}"
             )
+        F = np.array([q["F"] for q in r["rows"]])
+        u = np.array([q["delta"] - q["delta_centroid"] for q in r["rows"]])
+        n, lc = np.polyfit(np.log(F), np.log(u), 1)
+        print(
+            f"  u_local = {np.exp(lc):.4f} mm * (F/N)^{n:.3f};"
+            f"  at F = 0.1 N: {np.exp(lc) * 0.1 ** (n - 1):.4f} mm/N"
+        )
 
 
 if __name__ == "__main__":
