@@ -5,8 +5,8 @@ h (y from -h/2 to h/2) and out-of-plane thickness b; rollers and nose are
 annular sectors of stiff elastic material (E_roll) with frictionless
 surface-to-surface penalty contact (*CONTACT PAIR, *SURFACE BEHAVIOR
 PRESSURE-OVERCLOSURE=LINEAR). The support's inner arc is fixed; the nose's inner
-arc moves down by d (NLGEOM, *STATIC). Two very soft SPRING1 elements (1e-6 of
-the bend stiffness) hold the strip vertically before the contacts close.
+arc moves down by d (NLGEOM, *STATIC). A very soft SPRING1 element (1e-6 of
+the bend stiffness) holds the strip vertically before the contacts close.
 
 Only numpy and the ``ccx`` executable are needed. The deck is written to a
 scratch folder (not committed); :func:`run` parses the .dat file.
