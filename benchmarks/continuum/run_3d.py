@@ -1,0 +1,46 @@
+"""Run the 3D quarter tube (ccx_tube3d) and write results/tube3d_<tag>.json.
+
+Usage (from the repository root; a few minutes each on 2 busy cores):
+
+    python benchmarks/continuum/run_3d.py --span 8
+    python benchmarks/continuum/run_3d.py --span 8 --Ri 0.9 --tag thin
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from ccx_tube3d import TubeParams, run  # noqa: E402
+
+HERE = Path(__file__).parent
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--span", type=float, required=True)
+    ap.add_argument("--Ri", type=float, default=0.8)
+    ap.add_argument("--E", type=float, default=50.0)
+    ap.add_argument("--level", type=float, default=1.0)
+    ap.add_argument("--tag", default="")
+    ap.add_argument("--work", default="/tmp/matid_ccx3d")
+    a = ap.parse_args(argv)
+    p = TubeParams(S=a.span, Ri=a.Ri, E=a.E, level=a.level)
+    name = f"tube3d_S{a.span:g}_Ri{a.Ri:g}_E{a.E:g}_L{a.level:g}{a.tag}"
+    t0 = time.time()
+    out = run(p, Path(a.work) / name)
+    out["runtime_s"] = time.time() - t0
+    out["machine"] = {"platform": platform.platform(), "processor": platform.processor(), "threads": 2}
+    out["rows"] = [{k: float(v) for k, v in r.items()} for r in out["rows"]]
+    (HERE / "results").mkdir(exist_ok=True)
+    (HERE / "results" / f"{name}.json").write_text(json.dumps(out, indent=1))
+    print(name, out["ccx_rc"], len(out["rows"]), f"{out['runtime_s']:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
