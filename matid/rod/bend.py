@@ -174,7 +174,7 @@ class BendSystem:
         normal = self.contacts(self.rod.expand(X[: self.nu]), lam)[1][4]
         return 2.0 * X[self.nu + 1] * (-normal[0])
 
-    def reject(self, X: np.ndarray, lam: float) -> str | None:
+    def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
         """A pulling contact is no answer: g = |r - c| - rho = 0 also holds on the far side of a
         cylinder, where Newton lands after a step longer than rho (see newton.follow)."""
         mult = X[self.nu : self.nu + 2]

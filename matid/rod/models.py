@@ -102,6 +102,7 @@ class RodSystem:
     c_u: float = 1.0
     fixed: tuple[int, ...] | None = None  # fixed global dofs; default: clamp at s = 0
     analytic: bool = True  # planar: closed-form derivatives (False: jets, the cross-check)
+    banded: bool = False  # tangent in band storage (fem.Banded: LAPACK Cholesky/LU) instead of CSR
     terms: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -268,7 +269,11 @@ class RodSystem:
         """Residual on the free dofs and, with ``tangent``, its Jacobian (CSR)."""
         U = self.expand(X) if U is None else U
         g, H = self.energy_derivatives(U, lam, tangent)
-        R, K = self.disc.assemble(g, H)
+        if self.banded:
+            R = self.disc.residual(g)
+            K = self.disc.banded(self.disc.element_matrices(H), self.symmetric) if tangent else None
+        else:
+            R, K = self.disc.assemble(g, H)
         Rp, blocks = self.point_terms(U, lam)
         R = R + Rp
         if self.model == FULL and self.variant == kin.NORMALISED:
@@ -277,11 +282,27 @@ class RodSystem:
             blocks = blocks + gblocks
         if not tangent:
             return R[self.disc.free], None
+        if self.banded:
+            rows, cols, vals = self._triplets(blocks)
+            if vals.size:
+                K.add_blocks(rows, cols, vals)
+            return R[self.disc.free], K
         return R[self.disc.free], K + self._blocks_matrix(blocks, K.shape)
 
-    def reject(self, X: np.ndarray, lam: float) -> str | None:
+    @property
+    def symmetric(self) -> bool:
+        """The tangent is a Hessian, except with a dead tip moment in 3D (no potential)."""
+        return not (self.model == FULL and any(self.rod.tip_moment))
+
+    def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
         """Why a converged state is no answer, or None: a saddle of the potential is not an equilibrium
-        a rod can hold (used by :func:`matid.rod.newton.follow` to halve the load step)."""
+        a rod can hold (used by :func:`matid.rod.newton.follow` to halve the load step).
+
+        ``factor``: Newton's last factorised tangent; a successful banded Cholesky of it
+        (every pivot > 0) is the stability test, read off without a second factorisation.
+        """
+        if getattr(factor, "positive_definite", None) is True:
+            return None
         if self.negative_modes(X, lam):
             return "unstable equilibrium (the tangent stiffness is not positive definite: buckling or snap)"
         return None
@@ -310,6 +331,13 @@ class RodSystem:
 
     def _blocks_matrix(self, blocks: list, shape: tuple[int, int]) -> sp.csr_matrix:
         """Sum of dense blocks (dofs of shape (..., m), matrices (..., m, m)) on the free dofs."""
+        rows, cols, vals = self._triplets(blocks)
+        if not vals.size:
+            return sp.csr_matrix(shape)
+        return sp.csr_matrix((vals, (rows, cols)), shape=shape)
+
+    def _triplets(self, blocks: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rows, cols, values) in free-dof numbering of blocks (dofs (..., m), matrices (..., m, m))."""
         rows, cols, vals = [], [], []
         for dofs, block in blocks:
             dofs = np.atleast_2d(dofs)
@@ -320,10 +348,8 @@ class RodSystem:
             ok = (ii >= 0) & (jj >= 0)
             rows.append(ii[ok]), cols.append(jj[ok]), vals.append(block[ok])
         if not rows:
-            return sp.csr_matrix(shape)
-        return sp.csr_matrix(
-            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=shape
-        )
+            return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
 
     def expand(self, X: np.ndarray) -> np.ndarray:
         U = self.reference()

@@ -98,7 +98,8 @@ def newton(
                 raise RoundoffStagnation(
                     f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
                     f"{sizes[0]:.2g}: the precision double arithmetic allows for this mesh and stiffness "
-                    "spread; use fewer elements or a less extreme stiffness ratio")
+                    "spread; use fewer elements or a less extreme stiffness ratio"
+                )
             raise NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}")
         sizes.append(size)
         x = x + dx * min(1.0, max_step / size)
@@ -106,6 +107,11 @@ def newton(
 
 
 def _factor(K) -> object:
+    if hasattr(K, "factor"):  # fem.Banded: LAPACK banded Cholesky, or LU when not positive definite
+        try:
+            return K.factor()
+        except np.linalg.LinAlgError as exc:
+            raise NewtonFailure(str(exc)) from exc
     try:
         return spla.splu(K.tocsc())
     except RuntimeError as exc:  # exactly singular tangent
@@ -122,7 +128,7 @@ def tangent(system: System, x: np.ndarray, lam: float, lu: object) -> np.ndarray
     return lu.solve(-(R1 - R0))
 
 
-def _check_admissible(system: System, x: np.ndarray, lam: float) -> None:
+def _check_admissible(system: System, x: np.ndarray, lam: float, factor: object = None) -> None:
     """Reject a converged state the system says is no answer (``system.reject(x, lam)`` -> reason or None).
 
     Newton converges to any root: from the straight rod in a field beyond the
@@ -132,7 +138,7 @@ def _check_admissible(system: System, x: np.ndarray, lam: float) -> None:
     continuation follows the admissible branch, or fails where there is none.
     """
     reject = getattr(system, "reject", None)
-    reason = reject(x, lam) if reject is not None else None
+    reason = reject(x, lam, factor) if reject is not None else None
     if reason:
         raise NewtonFailure(reason)
 
@@ -167,7 +173,7 @@ def follow(
             guess = x if slope is None else x + slope * (lam_try - lam)
             try:
                 x_new, its, lu = newton(system, guess, lam_try, **opts)
-                _check_admissible(system, x_new, lam_try)
+                _check_admissible(system, x_new, lam_try, lu)
             except RoundoffStagnation as exc:
                 raise ConvergenceError(str(exc), load_factor=lam) from exc
             except NewtonFailure as exc:

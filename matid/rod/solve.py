@@ -95,8 +95,12 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
             if k in scaled:
                 scaled[k] = v / Eb * (1.0 if k in ("E_b", "E_t") else L**2)
         if seg.rigid:
-            scaled = {"E_b": RIGID_FACTOR * scaled["E_b"], "E_t": RIGID_FACTOR * scaled["E_t"],
-                      "E_s": max(scaled["E_s"], RIGID_FACTOR), "E_e": max(scaled["E_e"], RIGID_FACTOR)}
+            scaled = {
+                "E_b": RIGID_FACTOR * scaled["E_b"],
+                "E_t": RIGID_FACTOR * scaled["E_t"],
+                "E_s": max(scaled["E_s"], RIGID_FACTOR),
+                "E_e": max(scaled["E_e"], RIGID_FACTOR),
+            }
         segments.append(Segment(seg.start / L, seg.end / L, **scaled))
     return ScaledRod(
         E_t=base["E_t"],
@@ -164,7 +168,9 @@ def solve_cantilever(
         intorder=order,
     )
     rod = scaled_rod(scene, e_a)
-    system = RodSystem(disc, rod, model=chosen, variant=variant, c_u=c_u or default_penalty(rod, variant))
+    system = RodSystem(
+        disc, rod, model=chosen, variant=variant, c_u=c_u or default_penalty(rod, variant), banded=True
+    )
     X, info = follow(system, system.reduce(system.reference()), [1.0], first_step=first_step)
     U = system.expand(X).reshape(disc.nscalar, disc.nf)
     return _solution(scene, chosen, disc, U, e_a, info, time.perf_counter() - t0, system.terms)
