@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from matid.rod import full
 from matid.rod import kinematics as kin
 from matid.rod.fem import Discretisation
 from matid.rod.jet import Jet
@@ -166,6 +167,10 @@ class RodSystem:
         vals, ders = self.disc.interpolate(U)
         if self.model == PLANAR and self.analytic:
             return self._planar_derivatives(vals, ders, lam, tangent)
+        if self.analytic and self.variant == kin.NORMALISED:
+            rod = self.rod
+            mu = self.mu if "magnetic" in self.terms else None
+            return full.derivatives(vals, ders, lam, self.props, rod.kappa_ref, mu, rod.B, rod.f, tangent)
         variables = Jet.variables(np.concatenate([vals, ders]), hessian=tangent)
         nf = self.disc.nf
         w = self.density(variables[:nf], variables[nf:], lam)

@@ -1,0 +1,79 @@
+"""Closed-form derivatives of the rod densities against the jets (the oracle), and the banded
+tangent against the CSR assembly: same model, same numbers, to round-off."""
+
+import numpy as np
+import pytest
+
+from matid.rod.fem import Discretisation
+from matid.rod.models import FULL, PLANAR, RodSystem, ScaledRod, Segment
+from matid.rod.solve import interpolate_p2
+
+ROD = ScaledRod(
+    E_t=0.7,
+    E_s=3e3,
+    E_e=2e4,
+    segments=(Segment(0.6, 0.8, 5.0, 4.0, 1e5, 2e5),),
+    kappa_ref=(0.4, -1.3, 0.2),
+    mu=((0.2, 1.0, 2.5),),
+    B=(0.3, -0.5, 0.8),
+    f=(0.7, -0.2, 1.1),
+    tip_force=(0.5, 1.5, -0.5),
+    magnets=((1.0, 0.8),),
+)
+
+
+def system(model: str, **kw) -> RodSystem:
+    nf = 3 if model == PLANAR else 7
+    return RodSystem(
+        Discretisation(np.linspace(0.0, 1.0, 6), nf, intorder=2), ROD, model=model, c_u=3.0, **kw
+    )
+
+
+@pytest.mark.parametrize("model", [PLANAR, FULL])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_closed_form_derivatives_match_the_jets(model, seed):
+    rng = np.random.default_rng(seed)
+    sys_ = system(model)
+    U = sys_.reference() + 0.4 * rng.standard_normal(sys_.disc.n)
+    for lam in (0.37, 1.0):
+        g, H = sys_.energy_derivatives(U, lam)
+        sys_.analytic = False
+        g_jet, H_jet = sys_.energy_derivatives(U, lam)
+        sys_.analytic = True
+        assert np.allclose(g, g_jet, rtol=1e-12, atol=1e-12 * np.abs(g_jet).max())
+        assert np.allclose(H, H_jet, rtol=1e-12, atol=1e-12 * np.abs(H_jet).max())
+
+
+@pytest.mark.parametrize("model", [PLANAR, FULL])
+def test_banded_tangent_and_solve_equal_the_sparse_ones(model):
+    rng = np.random.default_rng(7)
+    sparse, banded = system(model), system(model, banded=True)
+    X = sparse.reduce(sparse.reference() + 0.2 * rng.standard_normal(sparse.disc.n))
+    R0, K0 = sparse.evaluate(X, 0.8)
+    R1, K1 = banded.evaluate(X, 0.8)
+    assert np.allclose(R0, R1, rtol=0, atol=1e-12 * np.abs(R0).max())
+    assert np.allclose(K0.toarray(), K1.tocsr().toarray(), rtol=0, atol=1e-12 * np.abs(K0).max())
+    b = rng.standard_normal(R0.size)
+    x = K1.factor().solve(b)
+    assert np.allclose(K0 @ x, b, atol=1e-8 * np.abs(b).max())
+
+
+def test_band_cholesky_is_the_stability_test():
+    """Positive definite -> Cholesky (the stable-state test); indefinite -> LU, flagged not stable."""
+    sys_ = system(PLANAR, banded=True)
+    X = sys_.reduce(sys_.reference())
+    _, K = sys_.evaluate(X, 0.0)
+    assert K.factor().positive_definite is True
+    K.ab[K.u] -= 10.0 * np.abs(K.ab).max()  # shift the diagonal: indefinite
+    factor = K.factor()
+    assert factor.positive_definite is False
+    b = np.arange(K.shape[0], dtype=float)
+    assert np.allclose(K.tocsr() @ factor.solve(b), b)
+
+
+def test_p2_interpolation_is_exact_for_quadratics():
+    v = np.array([0.0, 0.3, 0.5, 1.0])
+    nodes = np.sort(np.concatenate([v, 0.5 * (v[1:] + v[:-1])]))
+    f = lambda s: 2.0 - 3.0 * s + 5.0 * s**2  # noqa: E731
+    s = np.linspace(0.0, 1.0, 37)
+    assert np.allclose(interpolate_p2(v, f(nodes)[:, None], s)[:, 0], f(s))
