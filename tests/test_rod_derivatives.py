@@ -77,3 +77,16 @@ def test_p2_interpolation_is_exact_for_quadratics():
     f = lambda s: 2.0 - 3.0 * s + 5.0 * s**2  # noqa: E731
     s = np.linspace(0.0, 1.0, 37)
     assert np.allclose(interpolate_p2(v, f(nodes)[:, None], s)[:, 0], f(s))
+
+
+@pytest.mark.parametrize("model", [PLANAR, FULL])
+def test_mixed_newton_reaches_the_same_equilibrium(model):
+    """The mixed-integration-point tangent changes the path of Newton, never its root."""
+    from matid.rod.newton import follow
+
+    answers = []
+    for mixed in (False, True):
+        sys_ = system(model, banded=True, mixed=mixed)
+        X, info = follow(sys_, sys_.reduce(sys_.reference()), [1.0])
+        answers.append(X)
+    assert np.max(np.abs(answers[0] - answers[1])) < 1e-9

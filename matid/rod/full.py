@@ -50,11 +50,14 @@ Q = _quadratic()
 QS, DR, DQ = slice(3, 7), slice(7, 10), slice(10, 14)
 
 
-def derivatives(vals, ders, lam, props, kappa_ref, mu, B, f, tangent: bool = True):
+def derivatives(vals, ders, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None, want_strain=False):
     """(g, H) of the normalised full-model density at every point: shapes P + (14,), P + (14, 14).
 
     vals, ders: (7,) + P field values and s-derivatives; props: stiffness arrays (P);
     mu: magnetisation per length (P) or None; B, f: 3-vectors; kappa_ref: 3-vector (scaled by lam here).
+    ``stress`` (P + (6,)): independent point stresses for the geometric part of the Hessian
+    (the mixed tangent, see RodSystem.mixed_update); ``want_strain``: also return
+    (C (e - e_ref), C de/dz) for that update.
     """
     q = np.moveaxis(vals[3:], 0, -1)  # P + (4,)
     p = np.moveaxis(ders[3:], 0, -1)
@@ -94,6 +97,10 @@ def derivatives(vals, ders, lam, props, kappa_ref, mu, B, f, tangent: bool = Tru
     g[..., :3] -= lam * np.asarray(f, float)
     if not tangent:
         return g, None
+    strain = (s[..., :6].copy(), C[..., :, None] * ge[..., :6, :]) if want_strain else None
+    if stress is not None:
+        s[..., :6] = stress
+        G = np.einsum("...k,...ka->...a", s, ge)
     H = np.einsum("...k,...ka,...kb->...ab", C, ge[..., :6, :], ge[..., :6, :])
     HS = np.zeros(P + (14, 14))
     HS[..., QS, DQ] = np.einsum("...i,iab->...ab", s[..., :3], A)
@@ -109,4 +116,4 @@ def derivatives(vals, ders, lam, props, kappa_ref, mu, B, f, tangent: bool = Tru
     idx = np.arange(3, 7)
     HS[..., idx, idx] -= 2.0 * se[..., None]
     H += HS * inv[..., None, None]
-    return g, H
+    return (g, H, strain) if want_strain else (g, H)

@@ -104,9 +104,11 @@ class RodSystem:
     fixed: tuple[int, ...] | None = None  # fixed global dofs; default: clamp at s = 0
     analytic: bool = True  # planar: closed-form derivatives (False: jets, the cross-check)
     banded: bool = False  # tangent in band storage (fem.Banded: LAPACK Cholesky/LU) instead of CSR
+    mixed: bool = False  # mixed-integration-point tangent in Newton (see mixed_update)
     terms: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
+        self._stress = self._strain = None
         s = self.disc.s_quad
         self.props = self.rod.stiffness_at(s)
         self.mu = self.rod.mu_at(s)
@@ -170,7 +172,22 @@ class RodSystem:
         if self.analytic and self.variant == kin.NORMALISED:
             rod = self.rod
             mu = self.mu if "magnetic" in self.terms else None
-            return full.derivatives(vals, ders, lam, self.props, rod.kappa_ref, mu, rod.B, rod.f, tangent)
+            out = full.derivatives(
+                vals,
+                ders,
+                lam,
+                self.props,
+                rod.kappa_ref,
+                mu,
+                rod.B,
+                rod.f,
+                tangent,
+                stress=self._stress,
+                want_strain=self.mixed,
+            )
+            if self.mixed and tangent:
+                self._strain = out[2]
+            return out[0], out[1]
         variables = Jet.variables(np.concatenate([vals, ders]), hessian=tangent)
         nf = self.disc.nf
         w = self.density(variables[:nf], variables[nf:], lam)
@@ -201,18 +218,51 @@ class RodSystem:
             g[..., 2] -= mu * (c * rod.B[0] - s * rod.B[2])
         if not tangent:
             return g, None
+        if self.mixed:  # stress of the displacement field and C J, for the mixed update
+            J = np.zeros(th.shape + (2, 6))
+            J[..., 0, 2], J[..., 0, 3], J[..., 0, 4] = -nu3, c, -s
+            J[..., 1, 2], J[..., 1, 3], J[..., 1, 4] = nu1, s, c
+            self._strain = (np.stack([n1, n3], axis=-1), J * np.stack([Es, Ee], axis=-1)[..., None])
+            if self._stress is not None:
+                n1, n3 = self._stress[..., 0], self._stress[..., 1]
+        # H = J^T C J + n1 Hess(nu1) + n3 Hess(nu3); in the mixed tangent (n1, n3) are the
+        # independent point stresses of the iteration instead of those of the displacements
         H = np.zeros(th.shape + (6, 6))
-        dE = Ee - Es
-        H[..., 2, 2] = (nu1 * nu1 - nu3 * nu3) * dE + Ee * nu3
-        H[..., 2, 3] = H[..., 3, 2] = (c * nu3 + s * nu1) * dE - Ee * c
-        H[..., 2, 4] = H[..., 4, 2] = (c * nu1 - s * nu3) * dE + Ee * s
+        H[..., 2, 2] = Es * nu3 * nu3 + Ee * nu1 * nu1 - n1 * nu1 - n3 * nu3
+        H[..., 2, 3] = H[..., 3, 2] = -Es * nu3 * c + Ee * nu1 * s - n1 * s + n3 * c
+        H[..., 2, 4] = H[..., 4, 2] = Es * nu3 * s + Ee * nu1 * c - n1 * c - n3 * s
         H[..., 3, 3] = Es * c * c + Ee * s * s
-        H[..., 3, 4] = H[..., 4, 3] = dE * s * c
+        H[..., 3, 4] = H[..., 4, 3] = (Ee - Es) * s * c
         H[..., 4, 4] = Es * s * s + Ee * c * c
         H[..., 5, 5] = Eb
         if mag:
             H[..., 2, 2] += mu * (s * rod.B[0] + c * rod.B[2])
         return g, H
+
+    # -- mixed-integration-point Newton (independent stresses at the quadrature points) ----------
+    def mixed_reset(self) -> None:
+        """Back to the consistent tangent (stresses from the displacements)."""
+        self._stress = None
+
+    def mixed_update(self, dx: np.ndarray, alpha: float) -> None:
+        """Point stresses after a Newton step alpha dx: sigma += alpha (C (e(u) + J du) - sigma).
+
+        The mixed (Hellinger-Reissner) Newton condensed at each point: the right-hand side is
+        the ordinary residual, only the tangent's geometric part uses sigma, which follows the
+        *linearised* strain. On stiff rods this removes the alternating overshoot of the axial
+        strain (theta^2/2 after a rotation step) that costs the displacement Newton its steps;
+        at convergence sigma = C e(u), the same solution (Magisano, Leonetti & Garcea 2017).
+        """
+        if not self.mixed or self._strain is None:
+            return
+        sigma_u, CJ = self._strain
+        dU = np.zeros(self.disc.n)
+        dU[self.disc.free] = dx
+        vals, ders = self.disc.interpolate(dU)
+        dz = np.moveaxis(np.concatenate([vals, ders]), 0, -1)  # P + (2 nf,)
+        target = sigma_u + np.einsum("...ka,...a->...k", CJ, dz)
+        old = sigma_u if self._stress is None else self._stress
+        self._stress = old + alpha * (target - old)
 
     @property
     def roundoff(self) -> float:

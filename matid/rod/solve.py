@@ -199,7 +199,13 @@ def solve_cantilever_state(
     )
     rod = scaled_rod(scene, e_a)
     system = RodSystem(
-        disc, rod, model=chosen, variant=variant, c_u=c_u or default_penalty(rod, variant), banded=True
+        disc,
+        rod,
+        model=chosen,
+        variant=variant,
+        c_u=c_u or default_penalty(rod, variant),
+        banded=True,
+        mixed=True,
     )
     X = _warm(system, start) if start is not None and element == "P2" else None
     if X is None:
