@@ -115,20 +115,22 @@ class Discretisation:
     """Mesh, basis tables and assembly for ``nf`` scalar fields on [0, L]."""
 
     def __init__(self, vertices: np.ndarray, nf: int, *, element: str = "P2", intorder: int | None = None):
-        self.mesh = MeshLine(np.asarray(vertices, dtype=float))
+        vertices = np.asarray(vertices, dtype=float)
         self.element = element
-        elem = ELEMENTS[element]()
-        self.basis = Basis(self.mesh, elem, intorder=intorder) if intorder else Basis(self.mesh, elem)
         self.nf = nf
-        b = self.basis
-        nloc = len(b.basis)
-        self.phi = np.array([np.asarray(b.basis[i][0]) for i in range(nloc)])  # (nloc, ne, nq)
-        self.dphi = np.array([b.basis[i][0].grad[0] for i in range(nloc)])
-        self.dx = b.dx  # (ne, nq)
-        self.edofs = b.element_dofs  # (nloc, ne) scalar dofs
-        self.nscalar = b.N
-        self.s_dof = b.doflocs[0]  # reference arc length of each scalar dof
-        self.s_quad = b.mapping.F(b.X)[0]  # (ne, nq)
+        if intorder is None:  # scikit-fem's default rule
+            b = Basis(MeshLine(vertices), ELEMENTS[element]())
+            nloc = len(b.basis)
+            self.phi = np.array([np.asarray(b.basis[i][0]) for i in range(nloc)])  # (nloc, ne, nq)
+            self.dphi = np.array([b.basis[i][0].grad[0] for i in range(nloc)])
+            self.dx = b.dx  # (ne, nq)
+            self.edofs = b.element_dofs  # (nloc, ne) scalar dofs
+            self.nscalar = b.N
+            self.s_dof = b.doflocs[0]  # reference arc length of each scalar dof
+            self.s_quad = b.mapping.F(b.X)[0]  # (ne, nq)
+        else:
+            self._gauss_tables(vertices, intorder)
+        self._vertices = vertices.copy()
         self.n = self.nscalar * nf
         self.weighted = np.stack([self.phi, self.dphi]) * self.dx[None, None]  # (2, nloc, ne, nq)
         self.both = np.stack([self.phi, self.dphi])
@@ -136,11 +138,35 @@ class Discretisation:
         self.gdofs = gd  # (ne, nloc*nf), local order (i, c)
         self.set_free(np.ones(self.n, dtype=bool))
 
-        self._vertices = self.mesh.p[0].copy()
+    def _gauss_tables(self, v: np.ndarray, intorder: int) -> None:
+        """Basis tables of scikit-fem's 1D P1/P2 with an ``intorder`` Gauss rule, built directly.
+
+        Same numbering as scikit-fem (vertices first, then mid-points; local order
+        v0, v1, mid) and the same rule (intorder // 2 + 1 Gauss points), at a
+        fraction of the set-up cost; checked against scikit-fem in the tests.
+        """
+        ne = v.size - 1
+        x, w = np.polynomial.legendre.leggauss(intorder // 2 + 1)
+        t, w = 0.5 * (x + 1.0), 0.5 * w
+        h = np.diff(v)[:, None]
+        if self.element == "P2":
+            ref = np.array([2 * t * t - 3 * t + 1, 2 * t * t - t, 4 * t * (1 - t)])
+            dref = np.array([4 * t - 3, 4 * t - 1, 4 - 8 * t])
+            self.edofs = np.array([np.arange(ne), np.arange(1, ne + 1), v.size + np.arange(ne)])
+            self.s_dof = np.concatenate([v, 0.5 * (v[:-1] + v[1:])])
+        else:
+            ref, dref = np.array([1 - t, t]), np.array([-np.ones_like(t), np.ones_like(t)])
+            self.edofs = np.array([np.arange(ne), np.arange(1, ne + 1)])
+            self.s_dof = v.copy()
+        self.phi = np.broadcast_to(ref[:, None, :], (ref.shape[0], ne, t.size)).copy()
+        self.dphi = dref[:, None, :] / h[None]
+        self.dx = w[None, :] * h
+        self.nscalar = self.s_dof.size
+        self.s_quad = v[:-1, None] + t[None, :] * h
 
     @property
     def ne(self) -> int:
-        return self.mesh.t.shape[1]
+        return self._vertices.size - 1
 
     @property
     def vertices(self) -> np.ndarray:
@@ -176,21 +202,29 @@ class Discretisation:
         return int(index)
 
     def set_free(self, free: np.ndarray) -> None:
-        """Build the CSR pattern of the free-free block once."""
+        """Which dofs are free: the band pattern now, the CSR pattern when first used."""
         self.free = np.asarray(free, dtype=bool)
         index = np.full(self.n, -1)
-        index[self.free] = np.arange(int(self.free.sum()))
-        m = self.gdofs.shape[1]
-        rows = np.broadcast_to(index[self.gdofs][:, :, None], (self.ne, m, m)).ravel()
-        cols = np.broadcast_to(index[self.gdofs][:, None, :], (self.ne, m, m)).ravel()
-        keep = (rows >= 0) & (cols >= 0)
-        self.keep_mask = keep
         nfree = int(self.free.sum())
-        keys = rows[keep] * nfree + cols[keep]
-        unique, inverse = np.unique(keys, return_inverse=True)
-        indptr = np.searchsorted(unique // nfree, np.arange(nfree + 1)) if nfree else np.zeros(1, int)
-        self.pattern = Pattern(keep, inverse, unique % nfree if nfree else unique, indptr, nfree)
+        index[self.free] = np.arange(nfree)
+        local = index[self.gdofs]
+        self.keep_mask = ((local[:, :, None] >= 0) & (local[:, None, :] >= 0)).ravel()
+        self._index, self._pattern = index, None
         self._band_pattern(index, nfree)
+
+    @property
+    def pattern(self) -> Pattern:
+        """CSR pattern of the free-free block (the sparse path: the bend's bordered system)."""
+        if self._pattern is None:
+            index, m, nfree = self._index, self.gdofs.shape[1], int(self.free.sum())
+            rows = np.broadcast_to(index[self.gdofs][:, :, None], (self.ne, m, m)).ravel()
+            cols = np.broadcast_to(index[self.gdofs][:, None, :], (self.ne, m, m)).ravel()
+            keep = self.keep_mask
+            keys = rows[keep] * nfree + cols[keep]
+            unique, inverse = np.unique(keys, return_inverse=True)
+            indptr = np.searchsorted(unique // nfree, np.arange(nfree + 1)) if nfree else np.zeros(1, int)
+            self._pattern = Pattern(keep, inverse, unique % nfree if nfree else unique, indptr, nfree)
+        return self._pattern
 
     def _band_pattern(self, index: np.ndarray, nfree: int) -> None:
         """Band positions of the free dofs (ordered along s, then field) and of each kept entry."""
@@ -242,7 +276,7 @@ class Discretisation:
 
     def banded(self, Ke: np.ndarray, symmetric: bool) -> Banded:
         """The free-dof tangent in band storage from element matrices (one bincount)."""
-        n, u = self.pattern.n, self.band_u
+        n, u = self.band_order.size, self.band_u
         ab = np.bincount(self.band_flat, weights=Ke.ravel()[self.keep_mask], minlength=(2 * u + 1) * n)
         out = Banded(ab.reshape(2 * u + 1, n), u, self.band_order, symmetric)
         out.position = self.band_position
