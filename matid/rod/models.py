@@ -139,6 +139,13 @@ class RodSystem:
             U[:, 3] = 1.0
         return U.ravel()
 
+    def _reference(self) -> np.ndarray:
+        """:meth:`reference`, cached per mesh (the fixed dofs of :meth:`expand`)."""
+        cached = self.__dict__.get("_ref")
+        if cached is None or cached[0] is not self.disc:
+            cached = self._ref = (self.disc, self.reference())
+        return cached[1]
+
     # -- energy density -------------------------------------------------------
     def density(self, u: list, du: list, lam: float):
         p, rod = self.props, self.rod
@@ -258,17 +265,19 @@ class RodSystem:
         sigma_u, CJ = self._strain
         dU = np.zeros(self.disc.n)
         dU[self.disc.free] = dx
-        vals, ders = self.disc.interpolate(dU)
-        dz = np.moveaxis(np.concatenate([vals, ders]), 0, -1)  # P + (2 nf,)
-        target = sigma_u + np.einsum("...ka,...a->...k", CJ, dz)
+        dz = self.disc.point_values(dU)  # P + (2 nf,)
+        target = sigma_u + np.matmul(CJ, dz[..., None])[..., 0]
         old = sigma_u if self._stress is None else self._stress
         self._stress = old + alpha * (target - old)
 
     @property
     def roundoff(self) -> float:
         """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
-        stiff = max(float(np.max(v)) for v in self.props.values())
-        return 1e-15 * max(stiff, 1.0)
+        cached = self.__dict__.get("_roundoff")
+        if cached is None or cached[0] is not self.props:
+            stiff = max(float(np.max(v)) for v in self.props.values())
+            cached = self._roundoff = (self.props, 1e-15 * max(stiff, 1.0))
+        return cached[1]
 
     # -- point terms (tip loads, lumped magnets) --------------------------------
     def point_terms(self, U: np.ndarray, lam: float) -> tuple[np.ndarray, list]:
@@ -407,7 +416,7 @@ class RodSystem:
         return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
 
     def expand(self, X: np.ndarray) -> np.ndarray:
-        U = self.reference()
+        U = self._reference().copy()
         U[self.disc.free] = X
         return U
 

@@ -73,19 +73,20 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
     """The scene's rod and loads in scaled units; projected onto the plane when e_a is given."""
     rod, loads = scene.rod, scene.loads
     L, Eb = rod.length, rod.E_b
+    if e_a is not None:
+        a0, a1 = float(e_a[0]), float(e_a[1])  # e_a is horizontal; n = e3 x e_a = (-a1, a0, 0)
 
     def vec(v, factor):
-        v = np.asarray(v, float) * factor
+        v = [float(c) * factor for c in v]
         if e_a is None:
             return tuple(v)
-        n = np.cross([0.0, 0.0, 1.0], e_a)
-        return (float(v @ e_a), float(v @ n), float(v[2]))
+        return (v[0] * a0 + v[1] * a1, -v[0] * a1 + v[1] * a0, v[2])
 
     def moment(v, factor):
-        v = np.asarray(v, float) * factor
+        v = [float(c) * factor for c in v]
         if e_a is None:
             return tuple(v)
-        return (0.0, float(v @ np.cross([0.0, 0.0, 1.0], e_a)), 0.0)
+        return (0.0, -v[0] * a1 + v[1] * a0, 0.0)
 
     base = {"E_b": 1.0, "E_t": rod.E_t / Eb, "E_s": rod.E_s * L**2 / Eb, "E_e": rod.E_e * L**2 / Eb}
     segments = []
