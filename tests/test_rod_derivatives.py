@@ -103,3 +103,27 @@ def test_basis_tables_are_scikit_fems(element, intorder):
     dphi = np.array([b.basis[i][0].grad[0] for i in range(len(b.basis))])
     assert np.allclose(ours.phi, phi) and np.allclose(ours.dphi, dphi) and np.allclose(ours.dx, b.dx)
     assert np.array_equal(ours.edofs, b.element_dofs) and np.allclose(ours.s_dof, b.doflocs[0])
+
+
+def test_bend_mesh_derivative_and_bordered_solve():
+    """dR/dsigma in closed form equals central differences; the bordered solve equals a dense one."""
+    from matid.rod.bend import BendGeometry, BendModel
+
+    geometry = BendGeometry(0.01, 0.03, 0.002, 0.002, 0.0024)
+    model = BendModel(geometry, elements=8)
+    path = model.solve(6.5e-5, 21.0, 120.0, np.array([0.0005, 0.001]))
+    bend = model.system(6.5e-5, 21.0, 120.0, 0.001)
+    X = path.states[-1]
+    R, A = bend.evaluate(X, 1.0)
+    u, sigma = X[: bend.nu], X[-1]
+    U = bend.rod.expand(u)
+    delta = 1e-6 * sigma
+    out = []
+    for s in (sigma + delta, sigma - delta):
+        bend.at(s)
+        out.append(bend.rod.evaluate(u, 0.0, tangent=False, U=U)[0])
+    fd = (out[0] - out[1]) / (2 * delta)
+    assert np.allclose(A.B[:, 2], fd, rtol=0, atol=1e-7 * np.abs(fd).max())
+    dense = A.tocsr().toarray()
+    x = A.factor().solve(R)
+    assert np.allclose(dense @ x, R, rtol=0, atol=1e-9 * np.abs(R).max())

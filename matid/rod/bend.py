@@ -27,10 +27,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from scipy import linalg
 
 from matid.errors import ConvergenceError, SlipOffError
 from matid.rod.contact import Circle
-from matid.rod.fem import Discretisation
+from matid.rod.fem import Banded, Discretisation
 from matid.rod.models import PLANAR, RodSystem, ScaledRod
 from matid.rod.newton import NewtonFailure, NewtonInfo, follow, newton
 
@@ -69,6 +70,61 @@ class BendPath:
     runtime_s: float = 0.0
 
 
+class Bordered:
+    """The bend tangent [[K, B], [C, 0]]: the banded rod block K bordered by three columns
+    (contact normals -G^T, dR/dsigma) and three rows (-G, dh/du).
+
+    K alone is singular (nothing but the contacts holds the tube's vertical
+    translation), so the first two rows are added to the rod block with weight rho,
+    K_rho = K + rho G^T G, an equivalent system whose G^T G is node-local (in the
+    band). Then x = y - Z w with K_rho y = f, K_rho Z = B and the 3x3 Schur
+    complement (C Z) w = C y - g: one banded factorisation and four back-solves.
+    """
+
+    def __init__(self, K, B: np.ndarray, C: np.ndarray):
+        self.K, self.B, self.C = K, B, C
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        n = self.B.shape[0] + 3
+        return (n, n)
+
+    def tocsr(self) -> sp.csr_matrix:
+        n = self.B.shape[0]
+        A = np.zeros(self.shape)
+        A[:n, :n] = self.K.tocsr().toarray()
+        A[:n, n:], A[n:, :n] = self.B, self.C
+        return sp.csr_matrix(A)
+
+    def tocsc(self) -> sp.csc_matrix:
+        return self.tocsr().tocsc()
+
+    def factor(self) -> Bordered:
+        K, C = self.K, self.C
+        self.rho = max(1.0, float(np.max(np.abs(K.ab[K.u]))))
+        aug = Banded(K.ab.copy(), K.u, K.order, K.symmetric)
+        aug.position = K.position
+        for row in C[:2]:  # each contact row lives on its own vertex: rho g g^T is in the band
+            nz = np.flatnonzero(row)
+            aug.add_blocks(
+                np.repeat(nz, nz.size), np.tile(nz, nz.size), self.rho * np.outer(row[nz], row[nz]).ravel()
+            )
+        self.F = aug.factor()
+        self.Z = self.F.solve(self.B)
+        S = C @ self.Z
+        if not np.all(np.isfinite(S)) or abs(np.linalg.det(S)) <= 1e-300:
+            raise np.linalg.LinAlgError("singular bordered tangent")
+        self.S_lu = linalg.lu_factor(S)
+        return self
+
+    def solve(self, r: np.ndarray) -> np.ndarray:
+        n = self.B.shape[0]
+        f = r[:n] + self.rho * (self.C[:2].T @ r[n : n + 2])
+        y = self.F.solve(f)
+        w = linalg.lu_solve(self.S_lu, self.C @ y - r[n:])
+        return np.concatenate([y - self.Z @ w, w])
+
+
 class BendSystem:
     """Residual and tangent of the half-model bend at nose deflection lam * d_max (scaled).
 
@@ -88,7 +144,9 @@ class BendSystem:
     def at(self, sigma: float) -> None:
         if not 0.0 < sigma < self.model.half:
             raise NewtonFailure(f"the support contact section left the rod (s = {sigma:.4g} span)")
-        self.rod.disc = self.base.moved(self.model.vertices(sigma))
+        if getattr(self, "_sigma", None) != sigma:
+            self.rod.disc = self.base.moved(self.model.vertices(sigma))
+            self._sigma = sigma
 
     def nose(self, lam: float) -> Circle:
         rho = self.model.nose_rho
@@ -131,30 +189,37 @@ class BendSystem:
         if not tangent:
             return R_all, None
         n = self.nu
-        column = self._mesh_derivative(u, U, sigma)
+        rows, cols, vals = self.rod._triplets(blocks)
+        K.add_blocks(rows, cols, vals)
         idx = index[self.k * 3 + np.arange(3)]
-        rows = [np.repeat(n + np.arange(2), n), np.arange(n), np.full(int((idx >= 0).sum()), n + 2)]
-        cols = [np.tile(np.arange(n), 2), np.full(n, n + 2), idx[idx >= 0]]
-        vals = [-G.ravel(), column, dh[idx >= 0]]
-        rows.append(np.tile(np.arange(n), 2))
-        cols.append(np.repeat(n + np.arange(2), n))
-        vals.append(-G.ravel())
-        border = sp.csr_matrix(
-            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n + 3, n + 3)
-        )
-        A = K + self.rod._blocks_matrix(blocks, K.shape)
-        A.resize((n + 3, n + 3))
-        A = A + border
-        return R_all, A
+        B = np.empty((n, 3))
+        B[:, :2] = -G.T
+        B[:, 2] = self._mesh_derivative(u, U, sigma)
+        C = np.zeros((3, n))
+        C[:2] = -G
+        C[2, idx[idx >= 0]] = dh[idx >= 0]
+        return R_all, Bordered(K, B, C)
 
     def _mesh_derivative(self, u: np.ndarray, U: np.ndarray, sigma: float) -> np.ndarray:
-        delta = 1e-6 * max(sigma, 1e-3)
-        out = []
-        for s in (sigma + delta, sigma - delta):
-            self.at(s)
-            out.append(self.rod.evaluate(u, 0.0, tangent=False, U=U)[0])
-        self.at(sigma)
-        return (out[0] - out[1]) / (2 * delta)
+        """dR/dsigma with nodal values held, in closed form from the pointwise g and H.
+
+        Moving sigma changes only element lengths h (dh/dsigma = 1/k inside the support
+        vertex, -1/(n - k) outside); with u' = phi_ref' U/h each element residual
+        R_e = sum_q w_q [h g_u phi + g_u' phi_ref'] has
+        dR_e/dh = sum_q [W_0 (g_u/h + dg_u/dh) + W_1 dg_u'/dh],  dg/dh = -H[:, u'] u'/h,
+        with W_0 = phi dx, W_1 = phi' dx the assembly tables (checked against differences).
+        """
+        rod, disc = self.rod, self.rod.disc
+        U_used, g, H = rod.last_points
+        assert U_used is U, "the mesh derivative needs the pointwise derivatives at U"
+        nf, ne, k = disc.nf, disc.ne, self.k
+        h = np.diff(disc.vertices)[:, None, None]  # (ne, 1, 1)
+        up = disc.point_values(U)[..., nf:]  # u' at the points (ne, nq, nf)
+        dg = -np.matmul(H[..., :, nf:], up[..., None])[..., 0] / h  # dg/dh (ne, nq, 2 nf)
+        geff = dg.copy()
+        geff[..., :nf] += g[..., :nf] / h
+        dh = np.where(np.arange(ne) < k, 1.0 / k, -1.0 / (ne - k))[:, None, None]
+        return disc.residual(geff * dh)[disc.free]
 
     def stiffness_derivative(self, X: np.ndarray, name: str) -> np.ndarray:
         """dR/dp for a scaled stiffness p of the rod (the residual of that energy term alone)."""
@@ -204,15 +269,16 @@ class BendModel:
     def vertices(self, s_contact: float) -> np.ndarray:
         """Uniform elements on each side of the support's contact section."""
         k = self.support_vertex
-        inner = np.linspace(0.0, s_contact, k + 1)
-        outer = np.linspace(s_contact, self.half, self.elements - k + 1)[1:]
-        return np.concatenate([inner, outer])
+        if "_fractions" not in self.__dict__:
+            self._fractions = (np.linspace(0.0, 1.0, k + 1), np.linspace(0.0, 1.0, self.elements - k + 1)[1:])
+        inner, outer = self._fractions
+        return np.concatenate([s_contact * inner, s_contact + (self.half - s_contact) * outer])
 
     def system(self, E_b: float, E_s: float, E_e: float, d_max: float) -> BendSystem:
         S = self.geometry.span
         disc = Discretisation(self.vertices(0.5), 3, intorder=2)
         scaled = ScaledRod(E_t=1.0, E_s=E_s * S**2 / E_b, E_e=E_e * S**2 / E_b)
-        rod = RodSystem(disc, scaled, model=PLANAR, fixed=(1, 2))  # z(0) = 0, theta(0) = 0
+        rod = RodSystem(disc, scaled, model=PLANAR, fixed=(1, 2), banded=True)  # z(0) = 0, theta(0) = 0
         support = Circle((-self.support_rho, 0.5), self.support_rho)
         return BendSystem(rod, self, support, d_max / S)
 

@@ -333,6 +333,7 @@ class RodSystem:
         """Residual on the free dofs and, with ``tangent``, its Jacobian (CSR)."""
         U = self.expand(X) if U is None else U
         g, H = self.energy_derivatives(U, lam, tangent)
+        self.last_points = (U, g, H)  # pointwise derivatives of this evaluation (bend: dR/dsigma)
         if self.banded:
             R = self.disc.residual(g)
             K = self.disc.banded(self.disc.element_matrices(H), self.symmetric) if tangent else None
