@@ -65,6 +65,10 @@ class BendPath:
     dforce: dict[str, np.ndarray]  # parameter -> dF/dp at each deflection
     support_s: np.ndarray  # arc length of the support contact section from mid-span [m]
     states: list[np.ndarray] = field(repr=False, default_factory=list)
+    #: (scaled E_s, scaled E_e) of the states and dX/dp for each (when sensitivities ran): the
+    #: first-order predictor of a warm start at other stiffnesses
+    scaled: tuple[float, float] | None = field(repr=False, default=None)
+    tangents: list[dict] = field(repr=False, default_factory=list)
     newton_iterations: int = 0
     load_steps: int = 0
     runtime_s: float = 0.0
@@ -308,13 +312,19 @@ class BendModel:
         X = system.initial()
         info, lam = NewtonInfo(), 0.0
         rec: dict[str, list] = {"X": [], "F": [], "dF": []}
+        scaled = (system.rod.rod.E_s, system.rod.rod.E_e)
+        tangents: list[dict] = []
         for i, target in enumerate(d / d_max):
-            X = self._step(system, X, lam, target, None if start is None else start.states[i], info, d_max)
+            X = self._step(system, X, lam, target, _predict(start, i, scaled), info, d_max)
             lam = target
             self._check(system, X, lam)
             F = system.force(X, lam)
             rec["X"].append(X.copy()), rec["F"].append(F)
-            rec["dF"].append(_sensitivities(system, X, info.lu, sensitivities, E_s, E_e, F * scale_F, E_b))
+            dX: dict = {}
+            rec["dF"].append(
+                _sensitivities(system, X, info.lu, sensitivities, E_s, E_e, F * scale_F, E_b, dX)
+            )
+            tangents.append(dX)
         dF = {p: np.array([r[p] for r in rec["dF"]]) for p in sensitivities}
         return BendPath(
             deflection=d,
@@ -322,6 +332,8 @@ class BendModel:
             dforce=dF,
             support_s=np.array([x[-1] for x in rec["X"]]) * S,
             states=rec["X"],
+            scaled=scaled,
+            tangents=tangents,
             newton_iterations=info.iterations,
             load_steps=info.steps,
             runtime_s=time.perf_counter() - t0,
@@ -392,8 +404,27 @@ class BendModel:
             )
 
 
-def _sensitivities(system, X, lu, names, E_s, E_e, F, E_b) -> dict[str, float]:
-    """dF/dp from the linearised equilibrium (SI; see the module docstring)."""
+def _predict(start: BendPath | None, i: int, scaled: tuple[float, float]) -> np.ndarray | None:
+    """Warm-start state i: the earlier state plus dX/dp (dp) for the scaled E_s, E_e when known.
+
+    Measured on the E_s fit: Newton from this first-order prediction needs 2 iterations
+    per point where the bare earlier state needs 3.
+    """
+    if start is None:
+        return None
+    X = start.states[i]
+    if start.scaled is None or i >= len(start.tangents) or not start.tangents[i]:
+        return X
+    t = start.tangents[i]
+    return X + sum(
+        t[name] * (new - old)
+        for name, new, old in zip(("E_s", "E_e"), scaled, start.scaled, strict=True)
+        if name in t
+    )
+
+
+def _sensitivities(system, X, lu, names, E_s, E_e, F, E_b, dX_out: dict | None = None) -> dict[str, float]:
+    """dF/dp from the linearised equilibrium (SI; see the module docstring); dX/dp (scaled) into dX_out."""
     out: dict[str, float] = {}
     if not names:
         return out
@@ -402,6 +433,8 @@ def _sensitivities(system, X, lu, names, E_s, E_e, F, E_b) -> dict[str, float]:
     for name in ("E_s", "E_e"):
         if name in names or "E_b" in names:
             dX = lu.solve(-system.stiffness_derivative(X, name))
+            if dX_out is not None:
+                dX_out[name] = dX
             out[name] = float(2.0 * dX[system.nu + 1] * (-normal[0]))
     if "E_b" in names:
         out["E_b"] = (F - E_s * out["E_s"] - E_e * out["E_e"]) / E_b
