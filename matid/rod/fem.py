@@ -252,9 +252,8 @@ class Discretisation:
 
     def interpolate(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Field values and s-derivatives at the quadrature points, each (nf, ne, nq)."""
-        z = self.point_values(U)
-        nf = self.nf
-        return np.moveaxis(z[..., :nf], -1, 0), np.moveaxis(z[..., nf:], -1, 0)
+        z = np.ascontiguousarray(self.point_values(U).transpose(2, 0, 1))  # strided views are slow
+        return z[: self.nf], z[self.nf :]
 
     def point_values(self, U: np.ndarray) -> np.ndarray:
         """(u, u') at every quadrature point, shape (ne, nq, 2 nf): one batched matmul."""
