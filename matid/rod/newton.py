@@ -59,8 +59,9 @@ MIN_ITERATIONS = 200
 
 #: Corrections above this use the mixed-integration-point tangent (systems that offer it);
 #: below, the consistent tangent: quadratic convergence, and the last factorisation is the
-#: true tangent that the stability test reads.
-MIXED_ABOVE = 1e-3
+#: true tangent that the stability test reads. (1e-3 let the switch trip the round-off
+#: stagnation test on a stiff (1e8) rod in the full model: found by matid bench leave_out.)
+MIXED_ABOVE = 1e-4
 
 
 def newton(

@@ -31,6 +31,8 @@ RIGID_FACTOR = 1e6
 #: three-point rule locks on slender rods, two-point Gauss does not.
 DEFAULT_INTORDER = 2
 DEFAULT_ELEMENTS = 16
+#: Mixed-integration-point Newton per model (see RodSystem.mixed_update).
+MIXED = {PLANAR: True, FULL: True}
 
 
 @dataclass(frozen=True)
@@ -206,7 +208,7 @@ def solve_cantilever_state(
         variant=variant,
         c_u=c_u or default_penalty(rod, variant),
         banded=True,
-        mixed=True,
+        mixed=MIXED[chosen],
     )
     X = _warm(system, start) if start is not None and element == "P2" else None
     if X is None:
