@@ -11,6 +11,7 @@ import json
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from matid.bench import stability
@@ -197,3 +198,31 @@ def test_quick_bench_writes_json_html_and_plots(tmp_path):
         for r in rows
     )
     assert {r["model"] for r in doc["sections"]["leave_out"]["rows"]} == {"planar", "full"}
+
+
+# -- peers ------------------------------------------------------------------------------------------
+
+
+def test_solve_bvp_baseline_is_an_independent_answer_to_the_same_problems():
+    """The baseline agrees with matid's solve() on all three peer problems (different methods:
+    collocation of the strong form against FE of the energy), and with the printed benchmark."""
+    from matid.bench import peers
+    from matid.rod import solve
+
+    for problem in peers.problems():
+        reference = problem["baseline"].tip(tol=1e-8)
+        matid_tip = np.asarray(solve(problem["scene"]).position[-1]) / problem["scene"].rod.length
+        assert np.max(np.abs(matid_tip - reference)) < 3e-6, problem["label"]
+    magnetic = peers.problems()[0]["baseline"].tip(tol=1e-8)
+    assert abs(magnetic[0] - 0.83419) < 1e-5 and abs(magnetic[2] - 0.29063) < 1e-5  # printed digits
+
+
+def test_peers_section_reports_ratios_and_errors(tmp_path):
+    code = run_bench(tmp_path, quick=True, sections="peers")
+    doc = json.loads((tmp_path / "bench.json").read_text())
+    section = doc["sections"]["peers"]
+    assert code == 0 and section["status"] == "ok" and len(section["rows"]) == 3
+    for row in section["rows"]:
+        assert row["speedup_vs_baseline"] == pytest.approx(row["baseline_s"] / row["matid_s"])
+        assert row["matid_tip_error"] < 3e-6 and row["baseline_tip_error"] <= 1e-6
+    assert "pyelastica" in section

@@ -20,12 +20,12 @@ import traceback
 from collections.abc import Iterable
 from pathlib import Path
 
-from matid.bench import convergence, leave_out, stability
+from matid.bench import convergence, leave_out, peers, stability
 from matid.bench.common import jsonable, machine
 from matid.bench.html import page
 from matid.bench.plots import convergence_figure, penalty_figure
 
-SECTIONS = ("convergence", "stability", "vs_3d", "leave_out")
+SECTIONS = ("convergence", "stability", "vs_3d", "leave_out", "peers")
 DEFAULT_OUT = Path("reports/bench")
 
 
@@ -82,6 +82,8 @@ def run_bench(
         start = time.perf_counter()
         results[name] = _run_section(name, quick)
         times[name] = time.perf_counter() - start
+        if name == "peers" and results[name].get("rows"):
+            _say(quiet, peers.table(results[name]))
         _say(quiet, f"matid bench: {name} done in {times[name]:.1f} s")
     doc = {
         "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
@@ -106,7 +108,9 @@ def _run_section(name: str, quick: bool) -> dict:
     try:
         if name == "vs_3d":
             return _vs_3d(quick)
-        module = {"convergence": convergence, "stability": stability, "leave_out": leave_out}[name]
+        module = {"convergence": convergence, "stability": stability, "leave_out": leave_out, "peers": peers}[
+            name
+        ]
         return module.run(quick)
     except Exception as exc:  # noqa: BLE001 - one failing section must not hide the others
         return {"status": f"failed: {type(exc).__name__}: {exc}", "traceback": traceback.format_exc()}

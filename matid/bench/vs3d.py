@@ -119,6 +119,7 @@ BEND_D_OVER_S = (1e-5, 2e-5)
 
 # -- section and closed forms --------------------------------------------------
 
+
 @dataclass(frozen=True)
 class Section:
     """Isotropic hollow circular tube: areas, shear coefficient and the 1D stiffnesses."""
@@ -156,8 +157,12 @@ class Section:
 
     def stiffness(self) -> dict[str, float]:
         """E_b, E_s, E_e, E_t of the 1D rod [N m^2, N, N, N m^2]."""
-        return {"E_b": self.E * self.I, "E_s": self.k * self.G * self.A, "E_e": self.E * self.A,
-                "E_t": self.G * 2 * self.I}
+        return {
+            "E_b": self.E * self.I,
+            "E_s": self.k * self.G * self.A,
+            "E_e": self.E * self.A,
+            "E_t": self.G * 2 * self.I,
+        }
 
 
 def cantilever_compliance(sec: Section, length: float = CANTILEVER_LENGTH) -> float:
@@ -170,8 +175,13 @@ def bend_stiffness_point(sec: Section, span: float = SPAN) -> float:
     return 1.0 / (span**3 / (48 * sec.E * sec.I) + span / (4 * sec.k * sec.G * sec.A))
 
 
-def bend_stiffness_patch(sec: Section, span: float = SPAN, half_length: float = PATCH_HALF_LENGTH,
-                         specimen: float = SPECIMEN_LENGTH, samples: int = 400_001) -> float:
+def bend_stiffness_patch(
+    sec: Section,
+    span: float = SPAN,
+    half_length: float = PATCH_HALF_LENGTH,
+    specimen: float = SPECIMEN_LENGTH,
+    samples: int = 400_001,
+) -> float:
     """Timoshenko three-point bend under the cos^2 load profiles of the 3D patches [N/m].
 
     Unit-load theorem on the half beam z in [0, specimen/2] (F = 1):
@@ -195,6 +205,7 @@ def bend_stiffness_patch(sec: Section, span: float = SPAN, half_length: float = 
 
 
 # -- 3D model ------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class TubeGrid:
@@ -243,8 +254,9 @@ def stiffness_matrix(basis: Basis, lam: float, mu: float, *, chunk: int = 256) -
     return K
 
 
-def facet_load(mesh: MeshHex2, element, facets: np.ndarray, weight: Callable, total: float,
-               intorder: int) -> np.ndarray:
+def facet_load(
+    mesh: MeshHex2, element, facets: np.ndarray, weight: Callable, total: float, intorder: int
+) -> np.ndarray:
     """Scalar load vector of a traction weight(x) on the facets, scaled to the given total."""
     fb = FacetBasis(mesh, element, facets=facets, intorder=intorder)
     area = Functional(lambda w: weight(w.x)).assemble(fb)
@@ -287,12 +299,16 @@ def cantilever_grid(level: int, *, length: float = CANTILEVER_LENGTH) -> TubeGri
     """
     t = np.linspace(-1.0, 1.0, level + 1)
     wall = 0.5 * (1 + np.sign(t) * (1 - (1 - np.abs(t)) ** 2))
-    return TubeGrid(r=R_I + (R_O - R_I) * wall, phi=np.linspace(0.0, math.pi, 4 * level + 1),
-                    z=length * np.linspace(0.0, 1.0, 10 * level + 1) ** 2)
+    return TubeGrid(
+        r=R_I + (R_O - R_I) * wall,
+        phi=np.linspace(0.0, math.pi, 4 * level + 1),
+        z=length * np.linspace(0.0, 1.0, 10 * level + 1) ** 2,
+    )
 
 
-def cantilever_3d(grid: TubeGrid, *, element: str = "hex27", intorder: int = DEFAULT_INTORDER,
-                  sec: Section = Section()) -> Run:
+def cantilever_3d(
+    grid: TubeGrid, *, element: str = "hex27", intorder: int = DEFAULT_INTORDER, sec: Section = Section()
+) -> Run:
     """3D clamped tube, parabolic end traction: tip deflection per unit force [m/N] (half model)."""
     t0 = time.perf_counter()
     param, mesh = tube_mesh(grid)
@@ -309,9 +325,15 @@ def cantilever_3d(grid: TubeGrid, *, element: str = "hex27", intorder: int = DEF
     fixed = np.unique(np.concatenate([(3 * clamp[:, None] + np.arange(3)).ravel(), 3 * sym.all() + 1]))
     (u,) = solve_fixed(K, [f], fixed)
     t2 = time.perf_counter()
-    return Run("3d", "cantilever", f"{element} {grid.label}", K.shape[0] - fixed.size, t2 - t0,
-               float(f @ u / 0.5), {"assembly_s": t1 - t0, "solve_s": t2 - t1,
-                                                "element": element, "intorder": intorder})
+    return Run(
+        "3d",
+        "cantilever",
+        f"{element} {grid.label}",
+        K.shape[0] - fixed.size,
+        t2 - t0,
+        float(f @ u / 0.5),
+        {"assembly_s": t1 - t0, "solve_s": t2 - t1, "element": element, "intorder": intorder},
+    )
 
 
 def _wall_parabola(x: np.ndarray, sec: Section) -> np.ndarray:
@@ -330,13 +352,17 @@ def _segments(breaks: list[float], counts: list[int], grade_last: float = 1.0) -
     return np.concatenate(parts)
 
 
-def bend_grid(level: int, *, span: float = SPAN, specimen: float = SPECIMEN_LENGTH,
-              b: float = PATCH_HALF_LENGTH) -> TubeGrid:
+def bend_grid(
+    level: int, *, span: float = SPAN, specimen: float = SPECIMEN_LENGTH, b: float = PATCH_HALF_LENGTH
+) -> TubeGrid:
     """Quarter specimen, level n, h ~ 1/n: n layers, 4n sectors (patch edges at 45 and 135 deg on
     nodes), z slices n on the nose patch, 3n to the support patch, 2n on it, 3n on the overhang
     (graded away from the support: it carries no moment)."""
-    z = _segments([0.0, b, span / 2 - b, span / 2 + b, specimen / 2],
-                  [level, 3 * level, 2 * level, 3 * level], grade_last=2.0)
+    z = _segments(
+        [0.0, b, span / 2 - b, span / 2 + b, specimen / 2],
+        [level, 3 * level, 2 * level, 3 * level],
+        grade_last=2.0,
+    )
     return TubeGrid(r=np.linspace(R_I, R_O, level + 1), phi=np.linspace(0.0, math.pi, 4 * level + 1), z=z)
 
 
@@ -354,9 +380,16 @@ def _band(x: np.ndarray, z0: float, b: float) -> np.ndarray:
     return np.where(np.abs(dz) < b, np.cos(0.5 * math.pi * dz / b) ** 2, 0.0)
 
 
-def bend_3d(grid: TubeGrid, *, element: str = "hex27", intorder: int = DEFAULT_INTORDER,
-            sec: Section = Section(), span: float = SPAN, b: float = PATCH_HALF_LENGTH,
-            alpha: float = PATCH_HALF_ANGLE) -> Run:
+def bend_3d(
+    grid: TubeGrid,
+    *,
+    element: str = "hex27",
+    intorder: int = DEFAULT_INTORDER,
+    sec: Section = Section(),
+    span: float = SPAN,
+    b: float = PATCH_HALF_LENGTH,
+    alpha: float = PATCH_HALF_ANGLE,
+) -> Run:
     """3D quarter tube in three-point bend: stiffness F/d [N/m] under surface patches (value)
     and under the same axial profiles smeared over the section as body forces (extra)."""
     t0 = time.perf_counter()
@@ -368,11 +401,12 @@ def bend_3d(grid: TubeGrid, *, element: str = "hex27", intorder: int = DEFAULT_I
     outer = param.facets_satisfying(lambda x: np.isclose(x[0], sec.R_o))
     quarter = 0.25  # of F = 1: half the nose load on the quarter, one support's half
     f_surface, f_body = np.zeros(K.shape[0]), np.zeros(K.shape[0])
-    f_surface[0::3] = (
-        facet_load(mesh, elem, outer, lambda x: _patch(x, 0.0, 0.0, b, alpha), -quarter, intorder)
-        + facet_load(mesh, elem, outer, lambda x: _patch(x, span / 2, math.pi, b, alpha), quarter, intorder))
-    f_body[0::3] = (_body_load(basis, lambda x: _band(x, 0.0, b), -quarter)
-                    + _body_load(basis, lambda x: _band(x, span / 2, b), quarter))
+    f_surface[0::3] = facet_load(
+        mesh, elem, outer, lambda x: _patch(x, 0.0, 0.0, b, alpha), -quarter, intorder
+    ) + facet_load(mesh, elem, outer, lambda x: _patch(x, span / 2, math.pi, b, alpha), quarter, intorder)
+    f_body[0::3] = _body_load(basis, lambda x: _band(x, 0.0, b), -quarter) + _body_load(
+        basis, lambda x: _band(x, span / 2, b), quarter
+    )
     sym_y = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[1], 0) | np.isclose(x[1], math.pi)))
     sym_z = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[2], 0.0)))
     end = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[2], grid.z[-1]))).all()
@@ -380,10 +414,21 @@ def bend_3d(grid: TubeGrid, *, element: str = "hex27", intorder: int = DEFAULT_I
     fixed = np.unique(np.concatenate([3 * sym_y.all() + 1, 3 * sym_z.all() + 2, [3 * pin]]))
     u_surface, u_body = solve_fixed(K, [f_surface, f_body], fixed)
     t2 = time.perf_counter()
-    return Run("3d", "bend", f"{element} {grid.label}", K.shape[0] - fixed.size, t2 - t0,
-               float(quarter**2 / (f_surface @ u_surface) * 4),
-               {"assembly_s": t1 - t0, "solve_s": t2 - t1, "element": element, "intorder": intorder,
-                "body_force_value": float(quarter**2 / (f_body @ u_body) * 4)})
+    return Run(
+        "3d",
+        "bend",
+        f"{element} {grid.label}",
+        K.shape[0] - fixed.size,
+        t2 - t0,
+        float(quarter**2 / (f_surface @ u_surface) * 4),
+        {
+            "assembly_s": t1 - t0,
+            "solve_s": t2 - t1,
+            "element": element,
+            "intorder": intorder,
+            "body_force_value": float(quarter**2 / (f_body @ u_body) * 4),
+        },
+    )
 
 
 def _body_load(basis: Basis, weight: Callable, total: float) -> np.ndarray:
@@ -393,24 +438,40 @@ def _body_load(basis: Basis, weight: Callable, total: float) -> np.ndarray:
 
 # -- 1D model ------------------------------------------------------------------
 
-def cantilever_1d(elements: int, *, sec: Section = Section(), length: float = CANTILEVER_LENGTH,
-                  repeats: int = 3) -> Run:
+
+def cantilever_1d(
+    elements: int, *, sec: Section = Section(), length: float = CANTILEVER_LENGTH, repeats: int = 3
+) -> Run:
     """``solve_cantilever`` (planar) under a tip force P = 1e-4 E_b / L^2: tip deflection / P [m/N]."""
     from matid.rod.scenes import scene_from_dict
     from matid.rod.solve import solve_cantilever
 
     stiff = sec.stiffness()
     P = 1e-4 * stiff["E_b"] / length**2
-    scene = scene_from_dict({"scene": "cantilever", "rod": {"length": length, **stiff},
-                             "tip": {"force": [P, 0.0, 0.0]}})
+    scene = scene_from_dict(
+        {"scene": "cantilever", "rod": {"length": length, **stiff}, "tip": {"force": [P, 0.0, 0.0]}}
+    )
     sol, runtime, _ = best_of(lambda: solve_cantilever(scene, elements=elements), repeats)
     dofs = 3 * (2 * elements + 1) - 3  # (x, z, theta) on P2 nodes, clamped at s = 0
-    return Run("1d", "cantilever", f"P2 x {elements}", dofs, runtime, float(sol.position[-1][0] / P),
-               {"rod_model": sol.model, "newton_iterations": sol.newton_iterations})
+    return Run(
+        "1d",
+        "cantilever",
+        f"P2 x {elements}",
+        dofs,
+        runtime,
+        float(sol.position[-1][0] / P),
+        {"rod_model": sol.model, "newton_iterations": sol.newton_iterations},
+    )
 
 
-def bend_1d(elements: int, *, sec: Section = Section(), span: float = SPAN,
-            specimen: float = SPECIMEN_LENGTH, repeats: int = 3) -> Run:
+def bend_1d(
+    elements: int,
+    *,
+    sec: Section = Section(),
+    span: float = SPAN,
+    specimen: float = SPECIMEN_LENGTH,
+    repeats: int = 3,
+) -> Run:
     """``BendModel`` half model, point contacts: F/d [N/m] extrapolated linearly to d = 0 from
     d/S = 1e-5 and 2e-5 (one continuation path)."""
     from matid.rod.bend import BendGeometry, BendModel
@@ -422,11 +483,19 @@ def bend_1d(elements: int, *, sec: Section = Section(), span: float = SPAN,
     k1, k2 = path.force / d
     value = k1 - (k2 - k1) * d[0] / (d[1] - d[0])
     dofs = 3 * (2 * elements + 1) - 2 + 3  # planar dofs, z(0) = theta(0) = 0, two multipliers, support s
-    return Run("1d", "bend", f"P2 x {elements} (half)", dofs, runtime, float(value),
-               {"F_over_d": [float(k1), float(k2)]})
+    return Run(
+        "1d",
+        "bend",
+        f"P2 x {elements} (half)",
+        dofs,
+        runtime,
+        float(value),
+        {"F_over_d": [float(k1), float(k2)]},
+    )
 
 
 # -- convergence analysis ------------------------------------------------------
+
 
 def richardson(h: np.ndarray, values: np.ndarray, *, roundoff: float = 1e-10) -> dict:
     """Limit and observed order from the three finest meshes, v = v_inf + C h^p.
@@ -458,8 +527,9 @@ def richardson(h: np.ndarray, values: np.ndarray, *, roundoff: float = 1e-10) ->
     return {"limit": limit, "order": p, "status": "Richardson, observed order"}
 
 
-def cost_at(runs: list[Run], errors: np.ndarray, target: float = TARGET, *, order: float | None = None,
-            dim: int = 3) -> dict:
+def cost_at(
+    runs: list[Run], errors: np.ndarray, target: float = TARGET, *, order: float | None = None, dim: int = 3
+) -> dict:
     """DOF and run time at discretisation error ``target``: log-log interpolation between the
     meshes around it; beyond the finest mesh extrapolated with err ~ DOF^(-order/dim) and a
     power-law fit of time against DOF; if the coarsest mesh is already below, its cost."""
@@ -469,18 +539,27 @@ def cost_at(runs: list[Run], errors: np.ndarray, target: float = TARGET, *, orde
         e0, e1 = errors[i], errors[i + 1]
         if e0 >= target > e1 and e1 > 0:
             w = math.log(e0 / target) / math.log(e0 / e1)
-            return {"dofs": float(dofs[i] * (dofs[i + 1] / dofs[i]) ** w),
-                    "time_s": float(times[i] * (times[i + 1] / times[i]) ** w), "status": "interpolated"}
+            return {
+                "dofs": float(dofs[i] * (dofs[i + 1] / dofs[i]) ** w),
+                "time_s": float(times[i] * (times[i + 1] / times[i]) ** w),
+                "status": "interpolated",
+            }
     if errors[0] <= target:
-        return {"dofs": float(dofs[0]), "time_s": float(times[0]),
-                "status": "coarsest mesh already below the target (an upper bound of the cost)"}
+        return {
+            "dofs": float(dofs[0]),
+            "time_s": float(times[0]),
+            "status": "coarsest mesh already below the target (an upper bound of the cost)",
+        }
     if order is None:
         return {"dofs": math.nan, "time_s": math.nan, "status": "not reached and no order to extrapolate"}
     slope = np.polyfit(np.log(dofs[-3:]), np.log(times[-3:]), 1)[0]
     n = dofs[-1] * (errors[-1] / target) ** (dim / order)
-    return {"dofs": float(n), "time_s": float(times[-1] * (n / dofs[-1]) ** slope),
-            "status": f"extrapolated beyond the finest mesh (err ~ DOF^-{order / dim:.2f}, "
-                      f"time ~ DOF^{slope:.2f})"}
+    return {
+        "dofs": float(n),
+        "time_s": float(times[-1] * (n / dofs[-1]) ** slope),
+        "status": f"extrapolated beyond the finest mesh (err ~ DOF^-{order / dim:.2f}, "
+        f"time ~ DOF^{slope:.2f})",
+    }
 
 
 # -- the section -----------------------------------------------------------------
@@ -491,8 +570,12 @@ ELEMENTS_1D = {"cantilever": (1, 2, 4, 8, 16, 32), "bend": (2, 4, 8, 16, 32)}
 QUICK_ELEMENTS_1D = {"cantilever": (1, 2, 4), "bend": (2, 4, 8)}
 UNITS = {"cantilever": "tip deflection per unit tip force [m/N]", "bend": "stiffness F/d [N/m]"}
 #: (element, intorder, levels) of the cantilever element/quadrature study (main run: hex27, intorder 5).
-ELEMENT_STUDY = (("hex20", 5, (1, 2, 3, 4)), ("hex8", 3, (2, 3, 4)), ("hex27", 7, (2, 3)),
-                 ("hex27", 12, (2,)))
+ELEMENT_STUDY = (
+    ("hex20", 5, (1, 2, 3, 4)),
+    ("hex8", 3, (2, 3, 4)),
+    ("hex27", 7, (2, 3)),
+    ("hex27", 12, (2,)),
+)
 QUICK_ELEMENT_STUDY = (("hex20", 5, (2,)), ("hex8", 3, (2,)))
 
 
@@ -503,9 +586,20 @@ def _converge(runs: list[Run], h: np.ndarray) -> tuple[dict, np.ndarray]:
 
 
 def _rows(runs: list[Run], errors: np.ndarray) -> list[dict]:
-    return [{**r.extra, "model": r.model, "case": r.case, "mesh": r.mesh, "dofs": r.dofs,
-             "runtime_s": r.runtime_s, "value": r.value, "discretization_error": float(e),
-             "unit": UNITS[r.case]} for r, e in zip(runs, errors, strict=True)]
+    return [
+        {
+            **r.extra,
+            "model": r.model,
+            "case": r.case,
+            "mesh": r.mesh,
+            "dofs": r.dofs,
+            "runtime_s": r.runtime_s,
+            "value": r.value,
+            "discretization_error": float(e),
+            "unit": UNITS[r.case],
+        }
+        for r, e in zip(runs, errors, strict=True)
+    ]
 
 
 def element_study(sec: Section, reference: float, plan=ELEMENT_STUDY) -> list[dict]:
@@ -514,11 +608,19 @@ def element_study(sec: Section, reference: float, plan=ELEMENT_STUDY) -> list[di
     for element, intorder, levels in plan:
         for n in levels:
             r = cantilever_3d(cantilever_grid(n), element=element, intorder=intorder, sec=sec)
-            out.append({"element": element, "intorder": intorder,
-                        "points_per_element": int(get_quadrature(ELEMENTS_3D[element], intorder)[1].size),
-                        "mesh": r.mesh, "dofs": r.dofs, "runtime_s": r.runtime_s,
-                        "assembly_s": r.extra["assembly_s"], "value": r.value,
-                        "error_vs_converged_hex27": abs(r.value - reference) / abs(reference)})
+            out.append(
+                {
+                    "element": element,
+                    "intorder": intorder,
+                    "points_per_element": int(get_quadrature(ELEMENTS_3D[element], intorder)[1].size),
+                    "mesh": r.mesh,
+                    "dofs": r.dofs,
+                    "runtime_s": r.runtime_s,
+                    "assembly_s": r.extra["assembly_s"],
+                    "value": r.value,
+                    "error_vs_converged_hex27": abs(r.value - reference) / abs(reference),
+                }
+            )
     return out
 
 
@@ -527,8 +629,10 @@ def run(quick: bool = False, *, element: str = "hex27") -> dict:
     sec = Section()
     levels = np.array(QUICK_LEVELS_3D if quick else LEVELS_3D)
     counts = QUICK_ELEMENTS_1D if quick else ELEMENTS_1D
-    solvers_3d = {"cantilever": lambda n: cantilever_3d(cantilever_grid(n), element=element, sec=sec),
-                  "bend": lambda n: bend_3d(bend_grid(n), element=element, sec=sec)}
+    solvers_3d = {
+        "cantilever": lambda n: cantilever_3d(cantilever_grid(n), element=element, sec=sec),
+        "bend": lambda n: bend_3d(bend_grid(n), element=element, sec=sec),
+    }
     solvers_1d = {"cantilever": lambda n: cantilever_1d(n, sec=sec), "bend": lambda n: bend_1d(n, sec=sec)}
     rows, converged, ratios, fits = [], {}, {}, {}
     for case in ("cantilever", "bend"):
@@ -538,23 +642,38 @@ def run(quick: bool = False, *, element: str = "hex27") -> dict:
         fit1, err1 = _converge(runs1, 1.0 / np.array(counts[case], float))
         rows += _rows(runs3, err3) + _rows(runs1, err1)
         fits[case] = runs3
-        converged[case] = {"3d": fit3["limit"], "1d": fit1["limit"],
-                           "gap_rel": (fit1["limit"] - fit3["limit"]) / fit3["limit"],
-                           "order_3d": fit3["order"], "status_3d": fit3["status"],
-                           "order_1d": fit1["order"], "status_1d": fit1["status"], "unit": UNITS[case]}
+        converged[case] = {
+            "3d": fit3["limit"],
+            "1d": fit1["limit"],
+            "gap_rel": (fit1["limit"] - fit3["limit"]) / fit3["limit"],
+            "order_3d": fit3["order"],
+            "status_3d": fit3["status"],
+            "order_1d": fit1["order"],
+            "status_1d": fit1["status"],
+            "unit": UNITS[case],
+        }
         cost3 = cost_at(runs3, err3, order=fit3["order"], dim=3)
         cost1 = cost_at(runs1, err1, order=fit1["order"], dim=1)
-        ratios[case] = {"dof_ratio_at_1e-4": cost3["dofs"] / cost1["dofs"],
-                        "time_ratio_at_1e-4": cost3["time_s"] / cost1["time_s"],
-                        "3d": cost3, "1d": cost1,
-                        "lower_bound": cost1["status"].startswith("coarsest"),
-                        "extrapolated_3d": cost3["status"].startswith("extrapolated")}
+        ratios[case] = {
+            "dof_ratio_at_1e-4": cost3["dofs"] / cost1["dofs"],
+            "time_ratio_at_1e-4": cost3["time_s"] / cost1["time_s"],
+            "3d": cost3,
+            "1d": cost1,
+            "lower_bound": cost1["status"].startswith("coarsest"),
+            "extrapolated_3d": cost3["status"].startswith("extrapolated"),
+        }
     converged["cantilever"]["timoshenko"] = cantilever_compliance(sec)
     _bend_references(converged["bend"], fits["bend"], levels.astype(float), sec)
     study = element_study(sec, converged["cantilever"]["3d"], QUICK_ELEMENT_STUDY if quick else ELEMENT_STUDY)
     section = {"E": sec.E, "nu": sec.nu, "R_o": sec.R_o, "R_i": sec.R_i, "k": sec.k, **sec.stiffness()}
-    out = {"rows": rows, "converged": converged, "ratios": ratios, "element_study": study,
-           "section": section, "quick": quick}
+    out = {
+        "rows": rows,
+        "converged": converged,
+        "ratios": ratios,
+        "element_study": study,
+        "section": section,
+        "quick": quick,
+    }
     out["notes"] = notes(out)
     return jsonable(out)
 
@@ -564,12 +683,16 @@ def _bend_references(conv: dict, runs3: list[Run], levels: np.ndarray, sec: Sect
     beam theory and local indentation."""
     body = richardson(1.0 / levels, np.array([r.extra["body_force_value"] for r in runs3]))
     patch = bend_stiffness_patch(sec)
-    conv.update({
-        "3d_body_force": body["limit"], "order_3d_body_force": body["order"],
-        "timoshenko_point": bend_stiffness_point(sec), "timoshenko_patch": patch,
-        "indentation_rel": conv["3d"] / body["limit"] - 1,
-        "gap_rel_matching_load": (patch - conv["3d"]) / conv["3d"],
-    })
+    conv.update(
+        {
+            "3d_body_force": body["limit"],
+            "order_3d_body_force": body["order"],
+            "timoshenko_point": bend_stiffness_point(sec),
+            "timoshenko_patch": patch,
+            "indentation_rel": conv["3d"] / body["limit"] - 1,
+            "gap_rel_matching_load": (patch - conv["3d"]) / conv["3d"],
+        }
+    )
 
 
 def notes(out: dict) -> list[str]:
@@ -613,11 +736,14 @@ def notes(out: dict) -> list[str]:
             f"{r['time_ratio_at_1e-4']:.3g}{' (lower bounds)' if r['lower_bound'] else ''}: the seed's 40x "
             f"fewer DOF {_holds(r['dof_ratio_at_1e-4'] >= 40)}, its >= 10x less effort "
             f"{_holds(r['time_ratio_at_1e-4'] >= 10)}; the 100x time criterion is "
-            f"{'met' if r['time_ratio_at_1e-4'] >= 100 else 'NOT met'}.")
-    notes.append("The 1D P2 element with two-point Gauss reproduces the Timoshenko solution under end or "
-                 "point loads at its nodes (piecewise cubic deflection, quadratic rotation): its error is "
-                 "round-off plus the 1e-9 geometric nonlinearity of the small load on every mesh, so the "
-                 "1D cost at 1e-4 is that of its coarsest mesh.")
+            f"{'met' if r['time_ratio_at_1e-4'] >= 100 else 'NOT met'}."
+        )
+    notes.append(
+        "The 1D P2 element with two-point Gauss reproduces the Timoshenko solution under end or "
+        "point loads at its nodes (piecewise cubic deflection, quadratic rotation): its error is "
+        "round-off plus the 1e-9 geometric nonlinearity of the small load on every mesh, so the "
+        "1D cost at 1e-4 is that of its coarsest mesh."
+    )
     notes += _element_notes(out["element_study"])
     return notes
 
@@ -639,12 +765,18 @@ def _fmt(x) -> str:
 def _element_notes(study: list[dict]) -> list[str]:
     if not study:
         return []
-    parts = [f"{s['element']} ({s['points_per_element']} pts) {s['mesh'].split()[-1]}: {s['dofs']} DOF, "
-             f"error {s['error_vs_converged_hex27']:.2e}, {s['runtime_s']:.2f} s" for s in study]
-    return ["Element/quadrature study (cantilever, error against the converged hex27 value): "
-            + "; ".join(parts) + ". hex8 (trilinear) locks in bending (shear locking, worse with nu "
-            "near 0.5); more Gauss points than 27 change the hex27 answer by less than its discretisation "
-            "error and only cost assembly time."]
+    parts = [
+        f"{s['element']} ({s['points_per_element']} pts) {s['mesh'].split()[-1]}: {s['dofs']} DOF, "
+        f"error {s['error_vs_converged_hex27']:.2e}, {s['runtime_s']:.2f} s"
+        for s in study
+    ]
+    return [
+        "Element/quadrature study (cantilever, error against the converged hex27 value): "
+        + "; ".join(parts)
+        + ". hex8 (trilinear) locks in bending (shear locking, worse with nu "
+        "near 0.5); more Gauss points than 27 change the hex27 answer by less than its discretisation "
+        "error and only cost assembly time."
+    ]
 
 
 if __name__ == "__main__":  # pragma: no cover - manual run: python -m matid.bench.vs3d [--quick]

@@ -25,7 +25,7 @@ from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
 from matid.rod.scenes import Scene, plane_of
-from matid.rod.solve import Solution, solve_cantilever
+from matid.rod.solve import Solution, solve_cantilever_state
 
 MODELS = ("auto", PLANAR, FULL)
 #: Energy terms of the bend half model (no field, no twist: planar by construction).
@@ -70,10 +70,13 @@ def solve(
     if elements is not None and elements < 1:
         raise ValueError(f"elements must be at least 1, got {elements}")
     chosen = resolve_model(scene, model)
+    state: list = [None]  # the last mesh's state: each finer mesh starts from it
 
     def at(n: int):
         if scene.kind == "cantilever":
-            sol = solve_cantilever(scene, elements=n, model=chosen, variant=variant, element=element)
+            sol, state[0] = solve_cantilever_state(
+                scene, elements=n, model=chosen, variant=variant, element=element, start=state[0]
+            )
             quantity = np.concatenate([sol.position[-1] / scene.rod.length, sol.d3[-1]])
         else:
             sol = solve_bend(scene, elements=n)

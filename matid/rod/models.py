@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from matid.rod import full
 from matid.rod import kinematics as kin
 from matid.rod.fem import Discretisation
 from matid.rod.jet import Jet
@@ -102,9 +103,12 @@ class RodSystem:
     c_u: float = 1.0
     fixed: tuple[int, ...] | None = None  # fixed global dofs; default: clamp at s = 0
     analytic: bool = True  # planar: closed-form derivatives (False: jets, the cross-check)
+    banded: bool = False  # tangent in band storage (fem.Banded: LAPACK Cholesky/LU) instead of CSR
+    mixed: bool = False  # mixed-integration-point tangent in Newton (see mixed_update)
     terms: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
+        self._stress = self._strain = None
         s = self.disc.s_quad
         self.props = self.rod.stiffness_at(s)
         self.mu = self.rod.mu_at(s)
@@ -134,6 +138,13 @@ class RodSystem:
         if self.model == FULL:
             U[:, 3] = 1.0
         return U.ravel()
+
+    def _reference(self) -> np.ndarray:
+        """:meth:`reference`, cached per mesh (the fixed dofs of :meth:`expand`)."""
+        cached = self.__dict__.get("_ref")
+        if cached is None or cached[0] is not self.disc:
+            cached = self._ref = (self.disc, self.reference())
+        return cached[1]
 
     # -- energy density -------------------------------------------------------
     def density(self, u: list, du: list, lam: float):
@@ -165,6 +176,25 @@ class RodSystem:
         vals, ders = self.disc.interpolate(U)
         if self.model == PLANAR and self.analytic:
             return self._planar_derivatives(vals, ders, lam, tangent)
+        if self.analytic and self.variant == kin.NORMALISED:
+            rod = self.rod
+            mu = self.mu if "magnetic" in self.terms else None
+            out = full.derivatives(
+                vals,
+                ders,
+                lam,
+                self.props,
+                rod.kappa_ref,
+                mu,
+                rod.B,
+                rod.f,
+                tangent,
+                stress=self._stress,
+                want_strain=self.mixed,
+            )
+            if self.mixed and tangent:
+                self._strain = out[2]
+            return out[0], out[1]
         variables = Jet.variables(np.concatenate([vals, ders]), hessian=tangent)
         nf = self.disc.nf
         w = self.density(variables[:nf], variables[nf:], lam)
@@ -195,24 +225,59 @@ class RodSystem:
             g[..., 2] -= mu * (c * rod.B[0] - s * rod.B[2])
         if not tangent:
             return g, None
+        if self.mixed:  # stress of the displacement field and C J, for the mixed update
+            J = np.zeros(th.shape + (2, 6))
+            J[..., 0, 2], J[..., 0, 3], J[..., 0, 4] = -nu3, c, -s
+            J[..., 1, 2], J[..., 1, 3], J[..., 1, 4] = nu1, s, c
+            self._strain = (np.stack([n1, n3], axis=-1), J * np.stack([Es, Ee], axis=-1)[..., None])
+            if self._stress is not None:
+                n1, n3 = self._stress[..., 0], self._stress[..., 1]
+        # H = J^T C J + n1 Hess(nu1) + n3 Hess(nu3); in the mixed tangent (n1, n3) are the
+        # independent point stresses of the iteration instead of those of the displacements
         H = np.zeros(th.shape + (6, 6))
-        dE = Ee - Es
-        H[..., 2, 2] = (nu1 * nu1 - nu3 * nu3) * dE + Ee * nu3
-        H[..., 2, 3] = H[..., 3, 2] = (c * nu3 + s * nu1) * dE - Ee * c
-        H[..., 2, 4] = H[..., 4, 2] = (c * nu1 - s * nu3) * dE + Ee * s
+        H[..., 2, 2] = Es * nu3 * nu3 + Ee * nu1 * nu1 - n1 * nu1 - n3 * nu3
+        H[..., 2, 3] = H[..., 3, 2] = -Es * nu3 * c + Ee * nu1 * s - n1 * s + n3 * c
+        H[..., 2, 4] = H[..., 4, 2] = Es * nu3 * s + Ee * nu1 * c - n1 * c - n3 * s
         H[..., 3, 3] = Es * c * c + Ee * s * s
-        H[..., 3, 4] = H[..., 4, 3] = dE * s * c
+        H[..., 3, 4] = H[..., 4, 3] = (Ee - Es) * s * c
         H[..., 4, 4] = Es * s * s + Ee * c * c
         H[..., 5, 5] = Eb
         if mag:
             H[..., 2, 2] += mu * (s * rod.B[0] + c * rod.B[2])
         return g, H
 
+    # -- mixed-integration-point Newton (independent stresses at the quadrature points) ----------
+    def mixed_reset(self) -> None:
+        """Back to the consistent tangent (stresses from the displacements)."""
+        self._stress = None
+
+    def mixed_update(self, dx: np.ndarray, alpha: float) -> None:
+        """Point stresses after a Newton step alpha dx: sigma += alpha (C (e(u) + J du) - sigma).
+
+        The mixed (Hellinger-Reissner) Newton condensed at each point: the right-hand side is
+        the ordinary residual, only the tangent's geometric part uses sigma, which follows the
+        *linearised* strain. On stiff rods this removes the alternating overshoot of the axial
+        strain (theta^2/2 after a rotation step) that costs the displacement Newton its steps;
+        at convergence sigma = C e(u), the same solution (Magisano, Leonetti & Garcea 2017).
+        """
+        if not self.mixed or self._strain is None:
+            return
+        sigma_u, CJ = self._strain
+        dU = np.zeros(self.disc.n)
+        dU[self.disc.free] = dx
+        dz = self.disc.point_values(dU)  # P + (2 nf,)
+        target = sigma_u + np.matmul(CJ, dz[..., None])[..., 0]
+        old = sigma_u if self._stress is None else self._stress
+        self._stress = old + alpha * (target - old)
+
     @property
     def roundoff(self) -> float:
         """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
-        stiff = max(float(np.max(v)) for v in self.props.values())
-        return 1e-15 * max(stiff, 1.0)
+        cached = self.__dict__.get("_roundoff")
+        if cached is None or cached[0] is not self.props:
+            stiff = max(float(np.max(v)) for v in self.props.values())
+            cached = self._roundoff = (self.props, 1e-15 * max(stiff, 1.0))
+        return cached[1]
 
     # -- point terms (tip loads, lumped magnets) --------------------------------
     def point_terms(self, U: np.ndarray, lam: float) -> tuple[np.ndarray, list]:
@@ -268,7 +333,12 @@ class RodSystem:
         """Residual on the free dofs and, with ``tangent``, its Jacobian (CSR)."""
         U = self.expand(X) if U is None else U
         g, H = self.energy_derivatives(U, lam, tangent)
-        R, K = self.disc.assemble(g, H)
+        self.last_points = (U, g, H)  # pointwise derivatives of this evaluation (bend: dR/dsigma)
+        if self.banded:
+            R = self.disc.residual(g)
+            K = self.disc.banded(self.disc.element_matrices(H), self.symmetric) if tangent else None
+        else:
+            R, K = self.disc.assemble(g, H)
         Rp, blocks = self.point_terms(U, lam)
         R = R + Rp
         if self.model == FULL and self.variant == kin.NORMALISED:
@@ -277,11 +347,27 @@ class RodSystem:
             blocks = blocks + gblocks
         if not tangent:
             return R[self.disc.free], None
+        if self.banded:
+            rows, cols, vals = self._triplets(blocks)
+            if vals.size:
+                K.add_blocks(rows, cols, vals)
+            return R[self.disc.free], K
         return R[self.disc.free], K + self._blocks_matrix(blocks, K.shape)
 
-    def reject(self, X: np.ndarray, lam: float) -> str | None:
+    @property
+    def symmetric(self) -> bool:
+        """The tangent is a Hessian, except with a dead tip moment in 3D (no potential)."""
+        return not (self.model == FULL and any(self.rod.tip_moment))
+
+    def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
         """Why a converged state is no answer, or None: a saddle of the potential is not an equilibrium
-        a rod can hold (used by :func:`matid.rod.newton.follow` to halve the load step)."""
+        a rod can hold (used by :func:`matid.rod.newton.follow` to halve the load step).
+
+        ``factor``: Newton's last factorised tangent; a successful banded Cholesky of it
+        (every pivot > 0) is the stability test, read off without a second factorisation.
+        """
+        if getattr(factor, "positive_definite", None) is True:
+            return None
         if self.negative_modes(X, lam):
             return "unstable equilibrium (the tangent stiffness is not positive definite: buckling or snap)"
         return None
@@ -310,6 +396,13 @@ class RodSystem:
 
     def _blocks_matrix(self, blocks: list, shape: tuple[int, int]) -> sp.csr_matrix:
         """Sum of dense blocks (dofs of shape (..., m), matrices (..., m, m)) on the free dofs."""
+        rows, cols, vals = self._triplets(blocks)
+        if not vals.size:
+            return sp.csr_matrix(shape)
+        return sp.csr_matrix((vals, (rows, cols)), shape=shape)
+
+    def _triplets(self, blocks: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rows, cols, values) in free-dof numbering of blocks (dofs (..., m), matrices (..., m, m))."""
         rows, cols, vals = [], [], []
         for dofs, block in blocks:
             dofs = np.atleast_2d(dofs)
@@ -320,13 +413,11 @@ class RodSystem:
             ok = (ii >= 0) & (jj >= 0)
             rows.append(ii[ok]), cols.append(jj[ok]), vals.append(block[ok])
         if not rows:
-            return sp.csr_matrix(shape)
-        return sp.csr_matrix(
-            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=shape
-        )
+            return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
 
     def expand(self, X: np.ndarray) -> np.ndarray:
-        U = self.reference()
+        U = self._reference().copy()
         U[self.disc.free] = X
         return U
 
