@@ -393,7 +393,7 @@ def _check_required(columns: list[_Column], kind: str, path: Path, row: int) -> 
             )
 
 
-def _data_rows(lines: list[str], layout: Layout, path: Path) -> list[tuple[int, list[str]]]:
+def _data_rows(lines: list[str], layout: Layout, path: Path) -> list[tuple[int, list]]:
     """(row number, cells) of every data line; blank lines (and lines of delimiters) skipped."""
     rows = []
     n = layout.n_cells
@@ -406,9 +406,10 @@ def _data_rows(lines: list[str], layout: Layout, path: Path) -> list[tuple[int, 
             ) from None
         if not cells:
             continue
-        if len(cells) != n:
+        if len(cells) > n:
             raise DataError(f"row has {len(cells)} cells, header has {n}", file=path, row=i + 1)
-        rows.append((i + 1, cells))
+        # Short rows (empty trailing cells) are padded with None: an error only where a used column lacks it.
+        rows.append((i + 1, cells + [None] * (n - len(cells))))
     if len(rows) < MIN_ROWS:
         last = rows[-1][0] if rows else layout.data_at + 1
         raise DataError(f"only {len(rows)} data rows, need at least {MIN_ROWS}", file=path, row=last)
@@ -437,6 +438,9 @@ def _convert(
         ) from exc
     values = np.empty(len(rows))
     for k, (line_no, cells) in enumerate(rows):
+        if cells[column.index] is None:
+            n = sum(c is not None for c in cells)
+            raise DataError(f"row has {n} cells, header has {len(cells)}", file=path, row=line_no)
         values[k] = _cell(cells[column.index], decimal_comma, path, line_no, column.written)
     return values * factor
 
@@ -446,7 +450,7 @@ def _convert_other(
 ) -> np.ndarray | None:
     """A column the test does not use: floats if every cell is a finite number, else None (dropped)."""
     try:
-        values = [number(cells[column.index], decimal_comma) for _, cells in rows]
+        values = [number(cells[column.index] or "", decimal_comma) for _, cells in rows]
     except ValueError:
         return None
     if not all(math.isfinite(v) for v in values):

@@ -189,8 +189,10 @@ def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layou
             return None
         units_at, after = after[0], after[1:]
     header = names(lines[h], delimiter, n)
-    if header is None or len(header) != n or any(is_number(c, delimiter != ",") for c in header):
+    # Trailing columns may be empty in the data (a remark column): the header may be wider.
+    if header is None or not n <= len(header) <= 2 * n or any(is_number(c, delimiter != ",") for c in header):
         return None
+    n = len(header)
     if units_at is not None and not _units_like(names(lines[units_at], delimiter, n), n):
         return None
     return Layout(encoding, delimiter, h, units_at, after[0], n)
