@@ -206,3 +206,203 @@ def test_random_styles_read_back_exactly(tmp_path, style, units, data):
     for k, (name, quantity) in enumerate([("time", "time"), ("deflection", "length"), ("force", "force")]):
         expected = np.array([r[k] for r in rows]) * si_factor(units[name], quantity)
         np.testing.assert_array_equal(table[name], expected, err_msg=f"{name} in {style}")
+
+
+# --- acceptance: the demo study rewritten in machine styles fits as well ----------------
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "matid" / "example"
+
+#: Per style: matid column -> (header text, unit written), file suffix, encoding,
+#: delimiter, decimal comma, quoted, preamble lines, units in a row (else "name (unit)"),
+#: columns negated in the file.
+STYLE_SPECS = {
+    "bluehill": dict(
+        names={
+            "time": ("Time", "s"),
+            "elongation": ("Extension", "mm"),
+            "strain": ("Tensile strain", "%"),
+            "force": ("Load", "N"),
+        },
+        encoding="utf-8",
+        delimiter=",",
+        comma=False,
+        quote=True,
+        newline="\r\n",
+        units_row=True,
+        preamble=['"Sample ID:","{stem}"', '"Method:","catheter tension.im_tens"', ""],
+        negate=(),
+    ),
+    "testxpert": dict(
+        names={
+            "time": ("Prüfzeit", "s"),
+            "elongation": ("Standardweg", "µm"),
+            "strain": ("Dehnung", "%"),
+            "force": ("Standardkraft", "mN"),
+        },
+        encoding="cp1252",
+        delimiter=";",
+        comma=True,
+        quote=False,
+        newline="\r\n",
+        units_row=True,
+        preamble=["Prüfer: Müller", "Prüfvorschrift;ISO 527-1"],
+        negate=(),
+    ),
+    "utf16": dict(
+        names={
+            "tip_angle": ("Tip angle", "deg"),
+            "field": ("Field", "mT"),
+            "field_angle": ("Field angle", "°"),
+            "torque": ("Moment", "N·m"),
+        },
+        encoding="utf-16",
+        delimiter="\t",
+        comma=False,
+        quote=False,
+        newline="\r\n",
+        units_row=True,
+        preamble=[],
+        negate=(),
+    ),
+    "labview": dict(
+        names={"twist_angle": ("Angle", "deg."), "torque": ("Torque", "in-lb")},
+        encoding="utf-8",
+        delimiter="\t",
+        comma=False,
+        quote=False,
+        newline="\r\n",
+        units_row=False,
+        preamble=["Torque meter log of {stem}", "free text: clamped both ends"],
+        negate=(),
+    ),
+    "gbk": dict(
+        names={"twist_angle": ("扭转角", "°"), "torque": ("扭矩", "N·m")},
+        encoding="gbk",
+        delimiter=",",
+        comma=False,
+        quote=False,
+        newline="\n",
+        units_row=False,
+        preamble=["试验编号: {stem}", "操作员: 王工"],
+        negate=(),
+    ),
+    "mts": dict(
+        names={"time": ("Time", "Sec"), "deflection": ("Crosshead", "mm"), "force": ("Axial Force", "N")},
+        encoding="utf-8",
+        delimiter="   ",
+        comma=False,
+        quote=False,
+        newline="\n",
+        units_row=True,
+        preamble=["MTS793|BTW|ENG|NOR|1|2|SPA|NOR|", "Station Name: Bionix", ""],
+        negate=("deflection", "force"),
+    ),
+    "shimadzu": dict(
+        names={"time": ("Time", "sec"), "deflection": ("Stroke", "mm"), "force": ("Force", "kgf")},
+        encoding="utf-8",
+        delimiter=",",
+        comma=False,
+        quote=True,
+        newline="\n",
+        units_row=True,
+        preamble=['"Test Name","{stem}"', '"Batch","1"'],
+        negate=(),
+    ),
+}
+#: (kind, specimen) -> style
+STYLE_OF = {
+    ("extension", "T1"): "bluehill",
+    ("extension", "T2"): "testxpert",
+    ("magnetic_bending", "T1"): "utf16",
+    ("magnetic_bending", "T2"): "utf16",
+    ("torsion", "T1"): "labview",
+    ("torsion", "T2"): "gbk",
+    ("three_point_bend", "T1"): "mts",
+    ("three_point_bend", "T2"): "shimadzu",
+}
+QUANTITY = {
+    "time": "time",
+    "elongation": "length",
+    "strain": "strain",
+    "force": "force",
+    "tip_angle": "angle",
+    "field": "field",
+    "field_angle": "angle",
+    "torque": "torque",
+    "twist_angle": "angle",
+    "deflection": "length",
+}
+
+
+def _restyle(table, spec: dict, target: Path) -> list[str]:
+    """Write ``table`` (SI) in ``spec``'s style; the matid columns written."""
+    used = [c for c in spec["names"] if c in table]
+    q = (lambda s: f'"{s}"') if spec["quote"] else (lambda s: s)
+    d = spec["delimiter"]
+    lines = [line.format(stem=target.stem) for line in spec["preamble"]]
+    if spec["units_row"]:
+        lines.append(d.join(q(spec["names"][c][0]) for c in used))
+        lines.append(d.join(q(spec["names"][c][1]) for c in used))
+    else:
+        lines.append(d.join(q(f"{spec['names'][c][0]} ({spec['names'][c][1]})") for c in used))
+    columns = []
+    for c in used:
+        values = np.asarray(table[c]) / si_factor(spec["names"][c][1], QUANTITY[c])
+        columns.append(-values if c in spec["negate"] else values)
+    for row in zip(*columns, strict=True):
+        cells = [repr(float(v)) for v in row]
+        lines.append(d.join(q(x.replace(".", ",") if spec["comma"] else x) for x in cells))
+    target.write_bytes((spec["newline"].join(lines) + spec["newline"]).encode(spec["encoding"]))
+    return used
+
+
+def _toml_value(value) -> str:
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + " }"
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    import json
+
+    return json.dumps(value, ensure_ascii=False) if isinstance(value, str) else json.dumps(value)
+
+
+@pytest.mark.slow
+def test_demo_study_in_machine_styles_fits_to_ground_truth(tmp_path):
+    import json
+    import tomllib
+
+    from matid.pipeline import run_study
+    from matid.study import TEST_COLUMNS, load_study
+
+    raw = tomllib.loads((EXAMPLE / "study.toml").read_text(encoding="utf-8"))
+    out = ["[study]", f"name = {_toml_value(raw['study']['name'])}", ""]
+    for spec in raw["specimen"]:
+        out += ["[[specimen]]", *(f"{k} = {_toml_value(v)}" for k, v in spec.items()), ""]
+    for entry in raw["test"]:
+        style = STYLE_OF[(entry["kind"], entry["specimen"])]
+        spec = STYLE_SPECS[style]
+        table = read_table(EXAMPLE / entry["file"], entry["kind"])
+        name = f"{Path(entry['file']).stem}_{style}.{'txt' if style in ('utf16', 'mts') else 'csv'}"
+        used = _restyle(table, spec, tmp_path / name)
+        # only columns / negate / encoding help: the file is as the machine wrote it
+        mapped = {c: spec["names"][c][0] for c in used if c in TEST_COLUMNS[entry["kind"]]}
+        entry = {**entry, "file": name, "columns": mapped}
+        if spec["negate"]:
+            entry["negate"] = list(spec["negate"])
+        if style == "gbk" and entry["specimen"] == "T2" and "L26" in name:
+            entry["encoding"] = "gbk"  # one stated, the other detected
+        out += ["[[test]]", *(f"{k} = {_toml_value(v)}" for k, v in entry.items()), ""]
+    (tmp_path / "study.toml").write_text("\n".join(out), encoding="utf-8")
+
+    result = run_study(load_study(tmp_path))
+    truth = json.loads((EXAMPLE / "ground_truth.json").read_text())["specimens"]
+    table = result.estimates()
+    for sid, expected in truth.items():
+        assert table[sid]["E_e"].value == pytest.approx(expected["E_e"], rel=0.005)
+        assert table[sid]["E_b"].value == pytest.approx(expected["E_b"], rel=0.005)
+        assert table[sid]["E_t"].value == pytest.approx(expected["E_t"], rel=0.01)
+        assert table[sid]["sls_k2"].value == pytest.approx(expected["sls_k2"], rel=0.03)
+        assert table[sid]["sls_eta"].value == pytest.approx(expected["sls_eta"], rel=0.03)
+    bends = [f for f in result.fits if f.kind == "three_point_bend"]
+    assert len(bends) == 2 and all(f.estimate("E_s") is not None for f in bends)
+    assert result.ok and not result.failures
