@@ -1,22 +1,20 @@
-"""CSV ingest: raw test-machine exports turned into named columns in SI.
+"""CSV ingest: test-machine exports turned into named columns in SI.
 
-Implements data-contract.md section 2. A file is read as
-
-1. optional leading metadata lines ``# key: value`` (kept in ``Table.metadata``);
-2. one header row whose names carry their unit, ``force [N]`` or ``force (N)``,
-   or are followed by a units row (``time,force`` then ``s,N`` or ``(s),(N)``);
-3. numeric data rows, blank trailing lines ignored.
-
-The delimiter (``,``, ``;`` or tab) is detected from the header and the first
-row after it; with ``;`` or tab a decimal comma (``1,25``) is accepted. The
-encoding is UTF-8 (with or without BOM), else Latin-1. Names match
-case-insensitively with spaces and ``_`` alike: ``"Tip Angle [deg]"`` becomes
-the canonical ``tip_angle``. Known columns are converted to SI with
-:func:`matid.units.si_factor`; other columns are kept as floats (in SI when pint
-knows their unit) and ignored by the fits.
+Implements data-contract.md sections 2 and 7. :mod:`matid.ingest_detect` finds
+the layout (encoding, delimiter, preamble, header, optional units row); here the
+header cells become columns: ``force [N]``, ``force (N)`` or a units row give
+the unit, the test's ``columns`` maps its own names to the file's header text
+and ``units`` overrides a unit. Names match case-insensitively with spaces and
+``_`` alike (``"Tip Angle [deg]"`` is ``tip_angle``). The columns the test kind
+uses (:data:`matid.study.TEST_COLUMNS`) must have a known unit and numbers in
+every row; other columns are kept as floats (in SI when pint knows their unit)
+and never stop the run. ``negate`` flips signs, then
+:mod:`matid.ingest_checks` rejects values beyond physical bounds and data of
+the wrong sign.
 
 Every problem raises :class:`DataError` naming the file and the row (the
-1-based line number an editor shows) and/or the column.
+1-based line number an editor shows) and/or the column, and how the file was
+read (encoding, delimiter, header row).
 """
 
 from __future__ import annotations
@@ -24,50 +22,33 @@ from __future__ import annotations
 import csv
 import hashlib
 import math
-import re
+import os
+import stat
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 
 import numpy as np
 
+from matid import ingest_checks
 from matid.errors import DataError
-from matid.study import Study, Test
+from matid.ingest_columns import (  # noqa: F401 - KNOWN, REQUIRED, canonical re-exported
+    DIMENSIONLESS_NAMES,
+    KNOWN,
+    REQUIRED,
+    Column,
+    canonical,
+    check_required,
+    header,
+)
+from matid.ingest_detect import Layout, decode, detect, lines_of, number, preamble, split
+from matid.study import TEST_COLUMNS, Study, Test, bounded_text
 from matid.units import DIMENSIONS, UnitError, si_factor
 
-#: Known columns and the quantity kind of their unit.
-KNOWN: dict[str, str] = {
-    "time": "time",
-    "force": "force",
-    "elongation": "length",
-    "strain": "strain",
-    "tip_angle": "angle",
-    "torque": "torque",
-    "field": "field",
-    "field_angle": "angle",
-    "twist_angle": "angle",
-    "deflection": "length",
-}
-
-#: Columns that may go without a unit: dimensionless by name.
-DIMENSIONLESS_NAMES = frozenset({"cycle", "index", "step", "point"})
-
-#: Per test kind, groups of alternatives: each group needs at least one of its
-#: columns. "torque, or both field and field_angle" is written as the two groups
-#: (torque, field) and (torque, field_angle).
-REQUIRED: dict[str, list[tuple[str, ...]]] = {
-    "extension": [("time",), ("force",), ("elongation", "strain")],
-    "magnetic_bending": [("tip_angle",), ("torque", "field"), ("torque", "field_angle")],
-    "torsion": [("twist_angle",), ("torque",)],
-    "three_point_bend": [("deflection",), ("force",)],
-}
-
 MIN_ROWS = 3
-_DELIMITERS = ("\t", ";", ",")
-_NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\[\]()]*)[\])]$")
-_WRAPPED_UNIT = re.compile(r"^[\[(](?P<unit>.*)[\])]$")
-_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+#: Largest file read: a bigger one is not a bench test (and /dev/zero never ends).
+MAX_BYTES = 100 * 2**20
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,6 +60,14 @@ class Table:
     units: Mapping[str, str]
     metadata: Mapping[str, str]
     sha256: str
+    #: How the file was read, for messages and the report.
+    encoding: str = "utf-8"
+    delimiter: str = ","
+    header_row: int = 1
+    #: Preamble lines that are not ``key: value`` metadata, bounded.
+    preamble: tuple[str, ...] = ()
+    #: The file's header text of each column, for messages.
+    written: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         lengths = {len(v) for v in self.columns.values()}
@@ -93,6 +82,8 @@ class Table:
         object.__setattr__(self, "columns", MappingProxyType(columns))
         object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
         object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
+        object.__setattr__(self, "written", MappingProxyType(dict(self.written)))
+        object.__setattr__(self, "preamble", tuple(self.preamble))
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
@@ -128,49 +119,74 @@ class Measurement:
         return mask
 
 
-@dataclass(frozen=True)
-class _Column:
-    """One header column: name as written, canonical name, unit ('' if none).
+def read_table(
+    path: str | Path,
+    kind: str,
+    *,
+    columns: Mapping[str, str] | None = None,
+    units: Mapping[str, str] | None = None,
+    negate: tuple[str, ...] | list[str] = (),
+    encoding: str | None = None,
+) -> Table:
+    """Read one export of a test of ``kind`` into a :class:`Table` in SI.
 
-    ``unit_row`` is the line the unit was read from (header or units row).
+    ``columns``, ``units``, ``negate`` and ``encoding`` are the test's keys of
+    data-contract section 7.
     """
-
-    index: int
-    written: str
-    name: str
-    unit: str
-    unit_row: int
-
-
-def canonical(name: str) -> str:
-    """Canonical column name: lowercase, runs of spaces and ``_`` as one ``_``."""
-    return re.sub(r"[\s_]+", "_", name.strip().lower()).strip("_")
-
-
-def read_table(path: str | Path, kind: str) -> Table:
-    """Read one CSV file of a test of ``kind`` into a :class:`Table` in SI."""
     if kind not in REQUIRED:
         raise ValueError(f"unknown test kind {kind!r} (one of {', '.join(REQUIRED)})")
     path = Path(path)
     raw = _read_bytes(path)
-    lines = _lines(raw, path)
-    metadata, header_at = _preamble(lines, path)
-    delimiter = _detect_delimiter(lines, header_at)
-    columns, data_at = _header(lines, header_at, delimiter, path)
-    _check_required(columns, kind, path, row=header_at + 1)
-    factors = [_factor(c, path) for c in columns]
-    rows = _data_rows(lines, data_at, delimiter, len(columns), path)
-    decimal_comma = delimiter != ","
-    values = {
-        c.name: _convert(c, f, rows, decimal_comma, path) for c, f in zip(columns, factors, strict=True)
-    }
-    values = {name: v for name, v in values.items() if v is not None}
+    text, used = decode(raw, path, encoding)
+    lines = lines_of(text)
+    if not lines:
+        raise DataError("empty file", file=path)
+    if all(not ln.strip() or ln.lstrip().startswith("#") for ln in lines):
+        raise DataError("no header row (only '#' metadata lines)", file=path)
+    layout = detect(lines, path, used)
+    try:
+        return _table(path, raw, lines, layout, kind, dict(columns or {}), dict(units or {}), tuple(negate))
+    except DataError as exc:
+        raise DataError(
+            f"{exc.detail} ({layout.describe()})", file=path, row=exc.row, column=exc.column
+        ) from exc
+
+
+def _table(
+    path: Path,
+    raw: bytes,
+    lines: list[str],
+    layout: Layout,
+    kind: str,
+    mapping: dict[str, str],
+    overrides: dict[str, str],
+    negate: tuple[str, ...],
+) -> Table:
+    metadata, text = preamble(lines, layout)
+    if text:
+        metadata.setdefault("preamble", bounded_text(" / ".join(text)))
+    cols = header(lines, layout, kind, mapping, overrides, path)
+    check_required(cols, kind, path, row=layout.header_at + 1)
+    used = TEST_COLUMNS[kind]
+    rows = _data_rows(lines, layout, path)
+    values: dict[str, np.ndarray] = {}
+    for c in cols:
+        v = _convert(c, used, rows, layout.decimal_comma, path)
+        if v is not None:
+            values[c.name] = -v if c.name in negate else v
+    written = {c.name: c.written for c in cols if c.name in values}
+    ingest_checks.check(values, kind, [r for r, _ in rows], written, path, negate)
     return Table(
         path=path,
         columns=values,
-        units={c.name: c.unit for c in columns if c.name in values},
+        units={c.name: c.unit for c in cols if c.name in values},
         metadata=metadata,
         sha256=hashlib.sha256(raw).hexdigest(),
+        encoding=layout.encoding,
+        delimiter=layout.delimiter,
+        header_row=layout.header_at + 1,
+        preamble=text,
+        written=written,
     )
 
 
@@ -178,256 +194,140 @@ def load_measurements(study: Study) -> list[Measurement]:
     """Read the file of every test of ``study`` (excluded ones too), in study order."""
     measurements = []
     for test in study.tests:
-        if not test.file.is_file():
+        if not os.path.lexists(test.file):
             raise DataError(
                 f"data file of [[test]] #{test.index + 1} ({test.kind}, specimen "
                 f"{test.specimen}) not found; named in {study.source}",
                 file=test.file,
             )
-        measurements.append(Measurement(test=test, table=read_table(test.file, test.kind)))
+        table = read_table(
+            test.file,
+            test.kind,
+            columns=test.columns,
+            units=test.units,
+            negate=test.negate,
+            encoding=test.encoding,
+        )
+        measurements.append(Measurement(test=test, table=table))
     return measurements
 
 
 def _read_bytes(path: Path) -> bytes:
-    if not path.exists():
-        raise DataError("file not found", file=path)
-    if not path.is_file():
-        raise DataError("not a file", file=path)
+    """The bytes of a regular file of at most :data:`MAX_BYTES`."""
     try:
-        return path.read_bytes()
+        info = os.stat(path)
+    except FileNotFoundError:
+        raise DataError("file not found", file=path) from None
+    except (OSError, RuntimeError) as exc:
+        # ELOOP: a symlink to itself; ENAMETOOLONG, EACCES, ...
+        raise DataError(f"cannot open file: {getattr(exc, 'strerror', None) or exc}", file=path) from None
+    if stat.S_ISDIR(info.st_mode):
+        raise DataError("is a folder, not a data file", file=path)
+    if not stat.S_ISREG(info.st_mode):
+        raise DataError("not a regular file (a device, pipe or socket); name the data file itself", file=path)
+    if info.st_size > MAX_BYTES:
+        raise DataError(
+            f"file is {info.st_size / 2**20:.0f} MiB, larger than the {MAX_BYTES // 2**20} MiB "
+            "matid reads; export only the test's rows",
+            file=path,
+        )
+    try:
+        with open(path, "rb") as handle:
+            raw = handle.read(MAX_BYTES + 1)
     except OSError as exc:
         raise DataError(f"cannot read file: {exc.strerror}", file=path) from exc
+    if len(raw) > MAX_BYTES:
+        raise DataError(f"file grew beyond {MAX_BYTES // 2**20} MiB while being read", file=path)
+    return raw
 
 
-def _lines(raw: bytes, path: Path) -> list[str]:
-    """Decoded lines, trailing blank lines dropped; line i is row i + 1 in an editor."""
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        text = raw.decode("latin-1")
-    # Split on line breaks only: str.splitlines would also split on \x0c, \x85, ...
-    # and shift the row numbers from what an editor shows.
-    lines = _LINE_BREAK.split(text)
-    while lines and not lines[-1].strip():
-        lines.pop()
-    if not lines:
-        raise DataError("empty file", file=path)
-    return lines
-
-
-def _preamble(lines: list[str], path: Path) -> tuple[dict[str, str], int]:
-    """Metadata from the leading ``# key: value`` lines; index of the header line."""
-    metadata: dict[str, str] = {}
-    for i, line in enumerate(lines):
-        text = line.strip()
-        if not text:
-            continue
-        if not text.startswith("#"):
-            return metadata, i
-        key, _, value = text.lstrip("#").partition(":")
-        if key.strip():
-            metadata[key.strip()] = value.strip()
-    raise DataError("no header row (only '#' metadata lines)", file=path)
-
-
-def _split(line: str, delimiter: str) -> list[str]:
-    """Cells of one line, stripped; trailing empty cells (a trailing delimiter) dropped."""
-    cells = [c.strip() for c in next(csv.reader([line], delimiter=delimiter), [])]
-    while cells and not cells[-1]:
-        cells.pop()
-    return cells
-
-
-def _detect_delimiter(lines: list[str], header_at: int) -> str:
-    """The delimiter splitting the header into most cells, matched by one of the next two rows.
-
-    Two rows, because the first may be a units row with trailing cells left empty.
-    """
-    header = lines[header_at]
-    following = [ln for ln in lines[header_at + 1 : header_at + 3] if ln.strip()]
-    best, best_cells = None, 1
-    for delimiter in _DELIMITERS:
-        n = len(_split(header, delimiter))
-        if n > best_cells and any(len(_split(ln, delimiter)) == n for ln in following):
-            best, best_cells = delimiter, n
-    if best is not None:
-        return best
-    return max(_DELIMITERS, key=header.count) if any(d in header for d in _DELIMITERS) else ","
-
-
-def _header(lines: list[str], header_at: int, delimiter: str, path: Path) -> tuple[list[_Column], int]:
-    """Columns from the header row (and a units row if present); index of first data line."""
-    cells = _split(lines[header_at], delimiter)
-    if not cells:
-        raise DataError("header row has no column names", file=path, row=header_at + 1)
-    written = [_name_and_unit(c) for c in cells]
-    units = [(unit, header_at + 1) for _, unit in written]
-    data_at = header_at + 1
-    if data_at < len(lines) and any(
-        not unit and canonical(name) not in DIMENSIONLESS_NAMES for name, unit in written
-    ):
-        row_units = _units_row(lines[data_at], delimiter, len(cells), path, data_at + 1)
-        if row_units is not None:
-            data_at += 1
-            units = [(r, data_at) if r else u for r, u in zip(row_units, units, strict=True)]
-    columns = [
-        _column(i, name, unit, path, row)
-        for i, ((name, _), (unit, row)) in enumerate(zip(written, units, strict=True))
-    ]
-    _check_duplicates(columns, path, header_at + 1)
-    return columns, data_at
-
-
-def _name_and_unit(cell: str) -> tuple[str, str]:
-    match = _NAME_UNIT.match(cell)
-    if match is None:
-        return cell, ""
-    return match["name"].strip(), match["unit"].strip()
-
-
-def _units_row(line: str, delimiter: str, n: int, path: Path, row: int) -> list[str] | None:
-    """The units of a units row, or None when the line is data (all cells numeric)."""
-    cells = _split(line, delimiter)
-    if all(_is_number(c) for c in cells if c):
-        return None
-    if len(cells) > n:
-        raise DataError(f"units row has {len(cells)} cells, header has {n}", file=path, row=row)
-    cells += [""] * (n - len(cells))
-    return [(m["unit"] if (m := _WRAPPED_UNIT.match(c)) else c).strip() for c in cells]
-
-
-def _column(index: int, written: str, unit: str, path: Path, row: int) -> _Column:
-    name = canonical(written)
-    if not name:
-        raise DataError(f"header column {index + 1} has no name", file=path, row=row)
-    if not unit and name not in DIMENSIONLESS_NAMES:
-        raise DataError(
-            "column has no unit (write e.g. 'force [N]', or a units row under the header)",
-            file=path,
-            row=row,
-            column=written,
-        )
-    return _Column(index=index, written=written, name=name, unit=unit, unit_row=row)
-
-
-def _check_duplicates(columns: list[_Column], path: Path, row: int) -> None:
-    seen: set[str] = set()
-    for column in columns:
-        if column.name in seen:
-            raise DataError("column appears twice", file=path, row=row, column=column.written)
-        seen.add(column.name)
-
-
-def _check_required(columns: list[_Column], kind: str, path: Path, row: int) -> None:
-    found = [c.name for c in columns]
-    for group in REQUIRED[kind]:
-        if not any(name in found for name in group):
-            wanted = " or ".join(f"'{name}'" for name in group)
-            raise DataError(
-                f"{kind} file needs column {wanted}; found: {', '.join(found)}",
-                file=path,
-                row=row,
-            )
-
-
-def _data_rows(
-    lines: list[str], data_at: int, delimiter: str, n: int, path: Path
-) -> list[tuple[int, list[str]]]:
-    """(row number, cells) of every data line; ragged and blank inner lines are errors.
-
-    Trailing lines of delimiters only (``,,,`` as spreadsheets write) count as blank.
-    """
-    split = [_split(line, delimiter) for line in lines[data_at:]]
-    while split and not split[-1]:
-        split.pop()
+def _data_rows(lines: list[str], layout: Layout, path: Path) -> list[tuple[int, list]]:
+    """(row number, cells) of every data line; blank lines (and lines of delimiters) skipped."""
     rows = []
-    for i, cells in enumerate(split, start=data_at):
+    n = layout.n_cells
+    for i in range(layout.data_at, len(lines)):
+        try:
+            cells = split(lines[i], layout.delimiter)
+        except csv.Error:
+            raise DataError(
+                f"a cell is longer than {csv.field_size_limit()} characters", file=path, row=i + 1
+            ) from None
         if not cells:
-            raise DataError("blank line inside the data", file=path, row=i + 1)
-        if len(cells) != n:
+            continue
+        if len(cells) > n:
             raise DataError(f"row has {len(cells)} cells, header has {n}", file=path, row=i + 1)
-        rows.append((i + 1, cells))
+        # Short rows (empty trailing cells) are padded with None: an error only where a used column lacks it.
+        rows.append((i + 1, cells + [None] * (n - len(cells))))
     if len(rows) < MIN_ROWS:
-        last = rows[-1][0] if rows else data_at
+        last = rows[-1][0] if rows else layout.data_at + 1
         raise DataError(f"only {len(rows)} data rows, need at least {MIN_ROWS}", file=path, row=last)
     return rows
 
 
-def _factor(column: _Column, path: Path) -> float:
-    """SI factor of a column: checked against its kind if known, else whatever pint makes of it."""
-    if column.name not in KNOWN:
-        return _any_si_factor(column.unit)
-    try:
-        return si_factor(column.unit, KNOWN[column.name])
-    except UnitError as exc:
-        raise DataError(str(exc), file=path, row=column.unit_row, column=column.written) from exc
-
-
 def _convert(
-    column: _Column,
-    factor: float,
+    column: Column,
+    used: Mapping[str, str],
     rows: list[tuple[int, list[str]]],
     decimal_comma: bool,
     path: Path,
 ) -> np.ndarray | None:
-    """The column in SI; None for an unknown column that is not all numbers."""
-    if column.name not in KNOWN:
-        return _convert_other(column, factor, rows, decimal_comma)
+    """The column in SI; None for a column the test does not use that is not all numbers."""
+    if column.name not in used:
+        return _convert_other(column, rows, decimal_comma)
+    try:
+        factor = si_factor(column.unit, used[column.name])
+    except UnitError as exc:
+        source = "in the [[test]]'s units" if column.unit_row == 0 else None
+        raise DataError(
+            f"{exc}{' (' + source + ')' if source else ''}",
+            file=path,
+            row=column.unit_row or None,
+            column=column.written,
+        ) from exc
     values = np.empty(len(rows))
     for k, (line_no, cells) in enumerate(rows):
+        if cells[column.index] is None:
+            n = sum(c is not None for c in cells)
+            raise DataError(f"row has {n} cells, header has {len(cells)}", file=path, row=line_no)
         values[k] = _cell(cells[column.index], decimal_comma, path, line_no, column.written)
     return values * factor
 
 
 def _convert_other(
-    column: _Column, factor: float, rows: list[tuple[int, list[str]]], decimal_comma: bool
+    column: Column, rows: list[tuple[int, list[str]]], decimal_comma: bool
 ) -> np.ndarray | None:
-    """An unknown column: floats if every cell is a finite number, else None (dropped)."""
+    """A column the test does not use: floats if every cell is a finite number, else None (dropped)."""
     try:
-        values = [_number(cells[column.index], decimal_comma) for _, cells in rows]
+        values = [number(cells[column.index] or "", decimal_comma) for _, cells in rows]
     except ValueError:
         return None
     if not all(math.isfinite(v) for v in values):
         return None
-    return np.asarray(values) * factor
+    return np.asarray(values) * _soft_factor(column)
 
 
-def _any_si_factor(unit: str) -> float:
-    """SI factor for a unit of any known kind; 1 (raw values) when none fits."""
-    for kind in DIMENSIONS:
-        if kind == "moment_per_length":
-            continue
+def _soft_factor(column: Column) -> float:
+    """SI factor of an unused column's unit when it is known; 1 (raw values) when not."""
+    kinds = (
+        [KNOWN[column.name]] if column.name in KNOWN else [k for k in DIMENSIONS if k != "moment_per_length"]
+    )
+    for kind in kinds:
         try:
-            return si_factor(unit, kind)
+            return si_factor(column.unit, kind)
         except UnitError:
             continue
     return 1.0
-
-
-def _number(text: str, decimal_comma: bool) -> float:
-    """A float from a cell; ValueError if it is not a plain number."""
-    if decimal_comma and text.count(",") == 1 and "." not in text:
-        text = text.replace(",", ".")
-    if not text or "_" in text:
-        raise ValueError(text)
-    return float(text)
-
-
-def _is_number(text: str) -> bool:
-    try:
-        _number(text, decimal_comma=True)
-    except ValueError:
-        return False
-    return True
 
 
 def _cell(text: str, decimal_comma: bool, path: Path, row: int, column: str) -> float:
     if not text:
         raise DataError("empty cell", file=path, row=row, column=column)
     try:
-        value = _number(text, decimal_comma)
+        value = number(text, decimal_comma)
     except ValueError:
-        raise DataError(f"not a number: '{text}'", file=path, row=row, column=column) from None
+        raise DataError(
+            f"not a number: '{bounded_text(text, 80)}'", file=path, row=row, column=column
+        ) from None
     if not math.isfinite(value):
         raise DataError(f"NaN or infinite value '{text}'", file=path, row=row, column=column)
     return value

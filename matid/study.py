@@ -1,7 +1,12 @@
 """A study: specimens, tests and fixed stiffnesses, loaded from ``study.toml``.
 
-data-contract.md section 1. Every quantity is converted to SI here, once; every
-problem is a DataError naming the toml file and the entry.
+data-contract.md sections 1 and 7. Every quantity is converted to SI here,
+once; every problem is a DataError naming the toml file, the entry and the key.
+Unknown keys are errors with the nearest valid key suggested (a misspelled
+``exlude`` must not silently fit the test); a bare number for a dimensional
+quantity is SI only where that is plausible for its kind
+(:data:`matid.units.PLAUSIBLE_BARE`); booleans must be TOML booleans; free
+text is bounded (:data:`MAX_TEXT`).
 """
 
 from __future__ import annotations
@@ -13,8 +18,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 
+from matid import study_keys as keys
 from matid.errors import DataError
-from matid.units import UnitError, to_si
+from matid.study_keys import MAX_TEXT, TEST_COLUMNS, bounded_text, nearest  # noqa: F401 - re-exported
+from matid.units import PHYSICAL_BOUND, PLAUSIBLE_BARE, UnitError, to_si
 
 #: Per test kind: the toml keys it needs and their quantity kinds; optional keys.
 TEST_KINDS: dict[str, dict[str, str]] = {
@@ -30,6 +37,26 @@ TEST_KINDS: dict[str, dict[str, str]] = {
 }
 OPTIONAL_KEYS: dict[str, dict[str, str]] = {
     "magnetic_bending": {"magnet_moment": "moment"},
+}
+
+#: Keys every [[test]] may carry besides its kind's quantities (sections 1 and 7).
+TEST_COMMON_KEYS = (
+    "kind",
+    "specimen",
+    "file",
+    "exclude",
+    "note",
+    "columns",
+    "units",
+    "negate",
+    "window",
+    "encoding",
+)
+TABLE_KEYS: dict[str, tuple[str, ...]] = {
+    "": ("study", "specimen", "test", "fixed"),
+    "study": ("name", "temperature"),
+    "specimen": ("id", "outer_diameter", "inner_diameter", "poisson_ratio"),
+    "fixed": ("specimen", "parameter", "value"),
 }
 
 #: Parameters a study may fix, with their quantity kinds (data-contract section 3).
@@ -86,12 +113,23 @@ class Test:
     window: Mapping[str, tuple[float, float]] = field(default_factory=dict, hash=False)
     #: three_point_bend: where deflection is measured, "nose" (crosshead) or "centreline".
     deflection_at: str = "nose"
+    #: matid column name -> the file's header text (section 7 ``columns``).
+    columns: Mapping[str, str] = field(default_factory=dict, hash=False)
+    #: matid column name -> unit text overriding the file's (section 7 ``units``).
+    units: Mapping[str, str] = field(default_factory=dict, hash=False)
+    #: matid columns whose sign is flipped on reading (section 7 ``negate``).
+    negate: tuple[str, ...] = ()
+    #: Text encoding of the file; None: detected.
+    encoding: str | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in TEST_KINDS:
             raise ValueError(f"unknown test kind {self.kind!r}")
         object.__setattr__(self, "params", MappingProxyType(dict(self.params)))
         object.__setattr__(self, "window", MappingProxyType(dict(self.window)))
+        object.__setattr__(self, "columns", MappingProxyType(dict(self.columns)))
+        object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
+        object.__setattr__(self, "negate", tuple(self.negate))
         if self.deflection_at not in ("nose", "centreline"):
             raise ValueError(f"deflection_at must be 'nose' or 'centreline', got {self.deflection_at!r}")
         for key in TEST_KINDS[self.kind]:
@@ -169,10 +207,13 @@ def load_study(path: str | Path) -> Study:
         raw = tomllib.loads(source.read_text(encoding="utf-8-sig"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise DataError(f"not valid TOML: {exc}", file=source) from exc
-
+    except OSError as exc:
+        raise DataError(f"cannot read the study file: {exc.strerror}", file=source) from exc
+    _check_keys(source, "the top level", raw, TABLE_KEYS[""])
     head = raw.get("study", {})
     if not isinstance(head, dict):
         raise DataError("[study] must be a table", file=source)
+    _check_keys(source, "[study]", head, TABLE_KEYS["study"])
     specimens = tuple(_specimen(source, i, entry) for i, entry in enumerate(_list(raw, "specimen", source)))
     ids = [s.id for s in specimens]
     duplicates = {i for i in ids if ids.count(i) > 1}
@@ -185,13 +226,21 @@ def load_study(path: str | Path) -> Study:
         raise DataError("no [[test]] entries", file=source)
     fixed = tuple(_fixed(source, i, entry, set(ids)) for i, entry in enumerate(_list(raw, "fixed", source)))
     return Study(
-        name=str(head.get("name", source.parent.name)),
-        temperature=str(head.get("temperature", "")),
+        name=bounded_text(head.get("name", source.parent.name)),
+        temperature=bounded_text(head.get("temperature", "")),
         source=source,
         specimens=specimens,
         tests=tests,
         fixed=fixed,
     )
+
+
+def _check_keys(source: Path, where: str, entry: dict, valid: tuple[str, ...], other: str = "") -> None:
+    """Reject a key not in ``valid``, naming it and the nearest valid key."""
+    for key in entry:
+        if key not in valid:
+            hint = nearest(str(key), valid) or f" (valid keys: {', '.join(valid)})"
+            raise DataError(f"{where}: unknown key `{bounded_text(key, 80)}`{other}{hint}", file=source)
 
 
 def _list(raw: dict, key: str, source: Path) -> list[dict]:
@@ -204,25 +253,73 @@ def _list(raw: dict, key: str, source: Path) -> list[dict]:
 def _quantity(source: Path, where: str, entry: dict, key: str, kind: str) -> float:
     if key not in entry:
         raise DataError(f"{where}: missing '{key}'", file=source)
+    return _value(source, where, key, entry[key], kind)
+
+
+def _value(source: Path, where: str, key: str, value: object, kind: str) -> float:
+    """One quantity in SI: units parsed, bare numbers checked for plausibility, bounds checked."""
     try:
-        return to_si(entry[key], kind)
+        number = to_si(value, kind)
     except UnitError as exc:
         raise DataError(f"{where}: {key}: {exc}", file=source) from exc
+    bare = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if bare and number != 0 and kind in PLAUSIBLE_BARE:
+        low, high, unit = PLAUSIBLE_BARE[kind]
+        if not low <= abs(number) <= high:
+            raise DataError(
+                f"{where}: {key} = {value} is a bare number, read as SI ({number:g} in SI units of "
+                f"{kind}), which is not plausible here (expected {low:g} to {high:g}); write the unit, "
+                f'e.g. {key} = "{value} {unit}"',
+                file=source,
+            )
+    bound = PHYSICAL_BOUND.get(kind)
+    if bound is not None and abs(number) > bound:
+        raise DataError(
+            f"{where}: {key} = {bounded_text(value, 80)!r} is {number:g} in SI, beyond the physical "
+            f"bound {bound:g} for a {kind}",
+            file=source,
+        )
+    return number
+
+
+def _boolean(source: Path, where: str, entry: dict, key: str) -> bool:
+    value = entry.get(key, False)
+    if not isinstance(value, bool):
+        raise DataError(
+            f"{where}: {key} must be a boolean (true or false, unquoted), got {bounded_text(value, 80)!r}",
+            file=source,
+        )
+    return value
+
+
+def _text(source: Path, where: str, entry: dict, key: str, default: str = "") -> str:
+    value = entry.get(key, default)
+    if not isinstance(value, str):
+        raise DataError(f"{where}: {key} must be a string, got {bounded_text(value, 80)!r}", file=source)
+    return bounded_text(value)
 
 
 def _specimen(source: Path, index: int, entry: dict) -> Specimen:
     where = f"[[specimen]] #{index + 1}"
+    _check_keys(source, where, entry, TABLE_KEYS["specimen"])
     sid = str(entry.get("id", "")).strip()
     if not sid:
         raise DataError(f"{where}: missing 'id'", file=source)
+    sid = bounded_text(sid, 200)
     outer = _quantity(source, f"specimen {sid}", entry, "outer_diameter", "length")
     inner = (
         _quantity(source, f"specimen {sid}", entry, "inner_diameter", "length")
         if "inner_diameter" in entry
         else 0.0
     )
+    nu = entry.get("poisson_ratio")
+    if nu is not None and (isinstance(nu, bool) or not isinstance(nu, (int, float)) or not -1.0 < nu <= 0.5):
+        raise DataError(
+            f"specimen {sid}: poisson_ratio must be a number in (-1, 0.5], got {bounded_text(nu, 80)!r}",
+            file=source,
+        )
     try:
-        return Specimen(sid, outer, inner)
+        return Specimen(sid, outer, inner, None if nu is None else float(nu))
     except ValueError as exc:
         raise DataError(str(exc), file=source) from exc
 
@@ -231,12 +328,17 @@ def _test(source: Path, index: int, entry: dict, ids: set[str]) -> Test:
     where = f"[[test]] #{index + 1}"
     kind = entry.get("kind")
     if kind not in TEST_KINDS:
-        raise DataError(f"{where}: kind must be one of {', '.join(TEST_KINDS)}, got {kind!r}", file=source)
+        hint = nearest(str(kind), list(TEST_KINDS))
+        raise DataError(
+            f"{where}: kind must be one of {', '.join(TEST_KINDS)}, got {bounded_text(kind, 80)!r}{hint}",
+            file=source,
+        )
+    _check_test_keys(source, where, entry, kind)
     specimen = str(entry.get("specimen", ""))
     if specimen not in ids:
-        raise DataError(f"{where}: unknown specimen {specimen!r}", file=source)
-    if not entry.get("file"):
-        raise DataError(f"{where}: missing 'file'", file=source)
+        raise DataError(f"{where}: unknown specimen {bounded_text(specimen, 80)!r}", file=source)
+    if not entry.get("file") or not isinstance(entry["file"], str):
+        raise DataError(f"{where}: missing 'file' (a file name string)", file=source)
     params = {key: _quantity(source, where, entry, key, q) for key, q in TEST_KINDS[kind].items()}
     for key, q in OPTIONAL_KEYS.get(kind, {}).items():
         if key in entry:
@@ -245,24 +347,55 @@ def _test(source: Path, index: int, entry: dict, ids: set[str]) -> Test:
         return Test(
             kind=kind,
             specimen=specimen,
-            file=(source.parent / str(entry["file"])).resolve(),
+            file=_resolve(source, where, entry["file"]),
             params=params,
-            exclude=bool(entry.get("exclude", False)),
-            note=str(entry.get("note", "")),
+            exclude=_boolean(source, where, entry, "exclude"),
+            note=_text(source, where, entry, "note"),
             index=index,
+            window=keys.window(source, where, entry, kind, _value),
+            deflection_at=_text(source, where, entry, "deflection_at", "nose"),
+            columns=keys.columns(source, where, entry, kind),
+            units=keys.units(source, where, entry, kind),
+            negate=keys.negate(source, where, entry, kind),
+            encoding=keys.encoding(source, where, entry),
         )
     except ValueError as exc:
         raise DataError(f"{where}: {exc}", file=source) from exc
 
 
+def _check_test_keys(source: Path, where: str, entry: dict, kind: str) -> None:
+    own = (*TEST_COMMON_KEYS, *TEST_KINDS[kind], *OPTIONAL_KEYS.get(kind, {}))
+    if kind == "three_point_bend":
+        own = (*own, "deflection_at")
+    for key in entry:
+        if key in own:
+            continue
+        owners = [k for k in TEST_KINDS if key in TEST_KINDS[k] or key in OPTIONAL_KEYS.get(k, {})]
+        if key == "deflection_at":
+            owners = ["three_point_bend"]
+        other = f", a key of {' and '.join(owners)} tests, not of {kind} tests" if owners else ""
+        _check_keys(source, where, {key: None}, own, other)
+
+
+def _resolve(source: Path, where: str, name: str) -> Path:
+    """The data file's absolute path; a symlink loop is an input error, not a crash."""
+    path = source.parent / name
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError) as exc:
+        raise DataError(f"{where}: file {name!r} cannot be resolved ({exc})", file=source) from exc
+
+
 def _fixed(source: Path, index: int, entry: dict, ids: set[str]) -> Fixed:
     where = f"[[fixed]] #{index + 1}"
+    _check_keys(source, where, entry, TABLE_KEYS["fixed"])
     specimen = str(entry.get("specimen", ""))
     if specimen not in ids:
-        raise DataError(f"{where}: unknown specimen {specimen!r}", file=source)
+        raise DataError(f"{where}: unknown specimen {bounded_text(specimen, 80)!r}", file=source)
     parameter = str(entry.get("parameter", ""))
     if parameter not in PARAMETERS:
-        raise DataError(f"{where}: unknown parameter {parameter!r}", file=source)
+        hint = nearest(parameter, list(PARAMETERS))
+        raise DataError(f"{where}: unknown parameter {bounded_text(parameter, 80)!r}{hint}", file=source)
     value = _quantity(source, where, entry, "value", PARAMETERS[parameter])
     try:
         return Fixed(specimen, parameter, value)

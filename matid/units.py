@@ -5,6 +5,13 @@ Everything inside matid is SI. A quantity in study.toml or a scene is a string
 in its header. Both go through :func:`to_si`, which checks the dimension of the
 unit against what the field needs (``"length"``, ``"force"``, ...).
 
+Machine spellings (data-contract section 7) are taught to pint itself: ``Nm``
+(pint alone reads nano-metre), ``Sec``/``secs`` are defined units, and a pint
+preprocessor reads the separators machines put between unit names (``in-lb``,
+``N.m``, ``in.lbf``, ``N·m``) as products and drops the trailing dot of
+``deg.``. ``lb`` in a force or torque unit (``in-lb``, ``lb``) is the
+pound-force, as on every load frame.
+
 Two units need care with pint's default registry: pint's ``G`` is the
 Gaussian-CGS gauss (sqrt dimensions, not convertible to tesla), and ``emu`` is
 not defined. Lab files mean the magnetic flux density 1 G = 1e-4 T and the
@@ -20,7 +27,19 @@ from functools import lru_cache
 
 import pint
 
-ureg = pint.UnitRegistry()
+#: Between two unit names: a hyphen, a dot or a middle dot means a product.
+_SEPARATOR = re.compile(r"(?<=[A-Za-z])\s*[-.\u00b7\u22c5]\s*(?=[A-Za-z])")
+_TRAILING_DOT = re.compile(r"(?<=[A-Za-z])\.$")
+
+
+def _machine_separators(text: str) -> str:
+    """pint preprocessor: ``in-lb``, ``N.m``, ``N·m`` -> products; ``deg.`` -> ``deg``."""
+    return _SEPARATOR.sub("*", _TRAILING_DOT.sub("", text.strip()))
+
+
+ureg = pint.UnitRegistry(preprocessors=[_machine_separators])
+ureg.define("Nm = newton * meter")
+ureg.define("Sec = second = _ = Secs")
 ureg.define("lab_gauss = 1e-4 * tesla")
 ureg.define("lab_emu = 1e-3 * ampere * meter ** 2")
 
@@ -61,8 +80,35 @@ SI_UNITS: dict[str, str] = {
     "dimensionless": "1",
 }
 
-_ANGLE_UNITS = {"rad", "radian", "radians", "deg", "degree", "degrees", "°", "mrad", "rev", "turn"}
 _STRAIN_UNITS = {"1", "-", "%", "percent", "mm/mm", "m/m", "", "ratio"}
+_POUND = re.compile(r"lb|pound", re.IGNORECASE)
+#: Longest unit text read: a longer one is not a unit (and pint's parser is not fed it).
+MAX_UNIT_CHARS = 64
+
+#: Largest magnitude (SI) a value of each kind can have on a catheter bench: a
+#: value beyond it is a unit or export mistake, not a measurement.
+PHYSICAL_BOUND: dict[str, float] = {
+    "length": 10.0,
+    "force": 1e6,
+    "torque": 1e4,
+    "time": 1e9,
+    "field": 1e3,
+    "moment": 1e3,
+    "angle": 1e5,
+    "strain": 1e3,
+    "bending_stiffness": 1e6,
+    "viscosity": 1e12,
+}
+
+#: Range (SI) in which a bare number in study.toml is believable for its kind,
+#: and the unit to suggest when it is not. A catheter's 60 (m) is not a length.
+PLAUSIBLE_BARE: dict[str, tuple[float, float, str]] = {
+    "length": (1e-6, 1.0, "mm"),
+    "force": (1e-3, 1e6, "N"),
+    "bending_stiffness": (1e-10, 1.0, "N mm^2"),
+    "viscosity": (1e-3, 1e9, "N s"),
+    "moment": (1e-7, 10.0, "A m^2"),
+}
 
 _TOKEN_REWRITES = [
     (re.compile(r"(?<![A-Za-z_])(G|Gs|gauss)(?![A-Za-z_])"), "lab_gauss"),
@@ -92,27 +138,19 @@ def si_factor(unit: str, kind: str) -> float:
     if kind not in DIMENSIONS:
         raise ValueError(f"unknown quantity kind {kind!r}")
     text = unit.strip()
-    if kind == "angle" and text.lower() not in _ANGLE_UNITS:
-        raise UnitError(f"'{unit}' is not an angle unit (use rad or deg)")
-    if kind == "strain":
-        if text.lower() not in _STRAIN_UNITS:
-            raise UnitError(f"'{unit}' is not a strain unit (use 1 or %)")
+    if len(text) > MAX_UNIT_CHARS:
+        raise UnitError(f"unit text of {len(text)} characters is not a unit (at most {MAX_UNIT_CHARS})")
+    if kind == "strain" and text.lower() in _STRAIN_UNITS:
         return 0.01 if text.lower() in {"%", "percent"} else 1.0
     if kind == "dimensionless" and text in {"", "-", "1"}:
         return 1.0
-    # pint's parser raises AssertionError on some malformed strings such as "-".
-    try:
-        quantity = ureg.Quantity(1.0, _normalise(text))
-    except (
-        pint.errors.PintError,
-        AssertionError,
-        AttributeError,
-        TypeError,
-        ValueError,
-        SyntaxError,
-    ) as exc:
-        raise UnitError(f"unknown unit '{unit}'") from exc
+    quantity = _parse(unit, text)
+    if kind in ("angle", "strain"):
+        return _dimensionless_factor(unit, quantity, kind)
     want = DIMENSIONS[kind]
+    if kind in ("force", "torque") and not quantity.check(want) and _POUND.search(text):
+        # A load frame's "lb" is the pound-force: in-lb is a torque, lb a force.
+        quantity = quantity * ureg.standard_gravity
     if kind == "moment_per_length" and quantity.check("[current]"):
         # data-contract section 6 writes per_length = "0.02 A" for "A m^2 per m":
         # read a bare current unit as that shorthand.
@@ -121,7 +159,37 @@ def si_factor(unit: str, kind: str) -> float:
         raise UnitError(f"'{unit}' is not a unit of {kind} (expected like {SI_UNITS[kind]})")
     if not want and not quantity.dimensionless:
         raise UnitError(f"'{unit}' is not dimensionless")
-    return float(quantity.to_base_units().magnitude)
+    return _finite_factor(unit, float(quantity.to_base_units().magnitude))
+
+
+def _parse(unit: str, text: str) -> pint.Quantity:
+    """pint's reading of a unit text; every failure of its parser is a UnitError.
+
+    pint lets through AssertionError ("-"), ZeroDivisionError ("1/0"), tokenize's
+    TokenError ("(N") and more; any exception from parsing untrusted text means
+    "not a unit", so all are caught here, at the edge.
+    """
+    try:
+        return ureg.Quantity(1.0, _normalise(text))
+    except Exception as exc:  # noqa: BLE001 - see docstring
+        raise UnitError(f"unknown unit '{unit}'") from exc
+
+
+def _dimensionless_factor(unit: str, quantity: pint.Quantity, kind: str) -> float:
+    """Angles reduce to radian in pint, strains to a pure number: tell them apart."""
+    base = quantity.to_base_units()
+    is_angle = str(base.units) == "radian"
+    if kind == "angle" and not is_angle:
+        raise UnitError(f"'{unit}' is not an angle unit (use rad or deg)")
+    if kind == "strain" and (is_angle or not base.dimensionless):
+        raise UnitError(f"'{unit}' is not a strain unit (use 1 or %)")
+    return _finite_factor(unit, float(base.magnitude))
+
+
+def _finite_factor(unit: str, factor: float) -> float:
+    if not (math.isfinite(factor) and factor > 0):
+        raise UnitError(f"'{unit}' does not give a finite positive scale ({factor!r})")
+    return factor
 
 
 def to_si(value: object, kind: str) -> float:

@@ -247,10 +247,14 @@ def test_column_without_unit(tmp_path):
         read_table(path, "extension")
 
 
-def test_unknown_column_without_unit_is_also_an_error(tmp_path):
-    path = write(tmp_path, "time [s],force [N],strain [%],remark\n0,0,0,1\n1,1,1,2\n2,2,2,3\n")
-    with pytest.raises(DataError, match=where(path, row=1, column="remark") + "column has no unit"):
-        read_table(path, "extension")
+def test_column_the_test_does_not_use_needs_no_known_unit(tmp_path):
+    # data-contract section 7: only the columns a test uses must have a known unit.
+    text = "remark,time [Sec],deflection [mm],force [N],temp [degF??]\n1,0,0,0,1\n2,1,1,1,2\n3,2,2,2,3\n"
+    table = read_table(write(tmp_path, text), "three_point_bend")
+    np.testing.assert_allclose(table["remark"], [1, 2, 3])
+    np.testing.assert_allclose(table["temp"], [1, 2, 3])  # unit unknown: raw values kept
+    np.testing.assert_allclose(table["time"], [0, 1, 2])
+    assert table.units["temp"] == "degF??"
 
 
 def test_unknown_unit(tmp_path):
@@ -319,9 +323,9 @@ def test_short_row(tmp_path):
         read_table(path, "extension")
 
 
-def test_blank_line_inside_data(tmp_path):
-    path = write(tmp_path, "time [s],force [N],strain [%]\n0,0,0\n\n1,1,1\n2,2,2\n")
-    with pytest.raises(DataError, match=where(path, row=3) + "blank line inside the data"):
+def test_blank_lines_inside_data_are_skipped_and_rows_still_counted(tmp_path):
+    path = write(tmp_path, "time [s],force [N],strain [%]\n0,0,0\n\n1,1,1\n\n2,x,2\n")
+    with pytest.raises(DataError, match=where(path, row=6, column="force") + "not a number: 'x'"):
         read_table(path, "extension")
 
 
@@ -330,6 +334,8 @@ def test_fewer_than_three_data_rows(tmp_path, n_rows):
     text = "time [s],force [N],strain [%]\n" + "".join(f"{i},{i},{i}\n" for i in range(n_rows))
     path = write(tmp_path, text)
     pattern = where(path, row=n_rows + 1) + f"only {n_rows} data rows, need at least 3"
+    if n_rows == 0:  # a header with nothing under it is not recognised as a header
+        pattern = where(path) + "no header row found"
     with pytest.raises(DataError, match=pattern):
         read_table(path, "extension")
 
@@ -393,3 +399,135 @@ def test_load_measurements_missing_file_names_it(tmp_path):
     with pytest.raises(DataError, match=r"sub[/\\]tor\.csv: data file of \[\[test\]\] #2") as info:
         load_measurements(load_study(tmp_path))
     assert "study.toml" in str(info.value)
+
+
+# --- section 7 and issue 12: bad input at the edge, exit 2 naming file and row/column ----------
+
+BEND_OK = "deflection [mm],force [N]\n0,0\n0.1,0.5\n0.2,1.0\n0.3,1.5\n"
+
+
+@pytest.mark.parametrize(("unit", "shown"), [("1/0", "1/0"), ("(N", "(N")])
+def test_malformed_unit_is_a_data_error(tmp_path, unit, shown):
+    path = write(tmp_path, "deflection,force\nmm," + unit + "\n0,0\n0.1,0.5\n0.2,1.0\n")
+    with pytest.raises(
+        DataError, match=where(path, row=2, column="force") + re.escape(f"unknown unit '{shown}'")
+    ):
+        read_table(path, "three_point_bend")
+
+
+def test_cell_longer_than_csv_limit(tmp_path):
+    path = write(tmp_path, BEND_OK + "0.4," + "1" * 200_000 + "\n")
+    with pytest.raises(DataError, match=where(path, row=6)):
+        read_table(path, "three_point_bend")
+
+
+def test_header_cell_longer_than_csv_limit(tmp_path):
+    path = write(tmp_path, "x" * 200_000 + "," + BEND_OK)
+    with pytest.raises(DataError, match="^" + re.escape(str(path))):
+        read_table(path, "three_point_bend")
+
+
+def test_symlink_loop_directory_and_device(tmp_path):
+    loop = tmp_path / "loop.csv"
+    loop.symlink_to(loop)
+    with pytest.raises(DataError, match=where(loop) + "cannot open file"):
+        read_table(loop, "three_point_bend")
+    with pytest.raises(DataError, match=where(tmp_path) + "is a folder"):
+        read_table(tmp_path, "three_point_bend")
+    with pytest.raises(DataError, match=re.escape("/dev/zero: not a regular file")):
+        read_table("/dev/zero", "three_point_bend")
+
+
+def test_symlink_loop_through_a_study(tmp_path):
+    (tmp_path / "loop.csv").symlink_to(tmp_path / "loop.csv")
+    toml = (
+        '[[specimen]]\nid = "T1"\nouter_diameter = "2 mm"\n\n[[test]]\nkind = "torsion"\nspecimen = "T1"\n'
+        'file = "loop.csv"\nlength = "60 mm"\n'
+    )
+    (tmp_path / "study.toml").write_text(toml)
+    with pytest.raises(DataError, match="loop.csv"):
+        load_measurements(load_study(tmp_path))
+
+
+def test_huge_file_is_refused_with_its_size(tmp_path, monkeypatch):
+    import matid.ingest as ingest
+
+    monkeypatch.setattr(ingest, "MAX_BYTES", 100)
+    path = write(tmp_path, BEND_OK * 10)
+    with pytest.raises(DataError, match=where(path) + r"file is .* larger than"):
+        read_table(path, "three_point_bend")
+
+
+@pytest.mark.parametrize(
+    ("text", "kind", "row", "column"),
+    [
+        ("time [s],force [N],elongation [mm]\n0,0,0\n1,1,1e308\n2,2,2\n", "extension", 3, "elongation"),
+        ("twist_angle [deg],torque [N m]\n0,0\n1e300,1\n2,2\n", "torsion", 3, "twist_angle"),
+        ("deflection [m],force [N]\n0,0\n0.1,1\n20,2\n", "three_point_bend", 4, "deflection"),
+    ],
+)
+def test_values_beyond_physical_bound_name_row_and_column(tmp_path, text, kind, row, column):
+    path = write(tmp_path, text)
+    with pytest.raises(DataError, match=where(path, row=row, column=column) + ".*beyond the physical bound"):
+        read_table(path, kind)
+
+
+def test_all_loads_negative_suggest_negate(tmp_path):
+    path = write(tmp_path, "deflection [mm],force [N]\n0,0.001\n0.1,-0.5\n0.2,-1.0\n0.3,-1.5\n")
+    with pytest.raises(DataError, match=where(path, column="force") + r".*negate = \[\"force\"\]"):
+        read_table(path, "three_point_bend")
+    table = read_table(path, "three_point_bend", negate=["force"])
+    np.testing.assert_allclose(table["force"], [-0.001, 0.5, 1.0, 1.5])
+
+
+def test_negative_deflection_on_loading_branch_names_the_row(tmp_path):
+    path = write(tmp_path, "deflection [mm],force [N]\n0,0\n0.1,0.5\n-0.05,0.7\n0.3,1.5\n0.2,1.0\n")
+    with pytest.raises(DataError, match=where(path, row=4, column="deflection") + "negative deflection"):
+        read_table(path, "three_point_bend")
+
+
+def test_torque_against_twist_suggests_negate(tmp_path):
+    path = write(tmp_path, "twist_angle [deg],torque [N mm]\n0,0\n10,-1\n20,-2\n")
+    with pytest.raises(DataError, match=where(path, column="torque") + ".*opposite signs"):
+        read_table(path, "torsion")
+
+
+def test_preamble_without_hash_and_message_says_how_it_was_read(tmp_path):
+    text = '"Sample ID:","T1"\nMTS793|BTW|ENG\nLoad,Crosshead\nN,mm\n0,0\n0.5,0.1\nx,0.2\n'
+    path = write(tmp_path, text)
+    pattern = (
+        where(path, row=7, column="Load")
+        + r"not a number: 'x' \(read as utf-8, ','-delimited, header row 3, units row 4\)"
+    )
+    with pytest.raises(DataError, match=pattern):
+        read_table(path, "three_point_bend", columns={"force": "Load", "deflection": "Crosshead"})
+
+
+def test_mapped_column_missing_names_it_and_the_nearest(tmp_path):
+    path = write(tmp_path, "Load [N],Crosshead [mm]\n0,0\n0.5,0.1\n1,0.2\n")
+    with pytest.raises(DataError, match=where(path, row=1, column="Crosshed") + ".*did you mean 'Crosshead"):
+        read_table(path, "three_point_bend", columns={"force": "Load", "deflection": "Crosshed"})
+
+
+def test_wrong_stated_encoding_says_so(tmp_path):
+    path = write(tmp_path, "扭转角 [deg],扭矩 [N m]\n0,0\n1,1\n2,2\n", encoding="gbk")
+    with pytest.raises(DataError, match=where(path) + "cannot be read as utf-8"):
+        read_table(path, "torsion", encoding="utf-8")
+    table = read_table(path, "torsion", encoding="gbk", columns={"twist_angle": "扭转角", "torque": "扭矩"})
+    assert table.encoding == "gbk"
+
+
+def test_machine_units_in_headers(tmp_path):
+    text = "Angle (deg.),Torque (in-lb),Time [Sec]\n0,0,0\n10,1,1\n20,2,2\n"
+    table = read_table(write(tmp_path, text), "torsion", columns={"twist_angle": "Angle"})
+    np.testing.assert_allclose(table["torque"], [0, 0.1129848290276167, 0.2259696580552334])
+    np.testing.assert_allclose(table["twist_angle"], np.deg2rad([0, 10, 20]))
+    text = "deflection (µm),force (Nm?)\n0,0\n1,1\n2,2\n"
+    with pytest.raises(DataError, match="column 'force': 'Nm\\?'"):
+        read_table(write(tmp_path, text, "b.csv"), "three_point_bend")
+
+
+def test_long_metadata_value_is_truncated(tmp_path):
+    text = "# note: " + "y" * 2_000_000 + "\n" + BEND_OK
+    table = read_table(write(tmp_path, text), "three_point_bend")
+    assert len(table.metadata["note"]) < 2100 and table.metadata["note"].endswith("[... truncated]")

@@ -211,3 +211,150 @@ def test_no_tests(tmp_path):
     path = write_study(tmp_path, HEAD)
     with expect(path, r"no \[\[test\]\] entries"):
         load_study(path)
+
+
+# --- section 7: unknown keys, bare numbers, booleans, new test keys -----------------
+
+
+BEND = TESTS.split("[[test]]")[4]  # the three_point_bend entry
+
+
+def with_test_keys(extra: str, entry: str = BEND) -> str:
+    """HEAD and one [[test]] entry with ``extra`` toml lines appended."""
+    return HEAD + "\n[[test]]" + entry.rstrip() + "\n" + extra + "\n"
+
+
+@pytest.mark.parametrize(
+    ("extra", "key", "hint"),
+    [
+        ("exlude = true", "exlude", "exclude"),
+        ("nots = 'x'", "nots", "note"),
+        ("colums = { force = 'Load' }", "colums", "columns"),
+        ("negat = ['force']", "negat", "negate"),
+    ],
+)
+def test_unknown_test_key_names_it_and_the_nearest(tmp_path, extra, key, hint):
+    path = write_study(tmp_path, with_test_keys(extra))
+    with expect(path, rf"\[\[test\]\] #1: unknown key `{key}`.*did you mean `{hint}`\?"):
+        load_study(path)
+
+
+def test_key_of_another_kind_says_so(tmp_path):
+    path = write_study(tmp_path, with_test_keys('gauge_length = "50 mm"'))
+    with expect(path, "unknown key `gauge_length`, a key of extension tests, not of three_point_bend"):
+        load_study(path)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            'temperature = "37 degC"',
+            'temprature = "37 degC"',
+            r"\[study\]: unknown key `temprature`.*`temperature`",
+        ),
+        ('id = "T2"', 'id = "T2"\ninner_diam = "1 mm"', r"\[\[specimen\]\] #2: unknown key `inner_diam`"),
+        ("[study]", "[studdy]\n[study]", r"the top level: unknown key `studdy`.*`study`"),
+    ],
+)
+def test_unknown_keys_elsewhere(tmp_path, old, new, message):
+    path = write_study(tmp_path, HEAD.replace(old, new) + TESTS)
+    with expect(path, message):
+        load_study(path)
+
+
+def test_unknown_key_in_fixed(tmp_path):
+    path = write_study(tmp_path, HEAD + TESTS + FIXED.replace('value = "120 N"', 'valeu = "120 N"'))
+    with expect(path, r"\[\[fixed\]\] #1: unknown key `valeu`.*`value`"):
+        load_study(path)
+
+
+@pytest.mark.parametrize("value", ['"false"', "0", '"yes"'])
+def test_exclude_must_be_a_real_boolean(tmp_path, value):
+    path = write_study(tmp_path, with_test_keys(f"exclude = {value}"))
+    with expect(path, "exclude must be a boolean"):
+        load_study(path)
+
+
+def test_bare_number_accepted_as_si_only_when_plausible(tmp_path):
+    ok = write_study(tmp_path, with_test_keys("").replace('span = "10 mm"', "span = 0.01"))
+    assert load_study(ok).tests[0].params["span"] == 0.01
+    bad = write_study(tmp_path, with_test_keys("").replace('span = "10 mm"', "span = 10"))
+    with expect(bad, r"span = 10 is a bare number, read as SI .* not plausible .* span = \"10 mm\""):
+        load_study(bad)
+
+
+def test_bare_fixed_stiffness_implausible(tmp_path):
+    path = write_study(tmp_path, HEAD + TESTS + FIXED.replace('"65000 dyn cm^2"', "65000"))
+    with expect(path, r"value = 65000 is a bare number.*N mm\^2"):
+        load_study(path)
+
+
+@pytest.mark.parametrize(
+    ("quantity", "message"),
+    [
+        ('"60 1/0"', "unknown unit '1/0'"),
+        ('"10 (mm"', r"unknown unit '\(mm'"),
+        ('"1e300 mm"', "physical bound"),
+    ],
+)
+def test_malformed_or_absurd_quantities(tmp_path, quantity, message):
+    path = write_study(tmp_path, with_test_keys("").replace('"10 mm"', quantity))
+    with expect(path, "span.*" + message):
+        load_study(path)
+
+
+def test_section7_keys_parsed_into_the_test(tmp_path):
+    extra = """columns = { deflection = "Crosshead ", force = "Load" }
+units = { force = "kN", deflection = "in" }
+negate = ["force"]
+window = { deflection = ["0.05 mm", "1.5 mm"] }
+encoding = "GBK"
+deflection_at = "centreline"
+"""
+    test = load_study(write_study(tmp_path, with_test_keys(extra))).tests[0]
+    assert dict(test.columns) == {"deflection": "Crosshead ", "force": "Load"}
+    assert dict(test.units) == {"force": "kN", "deflection": "in"}
+    assert test.negate == ("force",)
+    assert test.window["deflection"] == pytest.approx((5e-5, 1.5e-3))
+    assert test.encoding == "gbk"
+    assert test.deflection_at == "centreline"
+
+
+def test_poisson_ratio(tmp_path):
+    study = load_study(
+        write_study(tmp_path, HEAD.replace('id = "T2"', 'id = "T2"\npoisson_ratio = 0.45') + TESTS)
+    )
+    assert study.specimen("T2").poisson_ratio == 0.45
+    assert study.specimen("T1").poisson_ratio is None
+    bad = write_study(tmp_path, HEAD.replace('id = "T2"', 'id = "T2"\npoisson_ratio = 0.7') + TESTS)
+    with expect(bad, r"poisson_ratio must be a number in \(-1, 0.5\]"):
+        load_study(bad)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        ('window = { time = ["0 s", "1 s"] }', "window: `time` is not a column of three_point_bend"),
+        ('window = { deflection = ["2 mm", "1 mm"] }', "window.deflection needs low < high"),
+        ('window = { deflection = ["1 N", "2 N"] }', "window.deflection: 'N' is not a unit of length"),
+        ('window = { deflection = "1 mm" }', r"window.deflection must be \[\"low\", \"high\"\]"),
+        ('units = { force = "mm" }', "units.force: 'mm' is not a unit of force"),
+        ('units = { forse = "N" }', "did you mean `force`"),
+        ('negate = ["torque"]', "negate: `torque` is not a column of three_point_bend"),
+        ('negate = "force"', "negate must be a list"),
+        ('columns = { force = "" }', "columns.force must be the file's header text"),
+        ('encoding = "klingon-8"', "unknown encoding 'klingon-8'"),
+        ('deflection_at = "tip"', "deflection_at must be 'nose' or 'centreline'"),
+    ],
+)
+def test_section7_keys_rejected(tmp_path, extra, message):
+    path = write_study(tmp_path, with_test_keys(extra))
+    with expect(path, message):
+        load_study(path)
+
+
+def test_long_note_is_truncated_and_marked(tmp_path):
+    study = load_study(write_study(tmp_path, with_test_keys(f'note = "{"x" * 1_000_000}"')))
+    assert len(study.tests[0].note) < 2100
+    assert study.tests[0].note.endswith("[... truncated]")
