@@ -144,6 +144,7 @@ def test_old_temp_files_of_per_file_writes_are_no_obstacle_and_go_away(tmp_path)
     out = tmp_path / "out"
     out.mkdir()
     (out / ".report.html.x1y2z3").write_text("half")
+    (out / ".inner.matid-lock").write_text("")
     publish.publish(NEW, out)
     assert _contents(out) == _encoded(NEW)
 
