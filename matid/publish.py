@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import ctypes
 import errno
-import fcntl
 import os
 import shutil
 import stat
@@ -42,6 +41,11 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from matid.errors import DataError, MatidError
+
+try:
+    import fcntl
+except ImportError:  # not POSIX (Windows): no lock; the publication itself still works
+    fcntl = None  # type: ignore[assignment]
 
 #: Files matid writes into an output folder; a folder holding anything else is not replaced.
 OUTPUT_NAMES = frozenset(
@@ -115,13 +119,14 @@ class Claim:
         self.fd: int | None = None
         try:
             real.parent.mkdir(parents=True, exist_ok=True)
-            self.fd = os.open(real.parent / _hidden(real, LOCK), os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
+            self.fd = os.open(real.parent / _hidden(real, LOCK), os.O_RDWR | os.O_CREAT, 0o666)
         except OSError as exc:
             raise DataError(
                 f"--out: cannot create the folder or its lock file: {exc.strerror}", file=out
             ) from exc
         try:
-            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            if fcntl is not None:
+                fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:
             self.release()
             if exc.errno in (errno.EWOULDBLOCK, errno.EACCES, errno.EAGAIN):
@@ -199,7 +204,7 @@ def _fill(folder: Path, files: Mapping[str, bytes | str], *, mode: int) -> None:
         if not name or "/" in name or name in (".", ".."):
             raise ValueError(f"not a plain output file name: {name!r}")
         data = content.encode("utf-8") if isinstance(content, str) else content
-        fd = os.open(folder / name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
+        fd = os.open(folder / name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         try:
             view = memoryview(data)
             while view:
@@ -212,6 +217,8 @@ def _fill(folder: Path, files: Mapping[str, bytes | str], *, mode: int) -> None:
 
 
 def _fsync_dir(folder: Path) -> None:
+    if not hasattr(os, "O_DIRECTORY"):  # Windows cannot open a folder to fsync it
+        return
     fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
     try:
         os.fsync(fd)
