@@ -204,7 +204,7 @@ def _fill(folder: Path, files: Mapping[str, bytes | str], *, mode: int) -> None:
         if not name or "/" in name or name in (".", ".."):
             raise ValueError(f"not a plain output file name: {name!r}")
         data = content.encode("utf-8") if isinstance(content, str) else content
-        fd = os.open(folder / name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        fd = os.open(folder / name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
         try:
             view = memoryview(data)
             while view:
