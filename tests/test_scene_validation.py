@@ -94,6 +94,10 @@ def test_a_huge_stiffness_file_is_refused_unread(tmp_path):
         (f"magnet = [1]\n{ROD}", r"\[\[magnet\]\] #1: expected a table"),
         (f"tip = 3\n{ROD}", r"\[tip\]: expected a table"),
         ("rod = 5\n", r"\[rod\]: expected a table"),
+        (ROD + "E_S = 1\n", r"\[rod\]: unknown key 'E_S'"),
+        (ROD + '[tip]\nforse = ["1 N", "0 N", "0 N"]\n', r"\[tip\]: unknown key 'forse'"),
+        (ROD + '[[magnet]]\nat = "30 mm"\nmoment = "1 A m^2"\nx = 1\n',
+         r"\[\[magnet\]\] #1: unknown key 'x'"),
         ('scene = "three_point_bend"\n' + ROD + '[three_point_bend]\nspan = "10 mm"\n'
          'support_radius = "2 mm"\nnose_radius = "2 mm"\n'
          'deflection = ' + str(["0.1 mm"] * 1001) + "\n", "at most 1000"),

@@ -193,18 +193,44 @@ def _table(value: object, where: str) -> dict:
 
 
 def _tables(raw: dict, key: str) -> list[dict]:
-    """An array of tables (``[[key]]``), each checked to be a table."""
+    """An array of tables (``[[key]]``), each checked to be a table with known keys."""
     items = raw.get(key, [])
     if not isinstance(items, list):
         raise ValueError(
             f"[[{key}]]: expected an array of tables, got {type(items).__name__} {_short(items)}"
         )
-    return [_table(item, f"[[{key}]] #{i + 1}") for i, item in enumerate(items)]
+    return [
+        _known(_table(item, f"[[{key}]] #{i + 1}"), key, f"[[{key}]] #{i + 1}")
+        for i, item in enumerate(items)
+    ]
 
 
 def _short(value: object) -> str:
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+#: Keys of each scene table (data-contract section 6); any other is a typo to report, not to ignore.
+TABLE_KEYS = {
+    "rod": {"length", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "precurvature", "stiffness"},
+    "segment": {"from", "to", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "rigid"},
+    "load": {"distributed_force"},
+    "magnet": {"at", "moment"},
+    "magnetization": {"from", "to", "per_length"},
+    "field": {"B"},
+    "tip": {"force", "moment"},
+    "three_point_bend": {"span", "support_radius", "nose_radius", "deflection"},
+}
+
+
+def _known(table: dict, name: str, where: str) -> dict:
+    """``table`` itself after checking that every key is one of TABLE_KEYS[name]."""
+    unknown = sorted(set(table) - TABLE_KEYS[name])
+    if unknown:
+        raise ValueError(
+            f"{where}: unknown key '{unknown[0]}' (known: {', '.join(sorted(TABLE_KEYS[name]))})"
+        )
+    return table
 
 
 def _bool(table: dict, key: str, where: str) -> bool:
@@ -237,7 +263,7 @@ def _v(table: dict, key: str, kind: str, where: str) -> Vector:
 def _rod(raw: dict, root: Path | None) -> Rod:
     if "rod" not in raw:
         raise ValueError("missing [rod] table")
-    table = dict(_table(raw["rod"], "[rod]"))
+    table = dict(_known(_table(raw["rod"], "[rod]"), "rod", "[rod]"))
     if not table:
         raise ValueError("missing [rod] table")
     if "stiffness" in table:
@@ -346,8 +372,9 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
         raise ValueError(f"unknown key or table '{unknown[0]}' (known: {', '.join(sorted(SCENE_KEYS))})")
     kind = raw.get("scene", "cantilever")
     rod = _rod(raw, root)
-    load, field_ = _table(raw.get("load", {}), "[load]"), _table(raw.get("field", {}), "[field]")
-    tip = _table(raw.get("tip", {}), "[tip]")
+    load, field_, tip = (
+        _known(_table(raw.get(k, {}), f"[{k}]"), k, f"[{k}]") for k in ("load", "field", "tip")
+    )
     magnets = tuple(
         (_q(m, "at", "length", f"[[magnet]] #{i + 1}"), _q(m, "moment", "moment", f"[[magnet]] #{i + 1}"))
         for i, m in enumerate(_tables(raw, "magnet"))
@@ -370,7 +397,9 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     )
     bend = None
     if "three_point_bend" in raw:
-        t = _table(raw["three_point_bend"], "[three_point_bend]")
+        t = _known(
+            _table(raw["three_point_bend"], "[three_point_bend]"), "three_point_bend", "[three_point_bend]"
+        )
         deflections = t.get("deflection")
         if not isinstance(deflections, list) or not deflections:
             raise ValueError("three_point_bend.deflection: need a list of nose displacements")
