@@ -40,6 +40,7 @@ def main() -> int:
         "MATID_FUZZ_EXAMPLES": str(args.examples),
         "MATID_FUZZ_FULL_ONE_IN": str(args.full_one_in),
         "MATID_FUZZ_BEND": "1",
+        "MATID_FUZZ_LIMIT": os.environ.get("MATID_FUZZ_LIMIT", "300"),  # 2 shared cores: slow is not a hang
         "MATID_FUZZ_COLLECT": "1",  # count every outcome; do not stop at the first bad one
     }
     clock = time.perf_counter()

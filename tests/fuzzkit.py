@@ -469,7 +469,11 @@ def run_cli(argv: list[str], limit: float) -> tuple[int | str, str]:
     return code, err.getvalue()
 
 
-def run_study_case(case, work: Path, *, limit: float = 120.0) -> Outcome:
+#: Wall-clock seconds a case may take before it counts as a hang (a whole bend run takes ~20 s alone).
+LIMIT = float(os.environ.get("MATID_FUZZ_LIMIT", "120"))
+
+
+def run_study_case(case, work: Path, *, limit: float = LIMIT) -> Outcome:
     """Write the case's study into ``work`` and run it (input stage, or the whole ``matid fit``)."""
     from matid.errors import DataError, MatidError
     from matid.ingest import load_measurements
@@ -509,7 +513,7 @@ def run_study_case(case, work: Path, *, limit: float = 120.0) -> Outcome:
     return Outcome(code, "full", time.perf_counter() - clock, message, state)
 
 
-def run_scene_case(case, work: Path, *, limit: float = 120.0) -> Outcome:
+def run_scene_case(case, work: Path, *, limit: float = LIMIT) -> Outcome:
     """Write the case's scene into ``work`` and load it (and, when drawn, solve it with few elements)."""
     from matid.errors import DataError, MatidError
     from matid.rod.scenes import load_scene
