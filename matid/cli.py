@@ -30,6 +30,7 @@ from matid import __version__
 from matid.bench.cli import register as _register_bench
 from matid.errors import ConvergenceError, DataError, MatidError, SlipOffError
 from matid.pipeline import run_study, write_outputs
+from matid.publish import claim_output
 from matid.results import Failure, StudyResult, atomic_write, stiffness_json
 from matid.rod.api import resolve_model, solve
 from matid.rod.output import shape_png, solution_json
@@ -244,6 +245,7 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool) -> int:
         if not quiet:
             print(f"[{time.perf_counter() - clock:6.1f} s] {message}", file=sys.stderr, flush=True)
 
+    claim = claim_output(out)  # noqa: F841 -- --out checked and locked before any fitting; freed on return
     study = load_study(source)
     result = run_study(study, progress=progress)
     progress(f"rendering the report and tables into {out}")

@@ -13,9 +13,10 @@ far (fitted or fixed) for its specimen.
   run goes on.
 - A kind whose parameters are all fixed in ``[[fixed]]`` is not fitted.
 
-:func:`write_outputs` renders everything in memory first and then writes each
-file atomically, so a failed run never leaves a half report (data-contract
-section 5).
+:func:`write_outputs` renders everything in memory first and then publishes the
+files as one folder in one atomic step (:mod:`matid.publish`), so a failed or
+killed run never leaves a half report or a mix of old and new files
+(data-contract section 5).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from matid.fits.shear import fit_three_point_bend
 from matid.fits.shear_torsion import with_E_s_torsion
 from matid.fits.torsion import fit_torsion
 from matid.ingest import Measurement, load_measurements
+from matid.publish import publish
 from matid.report import render_report
 from matid.results import (
     Estimate,
@@ -45,7 +47,6 @@ from matid.results import (
     InputFile,
     StudyResult,
     TestFit,
-    atomic_write,
     stiffness_csv,
     stiffness_json,
 )
@@ -227,11 +228,9 @@ def render_outputs(result: StudyResult, *, units: str = "SI") -> dict[str, bytes
 
 
 def write_outputs(result: StudyResult, out: Path, *, units: str = "SI") -> list[Path]:
-    """Render everything first, then write each file atomically into ``out``; returns the paths."""
-    files = render_outputs(result, units=units)
-    paths = []
-    for name, content in files.items():
-        path = Path(out) / name
-        atomic_write(path, content)
-        paths.append(path)
-    return paths
+    """Render everything first, then publish the files as the folder ``out`` whole; returns the paths.
+
+    The old contents of ``out`` stay whole until the new folder replaces them in
+    one step (:func:`matid.publish.publish`); a write error raises OutputError.
+    """
+    return publish(render_outputs(result, units=units), Path(out))

@@ -249,13 +249,19 @@ def stiffness_csv(result: StudyResult, units: str = "SI") -> str:
 
 
 def atomic_write(path: Path, data: str | bytes) -> None:
-    """Write a file whole or not at all: a temporary name in the same folder, then rename."""
+    """Write one file whole or not at all: a temporary name in the same folder, fsync, then rename.
+
+    For a set of files that belong together (a report) use :func:`matid.publish.publish`,
+    which replaces the whole folder in one step.
+    """
     path.parent.mkdir(parents=True, exist_ok=True)
     mode = "wb" if isinstance(data, bytes) else "w"
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
         with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as handle:
             handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())  # the rename must never publish a file whose blocks are not on disk
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs are ordinary files

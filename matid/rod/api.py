@@ -24,7 +24,7 @@ from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
-from matid.rod.scenes import Scene, plane_of
+from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene, plane_of
 from matid.rod.solve import Solution, solve_cantilever_state
 
 MODELS = ("auto", PLANAR, FULL)
@@ -69,6 +69,10 @@ def solve(
         raise ValueError(f"element must be one of {', '.join(ELEMENTS)}, got {element!r}")
     if elements is not None and elements < 1:
         raise ValueError(f"elements must be at least 1, got {elements}")
+    if elements is not None and elements > MAX_SCENE_ELEMENTS:
+        raise DataError(
+            f"elements: at most {MAX_SCENE_ELEMENTS} (the automatic meshing's limit), got {elements}"
+        )
     chosen = resolve_model(scene, model)
     state: list = [None]  # the last mesh's state: each finer mesh starts from it
 

@@ -11,6 +11,7 @@ normal n = e3 x e_a. :func:`plane_of` finds that plane or says there is none.
 from __future__ import annotations
 
 import math
+import stat
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,10 +19,19 @@ from pathlib import Path
 import numpy as np
 
 from matid.errors import DataError
+from matid.rod.accuracy import MAX_ELEMENTS
 from matid.units import UnitError, to_si, vector_to_si
 
 Vector = tuple[float, float, float]
 ZERO: Vector = (0.0, 0.0, 0.0)
+#: Largest scene or stiffness.json file read (bytes): both are a few kB; more is not a scene.
+MAX_FILE_BYTES = 1 << 20
+#: Most elements a scene may ask for: the automatic meshing stops there too.
+MAX_SCENE_ELEMENTS = MAX_ELEMENTS
+#: Most nose displacements a three-point-bend scene may list (each is a continuation solve).
+MAX_DEFLECTIONS = 1000
+#: Smallest tolerance: the error estimate never claims better than round-off (accuracy.ROUNDOFF).
+MIN_TOLERANCE = 1e-12
 
 
 @dataclass(frozen=True)
@@ -97,10 +107,10 @@ class Scene:
             raise ValueError("three_point_bend: rod length must exceed the span")
         if self.kind == "three_point_bend" and not self.rod.outer_diameter > 0:
             raise ValueError("three_point_bend: rod outer_diameter is needed for contact")
-        if self.elements is not None and self.elements < 1:
-            raise ValueError("elements must be at least 1")
-        if not 0 < self.tolerance < 1:
-            raise ValueError("tolerance must be in (0, 1)")
+        if self.elements is not None and not 1 <= self.elements <= MAX_SCENE_ELEMENTS:
+            raise ValueError(f"elements must be between 1 and {MAX_SCENE_ELEMENTS}, got {self.elements}")
+        if not MIN_TOLERANCE <= self.tolerance < 1:
+            raise ValueError(f"tolerance must be in [{MIN_TOLERANCE:g}, 1), got {self.tolerance:g}")
 
 
 def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
@@ -132,16 +142,102 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene TOML; every problem is a DataError naming the file and key."""
     path = Path(path)
-    if not path.is_file():
-        raise DataError("scene file not found", file=path)
+    text = read_small_file(path, "scene file")
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8-sig"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
         raise DataError(f"not valid TOML: {exc}", file=path) from exc
     try:
         return scene_from_dict(raw, root=path.parent)
-    except (UnitError, ValueError, KeyError, TypeError) as exc:
-        raise DataError(str(exc).strip("'\""), file=path) from exc
+    except DataError:
+        raise
+    except (UnitError, ValueError, KeyError, TypeError, OverflowError) as exc:
+        # KeyError's str() is the quoted key; its argument is the message itself
+        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+        raise DataError(str(message), file=path) from exc
+
+
+def read_small_file(path: Path, what: str) -> str:
+    """The UTF-8 text of a regular file of at most MAX_FILE_BYTES; a DataError naming it otherwise."""
+    try:
+        info = path.stat()
+    except FileNotFoundError:
+        raise DataError(f"{what} not found", file=path) from None
+    except OSError as exc:  # a symlink loop, a name too long, no permission
+        raise DataError(f"{what} cannot be read: {exc.strerror}", file=path) from exc
+    if stat.S_ISDIR(info.st_mode):
+        raise DataError(f"{what} is a folder, not a file", file=path)
+    if not stat.S_ISREG(info.st_mode):
+        raise DataError(f"{what} is not a regular file (a device, pipe or socket)", file=path)
+    if info.st_size > MAX_FILE_BYTES:
+        raise DataError(
+            f"{what} is {info.st_size} bytes, more than the {MAX_FILE_BYTES} a {what} may have", file=path
+        )
+    try:
+        with path.open("rb") as handle:
+            data = handle.read(MAX_FILE_BYTES + 1)
+        if len(data) > MAX_FILE_BYTES:
+            raise DataError(f"{what} is more than {MAX_FILE_BYTES} bytes long", file=path)
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise DataError(f"{what} is not UTF-8 text: {exc.reason} at byte {exc.start}", file=path) from exc
+    except OSError as exc:
+        raise DataError(f"{what} cannot be read: {exc.strerror}", file=path) from exc
+
+
+def _table(value: object, where: str) -> dict:
+    """A TOML table (dict), or a ValueError naming where one was expected."""
+    if not isinstance(value, dict):
+        raise ValueError(f"{where}: expected a table, got {type(value).__name__} {_short(value)}")
+    return value
+
+
+def _tables(raw: dict, key: str) -> list[dict]:
+    """An array of tables (``[[key]]``), each checked to be a table with known keys."""
+    items = raw.get(key, [])
+    if not isinstance(items, list):
+        raise ValueError(
+            f"[[{key}]]: expected an array of tables, got {type(items).__name__} {_short(items)}"
+        )
+    return [
+        _known(_table(item, f"[[{key}]] #{i + 1}"), key, f"[[{key}]] #{i + 1}")
+        for i, item in enumerate(items)
+    ]
+
+
+def _short(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+#: Keys of each scene table (data-contract section 6); any other is a typo to report, not to ignore.
+TABLE_KEYS = {
+    "rod": {"length", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "precurvature", "stiffness"},
+    "segment": {"from", "to", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "rigid"},
+    "load": {"distributed_force"},
+    "magnet": {"at", "moment"},
+    "magnetization": {"from", "to", "per_length"},
+    "field": {"B"},
+    "tip": {"force", "moment"},
+    "three_point_bend": {"span", "support_radius", "nose_radius", "deflection"},
+}
+
+
+def _known(table: dict, name: str, where: str) -> dict:
+    """``table`` itself after checking that every key is one of TABLE_KEYS[name]."""
+    unknown = sorted(set(table) - TABLE_KEYS[name])
+    if unknown:
+        raise ValueError(
+            f"{where}: unknown key '{unknown[0]}' (known: {', '.join(sorted(TABLE_KEYS[name]))})"
+        )
+    return table
+
+
+def _bool(table: dict, key: str, where: str) -> bool:
+    value = table.get(key, False)
+    if not isinstance(value, bool):
+        raise ValueError(f"{where}.{key}: expected true or false, got {_short(value)}")
+    return value
 
 
 def _q(table: dict, key: str, kind: str, where: str, default: object = None) -> float:
@@ -165,13 +261,15 @@ def _v(table: dict, key: str, kind: str, where: str) -> Vector:
 
 
 def _rod(raw: dict, root: Path | None) -> Rod:
-    table = dict(raw.get("rod") or {})
+    if "rod" not in raw:
+        raise ValueError("missing [rod] table")
+    table = dict(_known(_table(raw["rod"], "[rod]"), "rod", "[rod]"))
     if not table:
         raise ValueError("missing [rod] table")
     if "stiffness" in table:
-        table.update(_stiffness_from_json(table.pop("stiffness"), root))
+        table.update(_stiffness_from_json(_table(table.pop("stiffness"), "rod.stiffness"), root))
     segments = []
-    for i, seg in enumerate(raw.get("segment", [])):
+    for i, seg in enumerate(_tables(raw, "segment")):
         where = f"[[segment]] #{i + 1}"
         overrides = {
             k: _q(
@@ -192,7 +290,7 @@ def _rod(raw: dict, root: Path | None) -> Rod:
                 _q(seg, "from", "length", where),
                 _q(seg, "to", "length", where),
                 overrides,
-                bool(seg.get("rigid", False)),
+                _bool(seg, "rigid", where),
             )
         )
     return Rod(
@@ -208,18 +306,47 @@ def _rod(raw: dict, root: Path | None) -> Rod:
 
 
 def _stiffness_from_json(ref: dict, root: Path | None) -> dict:
-    """`stiffness = { from = "stiffness.json", specimen = "T1" }`: E_* from a matid fit."""
+    """`stiffness = { from = "stiffness.json", specimen = "T1" }`: E_* from a matid fit.
+
+    The file must be a regular file of at most MAX_FILE_BYTES holding a matid
+    ``stiffness.json`` in SI; every problem is a DataError naming that file.
+    """
     import json
 
+    for key in ("from", "specimen"):
+        if not isinstance(ref.get(key), str) or not ref[key]:
+            raise ValueError(f"rod.stiffness.{key}: expected a non-empty string, got {_short(ref.get(key))}")
+    extra = sorted(set(ref) - {"from", "specimen"})
+    if extra:
+        raise ValueError(f"rod.stiffness: unknown key '{extra[0]}' (known: from, specimen)")
     file = Path(ref["from"])
     if root is not None and not file.is_absolute():
         file = root / file
-    doc = json.loads(file.read_text(encoding="utf-8"))
-    params = doc["specimens"][ref["specimen"]]
-    factor = {"SI": 1.0, "cgs": None}[doc.get("unit_system", "SI")]
-    if factor is None:
-        raise ValueError(f"{file}: use a stiffness.json written with --units SI")
-    return {k: float(params[k]["value"]) for k in ("E_b", "E_t", "E_s", "E_e") if k in params}
+    try:
+        doc = json.loads(read_small_file(file, "stiffness file"))
+    except ValueError as exc:  # JSONDecodeError, or a number too large for Python's int parser
+        raise DataError(f"not valid JSON: {exc}", file=file) from exc
+    except RecursionError as exc:
+        raise DataError("not valid JSON: nested too deeply", file=file) from exc
+    specimens = doc.get("specimens") if isinstance(doc, dict) else None
+    if not isinstance(specimens, dict):
+        raise DataError("not a matid stiffness.json: no 'specimens' table", file=file)
+    if doc.get("unit_system", "SI") != "SI":
+        raise DataError("use a stiffness.json written with --units SI", file=file)
+    params = specimens.get(ref["specimen"])
+    if not isinstance(params, dict):
+        raise DataError(
+            f"no specimen '{ref['specimen']}' (it has: {', '.join(map(str, specimens))})", file=file
+        )
+    out = {}
+    for k in ("E_b", "E_t", "E_s", "E_e"):
+        if k not in params:
+            continue
+        value = params[k].get("value") if isinstance(params[k], dict) else None
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise DataError(f"specimens.{ref['specimen']}.{k}.value: expected a finite number", file=file)
+        out[k] = float(value)
+    return out
 
 
 #: Top-level keys of a scene file (data-contract section 6); anything else is a typo to report.
@@ -245,15 +372,16 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
         raise ValueError(f"unknown key or table '{unknown[0]}' (known: {', '.join(sorted(SCENE_KEYS))})")
     kind = raw.get("scene", "cantilever")
     rod = _rod(raw, root)
-    load, field_ = raw.get("load", {}), raw.get("field", {})
-    tip = raw.get("tip", {})
+    load, field_, tip = (
+        _known(_table(raw.get(k, {}), f"[{k}]"), k, f"[{k}]") for k in ("load", "field", "tip")
+    )
     magnets = tuple(
         (_q(m, "at", "length", f"[[magnet]] #{i + 1}"), _q(m, "moment", "moment", f"[[magnet]] #{i + 1}"))
-        for i, m in enumerate(raw.get("magnet", []))
+        for i, m in enumerate(_tables(raw, "magnet"))
     )
     magnetization = tuple(
         (_q(m, "from", "length", w), _q(m, "to", "length", w), _q(m, "per_length", "moment_per_length", w))
-        for i, m in enumerate(raw.get("magnetization", []))
+        for i, m in enumerate(_tables(raw, "magnetization"))
         for w in [f"[[magnetization]] #{i + 1}"]
     )
     for at, _ in magnets:
@@ -269,10 +397,14 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     )
     bend = None
     if "three_point_bend" in raw:
-        t = raw["three_point_bend"]
+        t = _known(
+            _table(raw["three_point_bend"], "[three_point_bend]"), "three_point_bend", "[three_point_bend]"
+        )
         deflections = t.get("deflection")
         if not isinstance(deflections, list) or not deflections:
             raise ValueError("three_point_bend.deflection: need a list of nose displacements")
+        if len(deflections) > MAX_DEFLECTIONS:
+            raise ValueError(f"three_point_bend.deflection: at most {MAX_DEFLECTIONS} nose displacements")
         bend = BendSetup(
             span=_q(t, "span", "length", "three_point_bend"),
             support_radius=_q(t, "support_radius", "length", "three_point_bend"),
@@ -281,12 +413,15 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
         )
     elements = raw.get("elements")
     if elements is not None and (not isinstance(elements, int) or isinstance(elements, bool)):
-        raise ValueError(f"elements must be a whole number, got {elements!r}")
+        raise ValueError(f"elements must be a whole number, got {_short(elements)}")
+    tolerance = raw.get("tolerance", 1e-6)
+    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)):
+        raise ValueError(f"tolerance must be a number, got {_short(tolerance)}")
     return Scene(
         kind=kind,
         rod=rod,
         loads=loads,
         bend=bend,
         elements=elements,
-        tolerance=float(raw.get("tolerance", 1e-6)),
+        tolerance=float(tolerance),
     )

@@ -1,0 +1,282 @@
+"""Publishing an output folder whole: a reader sees the old report or the new one, never a mix.
+
+``matid fit --out DIR`` writes four files (data-contract section 4) that belong
+together. Writing them one by one, even each atomically, leaves a mix of old
+and new files when the process dies between two of them. Here instead:
+
+1. :func:`claim_output` checks ``DIR`` before any fitting (a file, under a file,
+   read-only, or holding files matid did not write: a :class:`DataError`, exit 2
+   naming the folder) and takes an exclusive ``fcntl.flock`` on the lock file
+   ``.DIR.matid-lock`` beside it, so a second writer to the same folder is refused
+   (exit 2). The kernel drops the lock when the process dies, even by ``kill -9``.
+   Leftovers of a crashed run beside ``DIR`` are cleaned here (see 3).
+2. :meth:`Claim.publish` writes every file into a fresh hidden folder
+   ``.DIR.matid-new-XXXX`` beside ``DIR`` (same filesystem), fsyncs the files and
+   the folder, then makes it ``DIR`` in ONE step: Linux ``renameat2(...,
+   RENAME_EXCHANGE)`` swaps the two folder names atomically, and the old folder,
+   now under the hidden name, is removed. ``DIR/report.html`` etc. stay at the
+   same paths. When ``DIR`` does not exist yet, a plain ``rename`` publishes.
+3. Where ``renameat2`` is missing (not Linux, an old kernel, a filesystem without
+   it), two renames stand in: ``DIR`` -> ``.DIR.matid-old-XXXX``, then the new
+   folder -> ``DIR``. Between the two a reader finds no ``DIR`` (never a mix); a
+   crash just there leaves the old report whole under the hidden name, and the
+   next claim of ``DIR`` moves it back before doing anything else.
+
+A failure while writing (disk full, I/O error) removes the new folder and raises
+:class:`OutputError` (exit 1) saying the previous report is unchanged. Because
+the whole folder is replaced, ``DIR`` may only hold matid outputs; anything else
+in it is refused rather than deleted.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import errno
+import os
+import shutil
+import stat
+import tempfile
+import weakref
+from collections.abc import Mapping
+from pathlib import Path
+
+from matid.errors import DataError, MatidError
+
+try:
+    import fcntl
+except ImportError:  # not POSIX (Windows): no lock; the publication itself still works
+    fcntl = None  # type: ignore[assignment]
+
+#: Files matid writes into an output folder; a folder holding anything else is not replaced.
+OUTPUT_NAMES = frozenset(
+    {
+        "report.html",
+        "report.pdf",
+        "stiffness.csv",
+        "stiffness.json",
+        "stiffness.xlsx",
+        "solution.json",
+        "shape.png",
+    }
+)
+NEW, OLD, LOCK = ".matid-new-", ".matid-old-", ".matid-lock"
+AT_FDCWD, RENAME_EXCHANGE = -100, 2
+
+
+class OutputError(MatidError):
+    """The outputs could not be written (disk full, I/O error); the previous ones are unchanged."""
+
+
+def _hidden(real: Path, suffix: str) -> str:
+    return f".{real.name}{suffix}"
+
+
+def _is_own_leftover(name: str) -> bool:
+    """matid's own hidden files: a temp file of the older per-file writes (``.report.html.ab12cd``),
+    or the lock or a temp folder of an output folder nested in this one. They go with the old folder."""
+    if not name.startswith("."):
+        return False
+    return any(name.startswith(f".{n}.") for n in OUTPUT_NAMES) or any(t in name for t in (NEW, OLD, LOCK))
+
+
+def check_output(out: Path, names: frozenset[str] = OUTPUT_NAMES) -> Path:
+    """The real path of ``out`` if matid can publish there; a DataError (exit 2) naming it otherwise."""
+    out = Path(out)
+    if str(out).strip() == "" or out.name in ("", ".", ".."):
+        raise DataError("--out must name a folder of its own (not '.', '..' or a root)", file=out)
+    real = Path(os.path.realpath(out))
+    if real.exists() and not real.is_dir():
+        raise DataError("--out is a file, not a folder", file=out)
+    ancestor = real.parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise DataError(f"--out lies under {ancestor}, which is a file, not a folder", file=out)
+    for folder in (real, ancestor) if real.exists() else (ancestor,):
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise DataError(f"--out: the folder {folder} is read-only", file=out)
+    if real.is_dir():
+        foreign = sorted(n for n in os.listdir(real) if n not in names and not _is_own_leftover(n))
+        if foreign:
+            raise DataError(
+                f"--out holds '{foreign[0]}'{f' and {len(foreign) - 1} more' if len(foreign) > 1 else ''}, "
+                "which matid did not write; matid replaces the whole folder when it publishes, "
+                "so choose an empty folder or one matid wrote",
+                file=out,
+            )
+    return real
+
+
+#: Claims held by this process, by real path: a second claim of the same folder reuses the first.
+_CLAIMS: weakref.WeakValueDictionary[Path, Claim] = weakref.WeakValueDictionary()
+
+
+class Claim:
+    """The exclusive right of this process to publish into one output folder (see the module docstring)."""
+
+    def __init__(self, out: Path, real: Path) -> None:
+        self.out, self.real = Path(out), real
+        self.fd: int | None = None
+        try:
+            real.parent.mkdir(parents=True, exist_ok=True)
+            self.fd = os.open(real.parent / _hidden(real, LOCK), os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError as exc:
+            raise DataError(
+                f"--out: cannot create the folder or its lock file: {exc.strerror}", file=out
+            ) from exc
+        try:
+            if fcntl is not None:
+                fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            self.release()
+            if exc.errno in (errno.EWOULDBLOCK, errno.EACCES, errno.EAGAIN):
+                raise DataError(
+                    "--out is being written by another matid run; wait for it or choose another folder",
+                    file=out,
+                ) from exc
+            raise DataError(f"--out: cannot lock the folder: {exc.strerror}", file=out) from exc
+        self._recover()
+
+    def __enter__(self) -> Claim:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+    def __del__(self) -> None:
+        self.release()
+
+    def release(self) -> None:
+        """Drop the lock (the lock file stays: removing it would race with a waiting writer)."""
+        if self.fd is not None:
+            os.close(self.fd)  # closing the only descriptor releases the flock
+            self.fd = None
+
+    def _recover(self) -> None:
+        """Undo what a crashed run left beside the folder: put a moved-away report back, drop temp folders."""
+        parent, real = self.real.parent, self.real
+        olds = sorted(parent.glob(_hidden(real, OLD) + "*"), key=lambda p: p.stat().st_mtime)
+        if olds and not real.exists():
+            os.rename(olds.pop(), real)  # a crash between the two fallback renames
+        for stale in [*olds, *parent.glob(_hidden(real, NEW) + "*")]:
+            shutil.rmtree(stale, ignore_errors=True)
+
+    def publish(self, files: Mapping[str, bytes | str]) -> list[Path]:
+        """Write ``files`` (name -> content) into a new folder and swap it in; returns the output paths."""
+        if self.fd is None:
+            raise RuntimeError("publish on a released claim")
+        check_output(self.out, OUTPUT_NAMES | frozenset(files))
+        real = self.real
+        try:
+            new = Path(tempfile.mkdtemp(prefix=_hidden(real, NEW), dir=real.parent))
+        except OSError as exc:
+            raise OutputError(
+                f"{self.out}: cannot write the outputs: {exc.strerror}; nothing was changed"
+            ) from exc
+        try:
+            _fill(new, files, mode=_folder_mode(real))
+            _swap_in(new, real)
+        except OSError as exc:
+            shutil.rmtree(new, ignore_errors=True)
+            raise OutputError(
+                f"{self.out}: cannot write the outputs: {exc.strerror or exc}; "
+                "the previous contents of the folder are unchanged"
+            ) from exc
+        except BaseException:
+            shutil.rmtree(new, ignore_errors=True)
+            raise
+        return [self.out / name for name in files]
+
+
+def _folder_mode(real: Path) -> int:
+    """Keep the mode of the folder being replaced; a new one gets the usual 0777 minus umask."""
+    try:
+        return stat.S_IMODE(real.stat().st_mode)
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o777 & ~umask
+
+
+def _fill(folder: Path, files: Mapping[str, bytes | str], *, mode: int) -> None:
+    """Write and fsync every file, then the folder itself, so the swap publishes complete files."""
+    for name, content in files.items():
+        if not name or "/" in name or name in (".", ".."):
+            raise ValueError(f"not a plain output file name: {name!r}")
+        data = content.encode("utf-8") if isinstance(content, str) else content
+        fd = os.open(folder / name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view) :]
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    os.chmod(folder, mode)
+    _fsync_dir(folder)
+
+
+def _fsync_dir(folder: Path) -> None:
+    if not hasattr(os, "O_DIRECTORY"):  # Windows cannot open a folder to fsync it
+        return
+    fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _swap_in(new: Path, real: Path) -> None:
+    """Make ``new`` the folder ``real`` in one atomic step (two renames where the syscall is missing)."""
+    if not real.exists():
+        os.rename(new, real)
+    elif exchange(new, real):
+        shutil.rmtree(new, ignore_errors=True)  # ``new`` now holds the old report
+    else:
+        old = Path(tempfile.mkdtemp(prefix=_hidden(real, OLD), dir=real.parent))
+        os.rename(real, old)  # replaces the empty placeholder folder
+        os.rename(new, real)
+        shutil.rmtree(old, ignore_errors=True)
+    _fsync_dir(real.parent)
+
+
+def _renameat2():
+    try:
+        fn = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return None
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    fn.restype = ctypes.c_int
+    return fn
+
+
+_RENAMEAT2 = _renameat2()
+
+
+def exchange(a: Path, b: Path) -> bool:
+    """Swap the names ``a`` and ``b`` atomically (renameat2 RENAME_EXCHANGE); False where unsupported."""
+    if _RENAMEAT2 is None:
+        return False
+    if _RENAMEAT2(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.ENOSYS, errno.EINVAL, errno.EOPNOTSUPP, errno.ENOTSUP):
+        return False
+    raise OSError(code, os.strerror(code), str(b))
+
+
+def claim_output(out: Path) -> Claim:
+    """Check ``out`` and lock it for this process (reentrant); keep the returned claim until published."""
+    real = check_output(out)
+    held = _CLAIMS.get(real)
+    if held is not None and held.fd is not None:
+        return held
+    claim = Claim(out, real)
+    _CLAIMS[real] = claim
+    return claim
+
+
+def publish(files: Mapping[str, bytes | str], out: Path) -> list[Path]:
+    """Publish ``files`` as the folder ``out`` whole, under this process's claim or a short one of its own."""
+    claim = claim_output(out)
+    return claim.publish(files)

@@ -1,0 +1,109 @@
+"""No input breaks matid, no output is half-written (issue 12).
+
+- Fuzz: hypothesis mutates a reduced demo study and the example scenes
+  (tests/fuzzkit.py says how, and which classes are left out until their owners
+  fix them); every case must end in exit 0, 1 or 2 with a message, never an
+  uncaught exception (exit 3), never a hang, never a mixed output folder.
+  ``pytest --hypothesis-profile=long`` (or benchmarks/fuzz.py) runs thousands.
+- A writer killed by SIGKILL at random moments leaves the old folder whole or the new one.
+- A full disk (a small tmpfs; root only) gives a clear error and leaves the old report whole.
+- The same input gives the same bytes of stiffness.csv and stiffness.json.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import fuzzkit
+import pytest
+from hypothesis import given
+
+from matid.cli import main
+from matid.pipeline import run_study
+from matid.publish import claim_output
+from matid.results import stiffness_csv, stiffness_json
+from matid.study import load_study
+
+WORK = Path(tempfile.mkdtemp(prefix="matid-fuzz-"))
+#: benchmarks/fuzz.py sets this to count every outcome of a long run instead of stopping at the first bad one.
+COLLECT = os.environ.get("MATID_FUZZ_COLLECT") == "1"
+
+
+@given(fuzzkit.study_cases())
+def test_fuzzed_study_ends_in_an_allowed_outcome(case):
+    outcome = fuzzkit.run_study_case(case, WORK / "study-case")
+    fuzzkit.log(outcome, case[3], f"study/{case[0]}")
+    problem = fuzzkit.allowed(outcome)
+    if not COLLECT:
+        assert problem is None, f"{case[0]} {case[3]}: {problem}"
+
+
+@given(fuzzkit.scene_cases())
+def test_fuzzed_scene_ends_in_an_allowed_outcome(case):
+    outcome = fuzzkit.run_scene_case(case, WORK / "scene-case")
+    fuzzkit.log(outcome, case[3], f"scene/{case[0]}")
+    problem = fuzzkit.allowed(outcome)
+    if not COLLECT:
+        assert problem is None, f"{case[0]} {case[3]}: {problem}"
+
+
+def test_a_killed_writer_leaves_the_old_folder_or_the_new_one(tmp_path):
+    out = tmp_path / "out"
+    states = fuzzkit.kill_loop(out, trials=12)
+    assert states == ["whole"] * len(states)
+    with claim_output(out):  # the next run cleans the temp folders killed runs left beside the folder
+        pass
+    assert [p.name for p in tmp_path.iterdir() if ".matid-new-" in p.name or ".matid-old-" in p.name] == []
+
+
+def _study(folder: Path, kinds: tuple[str, ...] = ("torsion",)) -> Path:
+    """The fuzzer's reduced study of ``kinds``, unmutated."""
+    tests = [t for kind in kinds for t in fuzzkit.TEMPLATES[kind]["tests"]]
+    doc = {"study": dict(fuzzkit.HEADER), "specimen": [dict(fuzzkit.SPECIMEN)], "test": tests}
+    folder.mkdir(parents=True)
+    (folder / "study.toml").write_text(fuzzkit.toml_dumps(doc))
+    for test in tests:
+        shutil.copy(fuzzkit.DEMO / test["file"], folder / test["file"])
+    return folder
+
+
+def test_same_input_gives_the_same_table_bytes(tmp_path):
+    """Two independent fits of one study (extension's SLS optimiser included) agree to the byte."""
+    study = load_study(_study(tmp_path / "study", ("extension", "magnetic_bending", "torsion")))
+    tables = []
+    for _ in range(2):
+        result = run_study(study)
+        assert result.ok
+        tables.append((stiffness_csv(result), json.dumps(stiffness_json(result), indent=2)))
+    assert tables[0] == tables[1]
+
+
+def _mount_tmpfs(folder: Path, size: str) -> bool:
+    if os.geteuid() != 0 or shutil.which("mount") is None:
+        return False
+    folder.mkdir()
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)], capture_output=True
+    )
+    return done.returncode == 0
+
+
+def test_a_full_disk_leaves_the_old_report_whole(tmp_path, capsys):
+    disk = tmp_path / "disk"
+    if not _mount_tmpfs(disk, "64k"):
+        pytest.skip("needs root and a tmpfs mount")
+    try:
+        out = disk / "out"
+        old = fuzzkit.old_report(out)
+        code = main(["fit", str(_study(tmp_path / "study")), "--out", str(out), "--quiet"])
+        err = capsys.readouterr().err
+        assert code == 1
+        assert "No space left on device" in err and "unchanged" in err and str(out) in err
+        assert fuzzkit.folder_state(out, old) == "old"
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], check=False)
