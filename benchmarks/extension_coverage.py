@@ -6,6 +6,10 @@ Each trial: three constant-rate ramps (10 tau, tau, tau/10) of a standard linear
 either i.i.d. or AR(1) with coefficient 0.95 (stationary, same marginal sd). Prints the
 share of trials whose 95 % interval of E_e holds k1, and how often a warning was given.
 Target (issue 10): 90-98 % i.i.d., >= 85 % AR(1).
+
+Measured 2026-11-23 (commit after f3fe803, 100 trials each): i.i.d. 98/100 covered, no
+warning; AR(1) 0.95 93/100 covered, every trial warned (lack of fit / wandering noise);
+the SLS was kept (E_e not from a Prony model) in all 200.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """Identification: one module per test kind, plus the statistics they share.
 
-- :mod:`matid.fits.extension`: standard linear solid (and beyond) on extension runs -> E_e
+- :mod:`matid.fits.extension`: standard linear solid on extension runs -> E_e (model in :mod:`matid.fits.sls`)
+- :mod:`matid.fits.prony`: n-term Prony solid, chosen against the SLS by BIC
 - :mod:`matid.fits.linear`: lines with tare offsets, linear range, sign (shared by the next two)
 - :mod:`matid.fits.bending`: E_b from magnetic bending
 - :mod:`matid.fits.torsion`: E_t from torsion

@@ -45,7 +45,11 @@ LINEAR_RANGE_MIN_POINTS = 6
 #: At most this many onsets are tried (evenly spread) by :func:`linear_range`.
 LINEAR_RANGE_WINDOWS = 200
 #: Tare offsets are fitted when the Wald test of "all offsets zero" gives p below this.
-OFFSET_ALPHA = 0.05
+#: Large on purpose: a real offset dropped biases the slope, an absent one kept only costs
+#: precision, so offsets go only when the data agree with none (measured at 0.05: E_b
+#: intervals covered 90 of 100 and per-length slopes "disagreed" in 20 of 100 i.i.d. trials
+#: with an offset of 0.3 % of full scale).
+OFFSET_ALPHA = 0.5
 #: A file's own slope below -SIGN_T standard errors means its sign convention is flipped.
 SIGN_T = 3.0
 

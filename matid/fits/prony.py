@@ -7,7 +7,7 @@ relaxation time tau_i), in force units against engineering strain eps, from rest
 
 so the relaxation modulus is the Prony series G(t) = k0 + sum_i k_i exp(-t / tau_i).
 n = 1 is the standard linear solid (k0 = sls_k1, k1 = sls_k2, tau1 = sls_eta / sls_k2).
-Each arm is the SLS arm of :func:`matid.fits.extension.sls_force` with unit stiffness,
+Each arm is the SLS arm of :func:`matid.fits.sls.sls_force` with unit stiffness,
 so for fixed taus the force is linear in (k0, k_1..k_n).
 
 Fit (:func:`fit_prony`): variable projection. The outer least squares moves log tau_i;
@@ -39,6 +39,7 @@ from scipy import optimize
 from scipy import stats as sstats
 
 from matid.fits import stats
+from matid.fits.sls import sls_force
 from matid.results import Estimate
 
 #: Most arms tried.
@@ -60,8 +61,6 @@ class Data:
 
 def arm(t: np.ndarray, eps: np.ndarray, tau: float) -> np.ndarray:
     """Force of a unit-stiffness Maxwell arm of relaxation time tau under the strain history."""
-    from matid.fits.extension import sls_force  # the exact piecewise-linear update
-
     return sls_force(t, eps, 0.0, 1.0, tau)
 
 
