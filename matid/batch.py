@@ -176,7 +176,7 @@ def _run_dask(tasks: list[tuple], address: str, done: Callable) -> list[StudyOut
     with client:
         futures = [client.submit(fit_one, *task, pure=False) for task in tasks]
         index = {f.key: i for i, f in enumerate(futures)}
-        for future in as_completed(futures):
+        for future in as_completed(futures, loop=client.loop):  # this client, not a global default
             i = index[future.key]
             try:
                 outcomes[i] = future.result()

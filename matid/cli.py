@@ -196,7 +196,7 @@ def fit_many(args: argparse.Namespace) -> int:
     print("outputs:")
     for o in batch.outcomes:
         if o.paths:
-            print(f"  {Path(o.paths[0]).parent}{'/'}")
+            print(f"  {Path(o.paths[0]).parent}/")
     for path in batch.paths:
         print(f"  {path}")
     return batch.code

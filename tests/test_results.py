@@ -42,6 +42,21 @@ def add_warnings(monkeypatch) -> None:
     wrap("torsion", [], [E_T_WARNING])
 
 
+def drop_test(study: Path, file: str) -> None:
+    """Remove the [[test]] of ``file`` from the study (another subset: another value)."""
+    toml = (study / "study.toml").read_text()
+    blocks = toml.split("[[test]]")
+    (study / "study.toml").write_text("[[test]]".join(b for b in blocks if f'"{file}"' not in b))
+
+
+def bending_study(folder: Path) -> Path:
+    """T1 of the demo with its magnetic bending and torsion tests only: the quickest to fit and render."""
+    small_study(folder)
+    for run_ in ("r1", "r2", "r3"):
+        drop_test(folder, f"extension_T1_{run_}.csv")
+    return folder
+
+
 @pytest.fixture(scope="module")
 def warned(tmp_path_factory):
     """A fitted small study with both warnings, and a requested window on the torsion tests."""
