@@ -175,7 +175,7 @@ def _clean(x: float | None) -> float | None:
 
 
 def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
-    """The ``stiffness.json`` document (data-contract section 4)."""
+    """The ``stiffness.json`` document (docs/contract.md sections 4 and 7)."""
     specimens: dict[str, dict] = {}
     warns, windows = parameter_warnings(result), parameter_windows(result)
     for sid, params in result.estimates().items():
