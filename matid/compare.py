@@ -119,7 +119,7 @@ def _num(x: object, digits: int = 4) -> str:
 
 
 def _percent(x: float | None) -> str:
-    return "" if x is None else f"{100 * x:.1f} %"
+    return "" if x is None else f"{100 * x:.2g} %"
 
 
 def comparison_page(outcomes: Sequence[StudyOutcome]) -> str:
