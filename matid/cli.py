@@ -1,42 +1,40 @@
-"""The ``matid`` command line: ``matid fit | demo | solve``.
+"""The ``matid`` command line: ``matid fit | demo | solve | bench``.
 
 Each subcommand is registered by its own ``_register_<name>(subparsers)`` and
 runs in a ``_cmd_<name>(args) -> int`` function; :func:`main` maps errors to
-exit codes (data-contract section 5):
+exit codes (docs/contract.md section 5):
 
 - 0: all fits done (solve: the scene converged);
-- 1: some fits failed (the rest written, reasons printed), or another MatidError
-  (solve: no convergence, nothing written);
+- 1: some fits failed (the rest written, reasons printed), a warning under
+  ``--strict``, or another MatidError (solve: no convergence, nothing written);
 - 2: the input cannot be used (DataError; also argparse usage errors);
 - 3: an unexpected error (a bug): a short message, the traceback with ``--debug``.
 
-Progress goes to stderr (unless ``--quiet``); the summary of the stiffnesses and
-the output paths go to stdout.
+Progress goes to stderr (unless ``--quiet``); the summary of the stiffnesses,
+the warnings and the output paths go to stdout.
+
+Imports are lazy: this module needs only the standard library to build the
+parser, and each command imports the numerical stack it uses when it runs
+(``import matid.cli`` stays well under a second; the bench, the rod solver and
+the fits load only for the commands that need them).
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import json
+import importlib
 import sys
 import time
 import traceback
-from collections.abc import Sequence
-from importlib import resources
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from matid import __version__
-from matid.bench.cli import register as _register_bench
 from matid.errors import ConvergenceError, DataError, MatidError, SlipOffError
-from matid.pipeline import run_study, write_outputs
-from matid.publish import claim_output
-from matid.results import Failure, StudyResult, atomic_write, stiffness_json
-from matid.rod.api import resolve_model, solve
-from matid.rod.output import shape_png, solution_json
-from matid.rod.scenes import load_scene
-from matid.study import load_study, resolve_study_path
-from matid.units import UNIT_SYSTEMS
+
+if TYPE_CHECKING:
+    from matid.results import Failure, StudyResult
 
 #: Parameters left out of the console summary (sls_k1 is E_e); the files hold them all.
 _SUMMARY_SKIP = {"sls_k1"}
@@ -51,7 +49,8 @@ _KIND_PARAMETER = {
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``matid`` with ``argv`` (default: the process arguments); returns the exit code."""
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, --version, usage errors
@@ -62,18 +61,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     return _guarded(args)
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: Subcommands defined in other modules: name -> (module, its register function, one-line help).
+#: The module is imported only when its command is the one run (or asked for help).
+LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
+    "bench": ("matid.bench.cli", "register", "measure accuracy, cost and robustness of the rod solver"),
+}
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``matid`` parser; with ``argv``, only the command named there loads its module."""
     parser = argparse.ArgumentParser(
         prog="matid",
-        description="Stiffness identification of catheter tubes for Cosserat rod models.",
+        description="Stiffness identification of catheter tubes for Cosserat rod models. "
+        "Inputs and outputs are specified in docs/contract.md.",
     )
     parser.add_argument("--version", action="version", version=f"matid {__version__}")
     subparsers = parser.add_subparsers(title="commands", metavar="COMMAND")
     _register_fit(subparsers)
     _register_demo(subparsers)
     _register_solve(subparsers)
-    _register_bench(subparsers)
     _register_design(subparsers)
+    command = next((a for a in argv if not a.startswith("-")), None) if argv is not None else None
+    for name, (module, register, help_text) in LAZY_COMMANDS.items():
+        if argv is None or command == name:
+            getattr(importlib.import_module(module), register)(subparsers)
+        else:  # listed in --help; never selected, since its name in argv loads the real one
+            subparsers.add_parser(name, help=help_text, add_help=False)
     return parser
 
 
@@ -85,12 +98,33 @@ def _common() -> argparse.ArgumentParser:
     return common
 
 
+class _UnitSystems:
+    """The ``--units`` choices, read from :mod:`matid.units` (which loads pint) only when needed."""
+
+    def _names(self) -> list[str]:
+        from matid.units import UNIT_SYSTEMS
+
+        return sorted(UNIT_SYSTEMS)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._names()
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._names())
+
+
 def _add_units(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--units",
-        choices=sorted(UNIT_SYSTEMS),
+        choices=_UnitSystems(),
         default="SI",
         help="unit system of the reported stiffnesses (default SI: N, N m^2, N s; cgs: dyn, dyn cm^2, dyn s)",
+    )
+
+
+def _add_strict(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--strict", action="store_true", help="exit 1 when there is any warning (docs/contract.md section 7)"
     )
 
 
@@ -98,22 +132,96 @@ def _register_fit(subparsers) -> None:
     parser = subparsers.add_parser(
         "fit",
         parents=[_common()],
-        help="fit a study and write the report and stiffness tables",
-        description="Fit every specimen of a study; write report.html, report.pdf, "
-        "stiffness.csv and stiffness.json into --out.",
+        help="fit one or more studies and write the reports and stiffness tables",
+        description="Fit every specimen of a study; write report.html, report.pdf, stiffness.csv, "
+        "stiffness.json and stiffness.xlsx into --out (docs/contract.md sections 4 and 7). "
+        "With several studies, each goes into --out/<study folder name>/, and --out gets "
+        "summary.csv, summary.xlsx and the comparison page summary.html (section 8).",
     )
-    parser.add_argument("path", metavar="PATH", help="study folder or its study.toml")
+    parser.add_argument("paths", nargs="+", metavar="STUDY", help="study folder or its study.toml")
     parser.add_argument(
-        "--out", metavar="DIR", type=Path, help="output folder (default reports/<study folder>)"
+        "--out",
+        metavar="DIR",
+        type=Path,
+        help="output folder (default: reports/<study folder> for one study, reports/ for several)",
+    )
+    parser.add_argument(
+        "--jobs",
+        metavar="N",
+        type=_positive_int,
+        help="several studies: fit N at a time in local processes (default: the number of cores)",
+    )
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="several studies: run them on the Dask cluster at ADDRESS, e.g. tcp://host:8786 "
+        "(needs matid[dask]; the workers must see the study folders and --out by the same paths)",
     )
     _add_units(parser)
+    _add_strict(parser)
     parser.set_defaults(command=_cmd_fit)
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
-    source = resolve_study_path(args.path)
+    if len(args.paths) > 1:
+        return fit_many(args)
+    from matid.study import resolve_study_path
+
+    source = resolve_study_path(args.paths[0])
     out = args.out or Path("reports") / source.resolve().parent.name
-    return fit_and_write(source, out, units=args.units, quiet=args.quiet)
+    if args.scheduler and not args.quiet:
+        print("matid: one study: fitted here, not on the --scheduler", file=sys.stderr)
+    return fit_and_write(source, out, units=args.units, quiet=args.quiet, strict=args.strict)
+
+
+def fit_many(args: argparse.Namespace) -> int:
+    """``matid fit A B C``: each study into --out/<folder>/, then the summary; exit code the worst."""
+    from matid.batch import Progress, run_batch
+
+    out = args.out or Path("reports")
+    progress = Progress(len(args.paths), quiet=args.quiet)
+    try:
+        batch = run_batch(
+            args.paths, out, units=args.units, jobs=args.jobs, scheduler=args.scheduler,
+            strict=args.strict, on_done=progress,
+        )  # fmt: skip
+    finally:
+        progress.close()
+    for o in batch.outcomes:
+        if o.error:
+            error = o.error if args.debug else o.error.split("\n")[0]
+            print(f"matid: {o.name}: error: {error}", file=sys.stderr)
+        for failure in o.failures:
+            print(f"matid: {o.name}: fit failed: {failure}", file=sys.stderr)
+    print(batch_summary(batch))
+    print("outputs:")
+    for o in batch.outcomes:
+        if o.paths:
+            print(f"  {Path(o.paths[0]).parent}/")
+    for path in batch.paths:
+        print(f"  {path}")
+    return batch.code
+
+
+def batch_summary(batch) -> str:
+    """Per study: exit code and counts; per parameter: mean ± sd across specimens; then the warnings."""
+    from matid.compare import statistics_by_parameter, summary_rows
+
+    lines = [
+        f"{o.name}: exit {o.code}, {len(o.rows)} values, {len(o.warnings)} warnings" for o in batch.outcomes
+    ]
+    for s in statistics_by_parameter(summary_rows(batch.outcomes)):
+        sd = "" if s["sd"] is None else f" ± {s['sd']:.2g}"
+        lines.append(f"{s['parameter']}: {s['mean']:.5g}{sd} {s['unit']} (mean ± sd of {s['n']} specimens)")
+    lines += _warning_lines([f"{o.name}: {w}" for o in batch.outcomes for w in o.warnings])
+    return "\n".join(lines)
+
+
+def _warning_lines(warnings: Sequence[str]) -> list[str]:
+    """The warnings block printed at the end of a run (docs/contract.md section 7)."""
+    if not warnings:
+        return ["warnings: none"]
+    return [f"warnings ({len(warnings)}):"] + [f"  - {w}" for w in warnings]
 
 
 def _register_demo(subparsers) -> None:
@@ -128,11 +236,14 @@ def _register_demo(subparsers) -> None:
         help="output folder (default reports/demo)",
     )  # fmt: skip
     _add_units(parser)
+    _add_strict(parser)
     parser.set_defaults(command=_cmd_demo)
 
 
 def demo_study_path() -> Path:
     """study.toml of the embedded demo study (the package ``matid.example``)."""
+    from importlib import resources
+
     path = resources.files("matid.example") / "study.toml"
     if not isinstance(path, Path):
         raise MatidError("the demo study is not installed as plain files; reinstall matid")
@@ -140,7 +251,7 @@ def demo_study_path() -> Path:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    return fit_and_write(demo_study_path(), args.out, units=args.units, quiet=args.quiet)
+    return fit_and_write(demo_study_path(), args.out, units=args.units, quiet=args.quiet, strict=args.strict)
 
 
 def _register_solve(subparsers) -> None:
@@ -150,7 +261,9 @@ def _register_solve(subparsers) -> None:
         help="solve a rod scene (cantilever or three-point bend)",
         description="Forward solve of a scene TOML; write solution.json and shape.png into --out.",
     )
-    parser.add_argument("scene", metavar="SCENE.toml", type=Path, help="scene file (data contract section 6)")
+    parser.add_argument(
+        "scene", metavar="SCENE.toml", type=Path, help="scene file (docs/contract.md section 6)"
+    )
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder")
     parser.add_argument(
         "--elements",
@@ -191,6 +304,14 @@ def _fraction(text: str) -> float:
 
 def _cmd_solve(args: argparse.Namespace) -> int:
     """Load, solve, write solution.json and shape.png whole (nothing at all when the solve fails)."""
+    import dataclasses
+    import json
+
+    from matid.results import atomic_write
+    from matid.rod.api import resolve_model, solve
+    from matid.rod.output import shape_png, solution_json
+    from matid.rod.scenes import load_scene
+
     scene = load_scene(args.scene)
     if args.tolerance is not None:
         scene = dataclasses.replace(scene, tolerance=args.tolerance)
@@ -237,19 +358,27 @@ def solve_summary(sol) -> str:
     )
 
 
-def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool) -> int:
-    """Load, fit, write; print progress, failures and the summary. 0 if every fit was done."""
+def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool = False) -> int:
+    """Load, fit, write; print progress, failures, the summary and the warnings.
+
+    0 if every fit was done (and, with ``strict``, nothing warned); else 1.
+    """
+    from matid import pipeline
+    from matid.study import load_study
+
     clock = time.perf_counter()
 
     def progress(message: str) -> None:
         if not quiet:
             print(f"[{time.perf_counter() - clock:6.1f} s] {message}", file=sys.stderr, flush=True)
 
+    from matid.publish import claim_output
+
     claim = claim_output(out)  # noqa: F841 -- --out checked and locked before any fitting; freed on return
     study = load_study(source)
-    result = run_study(study, progress=progress)
+    result = pipeline.run_study(study, progress=progress)
     progress(f"rendering the report and tables into {out}")
-    paths = write_outputs(result, out, units=units)
+    paths = pipeline.write_outputs(result, out, units=units)
     progress("done")
     for failure in result.failures:
         print(
@@ -257,14 +386,25 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool) -> int:
             file=sys.stderr,
         )
     print(summary(result, units=units))
+    print("\n".join(_warning_lines(fit_warnings(result))))
     print("outputs:")
     for path in paths:
         print(f"  {path}")
-    return 0 if result.ok else 1
+    return 0 if result.ok and not (strict and result.warnings()) else 1
+
+
+def fit_warnings(result: StudyResult) -> list[str]:
+    """The warnings of the fits done (failures and tests not fitted are listed in the summary)."""
+    import dataclasses
+
+    apart = set(dataclasses.replace(result, fits=()).warnings())
+    return [w for w in result.warnings() if w not in apart]
 
 
 def summary(result: StudyResult, *, units: str = "SI") -> str:
     """A compact table of the stiffnesses (value ± stderr, unit), then what was not fitted."""
+    from matid.results import stiffness_json
+
     doc = stiffness_json(result, units)
     rows = [("specimen", "parameter", "value", "unit", "method")]
     for sid, params in doc["specimens"].items():

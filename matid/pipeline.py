@@ -51,6 +51,7 @@ from matid.results import (
     stiffness_json,
 )
 from matid.study import Specimen, Study
+from matid.xlsx import stiffness_xlsx
 
 Progress = Callable[[str], None]
 
@@ -224,6 +225,7 @@ def render_outputs(result: StudyResult, *, units: str = "SI") -> dict[str, bytes
     files: dict[str, bytes | str] = dict(render_report(result, units=units))
     files["stiffness.csv"] = stiffness_csv(result, units)
     files["stiffness.json"] = json.dumps(stiffness_json(result, units), indent=2) + "\n"
+    files["stiffness.xlsx"] = stiffness_xlsx(result, units)  # docs/contract.md section 7
     return files
 
 

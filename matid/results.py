@@ -1,8 +1,10 @@
-"""Results of a study and their export as stiffness tables (data-contract section 4).
+"""Results of a study and their export as stiffness tables (docs/contract.md sections 4 and 7).
 
 Fits produce :class:`TestFit` objects; the pipeline gathers them in a
-:class:`StudyResult`; this module turns that into ``stiffness.csv`` and
-``stiffness.json``. Values are SI inside and converted once here (``--units cgs``).
+:class:`StudyResult`; this module turns that into the rows of the stiffness
+table (:func:`table_rows`), ``stiffness.csv`` and ``stiffness.json``; the
+same rows feed ``stiffness.xlsx`` (:mod:`matid.xlsx`) and the DataFrame of
+:mod:`matid.api`. Values are SI inside and converted once here (``--units cgs``).
 """
 
 from __future__ import annotations
@@ -183,8 +185,9 @@ def _clean(x: float | None) -> float | None:
 
 
 def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
-    """The ``stiffness.json`` document (data-contract section 4)."""
+    """The ``stiffness.json`` document (docs/contract.md sections 4 and 7)."""
     specimens: dict[str, dict] = {}
+    warns, windows = parameter_warnings(result), parameter_windows(result)
     for sid, params in result.estimates().items():
         entry = {}
         for name, est in params.items():
@@ -196,7 +199,8 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
                 "unit": unit,
                 "n_points": est.n_points,
                 "method": est.method,
-                "warnings": list(est.warnings),
+                "warnings": warns.get((sid, name), []),
+                "window": windows.get((sid, name)),
             }
             item.update({k: v for k, v in est.extra.items() if k != "specimen"})
             entry[name] = item
@@ -221,31 +225,124 @@ CSV_COLUMNS = [
     "unit",
     "n_points",
     "method",
+    "warnings",
 ]
+#: Separator of the warnings of one parameter in the ``warnings`` column.
+WARNING_SEPARATOR = "; "
 
 
-def stiffness_csv(result: StudyResult, units: str = "SI") -> str:
-    """The ``stiffness.csv`` text: one row per specimen and parameter."""
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(CSV_COLUMNS)
+def parameter_warnings(result: StudyResult) -> dict[tuple[str, str], list[str]]:
+    """(specimen, parameter) -> its warnings: those of the fit that gave it, then its own.
+
+    A warning of a fit (e.g. lack of fit of the extension model) concerns every
+    parameter of that fit, so each of them carries it (docs/contract.md section 7).
+    """
+    out: dict[tuple[str, str], list[str]] = {}
+    for fit in result.fits:
+        for est in fit.estimates:
+            out[(fit.specimen, est.parameter)] = [*fit.warnings, *est.warnings]
+    for est in result.fixed:
+        out.setdefault((str(est.extra.get("specimen")), est.parameter), list(est.warnings))
+    return out
+
+
+def rows_used(result: StudyResult) -> dict[Path, int]:
+    """Input file -> rows that entered a fit (files whose fit gives one series per test)."""
+    used: dict[Path, int] = {}
+    for fit in result.fits:
+        if len(fit.series) != len(fit.tests):
+            continue  # no per-file mapping: left blank rather than guessed
+        for test, series in zip(fit.tests, fit.series, strict=True):
+            n = len(series.x) if series.used is None else int(np.count_nonzero(series.used))
+            used[test.file] = used.get(test.file, 0) + n
+    return used
+
+
+def parameter_windows(result: StudyResult) -> dict[tuple[str, str], dict]:
+    """(specimen, parameter) -> the fit window used (SI): requested ranges, rows used and read.
+
+    ``requested`` holds the ``window`` of each test in study.toml (file -> column ->
+    [low, high], SI); ``rows_used``/``rows_read`` count the rows of the fit's files that
+    entered the fit and that were read; ``fit`` holds what the fitter reports of the
+    window it chose itself (``info["window"]``, or the linear range / time window).
+    """
+    n_read = {f.path: f.n_rows for f in result.inputs}
+    out: dict[tuple[str, str], dict] = {}
+    for fit in result.fits:
+        requested = {
+            t.file.name: {col: [float(lo), float(hi)] for col, (lo, hi) in t.window.items()}
+            for t in fit.tests
+            if t.window
+        }
+        chosen = {k: fit.info[k] for k in _WINDOW_INFO_KEYS if k in fit.info}
+        read = sum(n_read.get(t.file, 0) for t in fit.tests)
+        for est in fit.estimates:
+            out[(fit.specimen, est.parameter)] = {
+                "requested": requested,
+                "rows_used": est.n_points,
+                "rows_read": read,
+                "fit": _jsonable(chosen),
+            }
+    return out
+
+
+#: Keys of ``TestFit.info`` that describe the window a fitter chose.
+_WINDOW_INFO_KEYS = ("window", "linear_range", "time_window_s", "unloading_rows_excluded", "excluded_points")
+
+
+def _jsonable(value: object) -> object:
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        return _clean(float(value))
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+def table_rows(result: StudyResult, units: str = "SI") -> list[dict[str, object]]:
+    """One row per specimen and parameter, keyed by :data:`CSV_COLUMNS` (numbers as float or None)."""
+    warns = parameter_warnings(result)
+    rows = []
     for sid, params in result.estimates().items():
         for name, est in params.items():
             value, stderr, ci, unit = _convert(est, units)
-            writer.writerow(
-                [
-                    sid,
-                    name,
-                    f"{value:.10g}",
-                    "" if _clean(stderr) is None else f"{stderr:.6g}",
-                    "" if ci is None or _clean(ci[0]) is None else f"{ci[0]:.10g}",
-                    "" if ci is None or _clean(ci[1]) is None else f"{ci[1]:.10g}",
-                    unit,
-                    est.n_points,
-                    est.method,
-                ]
-            )
+            low, high = (None, None) if ci is None else (_clean(ci[0]), _clean(ci[1]))
+            rows.append(
+                dict(
+                    zip(
+                        CSV_COLUMNS,
+                        [sid, name, value, _clean(stderr), low, high, unit, est.n_points, est.method,
+                         WARNING_SEPARATOR.join(warns.get((sid, name), []))],
+                        strict=True,
+                    )
+                )
+            )  # fmt: skip
+    return rows
+
+
+#: CSV number formats per column (value and interval to 10 digits, stderr to 6).
+_CSV_FORMATS = {"value": ".10g", "stderr": ".6g", "ci95_low": ".10g", "ci95_high": ".10g"}
+
+
+def csv_text(rows: list[dict[str, object]], columns: list[str]) -> str:
+    """Rows as CSV text with ``columns``; None is an empty cell, floats as in :data:`_CSV_FORMATS`."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(columns)
+    for row in rows:
+        writer.writerow(
+            ["" if row[c] is None else format(row[c], _CSV_FORMATS[c]) if c in _CSV_FORMATS else row[c]
+             for c in columns]
+        )  # fmt: skip
     return buffer.getvalue()
+
+
+def stiffness_csv(result: StudyResult, units: str = "SI") -> str:
+    """The ``stiffness.csv`` text: one row per specimen and parameter, warnings last."""
+    return csv_text(table_rows(result, units), CSV_COLUMNS)
 
 
 def atomic_write(path: Path, data: str | bytes) -> None:

@@ -21,8 +21,8 @@ from matid.cli import main
 from matid.errors import ConvergenceError, FitError
 
 DEMO = Path(str(resources.files("matid.example")))
-OUTPUTS = {"report.html", "report.pdf", "stiffness.csv", "stiffness.json"}
-CSV_HEADER = "specimen,parameter,value,stderr,ci95_low,ci95_high,unit,n_points,method"
+OUTPUTS = {"report.html", "report.pdf", "stiffness.csv", "stiffness.json", "stiffness.xlsx"}
+CSV_HEADER = "specimen,parameter,value,stderr,ci95_low,ci95_high,unit,n_points,method,warnings"
 SI_UNITS = {
     "E_b": "N m^2",
     "E_t": "N m^2",
@@ -314,7 +314,7 @@ def test_internal_error_with_debug_shows_the_traceback(tmp_path, monkeypatch):
     def bug(study, *, progress=None):
         raise ZeroDivisionError("oops")
 
-    monkeypatch.setattr("matid.cli.run_study", bug)
+    monkeypatch.setattr("matid.pipeline.run_study", bug)
     code, _, err = run(["fit", str(DEMO), "--out", str(tmp_path / "out"), "--debug"])
     assert code == 3 and "Traceback" in err and "ZeroDivisionError: oops" in err
 
@@ -333,7 +333,7 @@ def test_other_matid_errors_exit_1(tmp_path, monkeypatch):
     def diverge(study, *, progress=None):
         raise ConvergenceError("Newton stalled", load_factor=0.25)
 
-    monkeypatch.setattr("matid.cli.run_study", diverge)
+    monkeypatch.setattr("matid.pipeline.run_study", diverge)
     code, _, err = run(["fit", str(DEMO), "--out", str(tmp_path / "out")])
     assert code == 1 and "matid: error: Newton stalled" in err and "0.25" in err
     assert not (tmp_path / "out").exists()

@@ -20,7 +20,7 @@ from matid.results import TestFit as Fit
 from matid.study import load_study
 
 DEMO = Path(str(resources.files("matid.example")))
-OUTPUTS = {"report.html", "report.pdf", "stiffness.csv", "stiffness.json"}
+OUTPUTS = {"report.html", "report.pdf", "stiffness.csv", "stiffness.json", "stiffness.xlsx"}
 
 SPECIMEN = """
 [study]
