@@ -28,7 +28,9 @@ def test_moduli_of_a_known_material():
     """A tube of E = 60 MPa, G = E / (2 (1 + 0.45)): stiffnesses built from the sections, moduli back."""
     ro, ri, E = 1.2e-3, 0.8e-3, 60e6
     G = E / 2.9
-    A, I, J = math.pi  # noqa: E741 * (ro**2 - ri**2), math.pi / 4 * (ro**4 - ri**4), math.pi / 2 * (ro**4 - ri**4)
+    A = math.pi * (ro**2 - ri**2)
+    I = math.pi / 4 * (ro**4 - ri**4)  # noqa: E741 (the symbol of the formula)
+    J = math.pi / 2 * (ro**4 - ri**4)
     ext = modulus("E_e", E * A, 0.01 * E * A, outer_radius=ro, inner_radius=ri)
     bend = modulus("E_b", E * I, 0.02 * E * I, outer_radius=ro, inner_radius=ri)
     tors = modulus("E_t", G * J, None, outer_radius=ro, inner_radius=ri)
