@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from matid.report.content import build_report
 from matid.report.html import render_html
+from matid.report.images import render_images
 from matid.report.pdf import render_pdf
 from matid.results import StudyResult
 from matid.units import UNIT_SYSTEMS
@@ -25,4 +26,5 @@ def render_report(result: StudyResult, *, units: str = "SI") -> dict[str, bytes]
     if units not in UNIT_SYSTEMS:
         raise ValueError(f"units must be one of {', '.join(UNIT_SYSTEMS)}, got {units!r}")
     report = build_report(result, units)
-    return {"report.html": render_html(report), "report.pdf": render_pdf(report)}
+    images = render_images(report)  # each figure drawn once, for both documents
+    return {"report.html": render_html(report, images), "report.pdf": render_pdf(report, images)}

@@ -244,7 +244,8 @@ class Flow:
         ax = self.fig.add_axes(
             (left / PAGE[0], (self.y - height) / PAGE[1], width / PAGE[0], height / PAGE[1])
         )
-        ax.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"), interpolation="antialiased")
+        # unresampled: the PDF holds the PNG's own pixels, scaled by the viewer
+        ax.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"), interpolation="none")
         ax.set_axis_off()
         self.y -= height
 
