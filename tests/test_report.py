@@ -543,3 +543,19 @@ def test_small_axes_get_a_prefixed_unit_and_lengths_are_mm():
     assert axis_unit("deflection [m]", "SI", 1e-3).label == "deflection [mm]"
     assert axis_unit("deflection [m]", "cgs", 1e-3).label == "deflection [mm]"
     assert axis_unit("force [N]", "SI", 3.0).label == "force [N]"
+
+
+def test_extension_holds_get_a_force_against_time_plot():
+    base = make_result(kinds=("extension",))
+    fit = next(f for f in base.fits if f.kind == "extension")
+    t = np.linspace(0.0, 60.0, 120)
+    hold = np.where(t < 10, t / 10, 0.6 + 0.4 * np.exp(-(t - 10) / 8))
+    runs = [{"label": "ramp-hold run", "time": t, "force": hold + 0.01, "model": hold, "used": t > 0.5}]
+    fit = Fit(fit.kind, fit.specimen, fit.tests, fit.estimates, fit.series, fit.x_label, fit.y_label,
+              info={**fit.info, "force_time": runs})  # fmt: skip
+    html = render_report(StudyResult(base.study, base.inputs, (fit,)))["report.html"].decode()
+    assert "<strong>Force against time.</strong>" in html and "force_time" not in html
+    broken = Fit(fit.kind, fit.specimen, fit.tests, fit.estimates, fit.series, fit.x_label, fit.y_label,
+                 info={"force_time": [{"time": [0.0, 1.0], "force": [1.0]}]})  # fmt: skip
+    html = render_report(StudyResult(base.study, base.inputs, (broken,)))["report.html"].decode()
+    assert "could not be drawn" in html and "force_time run 1: time, force" in html

@@ -17,6 +17,7 @@ import numpy as np
 from matid import __version__
 from matid.report.bend import bend_drawings
 from matid.report.figures import Drawing, ExtraFigure, axis_unit, extra_figures, has_plot
+from matid.report.holds import hold_drawings
 from matid.report.quantities import Cell, info_cell
 from matid.report.summary import (
     SUMMARY_COLUMNS,
@@ -45,7 +46,7 @@ FIT_COLUMNS = SUMMARY_COLUMNS[1:]
 FIT_NUMERIC = SUMMARY_NUMERIC[1:]
 MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± stderr", "unit", "check")
 #: Info items not shown in the details table: figures and the arrays the figures are drawn from.
-HIDDEN_INFO = ("figures", "plot_data")
+HIDDEN_INFO = ("figures", "plot_data", "force_time")
 
 
 @dataclass(frozen=True)
@@ -268,7 +269,8 @@ def provenance_table(inputs: tuple[InputFile, ...]) -> Table:
 
 def _fit_parameters(fit: TestFit, doc: Mapping) -> Table:
     items = doc["specimens"].get(fit.specimen, {})
-    rows = tuple(_param_row(e.parameter, items[e.parameter]) for e in fit.estimates if e.parameter in items)
+    mine = {e.parameter: items[e.parameter] for e in fit.estimates if e.parameter in items}
+    rows = tuple(_param_row(name, item) for name, item in merged_names(mine))
     return Table(FIT_COLUMNS, rows, FIT_NUMERIC)
 
 
@@ -347,9 +349,9 @@ def _drawings(fit: TestFit | None, units: str) -> tuple[tuple[Drawing, ...], tup
     if fit is None:
         return (), ()
     try:
-        return tuple(bend_drawings(fit, units)), ()
+        return (*bend_drawings(fit, units), *hold_drawings(fit, units)), ()
     except (KeyError, TypeError, ValueError, IndexError) as exc:  # malformed plot data: say so, go on
-        return (), (ExtraFigure("Three-point bend figures", None, f"{type(exc).__name__}: {exc}"),)
+        return (), (ExtraFigure("Figures from the fit data", None, f"{type(exc).__name__}: {exc}"),)
 
 
 def _info(fit: TestFit, units: str) -> tuple[tuple[str, Cell], ...]:
