@@ -559,3 +559,35 @@ def test_extension_holds_get_a_force_against_time_plot():
                  info={"force_time": [{"time": [0.0, 1.0], "force": [1.0]}]})  # fmt: skip
     html = render_report(StudyResult(base.study, base.inputs, (broken,)))["report.html"].decode()
     assert "could not be drawn" in html and "force_time run 1: time, force" in html
+
+
+def test_bench_page_has_no_json_dump_no_raw_rst_and_scrolling_tables():
+    from matid.bench.html import page
+
+    doc = {
+        "quick": True,
+        "created": "2026-11-23",
+        "runtime_s": 1.0,
+        "machine": {"cpu": "x"},
+        "sections": {
+            "stability": {
+                "rows": [{"family": "f", "case": "c", "outcome": "ok", "message": "m" * 200}],
+                "outcomes": {"ok": 1},
+                "outcome_rules": "- ``ok``: converged (:mod:`matid.bench.checks`);\n"
+                "- ``wrong``: must\n  not occur.",
+            },
+            "vs_3d": {
+                "rows": [{"model": "3d", "dofs": 10}],
+                "converged": {"bend": {"3d": 1.5, "status_3d": "Richardson"}},
+                "ratios": {"bend": {"3d": {"dofs": 100.0, "time_s": 2.0}, "lower_bound": False}},
+                "section": {"E": 1e7, "nu": 0.45},
+                "notes": ["Bend: 3D quarter model."],
+                "quick": True,
+            },
+        },
+    }
+    html = page(doc, {})
+    assert "``" not in html and ":mod:" not in html and "<code>ok</code>" in html and "must not occur" in html
+    assert "<pre>" not in html and '{"' not in html and "{'" not in html
+    assert "3d dofs" in html and "Bend: 3D quarter model." in html and "Richardson" in html
+    assert html.count("<table>") == html.count("<div class='scroll'><table>")
