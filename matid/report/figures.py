@@ -47,7 +47,7 @@ from matplotlib.lines import Line2D
 
 from matid.results import Series, TestFit
 
-DPI = 120
+DPI = 110
 FIT_SIZE = (7.5, 5.0)  # inches, for the HTML image
 #: Okabe-Ito colours (colour-blind safe), yellow left out for contrast on white.
 COLOURS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000")

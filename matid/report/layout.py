@@ -188,17 +188,18 @@ class Flow:
         self.y -= 0.02
 
     def _row(self, cells: list[list[str]], widths, numeric, size, step, weight="normal") -> None:
-        char = size * MONO_ADVANCE / 72
+        """One table row; each of its lines is drawn as one monospaced string (a text per cell
+        would multiply the PDF's text objects, its slowest part, by the number of columns)."""
         top = self.y
-        x = MARGIN_X
-        for lines, width, right in zip(cells, widths, numeric, strict=True):
-            for k, text in enumerate(lines):
+        for k in range(_height(cells)):
+            parts = []
+            for lines, width, right in zip(cells, widths, numeric, strict=True):
+                text = lines[k] if k < len(lines) else ""
+                parts.append(text.rjust(width) if right else text.ljust(width))
+            line = "  ".join(parts).rstrip()
+            if line:
                 y = top - (k + 1) * step + 0.25 * step
-                if right:
-                    self._text(x + width * char, y, text, size=size, family=MONO, ha="right", weight=weight)
-                else:
-                    self._text(x, y, text, size=size, family=MONO, weight=weight)
-            x += (width + 2) * char
+                self._text(MARGIN_X, y, line, size=size, family=MONO, weight=weight)
         self.y = top - _height(cells) * step
 
     def _shade(self, top: float, bottom: float, colour: str) -> None:
