@@ -9,7 +9,7 @@ from html import escape
 CSS = """body{font-family:sans-serif;margin:2em auto;max-width:1200px;padding:0 1em}
 .scroll{overflow-x:auto;margin:1em 0}table{border-collapse:collapse;font-size:12px}
 td,th{border:1px solid #ccc;padding:3px 6px;text-align:left;vertical-align:top}
-td{max-width:26em;overflow-wrap:anywhere}th{background:#eee}.bad{background:#fdd;font-weight:bold}
+td{max-width:24em;overflow-wrap:break-word}td.n{white-space:nowrap;text-align:right}th{background:#eee}.bad{background:#fdd;font-weight:bold}
 .warn{background:#ffe9c6}.ok{background:#e8f6e8}img{max-width:100%}code{font-size:12px}
 .rules li{margin:.2em 0}"""
 
@@ -27,13 +27,18 @@ def fmt(value, digits: int = 3) -> str:
 
 
 def table(rows: list[dict], columns: list[str], *, classes=None, digits: int = 3) -> str:
-    head = "".join(f"<th>{escape(c)}</th>" for c in columns)
+    head = "".join(f"<th>{escape(c.replace('_', ' '))}</th>" for c in columns)
     body = []
     for row in rows:
         css = classes(row) if classes else ""
-        cells = "".join(f"<td>{escape(fmt(row.get(c), digits))}</td>" for c in columns)
+        cells = "".join(f"<td{_numeric(row.get(c))}>{escape(fmt(row.get(c), digits))}</td>" for c in columns)
         body.append(f'<tr class="{css}">{cells}</tr>')
     return f"<div class='scroll'><table><tr>{head}</tr>{''.join(body)}</table></div>"
+
+
+def _numeric(value) -> str:
+    """Numbers stay on one line, right-aligned."""
+    return " class='n'" if isinstance(value, (int, float)) and not isinstance(value, bool) else ""
 
 
 def image(title: str, png: bytes) -> str:
