@@ -206,7 +206,8 @@ def draw_fe_levels(fig: Figure, rect: Rect, *, levels: Sequence[Mapping], stat: 
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlim(min(t) / 1.5, max(t) * 1.5)
     else:  # a linear axis keeps its tick labels over a narrow range
-        ax.set_xlim(0, max(t) * 1.15)
+        pad = max(0.5 * (max(t) - min(t)), 0.1 * max(t))
+        ax.set_xlim(max(min(t) - pad, 0.0), max(t) + pad)
     ax.set_xlabel("run time of one solve of all curves [s]")
     ax.set_ylabel("discretisation error of E_s")
     style_axes(ax)
