@@ -591,3 +591,13 @@ def test_bench_page_has_no_json_dump_no_raw_rst_and_scrolling_tables():
     assert "<pre>" not in html and '{"' not in html and "{'" not in html
     assert "3d dofs" in html and "Bend: 3D quarter model." in html and "Richardson" in html
     assert html.count("<table>") == html.count("<div class='scroll'><table>")
+
+
+def test_dashed_model_line_and_its_legend_only_past_the_fitted_points():
+    from matid.report.figures import _series_outside
+
+    x = np.linspace(0.0, 1.0, 11)
+    inner = Series("a", x, x, x, used=np.array([True] * 4 + [False] + [True] * 6))
+    tail = Series("b", x, x, x, used=x <= 0.6)
+    assert not _series_outside(inner) and _series_outside(tail)
+    assert not _series_outside(Series("c", x, x, None, used=x <= 0.6))
