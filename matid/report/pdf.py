@@ -1,7 +1,7 @@
 """The PDF report: A4 portrait pages drawn with matplotlib and saved through PdfPages.
 
 A title page (header, summary table, warnings), then one part per test-kind section (the
-same plots as the HTML report, drawn as vectors, and the same tables) and the provenance.
+same plots as the HTML report and the same tables) and the provenance.
 Pages are laid out by :class:`matid.report.layout.Flow`. Figures are the PNGs rendered once
 for both documents (:mod:`matid.report.images`); fonts are embedded (Type 3 with a ToUnicode
 map), so the text can be searched and extracted.
