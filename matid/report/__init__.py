@@ -2,7 +2,8 @@
 
 ``render_report(result, units="SI")`` returns ``{"report.html": bytes, "report.pdf": bytes}``;
 the caller writes them (atomically, see :func:`matid.results.atomic_write`). Content is built
-once (:mod:`matid.report.content`), then drawn by :mod:`matid.report.html` (jinja2 template,
+once (:mod:`matid.report.content`), its figures rendered once to PNG
+(:mod:`matid.report.images`), then drawn by :mod:`matid.report.html` (jinja2 template,
 plots inlined as PNG) and :mod:`matid.report.pdf` (A4 pages via matplotlib's PdfPages). The
 hook for extra figures of a fit, ``TestFit.info["figures"]``, is described in
 :mod:`matid.report.figures`; the three-point-bend figures drawn from ``info["plot_data"]`` in

@@ -29,8 +29,8 @@ Extra figures: the ``TestFit.info["figures"]`` hook
 Drawings
     Figures the report draws itself from arrays a fitter leaves in ``info`` (the bend
     figures of :mod:`matid.report.bend`) are :class:`Drawing` objects: a function that draws
-    into a rectangle of a Figure, rendered to PNG for the HTML page and as vectors on the PDF
-    page, like the fit plot.
+    into a rectangle of a Figure, rendered once to PNG (:mod:`matid.report.images`) and placed on
+    the HTML page and the PDF page alike.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Page layout for the PDF report: blocks flowing down A4 pages drawn with matplotlib.
 
 :class:`Flow` places content one block below the other like a word processor: headings,
-wrapped paragraphs, boxes, monospaced tables, plots drawn into a rectangle of the page and PNG
-images. A block that does not fit on the page starts the next one; long tables repeat their
+wrapped paragraphs, boxes, monospaced tables and PNG images (the figures). A block that does
+not fit on the page starts the next one; long tables repeat their
 header, long boxes continue on the next page. Text is measured with the advance widths of
 the glyphs of the DejaVu fonts bundled with matplotlib, so wrapping needs no renderer.
 Positions are in inches from the bottom left of the page.
@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import io
 import textwrap
-from collections.abc import Callable
 from functools import lru_cache
 
 import matplotlib.image
@@ -219,19 +218,6 @@ class Flow:
                 zorder=-1,
             )
         )
-
-    def plot(self, draw: Callable[[Figure, tuple[float, float, float, float]], None], height: float) -> None:
-        """Give ``draw`` the rectangle (l, b, r, t, figure fractions) of the next ``height`` inches."""
-        self.need(height)
-        top, bottom = self.y, self.y - height
-        rect = (
-            (MARGIN_X + 0.75) / PAGE[0],
-            (bottom + 0.45) / PAGE[1],
-            1 - (MARGIN_X + 0.1) / PAGE[0],
-            (top - 0.05) / PAGE[1],
-        )
-        draw(self.fig, rect)
-        self.y = bottom
 
     def image(self, png: bytes, *, max_height: float = 5.0) -> None:
         """A PNG scaled to the text width (never enlarged beyond its size at the report's dpi)."""
