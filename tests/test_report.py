@@ -16,6 +16,8 @@ from matid.report.bend import TITLES, outline
 from matid.report.content import build_report, format_value
 from matid.report.figures import axis_unit, png_bytes
 from matid.report.html import render_html
+from matid.report.quantities import Nested, info_cell
+from matid.report.summary import merged_names, scale_of, value_cells
 from matid.results import Estimate, Failure, InputFile, Series, StudyResult, stiffness_json
 from matid.results import TestFit as Fit
 from matid.study import Specimen, Study
@@ -235,13 +237,18 @@ def test_html_shows_values_warnings_failures_and_pending(full, html):
     doc = stiffness_json(full[0])
     for params in doc["specimens"].values():
         for item in params.values():
-            assert f"{item['value']:.5g}" in html
-    assert BENDING_WARNING in html
+            value, stderr, _, low, high, unit = value_cells(item)
+            assert f">{value}<" in html and f">{stderr}<" in html and f">{unit}<" in html
+            assert f">{low}<" in html and f">{high}<" in html
+    report = build_report(full[0], "SI")
+    count = len(report.notes) + len(report.failures)
+    assert BENDING_WARNING in html and "⚠ [1]" in html and f"<h2>{count} warnings</h2>" in html
+    assert "No warnings" not in html
     assert "could not be fitted" in html and "torque column is constant" in html
     assert "E_s: not yet fitted" in html and "E_s fitter is not available" in html
     assert "excluded from fit" in html or "excluded from the fit" in html
     assert "sls_k1" in html and "+0.970" in html  # correlation table
-    assert "fit window" in html and "x_max = 35" in html  # info, formatted
+    assert "fit window" in html and ">35 rad/m<" not in html and ">35<" in html  # info, formatted
     assert _sha("torsion_T1_L60.csv")[:12] in html and _sha("torsion_T1_L60.csv") in html
     assert "Zwick Z0.5" in html and "mN mm" in html and "exclude = true" in html
 
@@ -340,7 +347,7 @@ def test_awkward_text_and_partial_fits_render():
     out = render_report(StudyResult(study, (), (fit,), fixed=fixed))
     html = out["report.html"].decode()
     assert "Tube $A$ &amp; &lt;b&gt;B&lt;/b&gt;" in html and "<b>B" not in html
-    assert "fixed" in html and "a = [1, 2, {b = 3}]" in html and "not read" in html
+    assert "fixed" in html and "1, 2, b = 3" in html and "not read" in html and "{b" not in html
     assert html.count("<img") == 1 and "Residuals" not in html
     text = "\n".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(out["report.pdf"])).pages)
     assert "Tube $A$ & <b>B</b>" in text
@@ -427,7 +434,7 @@ def test_bend_fit_renders_its_figures(bend_out):
     assert "11 rod solves, run time 0.9 s" in html
     assert "E_b: d ln E_s / d ln E_b = -1.9, adds ±0.42 % to E_s" in html
     text = "\n".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(bend_out["report.pdf"])).pages)
-    for title in (*TITLES, "FE mesh and solver for E_s", "3pb_T1_S14.csv: span 14 mm"):
+    for title in (*TITLES, "FE mesh and solver for E_s"):  # panel texts are in the shared PNGs
         assert title in text
     assert "plot_data" not in text
 
@@ -466,3 +473,131 @@ def test_demo_report_has_the_bend_figures():
     assert html.count("FE mesh and solver for E_s") == len(bends) and "plot_data" not in html
     text = "\n".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(out["report.pdf"])).pages)
     assert all(title in text for title in TITLES)
+
+
+# -- numbers with units, for people ------------------------------------------------------------
+
+AXES = {"x": ("rad/m", 1.0), "y": ("N m", 1.0)}
+
+
+def test_info_items_get_labels_and_units_in_the_chosen_system():
+    assert info_cell("E_b_used", 6.496e-5, "SI", AXES) == ("E_b held in the E_s fit", "6.496e-5 N m^2")
+    assert info_cell("E_b_used", 6.496e-5, "cgs", AXES)[1] == "64960 dyn cm^2"
+    assert info_cell("noise_N", 0.0072348, "cgs", AXES)[1] == "723.5 dyn"
+    label, text = info_cell("force_change_for_10pct_E_s_N (linearised)", 0.0541, "SI", AXES)
+    assert label == "RMS force change for E_s + 10 % (linearised)" and text == "0.0541 N"
+    assert info_cell("timoshenko_start_N", 24.553, "SI", AXES) == (
+        "E_s start value (Timoshenko formula)",
+        "24.55 N",
+    )
+    assert info_cell("free_lengths_m", [0.03, 0.045], "SI", AXES)[1] == "30, 45 mm"
+    assert info_cell("shear_share", [0.2697], "SI", AXES)[1] == "26.97 %"
+    assert info_cell("index", [], "SI", AXES) == ("index", "none")
+
+
+def test_unknown_info_keys_are_read_by_their_suffix():
+    assert info_cell("intercept_Nm", 2e-6, "SI", AXES) == ("intercept", "2e-6 N m")
+    assert info_cell("toe_length_mm", 0.05, "SI", AXES) == ("toe length", "0.05 mm")
+    assert info_cell("E_s_torsion", 21.0, "cgs", AXES) == ("E_s_torsion", "2.1e6 dyn")
+    assert info_cell("hold_time_s", 45.0, "SI", AXES) == ("hold time", "45 s")
+    assert info_cell("method note", "Newey-West", "SI", AXES) == ("method note", "Newey-West")
+
+
+def test_nested_info_values_become_small_tables():
+    slopes = {0.03: {"E_b": 6.5e-5, "stderr": 3.2e-7, "n_points": 17}}
+    label, table = info_cell("per_length_slopes", slopes, "SI", AXES)
+    assert isinstance(table, Nested) and label == "E_b of each free length alone"
+    assert table.header == ("free length [mm]", "E_b [N m^2]", "stderr [N m^2]", "points")
+    assert table.rows == (("30", "6.5e-5", "3.2e-7", "17"),)
+    _, ranges = info_cell("linear_range", {"a.csv": 52.36}, "SI", AXES)
+    assert ranges.header == ("run", "value [rad/m]") and ranges.rows == (("a.csv", "52.36"),)
+    levels = [{"elements": 8, "discretization_error": 1.9e-5, "runtime_s": 0.357}]
+    _, table = info_cell("levels", levels, "SI", AXES)
+    assert table.header[1:] == ("elements", "discretisation error (relative)", "runtime [s]")
+    _, prony = info_cell("prony_terms", [{"tau_s": 1.0, "k_N": 30.0}], "cgs", AXES)
+    assert prony.header == ("entry", "tau [s]", "k [dyn]") and prony.rows == (("1", "1", "3e6"),)
+
+
+def test_cgs_details_carry_cgs_units():
+    html = render_report(bend_result(), units="cgs")["report.html"].decode()
+    details = html[html.index("Fit window and details") :]
+    assert "1000 dyn" in details and " N<" not in details and "N m^2" not in details
+
+
+def test_summary_rows_round_to_the_standard_error():
+    assert scale_of(6.496e-5, 1.4e-7) == (-5, 3)
+    assert scale_of(119.97, 0.046) == (0, 3)
+    assert scale_of(1367.5, 20.0) == (0, 0)
+    item = {"value": 6.4960e-5, "stderr": 1.4e-7, "ci95": [6.4673e-5, 6.5247e-5], "unit": "N m^2"}
+    assert value_cells(item) == ("6.496", "0.014", "0.22 %", "6.467", "6.525", "×10⁻⁵ N m^2")
+    same = {"value": 1.0, "stderr": 0.1, "unit": "N", "n_points": 3, "method": "sls"}
+    assert [n for n, _ in merged_names({"E_e": same, "sls_k1": same, "sls_k2": {**same, "value": 2}})] == [
+        "E_e = sls_k1",
+        "sls_k2",
+    ]
+
+
+def test_small_axes_get_a_prefixed_unit_and_lengths_are_mm():
+    assert axis_unit("torque [N m]", "SI", 5e-4).label == "torque [mN m]"
+    assert axis_unit("torque [N m]", "SI", 5e-4).factor == 1e3
+    assert axis_unit("deflection [m]", "SI", 1e-3).label == "deflection [mm]"
+    assert axis_unit("deflection [m]", "cgs", 1e-3).label == "deflection [mm]"
+    assert axis_unit("force [N]", "SI", 3.0).label == "force [N]"
+
+
+def test_extension_holds_get_a_force_against_time_plot():
+    base = make_result(kinds=("extension",))
+    fit = next(f for f in base.fits if f.kind == "extension")
+    t = np.linspace(0.0, 60.0, 120)
+    hold = np.where(t < 10, t / 10, 0.6 + 0.4 * np.exp(-(t - 10) / 8))
+    runs = [{"label": "ramp-hold run", "time": t, "force": hold + 0.01, "model": hold, "used": t > 0.5}]
+    fit = Fit(fit.kind, fit.specimen, fit.tests, fit.estimates, fit.series, fit.x_label, fit.y_label,
+              info={**fit.info, "force_time": runs})  # fmt: skip
+    html = render_report(StudyResult(base.study, base.inputs, (fit,)))["report.html"].decode()
+    assert "<strong>Force against time.</strong>" in html and "force_time" not in html
+    broken = Fit(fit.kind, fit.specimen, fit.tests, fit.estimates, fit.series, fit.x_label, fit.y_label,
+                 info={"force_time": [{"time": [0.0, 1.0], "force": [1.0]}]})  # fmt: skip
+    html = render_report(StudyResult(base.study, base.inputs, (broken,)))["report.html"].decode()
+    assert "could not be drawn" in html and "force_time run 1: time, force" in html
+
+
+def test_bench_page_has_no_json_dump_no_raw_rst_and_scrolling_tables():
+    from matid.bench.html import page
+
+    doc = {
+        "quick": True,
+        "created": "2026-11-23",
+        "runtime_s": 1.0,
+        "machine": {"cpu": "x"},
+        "sections": {
+            "stability": {
+                "rows": [{"family": "f", "case": "c", "outcome": "ok", "message": "m" * 200}],
+                "outcomes": {"ok": 1},
+                "outcome_rules": "- ``ok``: converged (:mod:`matid.bench.checks`);\n"
+                "- ``wrong``: must\n  not occur.",
+            },
+            "vs_3d": {
+                "rows": [{"model": "3d", "dofs": 10}],
+                "converged": {"bend": {"3d": 1.5, "status_3d": "Richardson"}},
+                "ratios": {"bend": {"3d": {"dofs": 100.0, "time_s": 2.0}, "lower_bound": False}},
+                "section": {"E": 1e7, "nu": 0.45},
+                "notes": ["Bend: 3D quarter model."],
+                "quick": True,
+            },
+        },
+    }
+    html = page(doc, {})
+    assert "``" not in html and ":mod:" not in html and "<code>ok</code>" in html and "must not occur" in html
+    assert "<pre>" not in html and '{"' not in html and "{'" not in html
+    assert "3d dofs" in html and "Bend: 3D quarter model." in html and "Richardson" in html
+    assert html.count("<table>") == html.count("<div class='scroll'><table>")
+
+
+def test_dashed_model_line_and_its_legend_only_past_the_fitted_points():
+    from matid.report.figures import _series_outside
+
+    x = np.linspace(0.0, 1.0, 11)
+    inner = Series("a", x, x, x, used=np.array([True] * 4 + [False] + [True] * 6))
+    tail = Series("b", x, x, x, used=x <= 0.6)
+    assert not _series_outside(inner) and _series_outside(tail)
+    assert not _series_outside(Series("c", x, x, None, used=x <= 0.6))

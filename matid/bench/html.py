@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import base64
-import json
+import re
 from html import escape
 
-CSS = """body{font-family:sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse;margin:1em 0;
-font-size:13px}td,th{border:1px solid #ccc;padding:3px 6px;text-align:left;vertical-align:top}
-th{background:#eee}.bad{background:#fdd;font-weight:bold}.warn{background:#ffe9c6}.ok{background:#e8f6e8}
-img{max-width:100%}code{font-size:12px}"""
+CSS = """body{font-family:sans-serif;margin:2em auto;max-width:1200px;padding:0 1em}
+.scroll{overflow-x:auto;margin:1em 0}table{border-collapse:collapse;font-size:12px}
+td,th{border:1px solid #ccc;padding:3px 6px;text-align:left;vertical-align:top}
+td{max-width:24em;overflow-wrap:break-word}td.n{white-space:nowrap;text-align:right}th{background:#eee}.bad{background:#fdd;font-weight:bold}
+.warn{background:#ffe9c6}.ok{background:#e8f6e8}img{max-width:100%}code{font-size:12px}
+.rules li{margin:.2em 0}"""
 
 
 def fmt(value, digits: int = 3) -> str:
@@ -25,13 +27,18 @@ def fmt(value, digits: int = 3) -> str:
 
 
 def table(rows: list[dict], columns: list[str], *, classes=None, digits: int = 3) -> str:
-    head = "".join(f"<th>{escape(c)}</th>" for c in columns)
+    head = "".join(f"<th>{escape(c.replace('_', ' '))}</th>" for c in columns)
     body = []
     for row in rows:
         css = classes(row) if classes else ""
-        cells = "".join(f"<td>{escape(fmt(row.get(c), digits))}</td>" for c in columns)
+        cells = "".join(f"<td{_numeric(row.get(c))}>{escape(fmt(row.get(c), digits))}</td>" for c in columns)
         body.append(f'<tr class="{css}">{cells}</tr>')
-    return f"<table><tr>{head}</tr>{''.join(body)}</table>"
+    return f"<div class='scroll'><table><tr>{head}</tr>{''.join(body)}</table></div>"
+
+
+def _numeric(value) -> str:
+    """Numbers stay on one line, right-aligned."""
+    return " class='n'" if isinstance(value, (int, float)) and not isinstance(value, bool) else ""
 
 
 def image(title: str, png: bytes) -> str:
@@ -89,17 +96,62 @@ def page(doc: dict, figures: dict[str, bytes]) -> str:
 
 
 def _vs_3d(s: dict) -> str:
-    """The vs_3d section as it comes: its rows as a table, everything else as JSON."""
+    """The vs_3d section: notes in words, then each part as a table (nested parts flattened)."""
     rows = s.get("rows") if isinstance(s.get("rows"), list) else []
     columns = list(dict.fromkeys(k for r in rows if isinstance(r, dict) for k in r))
-    rest = {k: v for k, v in s.items() if k != "rows"}
-    return "".join(
-        [
-            "<h2>Against 3D (matid.bench.vs3d)</h2>",
-            table(rows, columns) if rows else "",
-            f"<pre>{escape(json.dumps(rest, indent=1))}</pre>" if rest else "",
-        ]
-    )
+    parts = ["<h2>Against 3D (matid.bench.vs3d)</h2>", _notes(s)]
+    for key, value in s.items():
+        if key not in {"rows", "notes", "quick"}:
+            parts += [f"<h3>{escape(key.replace('_', ' ').capitalize())}</h3>", _any(value)]
+    if rows:
+        parts += ["<h3>All runs</h3>", table(rows, columns)]
+    return "".join(parts)
+
+
+def _flat(value: dict, prefix: str = "") -> dict:
+    """A nested mapping with its keys joined: {"3d": {"dofs": 1}} -> {"3d dofs": 1}."""
+    out = {}
+    for k, v in value.items():
+        name = f"{prefix}{k}".replace("_", " ")
+        out.update(_flat(v, name + " ") if isinstance(v, dict) else {name: v})
+    return out
+
+
+def _any(value) -> str:
+    """A value of bench.json readably: mappings and lists of mappings as tables, never JSON."""
+    if isinstance(value, dict) and value and all(isinstance(v, dict) for v in value.values()):
+        rows = [{"": k, **_flat(v)} for k, v in value.items()]
+        return table(rows, list(dict.fromkeys(c for r in rows for c in r)), digits=4)
+    if isinstance(value, dict):
+        return table(
+            [{"item": k.replace("_", " "), "value": v} for k, v in value.items()], ["item", "value"], digits=4
+        )
+    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+        rows = [_flat(v) for v in value]
+        return table(rows, list(dict.fromkeys(c for r in rows for c in r)), digits=4)
+    if isinstance(value, list):
+        return "".join(f"<p>{escape(fmt(v))}</p>" for v in value)
+    return f"<p>{escape(fmt(value, 4))}</p>"
+
+
+def rst(text: str) -> str:
+    """A docstring excerpt (reStructuredText) as HTML: ``code`` and :mod:`x` as code, "- " items as a list."""
+    items, current = [], None
+    for line in text.splitlines():
+        if line.lstrip().startswith("- "):
+            current = [line.lstrip()[2:]]
+            items.append(current)
+        elif current is not None and line.strip():
+            current.append(line.strip())
+        elif line.strip():
+            items.append([line.strip()])
+    html = []
+    for item in items:
+        text = escape(" ".join(item))
+        text = re.sub(r":\w+:`~?([^`]+)`", r"<code>\1</code>", text)
+        text = re.sub(r"``([^`]+)``", r"<code>\1</code>", text)
+        html.append(f"<li>{text}</li>")
+    return f"<ul class='rules'>{''.join(html)}</ul>"
 
 
 def _notes(section: dict) -> str:
@@ -167,7 +219,7 @@ def _stability(s: dict, figures: dict[str, bytes]) -> str:
         "<h2>Stability</h2>",
         alarm,
         f"<p>Outcome counts: {escape(fmt(s['outcomes']))}</p>",
-        f"<pre>{escape(s.get('outcome_rules', ''))}</pre>",
+        "<p>Every case gets one outcome:</p>" + rst(s["outcome_rules"]) if s.get("outcome_rules") else "",
         table(
             rows,
             [

@@ -6,7 +6,7 @@ import io
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.ticker import NullFormatter
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 STYLE = {
     ("P2", "2-point Gauss"): ("C0", "o-"),
@@ -52,6 +52,7 @@ def convergence_figure(rows: list[dict], x: str) -> bytes:
                 e0 = series[("P2", "2-point Gauss")][0]["error"]
                 ax.loglog(n, e0 * (n / n[0]) ** -4.0, color="0.6", lw=0.8, label="slope -4")
         ax.xaxis.set_minor_formatter(NullFormatter())  # narrow ranges would print overlapping minor labels
+        _label_narrow_log_axis(ax)
         ax.set_title(scene, fontsize=10)
         ax.set_xlabel("run time [s] (best of 3)" if x == "runtime_s" else "elements")
         ax.set_ylabel("error (relative)")
@@ -62,6 +63,15 @@ def convergence_figure(rows: list[dict], x: str) -> bytes:
     title = "error against run time" if x == "runtime_s" else "error against elements"
     fig.suptitle(f"Convergence: {title}")
     return _png(fig)
+
+
+def _label_narrow_log_axis(ax) -> None:
+    """Label 1, 2, 3 and 5 times the decades, as plain numbers, when the x range spans less than
+    two decades: the decade labels alone would leave such an axis with one label or none."""
+    low, high = ax.get_xlim()
+    if low > 0 and high / low < 100:
+        ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 3.0, 5.0)))
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
 
 
 def penalty_figure(rows: list[dict]) -> bytes | None:

@@ -187,7 +187,7 @@ def draw_fe_levels(fig: Figure, rect: Rect, *, levels: Sequence[Mapping], stat: 
     ax = _axes(fig, rect)
     t = [float(lv["runtime_s"]) for lv in levels]
     e = [max(float(lv["discretization_error"]), 1e-16) for lv in levels]
-    ax.loglog(t, e, "o-", color=COLOURS[0], linewidth=1.4, markersize=4)
+    ax.semilogy(t, e, "o-", color=COLOURS[0], linewidth=1.4, markersize=4)
     for lv, ti, ei in zip(levels, t, e, strict=True):
         ax.annotate(f"{lv['elements']} P2", (ti, ei), textcoords="offset points", xytext=(5, 4), fontsize=7)
     if stat:
@@ -201,8 +201,13 @@ def draw_fe_levels(fig: Figure, rect: Rect, *, levels: Sequence[Mapping], stat: 
             loc="upper right",
             framealpha=0.9,
         )
-    ax.set_xlim(min(t) / 1.5, max(t) * 1.5)
-    ax.xaxis.set_minor_formatter(NullFormatter())
+    if max(t) > 20 * min(t):  # run times over decades: a log axis, labelled at the decades
+        ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.set_xlim(min(t) / 1.5, max(t) * 1.5)
+    else:  # a linear axis keeps its tick labels over a narrow range
+        pad = max(0.5 * (max(t) - min(t)), 0.1 * max(t))
+        ax.set_xlim(max(min(t) - pad, 0.0), max(t) + pad)
     ax.set_xlabel("run time of one solve of all curves [s]")
     ax.set_ylabel("discretisation error of E_s")
     style_axes(ax)

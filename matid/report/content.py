@@ -16,7 +16,20 @@ import numpy as np
 
 from matid import __version__
 from matid.report.bend import bend_drawings
-from matid.report.figures import Drawing, ExtraFigure, extra_figures, has_plot
+from matid.report.figures import Drawing, ExtraFigure, axis_unit, extra_figures, has_plot
+from matid.report.holds import hold_drawings
+from matid.report.quantities import Cell, info_cell
+from matid.report.summary import (
+    SUMMARY_COLUMNS,
+    SUMMARY_NUMERIC,
+    Note,
+    mark_text,
+    marks_of,
+    merged_names,
+    moduli_rows,
+    notes_of,
+    value_cells,
+)
 from matid.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
 from matid.study import OPTIONAL_KEYS, TEST_KINDS, Test
 
@@ -29,10 +42,11 @@ KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
 }
 PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in params}
 
-FIT_COLUMNS = ("parameter", "value", "stderr", "95 % CI", "unit", "n_points", "method", "warnings")
-FIT_NUMERIC = (False, True, True, True, False, True, False, False)
+FIT_COLUMNS = SUMMARY_COLUMNS[1:]
+FIT_NUMERIC = SUMMARY_NUMERIC[1:]
+MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± stderr", "unit", "check")
 #: Info items not shown in the details table: figures and the arrays the figures are drawn from.
-HIDDEN_INFO = ("figures", "plot_data")
+HIDDEN_INFO = ("figures", "plot_data", "force_time")
 
 
 @dataclass(frozen=True)
@@ -72,7 +86,7 @@ class Block:
     parameters: Table | None
     correlation: Table | None
     fe_notes: tuple[str, ...]  # mesh and solver figures behind the estimates ("E_s: FE P2, ...")
-    info: tuple[tuple[str, str], ...]
+    info: tuple[tuple[str, Cell], ...]  # label, quantity text or a small table
     warnings: tuple[str, ...]
     tests: tuple[TestView, ...]
     drawings: tuple[Drawing, ...]  # figures the report draws from info arrays (bend fits)
@@ -99,6 +113,8 @@ class Report:
     versions: tuple[tuple[str, str], ...]
     units: str
     summary: Table
+    moduli: Table | None  # E and G from the stiffnesses and the section
+    notes: tuple[Note, ...]  # every warning of the fits, numbered as the summary marks them
     failures: tuple[str, ...]
     warnings: tuple[str, ...]
     pending: tuple[str, ...]
@@ -112,6 +128,9 @@ def build_report(result: StudyResult, units: str) -> Report:
     # StudyResult.warnings() also lists failures and pending tests, which the report shows apart
     # (naming the parameter): drop those lines, whatever their wording, by asking without fits.
     apart = set(replace(result, fits=()).warnings())
+    titles = {kind: title for kind, (title, _) in KINDS.items()}
+    notes = notes_of(result, titles)
+    moduli = moduli_rows(result, units)
     return Report(
         study=result.study.name,
         temperature=result.study.temperature or "not given",
@@ -121,7 +140,11 @@ def build_report(result: StudyResult, units: str) -> Report:
         matid_version=result.versions.get("matid", __version__),
         versions=tuple((k, str(v)) for k, v in result.versions.items() if k != "matid"),
         units=units,
-        summary=summary_table(result, doc),
+        summary=summary_table(result, doc, marks_of(result, notes, titles)),
+        moduli=Table(MODULI_COLUMNS, tuple(moduli), (False,) * 3 + (True, True) + (False,) * 2)
+        if moduli
+        else None,
+        notes=tuple(notes),
         failures=tuple(failure_message(f) for f in result.failures),
         warnings=tuple(w for w in result.warnings() if w not in apart),
         pending=tuple(pending_message(p, with_specimen=True) for p in result.pending),
@@ -195,33 +218,9 @@ def format_started(started: str) -> str:
     return f"{text} {when.strftime('%Z') or when.strftime('%z')}".strip()
 
 
-def _stderr(item: Mapping) -> str:
-    stderr, value = item.get("stderr"), item.get("value")
-    if stderr is None:
-        return "—"
-    if value:
-        return f"{fmt(stderr, 2)} ({abs(stderr / value) * 100:.2g} %)"
-    return fmt(stderr, 2)
-
-
-def _ci(item: Mapping) -> str:
-    ci = item.get("ci95")
-    if not ci or ci[0] is None or ci[1] is None:
-        return "—"
-    return f"[{fmt(ci[0])}, {fmt(ci[1])}]"
-
-
-def _param_row(name: str, item: Mapping) -> tuple[str, ...]:
-    return (
-        name,
-        fmt(item["value"]),
-        _stderr(item),
-        _ci(item),
-        str(item["unit"]),
-        str(item["n_points"]),
-        str(item["method"]),
-        "; ".join(item.get("warnings") or ()),
-    )
+def _param_row(name: str, item: Mapping, marks: list[int] | None = None) -> tuple[str, ...]:
+    text = mark_text(marks) if marks is not None else "; ".join(item.get("warnings") or ())
+    return (name, *value_cells(item), str(item["n_points"]), str(item["method"]), text)
 
 
 def _parameters_of(kind: str) -> str:
@@ -247,18 +246,20 @@ def _test_kind(kind: str) -> str:
 # -- tables ----------------------------------------------------------------------------------
 
 
-def summary_table(result: StudyResult, doc: Mapping) -> Table:
-    """Specimen x parameter, from stiffness_json; missing parameters say why."""
+def summary_table(result: StudyResult, doc: Mapping, marks: Mapping[tuple[str, str], list[int]]) -> Table:
+    """Specimen x parameter, from stiffness_json; warnings by number; missing parameters say why."""
     missing = [(f, "could not be fitted") for f in result.failures]
     missing += [(p, "not yet fitted") for p in result.pending]
     rows = []
     for sid, params in doc["specimens"].items():
-        rows += [(sid, *_param_row(name, item)) for name, item in params.items()]
+        for name, item in merged_names(params):
+            numbers = sorted({n for part in name.split(" = ") for n in marks.get((sid, part), [])})
+            rows.append((sid, *_param_row(name, item, numbers)))
         for item, status in missing:
             param = _parameters_of(_test_kind(item.kind))
             if item.specimen == sid and param not in params:
-                rows.append((sid, param, "—", "—", "—", "—", "—", "—", f"{status}: {item.reason}"))
-    return Table(("specimen", *FIT_COLUMNS), tuple(rows), (False, *FIT_NUMERIC))
+                rows.append((sid, param, *("—",) * 8, f"{status}: {item.reason}"))
+    return Table(SUMMARY_COLUMNS, tuple(rows), SUMMARY_NUMERIC)
 
 
 def provenance_table(inputs: tuple[InputFile, ...]) -> Table:
@@ -268,7 +269,8 @@ def provenance_table(inputs: tuple[InputFile, ...]) -> Table:
 
 def _fit_parameters(fit: TestFit, doc: Mapping) -> Table:
     items = doc["specimens"].get(fit.specimen, {})
-    rows = tuple(_param_row(e.parameter, items[e.parameter]) for e in fit.estimates if e.parameter in items)
+    mine = {e.parameter: items[e.parameter] for e in fit.estimates if e.parameter in items}
+    rows = tuple(_param_row(name, item) for name, item in merged_names(mine))
     return Table(FIT_COLUMNS, rows, FIT_NUMERIC)
 
 
@@ -334,7 +336,7 @@ def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str, 
         parameters=None if fit is None else _fit_parameters(fit, doc),
         correlation=None if fit is None else _correlation(fit),
         fe_notes=() if fit is None else fe_notes(fit),
-        info=() if fit is None else _info(fit),
+        info=() if fit is None else _info(fit, units),
         warnings=() if fit is None else tuple(fit.warnings),
         tests=tuple(_test_view(t, result.inputs) for t in tests),
         drawings=drawings,
@@ -347,14 +349,16 @@ def _drawings(fit: TestFit | None, units: str) -> tuple[tuple[Drawing, ...], tup
     if fit is None:
         return (), ()
     try:
-        return tuple(bend_drawings(fit, units)), ()
+        return (*bend_drawings(fit, units), *hold_drawings(fit, units)), ()
     except (KeyError, TypeError, ValueError, IndexError) as exc:  # malformed plot data: say so, go on
-        return (), (ExtraFigure("Three-point bend figures", None, f"{type(exc).__name__}: {exc}"),)
+        return (), (ExtraFigure("Figures from the fit data", None, f"{type(exc).__name__}: {exc}"),)
 
 
-def _info(fit: TestFit) -> tuple[tuple[str, str], ...]:
+def _info(fit: TestFit, units: str) -> tuple[tuple[str, Cell], ...]:
     shown = [e.extra["fe"] for e in fit.estimates if isinstance(e.extra.get("fe"), Mapping)]
-    rows = []
+    x, y = axis_unit(fit.x_label, units), axis_unit(fit.y_label, units)
+    axes = {"x": (x.unit, x.factor), "y": (y.unit, y.factor)}
+    rows: list[tuple[str, Cell]] = []
     for key, value in fit.info.items():
         if key in HIDDEN_INFO or key == "fe" and value in shown:  # fe: under the parameters already
             continue
@@ -363,7 +367,7 @@ def _info(fit: TestFit) -> tuple[tuple[str, str], ...]:
         elif key == "held_stiffness_propagation" and isinstance(value, Mapping):
             rows.append(("held stiffness propagation", format_held(value) or "none"))
         else:
-            rows.append((str(key).replace("_", " "), format_value(value)))
+            rows.append(info_cell(str(key), value, units, axes))
     return tuple(rows)
 
 
@@ -387,7 +391,7 @@ def format_fe(fe: Mapping) -> str:
         parts.append(f"{format_value(fe['rod_solves'])} rod solves")
     if isinstance(fe.get("runtime_s"), (int, float)):
         parts.append(f"run time {format_runtime(fe['runtime_s'])}")
-    known = {"element", "elements", "discretization_error", "runtime_s", "rod_solves"}
+    known = {"element", "elements", "discretization_error", "runtime_s", "rod_solves", "levels"}
     parts += [f"{k.replace('_', ' ')} {format_value(v)}" for k, v in fe.items() if k not in known]
     return ", ".join(parts)
 

@@ -29,8 +29,8 @@ Extra figures: the ``TestFit.info["figures"]`` hook
 Drawings
     Figures the report draws itself from arrays a fitter leaves in ``info`` (the bend
     figures of :mod:`matid.report.bend`) are :class:`Drawing` objects: a function that draws
-    into a rectangle of a Figure, rendered to PNG for the HTML page and as vectors on the PDF
-    page, like the fit plot.
+    into a rectangle of a Figure, rendered once to PNG (:mod:`matid.report.images`) and placed on
+    the HTML page and the PDF page alike.
 """
 
 from __future__ import annotations
@@ -76,6 +76,25 @@ class AxisUnit:
     label: str  # the label to print
     factor: float  # multiply SI data by this
     kept_si: str | None = None  # the SI unit left unconverted in a cgs report
+    unit: str = ""  # the unit printed in the label
+
+
+#: Units shown with a smaller prefix when the data are small: (unit, below this peak, prefixed, factor).
+#: Lengths are always in mm, like the other figures of the report.
+PREFIXES: tuple[tuple[str, float, str, float], ...] = (
+    ("m", float("inf"), "mm", 1e3),
+    ("cm", float("inf"), "mm", 10.0),
+    ("N m", 0.1, "mN m", 1e3),
+    ("N m^2", 1e-2, "N mm^2", 1e6),
+    ("N", 1e-2, "mN", 1e3),
+)
+
+
+def _prefixed(name: str, unit: str, factor: float, peak: float | None) -> AxisUnit:
+    for base, below, prefixed, scale in PREFIXES:
+        if unit == base and (peak is None and below == float("inf") or peak is not None and peak < below):
+            return AxisUnit(f"{name} [{prefixed}]", factor * scale, None, prefixed)
+    return AxisUnit(f"{name} [{unit}]", factor, None, unit)
 
 
 @dataclass(frozen=True)
@@ -131,18 +150,26 @@ def quiet_legend(ax, *args, **kwargs):
     return legend
 
 
-def axis_unit(label: str, units: str) -> AxisUnit:
-    """Convert an SI axis label ``"name [unit]"`` to the report's unit system."""
+def axis_unit(label: str, units: str, peak: float | None = None) -> AxisUnit:
+    """Convert an SI axis label ``"name [unit]"`` to the report's unit system.
+
+    With ``peak`` (the largest magnitude of the SI data), small torques and stiffnesses get a
+    prefixed unit (mN m, N mm^2) so that ticks read without a power of ten; lengths are mm.
+    """
     match = re.fullmatch(r"(.*?)\s*\[([^\]]*)\]\s*", label)
-    if units == "SI" or match is None:
+    if match is None:
         return AxisUnit(label, 1.0)
     name, unit = match.group(1), match.group(2).strip()
     spaced = unit.replace("**", "^").replace("·", " ").replace("*", " ")
     key = " ".join(spaced.split()).replace(" ^", "^").replace("^ ", "^")
+    if units == "SI":
+        return _prefixed(name, key, 1.0, peak)
     if key in CGS_AXIS_UNITS:
         cgs, factor = CGS_AXIS_UNITS[key]
-        return AxisUnit(f"{name} [{cgs}]", factor)
-    return AxisUnit(label, 1.0, None if key in NEUTRAL_UNITS else unit)
+        if cgs == "cm":
+            return _prefixed(name, cgs, factor, peak)
+        return AxisUnit(f"{name} [{cgs}]", factor, None, cgs)
+    return AxisUnit(label, 1.0, None if key in NEUTRAL_UNITS else unit, unit)
 
 
 def has_plot(fit: TestFit) -> bool:
@@ -181,7 +208,8 @@ def draw_fit(
     rect: tuple[float, float, float, float] = (0.11, 0.1, 0.97, 0.97),
 ) -> None:
     """Draw the data + fit axes and the residual axes of ``fit`` into ``rect`` (l, b, r, t)."""
-    x_unit, y_unit = axis_unit(fit.x_label, units), axis_unit(fit.y_label, units)
+    x_unit = axis_unit(fit.x_label, units, _peak(s.x for s in fit.series))
+    y_unit = axis_unit(fit.y_label, units, _peak(s.y for s in fit.series))
     residuals = any(s.y_fit is not None for s in fit.series)
     left, bottom, right, top = rect
     grid = fig.add_gridspec(
@@ -207,13 +235,19 @@ def draw_fit(
     bottom_ax.set_xlabel(x_unit.label, parse_math=False)
     if ax_res is not None:
         ax_res.axhline(0.0, color="#555555", linewidth=0.8)
-        ax_res.set_ylabel("residual", parse_math=False)
+        ax_res.set_ylabel(f"residual [{y_unit.unit}]" if y_unit.unit else "residual", parse_math=False)
         ax_res.grid(True, color="#e6e6e6", linewidth=0.6)
         ax.tick_params(labelbottom=False)
     for axis in filter(None, (ax, ax_res)):
+        axis.ticklabel_format(style="plain", useOffset=False)  # no "1e-5" above an axis
         axis.tick_params(labelsize=8)
         axis.yaxis.label.set_size(9)
         axis.xaxis.label.set_size(9)
+
+
+def _peak(arrays) -> float | None:
+    peaks = [float(np.nanmax(np.abs(a))) for a in arrays if np.size(a)]
+    return max(peaks) if peaks else None
 
 
 def _draw_series(ax, ax_res, series: Series, colour: str, fx: float, fy: float) -> bool:
@@ -226,13 +260,20 @@ def _draw_series(ax, ax_res, series: Series, colour: str, fx: float, fy: float) 
     ax.plot(x[~used], y[~used], mfc="none", mec=EXCLUDED, rasterized=heavy, **marker)
     if series.y_fit is not None:
         y_fit = np.asarray(series.y_fit, dtype=float) * fy
-        if not used.all():
+        if _outside(x, used).any():  # the model carried on over the points past the fit
             ax.plot(x, y_fit, color=colour, linewidth=0.9, linestyle="--", alpha=0.45)
         ax.plot(x, np.where(used, y_fit, np.nan), color=colour, linewidth=1.6)
         residual = y - y_fit
         ax_res.plot(x[used], residual[used], color=colour, alpha=0.75, rasterized=heavy, **marker)
         ax_res.plot(x[~used], residual[~used], mfc="none", mec=EXCLUDED, rasterized=heavy, **marker)
     return not used.all()
+
+
+def _outside(x: np.ndarray, used: np.ndarray) -> np.ndarray:
+    """Points beyond the x range of the fitted points (where a dashed model line shows)."""
+    if not used.any():
+        return np.zeros(x.shape, bool)
+    return (x < x[used].min()) | (x > x[used].max())
 
 
 def _legend(ax, series: Sequence[Series], fitted: bool, excluded: bool) -> None:
@@ -247,12 +288,18 @@ def _legend(ax, series: Sequence[Series], fitted: bool, excluded: bool) -> None:
     if excluded:
         handles.append(Line2D([], [], linestyle="none", marker="o", mfc="none", mec=EXCLUDED))
         labels.append("excluded from fit")
-        if fitted:
+        if fitted and any(_series_outside(s) for s in series):
             handles.append(Line2D([], [], color="#333333", linewidth=0.9, linestyle="--", alpha=0.45))
             labels.append("model outside the fit")
     legend = ax.legend(handles, labels, fontsize=7, ncol=2 if len(labels) > 5 else 1, framealpha=0.9)
     for text in legend.get_texts():
         text.set_parse_math(False)
+
+
+def _series_outside(series: Series) -> bool:
+    if series.y_fit is None or series.used is None:
+        return False
+    return bool(_outside(np.asarray(series.x, float), np.asarray(series.used, bool)).any())
 
 
 def fit_figure(fit: TestFit, units: str = "SI") -> Figure:

@@ -1,8 +1,8 @@
 """Page layout for the PDF report: blocks flowing down A4 pages drawn with matplotlib.
 
 :class:`Flow` places content one block below the other like a word processor: headings,
-wrapped paragraphs, boxes, monospaced tables, plots drawn into a rectangle of the page and PNG
-images. A block that does not fit on the page starts the next one; long tables repeat their
+wrapped paragraphs, boxes, monospaced tables and PNG images (the figures). A block that does
+not fit on the page starts the next one; long tables repeat their
 header, long boxes continue on the next page. Text is measured with the advance widths of
 the glyphs of the DejaVu fonts bundled with matplotlib, so wrapping needs no renderer.
 Positions are in inches from the bottom left of the page.
@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import io
 import textwrap
-from collections.abc import Callable
 from functools import lru_cache
 
 import matplotlib.image
@@ -188,17 +187,18 @@ class Flow:
         self.y -= 0.02
 
     def _row(self, cells: list[list[str]], widths, numeric, size, step, weight="normal") -> None:
-        char = size * MONO_ADVANCE / 72
+        """One table row; each of its lines is drawn as one monospaced string (a text per cell
+        would multiply the PDF's text objects, its slowest part, by the number of columns)."""
         top = self.y
-        x = MARGIN_X
-        for lines, width, right in zip(cells, widths, numeric, strict=True):
-            for k, text in enumerate(lines):
+        for k in range(_height(cells)):
+            parts = []
+            for lines, width, right in zip(cells, widths, numeric, strict=True):
+                text = lines[k] if k < len(lines) else ""
+                parts.append(text.rjust(width) if right else text.ljust(width))
+            line = "  ".join(parts).rstrip()
+            if line:
                 y = top - (k + 1) * step + 0.25 * step
-                if right:
-                    self._text(x + width * char, y, text, size=size, family=MONO, ha="right", weight=weight)
-                else:
-                    self._text(x, y, text, size=size, family=MONO, weight=weight)
-            x += (width + 2) * char
+                self._text(MARGIN_X, y, line, size=size, family=MONO, weight=weight)
         self.y = top - _height(cells) * step
 
     def _shade(self, top: float, bottom: float, colour: str) -> None:
@@ -219,19 +219,6 @@ class Flow:
             )
         )
 
-    def plot(self, draw: Callable[[Figure, tuple[float, float, float, float]], None], height: float) -> None:
-        """Give ``draw`` the rectangle (l, b, r, t, figure fractions) of the next ``height`` inches."""
-        self.need(height)
-        top, bottom = self.y, self.y - height
-        rect = (
-            (MARGIN_X + 0.75) / PAGE[0],
-            (bottom + 0.45) / PAGE[1],
-            1 - (MARGIN_X + 0.1) / PAGE[0],
-            (top - 0.05) / PAGE[1],
-        )
-        draw(self.fig, rect)
-        self.y = bottom
-
     def image(self, png: bytes, *, max_height: float = 5.0) -> None:
         """A PNG scaled to the text width (never enlarged beyond its size at the report's dpi)."""
         px_w, px_h = png_size(png)
@@ -244,7 +231,8 @@ class Flow:
         ax = self.fig.add_axes(
             (left / PAGE[0], (self.y - height) / PAGE[1], width / PAGE[0], height / PAGE[1])
         )
-        ax.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"), interpolation="antialiased")
+        # unresampled: the PDF holds the PNG's own pixels, scaled by the viewer
+        ax.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"), interpolation="none")
         ax.set_axis_off()
         self.y -= height
 

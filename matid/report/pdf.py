@@ -1,9 +1,10 @@
 """The PDF report: A4 portrait pages drawn with matplotlib and saved through PdfPages.
 
 A title page (header, summary table, warnings), then one part per test-kind section (the
-same plots as the HTML report, drawn as vectors, and the same tables) and the provenance.
-Pages are laid out by :class:`matid.report.layout.Flow`. Fonts are embedded as TrueType so
-the text can be searched and extracted.
+same plots as the HTML report and the same tables) and the provenance.
+Pages are laid out by :class:`matid.report.layout.Flow`. Figures are the PNGs rendered once
+for both documents (:mod:`matid.report.images`); fonts are embedded (Type 3 with a ToUnicode
+map), so the text can be searched and extracted.
 """
 
 from __future__ import annotations
@@ -15,17 +16,21 @@ import matplotlib
 from matplotlib.backends.backend_pdf import PdfPages
 
 from matid.report.content import Block, Report, Section, Table, TestView
-from matid.report.figures import Drawing, caption, draw_fit
+from matid.report.images import Image, Images, render_images
 from matid.report.layout import SANS, Flow, wrap
+from matid.report.quantities import Nested
 
 AMBER, AMBER_EDGE, GREY_BOX, GREY_EDGE = "#fff4d6", "#e0a800", "#f3f4f6", "#8a94a6"
-FIT_HEIGHT = 4.3  # inches of a fit plot on the page
-SQUEEZE = 0.85  # a drawing may shrink to this share of of its height to fit the rest of a page
-RC = {"pdf.fonttype": 42, "font.family": SANS, "axes.unicode_minus": False}
+FIT_HEIGHT = 4.6  # inches of a fit plot on the page (its PNG scaled to the text width)
+SQUEEZE = 0.85  # a drawing may shrink to this share of its height to fit the rest of a page
+#: Type 3 fonts: 25 % less PDF time than TrueType (42) subsetting, and the text still extracts
+#: and searches (matplotlib writes a ToUnicode map); measured on the demo report.
+RC = {"pdf.fonttype": 3, "font.family": SANS, "axes.unicode_minus": False}
 
 
-def render_pdf(report: Report) -> bytes:
-    """The report as PDF bytes."""
+def render_pdf(report: Report, images: Images | None = None) -> bytes:
+    """The report as PDF bytes (figures from ``images``, rendered here if not given)."""
+    images = render_images(report) if images is None else images
     buffer = io.BytesIO()
     metadata = {
         "Title": f"{report.study}: matid stiffness report",
@@ -40,7 +45,7 @@ def render_pdf(report: Report) -> bytes:
         flow = Flow(pdf, footer=f"{report.study} · matid {report.matid_version}")
         _title_page(flow, report)
         for section in report.sections:
-            _section(flow, section, report.units)
+            _section(flow, section, images)
         _provenance(flow, report)
         flow.close()
     return buffer.getvalue()
@@ -70,30 +75,41 @@ def _title_page(flow: Flow, report: Report) -> None:
         )
     flow.heading("Summary of stiffnesses", level=1)
     flow.paragraph(
-        f"Values in {report.units} units, as in stiffness.json and stiffness.csv; stderr is the "
-        "standard error (relative in brackets), CI the 95 % confidence interval.",
+        f"Values in {report.units} units, as in stiffness.json and stiffness.csv, rounded to two "
+        "significant figures of the standard error; 95 % confidence interval from-to; "
+        "⚠ [n] points to warning n below the table.",
         size=8,
         color="#5f6368",
     )
     flow.table(report.summary, size=6.5)
-    if report.failures:
-        flow.box("Could not be fitted", list(report.failures), (AMBER, AMBER_EDGE))
-    if report.warnings:
-        flow.box("Warnings from the fits", list(report.warnings), (AMBER, AMBER_EDGE))
-    if not (report.failures or report.warnings):
-        flow.box("Warnings", ["No warnings: every fit completed."], ("#eaf6ec", "#3d9a4b"))
+    count = len(report.notes) + len(report.failures)
+    if count:
+        items = [f"could not be fitted: {line}" for line in report.failures]
+        items += [f"[{n.number}] {n.where}: {n.text}" for n in report.notes]
+        flow.box(f"{count} warning{'s' if count != 1 else ''}", items, (AMBER, AMBER_EDGE))
+    else:
+        flow.box("No warnings", ["Every fit completed without a warning."], ("#eaf6ec", "#3d9a4b"))
     if report.pending:
         flow.box("Not yet fitted (by design, not an error)", list(report.pending), (GREY_BOX, GREY_EDGE))
+    if report.moduli:
+        flow.heading("Material moduli", level=2)
+        flow.paragraph(
+            "E = E_e / A, E = E_b / I and G = E_t / J of the tube section (diameters of the study, "
+            "taken as exact).",
+            size=8,
+            color="#5f6368",
+        )
+        flow.table(report.moduli, size=6.5)
 
 
-def _section(flow: Flow, section: Section, units: str) -> None:
+def _section(flow: Flow, section: Section, images: Images) -> None:
     flow.new_page()
     flow.heading(f"{section.title} ({section.parameters})", level=1)
     for block in section.blocks:
-        _block(flow, section, block, units)
+        _block(flow, section, block, images)
 
 
-def _block(flow: Flow, section: Section, block: Block, units: str) -> None:
+def _block(flow: Flow, section: Section, block: Block, images: Images) -> None:
     if block.plot:
         flow.need(0.45 + FIT_HEIGHT)  # keep the specimen's heading with its fit plot
     flow.heading(f"{section.title}, specimen {block.specimen}", level=2)
@@ -108,9 +124,9 @@ def _block(flow: Flow, section: Section, block: Block, units: str) -> None:
         )
         flow.space(0.1)
     if block.plot:
-        fit = block.fit
-        flow.plot(lambda fig, rect: draw_fit(fig, fit, units, rect=rect), height=FIT_HEIGHT)
-        flow.paragraph(caption(fit, units), size=7.5, color="#5f6368")
+        image = images.plots[block.anchor]
+        flow.image(image.png, max_height=FIT_HEIGHT)
+        flow.paragraph(image.caption, size=7.5, color="#5f6368")
         flow.space(0.08)
     if block.parameters and block.parameters.rows:
         flow.heading("Parameters", level=3)
@@ -121,11 +137,10 @@ def _block(flow: Flow, section: Section, block: Block, units: str) -> None:
     if block.correlation:
         flow.heading("Correlation of the estimates", level=3)
         flow.table(block.correlation)
-    for drawing in block.drawings:
-        _drawing(flow, drawing)
+    for image in images.drawings.get(block.anchor, []):
+        _drawing(flow, image)
     if block.info:
-        flow.heading("Fit window and details", level=3)
-        flow.table(Table(("item", "value"), block.info, (False, False)))
+        _info(flow, block.info)
     if block.warnings:
         flow.box("Warnings of this fit", list(block.warnings), (AMBER, AMBER_EDGE))
     for extra in block.extras:
@@ -140,29 +155,35 @@ def _block(flow: Flow, section: Section, block: Block, units: str) -> None:
             _test(flow, test)
 
 
-def _drawing(flow: Flow, drawing: Drawing) -> None:
-    """A drawing as vectors under its title, its caption below."""
-    caption_lines = wrap(drawing.caption, flow.width, 7.5, mono=False)
-    around = 0.3 + len(caption_lines) * 7.5 * 1.35 / 72  # title and caption, kept with the plot
-    height = drawing.size[1]
-    if around + height > flow.room() >= around + SQUEEZE * height:
-        height = flow.room() - around  # a little lower rather than a new page for want of a few lines
-    flow.need(around + height)
-    flow.heading(drawing.title, level=3)
-    before = set(flow.fig.axes)
-    try:
-        flow.plot(drawing.draw, height=height)
-    except Exception as exc:  # a figure that cannot be drawn must not sink the report
-        for ax in set(flow.fig.axes) - before:
-            ax.remove()
-        flow.box(
-            f"Figure could not be drawn: {drawing.title}",
-            [f"{type(exc).__name__}: {exc}"],
-            (AMBER, AMBER_EDGE),
-        )
+def _drawing(flow: Flow, image: Image) -> None:
+    """A rendered drawing under its title, its caption below."""
+    if not image.png:
+        flow.box(f"Figure could not be drawn: {image.title}", [image.error], (AMBER, AMBER_EDGE))
         return
+    caption_lines = wrap(image.caption, flow.width, 7.5, mono=False)
+    around = 0.3 + len(caption_lines) * 7.5 * 1.35 / 72  # title and caption, kept with the plot
+    height = min(flow.width * image.height / image.width, 5.0)
+    if around + height > flow.room() >= around + SQUEEZE * height:
+        height = flow.room() - around  # a little smaller rather than a new page for want of a few lines
+    flow.need(around + height)
+    flow.heading(image.title, level=3)
+    flow.image(image.png, max_height=height)
     flow.lines(caption_lines, size=7.5, mono=False, color="#5f6368")
     flow.space(0.08)
+
+
+def _info(flow: Flow, info) -> None:
+    """The fit's details: quantities in a two-column table, nested values as small tables after it."""
+    flow.heading("Fit window and details", level=3)
+    plain = tuple((label, value) for label, value in info if not isinstance(value, Nested))
+    if plain:
+        flow.table(Table(("item", "value"), plain, (False, False)))
+    for label, value in info:
+        if isinstance(value, Nested):
+            flow.need(0.6)
+            flow.paragraph(label, size=7.5, weight="bold")
+            numeric = (False, *(True,) * (len(value.header) - 1))
+            flow.table(Table(value.header, value.rows, numeric), size=6.5)
 
 
 def _test(flow: Flow, test: TestView) -> None:

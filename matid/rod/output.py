@@ -78,7 +78,8 @@ def _centreline(ax, sol: Solution, component: int, name: str) -> None:
     z, v = sol.position[:, 2] * MM, sol.position[:, component] * MM
     ax.plot(sol.s * MM, np.zeros_like(sol.s), "--", color="0.6", lw=1, label="straight reference")
     ax.plot(z, v, "-", color="C0", lw=2, label="deformed")
-    ax.plot(z[-1], v[-1], "o", color="C3", ms=5, label="tip (s = L)")
+    end = "rod end (s = L)" if sol.scene.kind == "three_point_bend" else "tip (s = L)"  # a bend has no tip
+    ax.plot(z[-1], v[-1], "o", color="C3", ms=5, label=end)
     ax.set_xlabel("z [mm]")
     ax.set_ylabel(f"{name} [mm]")
     ax.set_aspect("equal", adjustable="datalim")

@@ -1,0 +1,286 @@
+"""Numbers with units for people: the labels and units of a fit's ``info`` items.
+
+A fitter leaves its figures in ``TestFit.info`` under keys such as ``"noise_N"`` or
+``"per_length_slopes"`` (SI values). The report shows each as a labelled quantity in the
+chosen unit system: a key in :data:`INFO_KEYS` has a written label and a quantity kind; any
+other key is read by its suffix (``_N``, ``_s``, ``_m``, ``_mm``, ``_Nm``, ``_Nm2``,
+``_Ns``, ``_rad_per_m``, ``_pct``), or by its name when it is a parameter (``E_s``,
+``E_b_torsion``, ...), and shown with its words as written otherwise. Nested values become
+small tables: a mapping of mappings (or a list of mappings) one row per entry, a mapping of
+numbers two columns. Nothing is printed as a dict dump.
+
+Display units: lengths in mm (both systems, as on the test bench), forces in N or dyn,
+stiffnesses in N m^2 or dyn cm^2, torques in N m or dyn cm, curvatures in 1/m or 1/cm,
+moduli in MPa or dyn/cm^2, times in s.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from matid.results import PARAMETER_KINDS
+
+#: kind -> unit system -> (unit label, factor from SI).
+DISPLAY: dict[str, dict[str, tuple[str, float]]] = {
+    "force": {"SI": ("N", 1.0), "cgs": ("dyn", 1e5)},
+    "bending_stiffness": {"SI": ("N m^2", 1.0), "cgs": ("dyn cm^2", 1e9)},
+    "torque": {"SI": ("N m", 1.0), "cgs": ("dyn cm", 1e7)},
+    "viscosity": {"SI": ("N s", 1.0), "cgs": ("dyn s", 1e5)},
+    "length": {"SI": ("mm", 1e3), "cgs": ("mm", 1e3)},
+    "curvature": {"SI": ("rad/m", 1.0), "cgs": ("rad/cm", 1e-2)},
+    "modulus": {"SI": ("MPa", 1e-6), "cgs": ("dyn/cm^2", 10.0)},
+    "time": {"SI": ("s", 1.0), "cgs": ("s", 1.0)},
+    "percent": {"SI": ("%", 100.0), "cgs": ("%", 100.0)},
+    "1": {"SI": ("", 1.0), "cgs": ("", 1.0)},
+    "count": {"SI": ("", 1.0), "cgs": ("", 1.0)},
+}
+
+
+@dataclass(frozen=True)
+class Key:
+    """How to show one info key: its label, the kind of its values and of its sub-keys."""
+
+    label: str
+    kind: str | None = None  # None: read the values as they are
+    row_kind: str | None = None  # kind of the keys of a mapping value (e.g. free length)
+    row_label: str = "entry"
+
+
+#: Info keys of the fitters, labelled for people.
+INFO_KEYS: dict[str, Key] = {
+    "tau_s": Key("relaxation time τ = sls_eta / sls_k2", "time"),
+    "time_window_s": Key("time range of the data (sampling step, longest run)", "time"),
+    "reduced_chi2": Key("reduced χ² (residuals against the measurement noise)", "1"),
+    "noise_N": Key("residual noise σ", "force", row_label="run"),
+    "n_runs": Key("runs fitted", "count"),
+    "free_lengths_m": Key("free lengths", "length"),
+    "r2": Key("R² of the straight line", "1"),
+    "per_length_slopes": Key("E_b of each free length alone", None, "length", "free length"),
+    "linear_range": Key("end of the linear range", "x", row_label="run"),
+    "excluded_points": Key("points left out of the fit", "count"),
+    "spans_mm": Key("spans", "length"),
+    "shear_share": Key("share of the deflection from shear", "percent"),
+    "E_b_used": Key("E_b held in the E_s fit", "bending_stiffness"),
+    "E_e_used": Key("E_e held in the E_s fit", "force"),
+    "timoshenko_start_N": Key("E_s start value (Timoshenko formula)", "force"),
+    "force_change_for_10pct_E_s_N (linearised)": Key("RMS force change for E_s + 10 % (linearised)", "force"),
+    "sensitivity_to_noise": Key("RMS force change for E_s + 10 % / noise", "1"),
+    "unloading_rows_excluded": Key("unloading rows left out", "count"),
+    "fit_window": Key("fit window", "x"),
+    "levels": Key("mesh levels tried", None, row_label="level"),
+    "intercept": Key("intercept (tare offset)", "y"),
+}
+
+#: Key suffix -> kind, the fitters' convention for SI values (``_mm`` values are in mm).
+SUFFIXES: tuple[tuple[str, str], ...] = (
+    ("_rad_per_m", "curvature"),
+    ("_Nm2", "bending_stiffness"),
+    ("_N_m2", "bending_stiffness"),
+    ("_Nm", "torque"),
+    ("_N_m", "torque"),
+    ("_Ns", "viscosity"),
+    ("_N", "force"),
+    ("_mm", "length_mm"),
+    ("_m", "length"),
+    ("_s", "time"),
+    ("_pct", "percent_value"),
+    ("_MPa", "modulus_MPa"),
+    ("_Pa", "modulus"),
+)
+#: Parameters whose names carry a suffix that is not a unit (E_s_torsion is a force).
+PARAMETER = re.compile(r"^(E_[betse]|sls_k[12]|sls_eta)(?:_[A-Za-z0-9]+)*$")
+
+
+@dataclass(frozen=True)
+class Nested:
+    """A nested info value as a small table."""
+
+    header: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+
+
+Cell = str | Nested
+
+
+def fmt(x: float | None, digits: int = 4) -> str:
+    """A number to ``digits`` significant figures, never ``1e+02`` for a plain hundred."""
+    if x is None or not np.isfinite(x):
+        return "—"
+    text = f"{x:.{digits}g}"
+    if "e" in text:
+        mantissa, exponent = text.split("e")
+        if -3 <= int(exponent) < 6:
+            return f"{float(text):.{max(digits - 1 - int(exponent), 0)}f}"
+        return f"{mantissa}e{int(exponent)}"
+    return text
+
+
+def kind_of(key: str) -> tuple[str, str | None, float]:
+    """(label, kind, factor to SI) of an unknown key, read from its name."""
+    text = str(key).strip()
+    words = text.split(" ", 1)
+    stem, rest = words[0], (" " + words[1] if len(words) > 1 else "")
+    if PARAMETER.match(stem) and stem in PARAMETER_KINDS:
+        return text, PARAMETER_KINDS[stem], 1.0
+    for suffix, kind in SUFFIXES:
+        if stem.endswith(suffix) and len(stem) > len(suffix):
+            base = stem[: -len(suffix)]
+            factor = {"length_mm": 1e-3, "percent_value": 0.01, "modulus_MPa": 1e6}.get(kind, 1.0)
+            kind = {"length_mm": "length", "percent_value": "percent", "modulus_MPa": "modulus"}.get(
+                kind, kind
+            )
+            return words_of(base) + rest, kind, factor
+    if PARAMETER.match(stem):
+        base = PARAMETER.match(stem).group(1)
+        return text, PARAMETER_KINDS.get(base), 1.0  # a parameter keeps its name (E_s_torsion)
+    return words_of(text), None, 1.0
+
+
+def words_of(name: str) -> str:
+    """``"force_change_for_10pct"`` -> ``"force change for 10 %"``; parameter names stay whole."""
+    parts = re.split(r"(E_[betse]|sls_k[12]|sls_eta)", str(name))
+    out = []
+    for part in parts:
+        if PARAMETER.fullmatch(part or "-"):
+            out.append(part)
+        else:
+            out.append(re.sub(r"(\d)pct\b", r"\1 %", part.replace("_", " ")))
+    return re.sub(r"\s+", " ", "".join(out)).strip()
+
+
+def unit_of(kind: str | None, units: str, axes: Mapping[str, tuple[str, float]]) -> tuple[str, float]:
+    """(unit label, factor from SI) of ``kind``; ``x`` / ``y`` are the fit's axis units."""
+    if kind in ("x", "y"):
+        return axes.get(kind, ("", 1.0))
+    if kind in DISPLAY:
+        return DISPLAY[kind][units]
+    return "", 1.0
+
+
+def quantity(value: object, kind: str | None, units: str, axes=None, *, si: float = 1.0) -> str:
+    """A scalar or list of numbers with its unit: ``"30, 45, 60 mm"``; other values as text."""
+    unit, factor = unit_of(kind, units, axes or {})
+    factor *= si
+    if isinstance(value, np.ndarray):
+        value = value.ravel().tolist()
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, (int, float)):
+        text = str(value) if kind == "count" and isinstance(value, int) else fmt(value * factor)
+        return f"{text} {unit}".strip()
+    if isinstance(value, (list, tuple)) and value and all(_number(v) for v in value):
+        items = [fmt(float(v) * factor) for v in value]
+        if len(items) > 8:
+            items = [*items[:6], "…", items[-1], f"({len(items)} values)"]
+        return f"{', '.join(items)} {unit}".strip()
+    if value is None:
+        return "—"
+    return text_of(value)
+
+
+def _number(v: object) -> bool:
+    return isinstance(v, (int, float, np.number)) and not isinstance(v, bool)
+
+
+def text_of(value: object) -> str:
+    """Any other value, readably on one line (mappings as ``a = 1, b = 2``, never braces)."""
+    if isinstance(value, Mapping):
+        return "; ".join(f"{label_of(k)} = {text_of(v)}" for k, v in value.items())
+    if isinstance(value, (list, tuple)):
+        return ", ".join(text_of(v) for v in value) if value else "none"
+    if _number(value):
+        return fmt(float(value))
+    return str(value)
+
+
+def label_of(key: object) -> str:
+    key = str(key)
+    return INFO_KEYS[key].label if key in INFO_KEYS else kind_of(key)[0]
+
+
+def info_cell(key: str, value: object, units: str, axes=None) -> tuple[str, Cell]:
+    """(label, cell) of one info item: a quantity with its unit, or a small table."""
+    spec = INFO_KEYS.get(key)
+    label, kind, si = (spec.label, spec.kind, 1.0) if spec else kind_of(key)
+    if spec and key.endswith("_mm"):
+        si = 1e-3
+    if isinstance(value, Mapping) and value:
+        return label, _mapping_table(value, spec, kind, units, axes)
+    if isinstance(value, (list, tuple)) and value and all(isinstance(v, Mapping) for v in value):
+        return label, _records_table(list(value), units, axes, row_label=spec.row_label if spec else "entry")
+    return label, quantity(value, kind, units, axes, si=si)
+
+
+def _mapping_table(value: Mapping, spec: Key | None, kind: str | None, units: str, axes) -> Nested:
+    row_kind = spec.row_kind if spec else None
+    row_label = spec.row_label if spec else "entry"
+    head = _row_head(row_label, row_kind, units, axes)
+    keys = [quantity(float(k), row_kind, units, axes).split(" ")[0] if row_kind else str(k) for k in value]
+    if all(isinstance(v, Mapping) for v in value.values()):
+        table = _records_table(list(value.values()), units, axes, row_label="")
+        return Nested(
+            (head, *table.header[1:]), tuple((k, *r[1:]) for k, r in zip(keys, table.rows, strict=True))
+        )
+    if kind is not None or row_kind:  # one quantity per entry: the unit goes in the header
+        unit = unit_of(kind, units, axes or {})[0]
+        values = [_bare(quantity(v, kind, units, axes), unit) for v in value.values()]
+        return Nested((head, f"value [{unit}]" if unit else "value"), tuple(zip(keys, values, strict=True)))
+    rows = tuple(
+        (
+            label_of(name),
+            text_of(v) if isinstance(v, Mapping) else quantity(v, kind_of(str(name))[1], units, axes),
+        )
+        for name, v in value.items()
+    )
+    return Nested(("item", "value"), rows)
+
+
+def _bare(text: str, unit: str) -> str:
+    return text[: -len(unit)].strip() if unit and text.endswith(unit) else text
+
+
+def _row_head(row_label: str, row_kind: str | None, units: str, axes) -> str:
+    unit = unit_of(row_kind, units, axes or {})[0] if row_kind else ""
+    return f"{row_label} [{unit}]" if unit else row_label
+
+
+def _records_table(records: Sequence[Mapping], units: str, axes, *, row_label: str) -> Nested:
+    """A list of mappings as one table: a column per key, each with its unit in the header."""
+    columns = list(dict.fromkeys(k for r in records for k in r))
+    kinds = {c: _column_kind(c, columns) for c in columns}
+    header = [row_label] if row_label else [""]
+    for c in columns:
+        unit = unit_of(kinds[c], units, axes or {})[0]
+        name = COLUMNS.get(c) or kind_of(c)[0]
+        header.append(f"{name} [{unit}]" if unit else name)
+    rows = []
+    for i, record in enumerate(records):
+        cells = [str(i + 1)]
+        for c in columns:
+            text = quantity(record.get(c), kinds[c], units, axes)
+            cells.append(_bare(text, unit_of(kinds[c], units, axes or {})[0]))
+        rows.append(tuple(cells))
+    return Nested(tuple(header), tuple(rows))
+
+
+#: Column labels of nested tables (other columns are read by their names).
+COLUMNS = {
+    "discretization_error": "discretisation error (relative)",
+    "n_points": "points",
+    "elements": "elements",
+}
+COLUMN_KINDS = {"discretization_error": "1", "n_points": "count", "elements": "count", "runtime_s": "time"}
+
+
+def _column_kind(column: str, columns: Sequence[str]) -> str | None:
+    if column in COLUMN_KINDS:
+        return COLUMN_KINDS[column]
+    if column == "stderr":  # the standard error of the parameter beside it
+        return next((kind_of(c)[1] for c in columns if c != "stderr" and PARAMETER.match(c)), None)
+    return kind_of(column)[1]

@@ -1,0 +1,185 @@
+"""The summary page: stiffnesses with their warnings beside them, and the material moduli.
+
+Numbers of one row share a scale and a number of decimals set by the standard error (two
+significant figures of it), so a column reads down evenly and no value shows digits its
+error does not support. Values far from 1 carry a power of ten in the unit column
+(``×10⁻⁵ N m^2``). Parameters that are the same estimate under two names (``E_e`` and
+``sls_k1``) share one row. Every warning of the study is numbered once; a parameter's row
+names the numbers of the warnings that concern it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from matid.moduli import MODULUS_OF, agreement, modulus
+from matid.report.quantities import DISPLAY, fmt
+from matid.results import StudyResult
+
+SUMMARY_COLUMNS = (
+    "specimen",
+    "parameter",
+    "value",
+    "± stderr",
+    "rel.",
+    "95 % CI from",
+    "to",
+    "unit",
+    "points",
+    "method",
+    "warnings",
+)
+SUMMARY_NUMERIC = (False, False, True, True, True, True, True, False, True, False, False)
+SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+@dataclass(frozen=True)
+class Note:
+    """One numbered warning of the study."""
+
+    number: int
+    where: str  # "T1 E_b", "T1 three-point bend"
+    text: str
+
+
+def scale_of(value: float, stderr: float | None) -> tuple[int, int]:
+    """(power of ten factored out, decimals) for the numbers of one row."""
+    exponent = math.floor(math.log10(abs(value))) if value else 0
+    power = exponent if exponent < -3 or exponent >= 5 else 0
+    if stderr and math.isfinite(stderr) and stderr > 0:
+        decimals = power - (math.floor(math.log10(stderr)) - 1)  # two significant figures of the error
+    else:
+        decimals = power - (exponent - 4)  # five significant figures
+    return power, min(max(decimals, 0), 9)
+
+
+def scaled(x: float | None, power: int, decimals: int) -> str:
+    if x is None or not math.isfinite(x):
+        return "—"
+    return f"{x / 10.0**power:.{decimals}f}"
+
+
+def power_unit(power: int, unit: str) -> str:
+    return f"×10{str(power).translate(SUPERSCRIPT)} {unit}" if power else unit
+
+
+def value_cells(item: Mapping) -> tuple[str, str, str, str, str, str]:
+    """value, stderr, relative error, CI low, CI high, unit of one stiffness_json entry."""
+    value, stderr, ci = item["value"], item.get("stderr"), item.get("ci95") or (None, None)
+    power, decimals = scale_of(value, stderr)
+    rel = f"{abs(stderr / value) * 100:.2g} %" if stderr and value else "—"
+    return (
+        scaled(value, power, decimals),
+        scaled(stderr, power, decimals),
+        rel,
+        scaled(ci[0], power, decimals),
+        scaled(ci[1], power, decimals),
+        power_unit(power, str(item["unit"])),
+    )
+
+
+def merged_names(params: Mapping[str, Mapping]) -> list[tuple[str, Mapping]]:
+    """Parameters with their entries; one estimate under two names (E_e, sls_k1) once."""
+    out: list[tuple[str, Mapping]] = []
+    for name, item in params.items():
+        twin = next(
+            (i for i, (_, seen) in enumerate(out) if _same(seen, item)),
+            None,
+        )
+        if twin is None:
+            out.append((name, item))
+        else:
+            out[twin] = (f"{out[twin][0]} = {name}", out[twin][1])
+    return out
+
+
+def _same(a: Mapping, b: Mapping) -> bool:
+    keys = ("value", "stderr", "unit", "n_points", "method")
+    return all(a.get(k) == b.get(k) for k in keys)
+
+
+def notes_of(result: StudyResult, kind_titles: Mapping[str, str]) -> list[Note]:
+    """Every warning of the fits, numbered in report order (estimates first, then the fit's own)."""
+    notes: list[Note] = []
+    for fit in result.fits:
+        for est in fit.estimates:
+            notes += [Note(0, f"{fit.specimen} {est.parameter}", w) for w in est.warnings]
+        title = kind_titles.get(fit.kind, fit.kind)
+        notes += [Note(0, f"{fit.specimen} {title.lower()}", w) for w in fit.warnings]
+    return [Note(i + 1, n.where, n.text) for i, n in enumerate(notes)]
+
+
+def marks_of(
+    result: StudyResult, notes: list[Note], kind_titles: Mapping[str, str]
+) -> dict[tuple[str, str], list[int]]:
+    """(specimen, parameter) -> numbers of its notes (a fit's own notes go to all its parameters)."""
+    marks: dict[tuple[str, str], list[int]] = {}
+    by_where = {}
+    for note in notes:
+        by_where.setdefault(note.where, []).append(note.number)
+    for fit in result.fits:
+        general = by_where.get(f"{fit.specimen} {kind_titles.get(fit.kind, fit.kind).lower()}", [])
+        for est in fit.estimates:
+            own = by_where.get(f"{fit.specimen} {est.parameter}", [])
+            marks[(fit.specimen, est.parameter)] = [*own, *general]
+    return marks
+
+
+def mark_text(numbers: list[int]) -> str:
+    return "⚠ " + ", ".join(f"[{n}]" for n in numbers) if numbers else ""
+
+
+# -- material moduli ----------------------------------------------------------------------------
+
+
+def moduli_rows(result: StudyResult, units: str) -> list[tuple[str, ...]]:
+    """specimen, modulus, from, value, ± stderr, unit, note: E and G from the stiffnesses."""
+    unit, factor = DISPLAY["modulus"][units]
+    rows = []
+    geometry = {s.id: s for s in result.study.specimens}
+    for sid, params in result.estimates().items():
+        spec = geometry.get(sid)
+        if spec is None:
+            continue
+        found = {}
+        for source in MODULUS_OF:
+            est = params.get(source)
+            if est is None:
+                continue
+            found[source] = modulus(
+                source,
+                est.value,
+                est.stderr,
+                outer_radius=0.5 * spec.outer_diameter,
+                inner_radius=0.5 * spec.inner_diameter,
+            )
+        for source, m in found.items():
+            note = ""
+            if source == "E_b" and "E_e" in found:
+                note = agreement_text(found["E_e"], m)
+            section = {"E_e": "A", "E_b": "I", "E_t": "J"}[source]
+            power, decimals = scale_of(m.value * factor, None if m.stderr is None else m.stderr * factor)
+            rows.append(
+                (
+                    sid,
+                    m.name,
+                    f"{source} / {section}",
+                    scaled(m.value * factor, power, decimals),
+                    scaled(None if m.stderr is None else m.stderr * factor, power, decimals),
+                    power_unit(power, unit),
+                    note,
+                )
+            )
+    return rows
+
+
+def agreement_text(from_extension, from_bending) -> str:
+    check = agreement(from_extension, from_bending)
+    side = "above" if check.relative_difference > 0 else "below"
+    diff = f"E_b / I is {abs(check.relative_difference) * 100:.2g} % {side} E_e / A"
+    if check.z is None:
+        return diff + " (no standard error to compare with)"
+    verdict = "agree" if check.agree else "differ"
+    return f"{diff}: {fmt(check.z, 2)} combined standard errors, the two {verdict} (diameters taken as exact)"
