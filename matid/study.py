@@ -327,7 +327,7 @@ def _specimen(source: Path, index: int, entry: dict) -> Specimen:
 def _test(source: Path, index: int, entry: dict, ids: set[str]) -> Test:
     where = f"[[test]] #{index + 1}"
     kind = entry.get("kind")
-    if kind not in TEST_KINDS:
+    if not isinstance(kind, str) or kind not in TEST_KINDS:
         hint = nearest(str(kind), list(TEST_KINDS))
         raise DataError(
             f"{where}: kind must be one of {', '.join(TEST_KINDS)}, got {bounded_text(kind, 80)!r}{hint}",

@@ -61,7 +61,7 @@ def test_readme_notebook_session_runs(session):
     assert "['T1']" in printed
     table = ns["table"]
     assert isinstance(table, pd.DataFrame)
-    assert set(table.parameter) == {"E_b", "E_t"}
+    assert set(table.parameter) == {"E_b", "E_t", "E_s_torsion"}  # E_s_torsion follows from E_t
     out = cwd / "reports" / "example"
     names = {Path(p).name for p in ns["paths"]}
     assert names == {"report.html", "report.pdf", "stiffness.csv", "stiffness.json", "stiffness.xlsx"}

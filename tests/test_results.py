@@ -59,11 +59,15 @@ def bending_study(folder: Path) -> Path:
 
 @pytest.fixture(scope="module")
 def warned(tmp_path_factory):
-    """A fitted small study with both warnings, and a requested window on the torsion tests."""
+    """A fitted small study with both warnings, and a requested window (twist <= 1 rad) on the torsion tests.
+
+    The window keeps 9 of 25 rows per file: enough for the per-file tare offset the torsion fit estimates
+    (a window of 0.05 rad keeps one row per file, and the fit then fails, as it should).
+    """
     with pytest.MonkeyPatch.context() as mp:
         add_warnings(mp)
         study = load_study(small_study(tmp_path_factory.mktemp("warned")))
-        window = {"twist_angle": (0.0, 0.05)}
+        window = {"twist_angle": (0.0, 1.0)}
         tests = tuple(
             dataclasses.replace(t, window=window) if t.kind == "torsion" else t for t in study.tests
         )
@@ -106,7 +110,7 @@ def test_json_every_parameter_has_warnings_and_window(warned):
     assert params["E_e"]["warnings"] == [FIT_WARNING] and params["E_b"]["warnings"] == []
     assert params["E_t"]["warnings"] == [E_T_WARNING]
     torsion_files = {t.file.name for t in warned.study.tests if t.kind == "torsion"}
-    assert params["E_t"]["window"]["requested"] == {f: {"twist_angle": [0.0, 0.05]} for f in torsion_files}
+    assert params["E_t"]["window"]["requested"] == {f: {"twist_angle": [0.0, 1.0]} for f in torsion_files}
     assert params["E_b"]["window"]["requested"] == {}
     rows_read = sum(f.n_rows for f in warned.inputs if f.path.name in torsion_files)
     assert params["E_t"]["window"]["rows_read"] == rows_read
@@ -141,7 +145,9 @@ def test_terminal_lists_warnings_and_strict_exits_1(tmp_path, monkeypatch):
     study = small_study(tmp_path / "study")
     code, out, _ = run(["fit", str(study), "--out", str(tmp_path / "a"), "--quiet"])
     assert code == 0, out
-    tail = out.split("warnings (2):", 1)[1]  # at the end of the run, before the paths
+    tail = out.split("warnings (3):", 1)[
+        1
+    ]  # extension, E_t and E_s_torsion (from E_t): at the end of the run, before the paths
     assert f"T1 extension: {FIT_WARNING}" in tail and f"T1 E_t: {E_T_WARNING}" in tail
     assert tail.index(E_T_WARNING) < tail.index("outputs:")
     code, _, _ = run(["fit", str(study), "--out", str(tmp_path / "b"), "--quiet", "--strict"])

@@ -358,3 +358,19 @@ def test_long_note_is_truncated_and_marked(tmp_path):
     study = load_study(write_study(tmp_path, with_test_keys(f'note = "{"x" * 1_000_000}"')))
     assert len(study.tests[0].note) < 2100
     assert study.tests[0].note.endswith("[... truncated]")
+
+
+@pytest.mark.parametrize("value", ['["torsion"]', '{ v = "torsion" }', "[1, 2]", "3"])
+def test_kind_of_the_wrong_type_is_a_data_error(tmp_path, value):
+    # Found by the fuzz run: a list or table as kind escaped as TypeError (exit 3).
+    import shutil
+
+    import matid.example as example
+
+    src = Path(example.__file__).parent
+    shutil.copytree(src, tmp_path / "s")
+    toml = tmp_path / "s" / "study.toml"
+    text = toml.read_text(encoding="utf-8")
+    toml.write_text(text.replace('kind = "torsion"', f"kind = {value}", 1), encoding="utf-8")
+    with pytest.raises(DataError, match="kind must be one of"):
+        load_study(toml)
