@@ -22,6 +22,7 @@ CSV symlink loops, a constant force column in a three-point-bend CSV (tests/test
 from __future__ import annotations
 
 import contextlib
+import copy
 import io
 import json
 import os
@@ -269,7 +270,7 @@ def toml_mutation(draw, doc: dict):
     name, table = draw(st.sampled_from(tables))
     key = draw(st.sampled_from(sorted(table)))
     if what == "value":
-        table[key] = draw(st.sampled_from(VALUES).filter(lambda v: _allowed_value(key, v)))
+        table[key] = draw(st.sampled_from(VALUES).filter(lambda v: _allowed_value(key, v)).map(copy.deepcopy))
     elif what == "drop":
         del table[key]
     elif what == "add":
@@ -279,10 +280,12 @@ def toml_mutation(draw, doc: dict):
         table[new] = draw(
             st.sampled_from(
                 [True, False, 1, "yes", {"force": "Load"}, ["force"], {"force": "kN"}, "gbk", "x"]
-            )
+            ).map(copy.deepcopy)
         )
     elif what == "type":
-        table[key] = draw(st.sampled_from([[table[key]], {"v": table[key]}, 1, 1.5, True, -7]))
+        table[key] = draw(
+            st.sampled_from([[copy.deepcopy(table[key])], {"v": copy.deepcopy(table[key])}, 1, 1.5, True, -7])
+        )
     elif what == "table":
         op = draw(
             st.sampled_from(["no_study", "no_specimen", "dup_specimen", "no_tests", "dup_test", "scalar"])
@@ -351,19 +354,24 @@ def scene_cases(draw):
         keys = sorted(table) or ["x"]
         key = draw(st.sampled_from(keys))
         if what == "value":
-            table[key] = draw(st.sampled_from(VALUES + [100_000_000, 5, 1e-300, "1e400 mm", "20 mT", "-1 N"]))
+            extra_values = [100_000_000, 5, 1e-300, "1e400 mm", "20 mT", "-1 N"]
+            table[key] = draw(st.sampled_from(VALUES + extra_values).map(copy.deepcopy))
         elif what == "drop" and key in table:
             del table[key]
         elif what == "add":
             new = draw(
                 st.sampled_from(["elements", "tolerance", "rigid", "segment", "magnet", "zz", "scene"])
             )
-            table[new] = draw(
-                st.sampled_from([0, 4, 10**8, -3, 1e-30, 0.5, "false", True, [{"a": 1}], "x", []])
+            table[new] = draw(  # .map(deepcopy): a drawn list is never shared (no cyclic documents)
+                st.sampled_from([0, 4, 10**8, -3, 1e-30, 0.5, "false", True, [{"a": 1}], "x", []]).map(
+                    copy.deepcopy
+                )
             )
         elif what == "vector":
             table[key] = draw(
-                st.sampled_from([["1 N"], ["1 N", "2 N", "3 N", "4 N"], ["1e308 N"] * 3, [[1, 2, 3]]])
+                st.sampled_from([["1 N"], ["1 N", "2 N", "3 N", "4 N"], ["1e308 N"] * 3, [[1, 2, 3]]]).map(
+                    copy.deepcopy
+                )
             )
         else:
             target = draw(
