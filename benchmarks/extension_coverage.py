@@ -22,19 +22,11 @@ import numpy as np
 
 from matid import study
 from matid.fits.extension import fit_extension, sls_ramp
+from matid.fits.stats import ar1_noise
 from matid.ingest import Measurement, Table
 
 K1, K2, ETA = 50.0, 30.0, 300.0
 TAU = ETA / K2
-
-
-def ar1(rng, n: int, phi: float) -> np.ndarray:
-    e = rng.normal(size=n) * np.sqrt(1.0 - phi**2)
-    out = np.empty(n)
-    out[0] = rng.normal()
-    for i in range(1, n):
-        out[i] = phi * out[i - 1] + e[i]
-    return out
 
 
 def runs(seed: int, phi: float) -> list[Measurement]:
@@ -44,7 +36,7 @@ def runs(seed: int, phi: float) -> list[Measurement]:
         t = np.linspace(0.0, duration, 400)
         eps = 0.05 * t / duration
         force = sls_ramp(t, 0.05 / duration, K1, K2, ETA)
-        noise = ar1(rng, t.size, phi) if phi else rng.normal(size=t.size)
+        noise = ar1_noise(rng, t.size, phi) if phi else rng.normal(size=t.size)
         force = force + 0.003 * force.max() * noise
         test = study.Test("extension", "T1", Path(f"r{i}.csv"), {"gauge_length": 0.05})
         out.append(

@@ -13,6 +13,7 @@ from scipy.optimize import brentq
 from matid import study
 from matid.errors import DataError, FitError
 from matid.fits.linear import bending_torque, fit_bending, fit_torsion, linear_range, magnet_torque
+from matid.fits.stats import ar1_noise
 from matid.ingest import Measurement, Table
 
 E_B = 2.0e-4  # N m^2
@@ -245,16 +246,6 @@ def test_torsion_stiffening_onset_and_unequal_noise_is_unbiased():
 
 
 # --------------------------------------------------------------------------- real-data artefacts
-
-
-def ar1_noise(rng, n: int, phi: float) -> np.ndarray:
-    """Stationary AR(1) noise of unit marginal sd."""
-    e = rng.normal(size=n) * np.sqrt(1.0 - phi**2)
-    out = np.empty(n)
-    out[0] = rng.normal()
-    for i in range(1, n):
-        out[i] = phi * out[i - 1] + e[i]
-    return out
 
 
 def torsion_record(rng, *, n=400, offset=0.0, noise=0.003, phi=0.0, sign=1.0, curve=None, window=None):

@@ -6,16 +6,7 @@ import numpy as np
 import pytest
 
 from matid.fits import stats as st
-
-
-def ar1_noise(rng, n: int, phi: float) -> np.ndarray:
-    """Stationary AR(1) noise of unit marginal sd."""
-    e = rng.normal(size=n) * np.sqrt(1.0 - phi**2)
-    out = np.empty(n)
-    out[0] = rng.normal()
-    for i in range(1, n):
-        out[i] = phi * out[i - 1] + e[i]
-    return out
+from matid.fits.stats import ar1_noise
 
 
 def line_fit(x, y):

@@ -324,3 +324,17 @@ def variance_factor(
     r = np.asarray(residuals)
     rho = _rho(r, segments, n_params)
     return (1.0 + rho) / (1.0 - rho), _neff(r.size, rho)
+
+
+def ar1_noise(rng: np.random.Generator, n: int, phi: float) -> np.ndarray:
+    """Stationary AR(1) noise of unit marginal sd: e_i = phi e_(i-1) + sqrt(1 - phi^2) w_i.
+
+    For coverage checks of the intervals above (tests and ``benchmarks/``): dense
+    test-machine records have residuals of this kind.
+    """
+    innovations = rng.normal(size=n) * np.sqrt(1.0 - phi**2)
+    out = np.empty(n)
+    out[0] = rng.normal()
+    for i in range(1, n):
+        out[i] = phi * out[i - 1] + innovations[i]
+    return out
