@@ -1,6 +1,6 @@
 """CSV ingest: test-machine exports turned into named columns in SI.
 
-Implements data-contract.md sections 2 and 7. :mod:`matid.ingest_detect` finds
+Implements docs/contract.md sections 2 and 7. :mod:`matid.ingest_detect` finds
 the layout (encoding, delimiter, preamble, header, optional units row); here the
 header cells become columns: ``force [N]``, ``force (N)`` or a units row give
 the unit, the test's ``columns`` maps its own names to the file's header text
@@ -131,7 +131,7 @@ def read_table(
     """Read one export of a test of ``kind`` into a :class:`Table` in SI.
 
     ``columns``, ``units``, ``negate`` and ``encoding`` are the test's keys of
-    data-contract section 7.
+    docs/contract.md section 7.
     """
     if kind not in REQUIRED:
         raise ValueError(f"unknown test kind {kind!r} (one of {', '.join(REQUIRED)})")

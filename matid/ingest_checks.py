@@ -1,4 +1,4 @@
-"""Checks that the data of a test can describe it, at input (data-contract section 7).
+"""Checks that the data of a test can describe it, at input (docs/contract.md section 7).
 
 A value beyond the physical bound of its quantity (:data:`matid.units.PHYSICAL_BOUND`,
 after SI conversion) is a unit or export mistake; loads recorded with the

@@ -1,4 +1,4 @@
-"""The header of an export turned into matid columns (data-contract sections 2 and 7).
+"""The header of an export turned into matid columns (docs/contract.md sections 2 and 7).
 
 A header cell is ``name [unit]`` or ``name (unit)``, or a name with its unit in
 the units row below; the test's ``columns`` maps a matid name to the file's

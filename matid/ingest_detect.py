@@ -1,6 +1,6 @@
 """How a test-machine export is laid out: encoding, delimiter, preamble, header.
 
-data-contract.md section 7. The file is decoded (a BOM, else strict UTF-8,
+docs/contract.md section 7. The file is decoded (a BOM, else strict UTF-8,
 else charset-normalizer's best guess among the encodings lab PCs write, or the
 test's ``encoding``), split into lines, and the header found as the first row
 that is followed (after an optional units row) by numeric rows of as many

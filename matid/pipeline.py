@@ -16,7 +16,7 @@ far (fitted or fixed) for its specimen.
 :func:`write_outputs` renders everything in memory first and then publishes the
 files as one folder in one atomic step (:mod:`matid.publish`), so a failed or
 killed run never leaves a half report or a mix of old and new files
-(data-contract section 5).
+(docs/contract.md section 5).
 """
 
 from __future__ import annotations
@@ -221,7 +221,7 @@ def _fit_kind(
 
 
 def render_outputs(result: StudyResult, *, units: str = "SI") -> dict[str, bytes | str]:
-    """Every output file of data-contract section 4, rendered in memory: name -> content."""
+    """Every output file of docs/contract.md section 4, rendered in memory: name -> content."""
     files: dict[str, bytes | str] = dict(render_report(result, units=units))
     files["stiffness.csv"] = stiffness_csv(result, units)
     files["stiffness.json"] = json.dumps(stiffness_json(result, units), indent=2) + "\n"

@@ -1,6 +1,6 @@
 """Publishing an output folder whole: a reader sees the old report or the new one, never a mix.
 
-``matid fit --out DIR`` writes four files (data-contract section 4) that belong
+``matid fit --out DIR`` writes four files (docs/contract.md section 4) that belong
 together. Writing them one by one, even each atomically, leaves a mix of old
 and new files when the process dies between two of them. Here instead:
 

@@ -1,6 +1,6 @@
 """A study: specimens, tests and fixed stiffnesses, loaded from ``study.toml``.
 
-data-contract.md sections 1 and 7. Every quantity is converted to SI here,
+docs/contract.md sections 1 and 7. Every quantity is converted to SI here,
 once; every problem is a DataError naming the toml file, the entry and the key.
 Unknown keys are errors with the nearest valid key suggested (a misspelled
 ``exlude`` must not silently fit the test); a bare number for a dimensional
@@ -59,7 +59,7 @@ TABLE_KEYS: dict[str, tuple[str, ...]] = {
     "fixed": ("specimen", "parameter", "value"),
 }
 
-#: Parameters a study may fix, with their quantity kinds (data-contract section 3).
+#: Parameters a study may fix, with their quantity kinds (docs/contract.md section 3).
 PARAMETERS: dict[str, str] = {
     "E_e": "force",
     "E_b": "bending_stiffness",
@@ -109,7 +109,7 @@ class Test:
     note: str = ""
     index: int = 0  #: position in study.toml, for messages
     #: matid column name -> (low, high) in SI: only rows inside every range enter the fit
-    #: (data-contract section 7, ``window``); rows outside are shown, marked.
+    #: (docs/contract.md section 7, ``window``); rows outside are shown, marked.
     window: Mapping[str, tuple[float, float]] = field(default_factory=dict, hash=False)
     #: three_point_bend: where deflection is measured, "nose" (crosshead) or "centreline".
     deflection_at: str = "nose"
@@ -191,7 +191,7 @@ class Study:
 
 
 def resolve_study_path(path: str | Path) -> Path:
-    """The study.toml for a folder or toml path (data-contract section 1)."""
+    """The study.toml for a folder or toml path (docs/contract.md section 1)."""
     path = Path(path)
     if path.is_dir():
         path = path / "study.toml"

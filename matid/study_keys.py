@@ -1,6 +1,6 @@
 """Parsing of the section-7 keys of a ``[[test]]`` and of free text, for :mod:`matid.study`.
 
-``columns``, ``units``, ``negate``, ``window`` and ``encoding`` (data-contract
+``columns``, ``units``, ``negate``, ``window`` and ``encoding`` (docs/contract.md
 section 7): each names a data column the test kind uses (:data:`TEST_COLUMNS`),
 checked here with the nearest valid name suggested. Free text is bounded.
 """
@@ -16,7 +16,7 @@ from matid.errors import DataError
 from matid.units import UnitError, si_factor
 
 #: Per test kind, the data columns its fits use and their quantity kinds
-#: (data-contract sections 2 and 7): only these need a known unit.
+#: (docs/contract.md sections 2 and 7): only these need a known unit.
 TEST_COLUMNS: dict[str, dict[str, str]] = {
     "extension": {"time": "time", "force": "force", "elongation": "length", "strain": "strain"},
     "magnetic_bending": {"tip_angle": "angle", "torque": "torque", "field": "field", "field_angle": "angle"},

@@ -5,7 +5,7 @@ Everything inside matid is SI. A quantity in study.toml or a scene is a string
 in its header. Both go through :func:`to_si`, which checks the dimension of the
 unit against what the field needs (``"length"``, ``"force"``, ...).
 
-Machine spellings (data-contract section 7) are taught to pint itself: ``Nm``
+Machine spellings (docs/contract.md section 7) are taught to pint itself: ``Nm``
 (pint alone reads nano-metre), ``Sec``/``secs`` are defined units, and a pint
 preprocessor reads the separators machines put between unit names (``in-lb``,
 ``N.m``, ``in.lbf``, ``N·m``) as products and drops the trailing dot of
@@ -152,7 +152,7 @@ def si_factor(unit: str, kind: str) -> float:
         # A load frame's "lb" is the pound-force: in-lb is a torque, lb a force.
         quantity = quantity * ureg.standard_gravity
     if kind == "moment_per_length" and quantity.check("[current]"):
-        # data-contract section 6 writes per_length = "0.02 A" for "A m^2 per m":
+        # docs/contract.md section 6 writes per_length = "0.02 A" for "A m^2 per m":
         # read a bare current unit as that shorthand.
         return float(quantity.to("A").magnitude)
     if want and not quantity.check(want):

@@ -4,7 +4,7 @@ A :class:`TestSpec` describes one lab test (kind, specimen, file, set-up and the
 columns to write); a :class:`Dialect` says how its CSV looks (delimiter,
 decimal mark, where units go, header spelling, encoding, line endings), so
 one simulated data set can be written the way different test machines export
-(data-contract.md section 2). Values are simulated in SI and converted here,
+(docs/contract.md section 2). Values are simulated in SI and converted here,
 with this module's own unit table, independent of matid's unit parser.
 """
 
@@ -142,7 +142,7 @@ def toml_value(value: object) -> str:
 
 
 def render_toml(head: dict, specimens: list[dict], specs: list[TestSpec], comment: str) -> str:
-    """study.toml (data-contract.md section 1) for a list of specimens and tests."""
+    """study.toml (docs/contract.md section 1) for a list of specimens and tests."""
     out = [f"# {line}" for line in comment.splitlines()]
     out += ["", "[study]"] + [f"{k} = {toml_value(v)}" for k, v in head.items()]
     for specimen in specimens:

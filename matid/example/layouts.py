@@ -2,7 +2,7 @@
 
 ``demo`` is the committed study in ``data/example``: specimens T1 and T2,
 every test kind, its files spelled so that together they exercise the CSV
-contract (data-contract.md section 2). ``alt`` is a study matid was not
+contract (docs/contract.md section 2). ``alt`` is a study matid was not
 written against: other specimen names, lengths, rates, units and CSV
 dialects, files in a subfolder with spaces in their names, a cyclic
 extension run, an excluded run (grip slip), two spans on one specimen; its

@@ -3,7 +3,7 @@
 A bend record is cut in three steps, each shown in the report (``Series.used``
 and ``info["rows_left_out"]``):
 
-1. ``window`` of the test (data-contract section 7, ``Measurement.in_window``).
+1. ``window`` of the test (docs/contract.md section 7, ``Measurement.in_window``).
 2. The **loading branch** ends at the peak force: rows after it (yield,
    fracture, or unloading at falling deflection) are left out. Rows before the
    peak at a deflection not above every earlier one (a crosshead reversal) are

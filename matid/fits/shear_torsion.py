@@ -6,7 +6,7 @@ inner b (physics.md section 7):
     k = 6 (a^2 + b^2)^2 (1 + nu)^2 /
         [7a^4 + 34a^2b^2 + 7b^4 + nu (12a^4 + 48a^2b^2 + 12b^4) + nu^2 (4a^4 + 16a^2b^2 + 4b^4)]
 
-**E_s from torsion** (data-contract section 7): for a transversely isotropic
+**E_s from torsion** (docs/contract.md section 7): for a transversely isotropic
 tube the shear modulus of torsion is that of transverse shear, so
 
     E_s_torsion = k(nu, a, b) A E_t / J,   A = pi (a^2 - b^2),  J = pi/2 (a^4 - b^4).
@@ -106,7 +106,7 @@ def e_s_torsion(E_t: Estimate, specimen: Specimen) -> Estimate:
 
 
 def with_E_s_torsion(fit: TestFit, specimen: Specimen) -> TestFit:
-    """The torsion fit with E_s_torsion added next to E_t (data-contract section 7)."""
+    """The torsion fit with E_s_torsion added next to E_t (docs/contract.md section 7)."""
     E_t = fit.estimate("E_t")
     if E_t is None:
         return fit

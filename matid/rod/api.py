@@ -3,7 +3,7 @@
 Cantilever scenes go to :func:`matid.rod.solve.solve_cantilever` (planar or
 full model); three-point-bend scenes to the half model of
 :class:`matid.rod.bend.BendModel`, whose state at the largest deflection is
-mirrored onto the whole tube in the lab frame of data-contract section 6:
+mirrored onto the whole tube in the lab frame of docs/contract.md section 6:
 before loading the tube lies along +z with s = 0 at one end, mid-span at
 z = L/2, and x points up (the nose pushes towards -x). In the half model
 (scaled by the span S) x is vertical and z runs from mid-span to the free

@@ -1,4 +1,4 @@
-"""Present a solution: ``solution.json`` and ``shape.png`` (data-contract section 6).
+"""Present a solution: ``solution.json`` and ``shape.png`` (docs/contract.md section 6).
 
 Nothing is computed here beyond unit changes for the picture (metres to mm).
 The JSON is SI and extends the contract with ``element``, ``load_steps`` and
@@ -19,7 +19,7 @@ MM = 1e3
 
 
 def solution_json(sol: Solution) -> dict:
-    """The solution as the JSON document of data-contract section 6 (SI, lab frame)."""
+    """The solution as the JSON document of docs/contract.md section 6 (SI, lab frame)."""
     doc = {
         "scene": sol.scene.kind,
         "converged": bool(sol.converged),

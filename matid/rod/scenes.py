@@ -1,4 +1,4 @@
-"""Scenes: a rod, its loads and supports, as data (data-contract section 6).
+"""Scenes: a rod, its loads and supports, as data (docs/contract.md section 6).
 
 ``load_scene`` reads a scene TOML into a frozen :class:`Scene` in SI; the
 solver (:mod:`matid.rod.solve`) turns it into a :class:`Solution`. A cantilever
@@ -210,7 +210,7 @@ def _short(value: object) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-#: Keys of each scene table (data-contract section 6); any other is a typo to report, not to ignore.
+#: Keys of each scene table (docs/contract.md section 6); any other is a typo to report, not to ignore.
 TABLE_KEYS = {
     "rod": {"length", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "precurvature", "stiffness"},
     "segment": {"from", "to", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "rigid"},
@@ -349,7 +349,7 @@ def _stiffness_from_json(ref: dict, root: Path | None) -> dict:
     return out
 
 
-#: Top-level keys of a scene file (data-contract section 6); anything else is a typo to report.
+#: Top-level keys of a scene file (docs/contract.md section 6); anything else is a typo to report.
 SCENE_KEYS = {
     "scene",
     "elements",

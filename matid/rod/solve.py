@@ -37,7 +37,7 @@ MIXED = {PLANAR: True, FULL: True}
 
 @dataclass(frozen=True)
 class Solution:
-    """Static equilibrium of a scene, SI, lab frame (data-contract section 6)."""
+    """Static equilibrium of a scene, SI, lab frame (docs/contract.md section 6)."""
 
     scene: Scene
     model: str
