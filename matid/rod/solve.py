@@ -144,28 +144,13 @@ def breaks(scene: Scene) -> tuple[float, ...]:
     return tuple(sorted({p / L for p in points}))
 
 
-def solve_cantilever(
-    scene: Scene,
-    *,
-    elements: int | None = None,
-    model: str = "auto",
-    variant: str = kin.NORMALISED,
-    c_u: float | None = None,
-    element: str = "P2",
-    intorder: int | None = None,
-    first_step: float = 1.0,
-) -> Solution:
-    """Static equilibrium of a clamped rod (raises ConvergenceError, never returns a failed state)."""
-    return solve_cantilever_state(
-        scene,
-        elements=elements,
-        model=model,
-        variant=variant,
-        c_u=c_u,
-        element=element,
-        intorder=intorder,
-        first_step=first_step,
-    )[0]
+def solve_cantilever(scene: Scene, **options) -> Solution:
+    """Static equilibrium of a clamped rod (raises ConvergenceError, never returns a failed state).
+
+    ``options`` are those of :func:`solve_cantilever_state` (``elements``, ``model``,
+    ``variant``, ``c_u``, ``element``, ``intorder``, ``first_step``, ``start``).
+    """
+    return solve_cantilever_state(scene, **options)[0]
 
 
 def solve_cantilever_state(
