@@ -9,16 +9,13 @@ Usage (from the repository root; a few minutes each on 2 busy cores):
 from __future__ import annotations
 
 import argparse
-import json
-import platform
 import sys
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
 from ccx_tube3d import TubeParams, run  # noqa: E402
-
-HERE = Path(__file__).parent
+from results_io import save  # noqa: E402
 
 
 def main(argv=None) -> None:
@@ -34,12 +31,7 @@ def main(argv=None) -> None:
     name = f"tube3d_S{a.span:g}_Ri{a.Ri:g}_E{a.E:g}_L{a.level:g}{a.tag}"
     t0 = time.time()
     out = run(p, Path(a.work) / name)
-    out["runtime_s"] = time.time() - t0
-    out["machine"] = {"platform": platform.platform(), "processor": platform.processor(), "threads": 2}
-    out["rows"] = [{k: float(v) for k, v in r.items()} for r in out["rows"]]
-    (HERE / "results").mkdir(exist_ok=True)
-    (HERE / "results" / f"{name}.json").write_text(json.dumps(out, indent=1))
-    print(name, out["ccx_rc"], len(out["rows"]), f"{out['runtime_s']:.0f} s")
+    save(name, out, t0)
 
 
 if __name__ == "__main__":
