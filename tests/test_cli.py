@@ -153,9 +153,14 @@ def test_demo_recovers_the_ground_truth(demo_run):
     for sid, expected in truth.items():
         assert fitted[sid]["E_e"]["value"] == pytest.approx(expected["E_e"], rel=0.005)
         assert fitted[sid]["E_b"]["value"] == pytest.approx(expected["E_b"], rel=0.005)
-        low, high = fitted[sid]["E_s"]["ci95"]  # bend data from the rod model at 96 elements
-        assert fitted[sid]["E_s"]["value"] == pytest.approx(expected["E_s"], rel=0.01)
-        assert fitted[sid]["E_s"]["method"] == "cosserat-fe" and low < expected["E_s"] < high
+        E_s = fitted[sid]["E_s"]
+        low, high = E_s["ci95"]  # bend data from the rod model at 96 elements
+        assert E_s["method"] == "cosserat-fe" and low < expected["E_s"] < high
+        if sid == "T1":  # centreline data: the rod's own deflection
+            assert E_s["value"] == pytest.approx(expected["E_s"], rel=0.01)
+        else:  # nose travel with a real tube's contact travel: low, and said so first
+            assert E_s["value"] < 0.7 * expected["E_s"]
+            assert E_s["warnings"][0].startswith("E_s is likely too low")
         assert fitted[sid]["E_t"]["value"] == pytest.approx(expected["E_t"], rel=0.01)
 
 

@@ -309,10 +309,15 @@ def test_files_hold_the_ground_truth(request, variant):
             n = setup["n_load"]
             geometry = {k: setup[k] for k in ("span", "specimen_length", "support_radius",
                                               "nose_radius")}  # fmt: skip
-            study = load_study(folder / "study.toml")
-            outer = study.specimen(record["specimen"]).outer_diameter
-            model = forward.bend_force(d, E_b=p["E_b"], E_s=p["E_s"], E_e=p["E_e"],
-                                       outer_diameter=outer, **geometry)  # fmt: skip
+            spec = load_study(folder / "study.toml").specimen(record["specimen"])
+            outer, inner = spec.outer_diameter, spec.inner_diameter
+            E = p["E_e"] / (math.pi / 4 * (outer**2 - inner**2))
+            model = forward.bend_force_nose(d, E_b=p["E_b"], E_s=p["E_s"], E_e=p["E_e"],
+                                            outer_diameter=outer, inner_diameter=inner, E=E,
+                                            **geometry)  # fmt: skip
+            rod = forward.bend_force(d[:n], E_b=p["E_b"], E_s=p["E_s"], E_e=p["E_e"],
+                                     outer_diameter=outer, **geometry)  # fmt: skip
+            assert np.all(model[1:n] < 0.9 * rod[1:n])  # a real tube's contacts: softer than the rod
             assert np.all(np.diff(d[:n]) > 0) and np.all(np.diff(d[n - 1 :]) < 0)
             assert np.mean(force[n:] / model[n:] - 1.0) < -0.02  # hysteresis: unloading is lower
             ratio = _residual_ratio(force[:n], model[:n], 0.003 * np.max(model))
@@ -401,6 +406,26 @@ def test_bend_force_tends_to_the_timoshenko_closed_form():
     with pytest.raises(ValueError, match="span"):
         forward.bend_force(1e-3, E_b=6.5e-5, E_s=21.0, **(geometry | {"span": 0.0}))
 
+
+
+@pytest.mark.parametrize(("span_mm", "rtol"), [(8, 0.12), (20, 0.25)])
+def test_contact_travel_is_the_continuum_tubes(span_mm, rtol):
+    """The demo's local contact travel against the 3D continuum (tests/data/tube3d, nose travel minus
+    centreline deflection, 0.02-0.19 N). The law comes from benchmarks/continuum's own mesh, whose
+    local compliance is 7-11 % above this reference's at 8 mm (the reference under-resolves it by
+    ~15 %); at 20 mm the reference's is 15-19 % lower still, partly the rotation of the support
+    sections, which makes the centreline deflection exceed the rod's nose travel."""
+    rows = json.loads((Path(__file__).parent / "data" / "tube3d" / f"T{span_mm}.json").read_text())["rows"]
+    F = np.array([r["F"] for r in rows])
+    measured = np.array([r["delta"] - r["delta_centroid"] for r in rows]) * 1e-3
+    u = forward.contact_travel(F, outer_diameter=2.4e-3, inner_diameter=1.6e-3, E=50e6)
+    np.testing.assert_allclose(u, measured, rtol=rtol)
+    # dimensional analysis: u depends on F/E only; thinner wall, more travel
+    assert forward.contact_travel(2 * F, outer_diameter=2.4e-3, inner_diameter=1.6e-3, E=100e6) == (
+        pytest.approx(u, rel=1e-12)
+    )
+    thin = forward.contact_travel(F, outer_diameter=2.4e-3, inner_diameter=1.8e-3, E=50e6)
+    assert np.all(thin > 1.5 * u)
 
 def test_truth_override(tmp_path):
     truth = generate(tmp_path, truth={"specimens": {"T1": {"E_b": 8e-5, "E_e": 150.0}}})
