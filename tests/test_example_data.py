@@ -407,7 +407,6 @@ def test_bend_force_tends_to_the_timoshenko_closed_form():
         forward.bend_force(1e-3, E_b=6.5e-5, E_s=21.0, **(geometry | {"span": 0.0}))
 
 
-
 @pytest.mark.parametrize(("span_mm", "rtol"), [(8, 0.12), (20, 0.25)])
 def test_contact_travel_is_the_continuum_tubes(span_mm, rtol):
     """The demo's local contact travel against the 3D continuum (tests/data/tube3d, nose travel minus
@@ -426,6 +425,7 @@ def test_contact_travel_is_the_continuum_tubes(span_mm, rtol):
     )
     thin = forward.contact_travel(F, outer_diameter=2.4e-3, inner_diameter=1.8e-3, E=50e6)
     assert np.all(thin > 1.5 * u)
+
 
 def test_truth_override(tmp_path):
     truth = generate(tmp_path, truth={"specimens": {"T1": {"E_b": 8e-5, "E_e": 150.0}}})

@@ -38,6 +38,9 @@ class TubeParams:
     ring: float = 0.6
     xw: float = 1.6  # roller half length along z
     level: float = 1.0
+    ax: float = 1.0  # extra refinement along the axis (element sizes / ax)
+    wall: float = 1.0  # extra refinement through the wall (nr * wall)
+    circ: float = 1.0  # extra refinement round the circumference (nphi * circ)
     fine: float = 0.15
     coarse: float = 0.6
     nr: int = 2
@@ -87,15 +90,15 @@ def _phi_grid(n: int) -> np.ndarray:
 
 def build(p: TubeParams):
     lv = p.level
-    f, co = p.fine / lv, p.coarse / lv
+    f, co = p.fine / (lv * p.ax), p.coarse / (lv * p.ax)
     xs, L = 0.5 * p.S, 0.5 * p.S + p.overhang
     if xs - 1.5 > 1.2:
         breaks, sizes = [0.0, 1.2, xs - 1.5, xs, xs + 1.5, L], [f, co, f, f, co]
     else:
         breaks, sizes = [0.0, xs, xs + 1.5, L], [f, f, co]
     xc = _refine(_graded(breaks, sizes))
-    rc = _refine(np.linspace(p.Ri, p.Ro, int(round(p.nr * lv)) + 1))
-    pc = _refine(_phi_grid(int(round(p.nphi * lv))))
+    rc = _refine(np.linspace(p.Ri, p.Ro, int(round(p.nr * lv * p.wall)) + 1))
+    pc = _refine(_phi_grid(int(round(p.nphi * lv * p.circ))))
     X, R, PH = np.meshgrid(xc, rc, pc, indexing="ij")
     m = Mesh3()
     tube = m.block("TUBE", np.stack([X, R * np.cos(PH), R * np.sin(PH)], -1))

@@ -4,6 +4,7 @@ Usage (from the repository root; a few minutes each on 2 busy cores):
 
     python benchmarks/continuum/run_3d.py --span 8
     python benchmarks/continuum/run_3d.py --span 8 --Ri 0.9 --tag thin
+    python benchmarks/continuum/run_3d.py --span 8 --ax 2 --tag _ax2   # mesh check
 """
 
 from __future__ import annotations
@@ -24,14 +25,20 @@ def main(argv=None) -> None:
     ap.add_argument("--Ri", type=float, default=0.8)
     ap.add_argument("--E", type=float, default=50.0)
     ap.add_argument("--level", type=float, default=1.0)
+    ap.add_argument("--ax", type=float, default=1.0, help="extra refinement along the axis")
+    ap.add_argument("--wall", type=float, default=1.0, help="extra refinement through the wall")
+    ap.add_argument("--circ", type=float, default=1.0, help="extra refinement round the circumference")
+    ap.add_argument("--etype", default="C3D20")
+    ap.add_argument("--threads", type=int, default=1, help="ccx threads (the machine is shared)")
+    ap.add_argument("--nice", type=int, default=15)
     ap.add_argument("--tag", default="")
     ap.add_argument("--work", default="/tmp/matid_ccx3d")
     a = ap.parse_args(argv)
-    p = TubeParams(S=a.span, Ri=a.Ri, E=a.E, level=a.level)
+    p = TubeParams(S=a.span, Ri=a.Ri, E=a.E, level=a.level, ax=a.ax, wall=a.wall, circ=a.circ, etype=a.etype)
     name = f"tube3d_S{a.span:g}_Ri{a.Ri:g}_E{a.E:g}_L{a.level:g}{a.tag}"
     t0 = time.time()
-    out = run(p, Path(a.work) / name)
-    save(name, out, t0)
+    out = run(p, Path(a.work) / name, threads=a.threads, nice=a.nice)
+    save(name, out, t0, threads=a.threads)
 
 
 if __name__ == "__main__":
