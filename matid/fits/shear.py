@@ -332,7 +332,8 @@ def fit_three_point_bend(
     spans = sorted({b.geometry.span for b in data})
     if fit_E_b and len(spans) < 2:
         raise FitError("fitting E_b jointly with E_s needs bend tests at two or more spans")
-    check = assess(spans, E_b_est.value, specimen, known, nose=nose, local=local_compliance)
+    F_max = max(float(np.max(b.F)) for b in data)
+    check = assess(spans, E_b_est.value, specimen, known, nose=nose, local=local_compliance, max_force=F_max)
     if check.withhold:
         raise FitError(check.withhold)
     out = _fit_adaptive(
