@@ -37,6 +37,10 @@ class TubeParams:
     K: float = 1.0e5
     ring: float = 0.6
     xw: float = 1.6  # roller half length along z
+    roll_dx: float = 0.0  # roller element size along its arc (0: 0.7 x the fine size)
+    roll_dz: float = 0.0  # roller element size along its axis (0: 4 elements over xw)
+    rs_a: tuple = (60.0, 120.0)  # support roller sector (deg from +x about its centre)
+    nose_a: float = 40.0  # nose sector from the bottom point towards +x (deg)
     level: float = 1.0
     ax: float = 1.0  # extra refinement along the axis (element sizes / ax)
     wall: float = 1.0  # extra refinement through the wall (nr * wall)
@@ -102,16 +106,16 @@ def build(p: TubeParams):
     X, R, PH = np.meshgrid(xc, rc, pc, indexing="ij")
     m = Mesh3()
     tube = m.block("TUBE", np.stack([X, R * np.cos(PH), R * np.sin(PH)], -1))
-    nz = max(2, int(round(4 * lv)))
+    nz = int(np.ceil(p.xw / p.roll_dz - 1e-9)) if p.roll_dz else max(2, int(round(4 * lv)))
     zc = _refine(np.linspace(0.0, p.xw, nz + 1))
     nrr = max(2, int(round(2 * lv)))
     blocks = {}
     for name, (cx, cy, a0, a1, rad) in {
-        "SUP": (xs, -p.Ro - p.Rs, 60.0, 120.0, p.Rs),
-        "NOSE": (0.0, p.Ro + p.Rn, 270.0, 310.0, p.Rn),
+        "SUP": (xs, -p.Ro - p.Rs, p.rs_a[0], p.rs_a[1], p.Rs),
+        "NOSE": (0.0, p.Ro + p.Rn, 270.0, 270.0 + p.nose_a, p.Rn),
     }.items():
         th0, th1 = np.deg2rad(a0), np.deg2rad(a1)
-        nth = int(np.ceil((th1 - th0) * rad / (0.7 * f)))
+        nth = int(np.ceil((th1 - th0) * rad / (p.roll_dx or 0.7 * f)))
         rr = _refine(np.linspace(rad - p.ring, rad, nrr + 1))
         tt = _refine(np.linspace(th0, th1, nth + 1))
         RR, TT, ZZ = np.meshgrid(rr, tt, zc, indexing="ij")

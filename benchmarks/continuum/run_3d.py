@@ -29,12 +29,27 @@ def main(argv=None) -> None:
     ap.add_argument("--wall", type=float, default=1.0, help="extra refinement through the wall")
     ap.add_argument("--circ", type=float, default=1.0, help="extra refinement round the circumference")
     ap.add_argument("--etype", default="C3D20")
+    ap.add_argument("--roll-dx", type=float, default=0.0, help="roller element size along the arc (mm)")
+    ap.add_argument("--roll-dz", type=float, default=0.0, help="roller element size along its axis (mm)")
+    ap.add_argument("--rs-a", type=float, nargs=2, default=(60.0, 120.0), help="support roller sector (deg)")
     ap.add_argument("--threads", type=int, default=1, help="ccx threads (the machine is shared)")
     ap.add_argument("--nice", type=int, default=15)
     ap.add_argument("--tag", default="")
     ap.add_argument("--work", default="/tmp/matid_ccx3d")
     a = ap.parse_args(argv)
-    p = TubeParams(S=a.span, Ri=a.Ri, E=a.E, level=a.level, ax=a.ax, wall=a.wall, circ=a.circ, etype=a.etype)
+    p = TubeParams(
+        S=a.span,
+        Ri=a.Ri,
+        E=a.E,
+        level=a.level,
+        ax=a.ax,
+        wall=a.wall,
+        circ=a.circ,
+        etype=a.etype,
+        roll_dx=a.roll_dx,
+        roll_dz=a.roll_dz,
+        rs_a=tuple(a.rs_a),
+    )
     name = f"tube3d_S{a.span:g}_Ri{a.Ri:g}_E{a.E:g}_L{a.level:g}{a.tag}"
     t0 = time.time()
     out = run(p, Path(a.work) / name, threads=a.threads, nice=a.nice)
