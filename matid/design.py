@@ -8,7 +8,7 @@ phi = (S/4E_s)/C, d ln E_s = -d ln C_shear = -d ln C / phi):
 - E_b's uncertainty:    (1 - phi)/phi * sd(E_b)/E_b;
 - force noise:          r / (phi sqrt(n/3)), r = noise sd / largest force, n rows
                         (the slope of n evenly spaced rows through the origin);
-- model form:           delta/phi, delta = 0.005 + 0.2 d_max/S (rod against continuum,
+- model form:           delta/phi, delta = 0.01 + 0.2 d_max/S (rod against continuum,
                         :func:`matid.fits.bend_checks.model_form_variance`).
 
 Nose travel adds the local contact compliance c_loc

@@ -49,7 +49,10 @@ def test_predicted_nose_bias_brackets_the_continuum(span_mm):
 def test_short_spans_with_centreline_qualify_long_spans_do_not():
     options = design.design(TUBE, E_b=E_B, E_e=E_E, precision=0.05)
     centre = {round(1e3 * o.span): o for o in options if o.measurement == "centreline"}
-    assert centre[6].ok and centre[8].ok and not centre[20].ok and not centre[30].ok
+    # 8 mm is marginal (5.1 %): the rod's form error against a tube is 1 % of the compliance or more
+    # (benchmarks/README.md: two 3D continua of this tube, 0.4-0.9 % and 1.3-2.2 %), amplified 1/share
+    assert centre[6].ok and not any(centre[s].ok for s in (10, 15, 20, 30))
+    assert centre[8].rel_sd < 1.1 * 0.05 < centre[10].rel_sd
     shares = [centre[s].share for s in sorted(centre)]
     assert shares == sorted(shares, reverse=True)  # shear matters less as the span grows
     # Timoshenko share with Hutchinson k G A at 8 mm: 0.0736 / (0.0736 + 0.1632)

@@ -44,7 +44,7 @@ WITHHOLD_RATIO = 0.25
 WARN_BIAS = 0.1
 CONSISTENCY_P = 0.01
 #: Model-form compliance uncertainty of the rod against a continuum: floor + slope * d_max/S.
-MODEL_FORM_FLOOR = 0.005
+MODEL_FORM_FLOOR = 0.01
 MODEL_FORM_SLOPE = 0.2
 #: Highest force [N] in the calibration of the local-compliance band (reference tube: E 50 MPa,
 #: wall 0.4 mm), and the load exponent of the local travel, u_local ~ F^n (benchmarks/README.md).
@@ -145,9 +145,12 @@ def model_form_variance(data, E_b: float, info: Mapping, E_s_fit: float, delta: 
 
     The rod model and a continuum differ in compliance by a relative delta that
     grows with the deflection: the support-contact conventions alone differ by
-    0.2-0.4 % at d/S = 1 %, 1-2 % at 5 %, 2-4 % at 10 % (spans 8 and 6 mm), and
-    the tube3d centreline data differ from the rod by 0.4-0.6 % at d/S <= 1 %.
-    So delta = ``MODEL_FORM_FLOOR`` + ``MODEL_FORM_SLOPE`` d_max/S. Since
+    0.2-0.4 % at d/S = 1 %, 1-2 % at 5 %, 2-4 % at 10 % (spans 8 and 6 mm). At
+    d/S = 0.25-1 % the shared tube3d centreline data are stiffer than the rod by
+    0.37-0.85 %, and benchmarks/continuum's 3D model of the same tube (converged
+    to 0.2 % in every mesh direction) by 1.3-2.2 %: two continuum models differ by
+    1.2 % (benchmarks/README.md). So delta = ``MODEL_FORM_FLOOR`` (1 %, which covers
+    the reference and lies between the two) + ``MODEL_FORM_SLOPE`` d_max/S. Since
     d ln E_s = -d ln C / share, the variance is (delta / share)^2, with the
     largest shear share among the tests (from the reference k G A when there is one).
     """
