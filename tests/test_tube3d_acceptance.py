@@ -2,15 +2,19 @@
 
 Runs over every ``T*.json`` in ``../shared/reference/tube3d`` (the shared reference beside
 the repository; CI may hold spans the development copy does not, e.g. 6, 10, 15 and
-30 mm) and every ``*.json`` in ``tests/data/tube3d`` (copies of the reference, and
-spans computed with ``benchmarks/continuum/run_3d.py`` on the mesh that reproduces the
-reference at 8 mm, ``S<span>_bench.json``). All are the same tube: E 50 MPa, nu 0.45,
-R_o 1.2, R_i 0.8 mm, 2 mm rollers; its k G A with Hutchinson's coefficient is 27.17 N.
+30 mm), the copies ``tests/data/tube3d/T*.json`` when the shared folder is absent, and
+our own continuum ``tests/data/tube3d/S<span>_bench.json`` (benchmarks/continuum/run_3d.py
+with the reference's mesh; written by ``fit_tube3d.py --export``). All are the same tube:
+E 50 MPa, nu 0.45, R_o 1.2, R_i 0.8 mm, 2 mm rollers; its k G A with Hutchinson's
+coefficient is 27.17 N.
 
-- Centreline deflection: E_s within 3 % of k G A at spans up to 10 mm; beyond, within
-  3 % or warned "poorly determined" (the shear share of the compliance falls as S^-2,
-  so the rod's small form error against the continuum is amplified as 1 / share).
-  The interval covers k G A at every span.
+- Centreline deflection: the interval covers k G A at every span. On the reference, E_s
+  within 3 % at spans up to 10 mm. Beyond 10 mm, within 3 % or warned "poorly
+  determined": the E_s error is eps / share, eps the continuum's compliance error against
+  the rod (0.4-0.9 % on the reference), and the shear share falls as S^-2. Our own
+  continuum is 1.2 % stiffer than the reference at 8 mm on the same mesh (eps 1.3-2.2 %,
+  benchmarks/README.md), so at 6-10 mm it gives +3.7 to +6.3 %: there only the interval
+  is checked.
 - Nose travel: never a confident wrong E_s. Withheld, or within 10 % with an interval
   that covers k G A, or warned with the reason (the local contact compliance, or that
   E_s is not identifiable at this span) and an interval that covers k G A.
@@ -44,8 +48,8 @@ REASONS = ("E_s is likely too low", "E_s is not identifiable")
 
 def _files() -> list[Path]:
     shared = sorted(SHARED.glob("T*.json")) if SHARED.is_dir() else []
-    local = sorted(p for p in LOCAL.glob("*.json") if not (SHARED / p.name).exists())
-    return shared + local
+    copies = sorted(p for p in LOCAL.glob("T*.json") if not (SHARED / p.name).exists())
+    return shared + copies + sorted(LOCAL.glob("S*_bench.json"))
 
 
 FILES = _files()
@@ -78,10 +82,10 @@ def test_centreline_gives_E_s_within_3_percent(path):
     poor = any("poorly determined" in w for w in est.warnings)
     where = f"{path.name}: E_s {est.value:.3f} N ({100 * error:+.1f} %), {est.ci95}, {est.warnings}"
     assert est.ci95[0] < KGA < est.ci95[1], where
-    if span <= 10.0001e-3:
-        assert abs(error) <= 0.03 and not poor, where
-    else:
+    if span > 10.0001e-3:
         assert abs(error) <= 0.03 or poor, where
+    elif not path.name.endswith("_bench.json"):
+        assert abs(error) <= 0.03 and not poor, where
 
 
 @pytest.mark.parametrize("path", FILES, ids=[p.name for p in FILES])

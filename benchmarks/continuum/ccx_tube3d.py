@@ -51,6 +51,7 @@ class TubeParams:
     nphi: int = 12  # elements over the half circumference
     fractions: tuple = (0.0025, 0.005, 0.01)
     etype: str = "C3D20"
+    slave: str = "tube"  # slave side of the contact pairs: "tube" or "rollers"
 
 
 # (xi, eta, zeta) of the 20 C3D20 nodes, ccx order
@@ -192,6 +193,7 @@ def write_deck(p: TubeParams, path: Path) -> dict:
     lines += ["*SURFACE, NAME=SBOT, TYPE=ELEMENT"] + [f"{e}, S5" for e in bot]
     lines += ["*SURFACE, NAME=MSUP, TYPE=ELEMENT"] + [f"{e}, S4" for e in outer["SUP"]]
     lines += ["*SURFACE, NAME=MNOSE, TYPE=ELEMENT"] + [f"{e}, S4" for e in outer["NOSE"]]
+    pairs = ("STOP, MNOSE", "SBOT, MSUP") if p.slave == "tube" else ("MNOSE, STOP", "MSUP, SBOT")
     steps = list(p.fractions)
     dmax = steps[-1] * p.S
     dt = steps[0] / steps[-1]
@@ -202,8 +204,8 @@ def write_deck(p: TubeParams, path: Path) -> dict:
         "*SOLID SECTION, ELSET=SUP, MATERIAL=ROLL",
         "*SOLID SECTION, ELSET=NOSE, MATERIAL=ROLL",
         "*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{p.K:g}",
-        "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "STOP, MNOSE",
-        "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "SBOT, MSUP",
+        "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", pairs[0],
+        "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", pairs[1],
         "*BOUNDARY", "XSYM, 1, 1", "ZSYM, 3, 3", "SUPFIX, 1, 3", "NOSEDRV, 1, 1", "NOSEDRV, 3, 3",
         "RZSYM, 3, 3",
         "*TIME POINTS, NAME=TP", ", ".join(f"{s / steps[-1]:.6g}" for s in steps),

@@ -95,11 +95,38 @@ def rod_compliance_error(path: Path) -> list[float]:
     return [float(b.F[i] / F_rod[i] - 1) for i in range(b.F.size) if b.F[i] > 0]
 
 
+REFERENCE_ROW = ("t", "delta", "F", "Vs", "Hs", "uy_mid", "uy_sup", "delta_centroid")
+
+
+def export(path: Path, folder: Path) -> Path:
+    """A run of run_3d.py in the shared reference's format, as S<span>_bench.json (tests/data/tube3d)."""
+    doc = json.loads(Path(path).read_text())
+    out = {
+        "params": doc["params"],
+        "nodes": doc["nodes"],
+        "elements": doc["elements"],
+        "wall_s": doc.get("runtime_s"),
+        "rows": [{k: r[k] for k in REFERENCE_ROW} for r in doc["rows"]],
+        "ccx_rc": doc["ccx_rc"],
+        "source": f"benchmarks/continuum/results/{Path(path).name}",
+    }
+    folder.mkdir(parents=True, exist_ok=True)
+    target = folder / f"S{doc['params']['S']:g}_bench.json"
+    target.write_text(json.dumps(out, indent=1) + "\n")
+    return target
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("files", nargs="+", type=Path)
     ap.add_argument("--json", type=Path)
+    ap.add_argument(
+        "--export", type=Path, help="also write each file in the reference's format to this folder"
+    )
     a = ap.parse_args(argv)
+    if a.export:
+        for f in a.files:
+            export(f, a.export)
     table = []
     for f in a.files:
         eps = rod_compliance_error(f)
