@@ -41,6 +41,7 @@ class TubeParams:
     roll_dz: float = 0.0  # roller element size along its axis (0: 4 elements over xw)
     rs_a: tuple = (60.0, 120.0)  # support roller sector (deg from +x about its centre)
     nose_a: float = 40.0  # nose sector from the bottom point towards +x (deg)
+    phi_grade: float = 0.6  # grading of the circumferential grid towards top and bottom (0: uniform)
     level: float = 1.0
     ax: float = 1.0  # extra refinement along the axis (element sizes / ax)
     wall: float = 1.0  # extra refinement through the wall (nr * wall)
@@ -87,10 +88,10 @@ class Mesh3:
         return ids
 
 
-def _phi_grid(n: int) -> np.ndarray:
-    """Corner angles 0..pi, finer at the top and bottom (the contacts)."""
+def _phi_grid(n: int, grade: float = 0.6) -> np.ndarray:
+    """Corner angles 0..pi, finer at the top and bottom (the contacts) by ``grade`` (0: uniform)."""
     s = np.linspace(0.0, 1.0, n + 1)
-    return np.pi * (s - np.sin(2 * np.pi * s) / (2 * np.pi) * 0.6)
+    return np.pi * (s - np.sin(2 * np.pi * s) / (2 * np.pi) * grade)
 
 
 def build(p: TubeParams):
@@ -103,7 +104,7 @@ def build(p: TubeParams):
         breaks, sizes = [0.0, xs, xs + 1.5, L], [f, f, co]
     xc = _refine(_graded(breaks, sizes))
     rc = _refine(np.linspace(p.Ri, p.Ro, int(round(p.nr * lv * p.wall)) + 1))
-    pc = _refine(_phi_grid(int(round(p.nphi * lv * p.circ))))
+    pc = _refine(_phi_grid(int(round(p.nphi * lv * p.circ)), p.phi_grade))
     X, R, PH = np.meshgrid(xc, rc, pc, indexing="ij")
     m = Mesh3()
     tube = m.block("TUBE", np.stack([X, R * np.cos(PH), R * np.sin(PH)], -1))
