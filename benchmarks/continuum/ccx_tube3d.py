@@ -41,6 +41,7 @@ class TubeParams:
     roll_dz: float = 0.0  # roller element size along its axis (0: 4 elements over xw)
     rs_a: tuple = (60.0, 120.0)  # support roller sector (deg from +x about its centre)
     nose_a: float = 40.0  # nose sector from the bottom point towards +x (deg)
+    profile: bool = False  # also print every tube node: the section-mean deflection along the span
     phi_grade: float = 0.6  # grading of the circumferential grid towards top and bottom (0: uniform)
     level: float = 1.0
     ax: float = 1.0  # extra refinement along the axis (element sizes / ax)
@@ -170,6 +171,8 @@ def write_deck(p: TubeParams, path: Path) -> dict:
         "MIDSEC": mid_sec,
         "SUPSEC": sup_sec,
     }
+    if p.profile:
+        sets["TUBEN"] = tube[tube > 0]
     for name, ids in sets.items():
         ids = [int(v) for v in np.ravel(ids) if v > 0]
         lines.append(f"*NSET, NSET={name}")
@@ -217,12 +220,25 @@ def write_deck(p: TubeParams, path: Path) -> dict:
         "*NODE PRINT, NSET=SUPFIX, TOTALS=ONLY, TIME POINTS=TP", "RF",
         "*NODE PRINT, NSET=MIDSEC, TIME POINTS=TP", "U",
         "*NODE PRINT, NSET=SUPSEC, TIME POINTS=TP", "U",
+        *(["*NODE PRINT, NSET=TUBEN, TIME POINTS=TP", "U"] if p.profile else []),
         "*END STEP",
     ]  # fmt: skip
     path.write_text("\n".join(lines) + "\n")
     order = {int(n): i for i, n in enumerate(np.ravel(mid_sec))}
     order_s = {int(n): i for i, n in enumerate(np.ravel(sup_sec))}
-    return {"nodes": len(m.nodes), "elements": eid, "_w": w, "_om": order, "_os": order_s, "_dmax": dmax}
+    out = {"nodes": len(m.nodes), "elements": eid, "_w": w, "_om": order, "_os": order_s, "_dmax": dmax}
+    return out | {"_tube": tube, "_xc": xc, "_wsec": _weights(rc, pc)}
+
+
+def _profile(rows: np.ndarray, tube: np.ndarray, xc: np.ndarray, wsec: np.ndarray) -> list[list[float]]:
+    """[x, area-weighted mean uy] of every section at an element corner along the axis."""
+    uy = {int(r[0]): r[2] for r in rows}
+    out = []
+    for i in range(0, len(xc), 2):
+        ok = tube[i] > 0
+        vals = np.array([uy[int(n)] for n in tube[i][ok]])
+        out.append([float(xc[i]), float(np.sum(vals * wsec[ok]) / np.sum(wsec[ok]))])
+    return out
 
 
 def _mean_uy(rows: np.ndarray, order: dict, w: np.ndarray) -> float:
@@ -266,5 +282,9 @@ def run(p: TubeParams, work: Path, threads: int = 2, nice: int = 10) -> dict:
                 "local_compliance": (delta - (us - um)) / F,
             }
         )
+        if p.profile and "TUBEN:displacements" in d:
+            rows[-1]["profile"] = _profile(
+                d["TUBEN:displacements"], meta["_tube"], meta["_xc"], meta["_wsec"]
+            )
     meta = {k: v for k, v in meta.items() if not k.startswith("_")}
     return {"params": asdict(p), **meta, "ccx_rc": proc.returncode, "rows": rows}

@@ -29,6 +29,7 @@ def main(argv=None) -> None:
     ap.add_argument("--wall", type=float, default=1.0, help="extra refinement through the wall")
     ap.add_argument("--circ", type=float, default=1.0, help="extra refinement round the circumference")
     ap.add_argument("--etype", default="C3D20")
+    ap.add_argument("--profile", action="store_true", help="also store the deflection of every section")
     ap.add_argument("--phi-grade", type=float, default=0.6, help="circumferential grading (0: uniform)")
     ap.add_argument("--slave", default="tube", choices=("tube", "rollers"), help="slave side of the contacts")
     ap.add_argument("--roll-dx", type=float, default=0.0, help="roller element size along the arc (mm)")
@@ -50,6 +51,7 @@ def main(argv=None) -> None:
         etype=a.etype,
         slave=a.slave,
         phi_grade=a.phi_grade,
+        profile=a.profile,
         roll_dx=a.roll_dx,
         roll_dz=a.roll_dz,
         rs_a=tuple(a.rs_a),
