@@ -38,9 +38,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import stats
 
 from matid.errors import ConvergenceError, DataError, FitError
+from matid.fits import bend_centreline
+from matid.fits.bend_centreline import centreline_deflection  # noqa: F401 - public here too
 from matid.fits.bend_checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
 from matid.fits.bend_window import Cut, check_plausible, cut
 from matid.fits.shear_torsion import agreement
@@ -101,21 +103,6 @@ def bend_data(m: Measurement, specimen: Specimen, E_b: float) -> BendData:
     return BendData(m, geometry, dl, Fl, c.used, centreline, c)
 
 
-def centreline_deflection(model: BendModel, path: BendPath) -> np.ndarray:
-    """Mid-span centreline deflection relative to the material sections over the supports (s = S/2).
-
-    From the solved states' public shape (``BendModel.half_state``): x(S/2) - x(0),
-    x up. It differs from the nose travel by the rotation of the support sections
-    (second order: +0.8 % at d/S = 1 % on a 8 mm span).
-    """
-    half = 0.5 * model.geometry.span
-    out = np.zeros(path.deflection.size)
-    for i in range(path.deflection.size):
-        s, x, _, _ = model.half_state(path, i)
-        out[i] = float(np.interp(half, s, x) - x[0])
-    return out
-
-
 def timoshenko_force(d: np.ndarray, S: float, E_b: float, E_s: float) -> np.ndarray:
     """F = d / (S^3/(48 E_b) + S/(4 E_s)), physics.md section 5."""
     return d / (S**3 / (48 * E_b) + S / (4 * E_s))
@@ -135,15 +122,24 @@ def timoshenko_start(data: Sequence[BendData], E_b: float) -> float:
 
 
 class Problem:
-    """Residuals and Jacobian of the bend fit, with the last paths kept for warm starts."""
+    """Residuals and Jacobian of the bend fit, with the paths of every evaluation kept.
+
+    Each evaluation is kept with its paths (a fit makes a handful): returning to an
+    earlier x costs nothing, and the paths of the last x asked for are ``paths``,
+    the warm starts of the next solve. ``dforce[k]``: dF/dp of test k at its rows
+    (for centreline tests at fixed centreline deflection, :mod:`matid.fits.bend_centreline`).
+    """
 
     def __init__(self, data: Sequence[BendData], E_b: float, E_e: float, *, fit_E_b: bool, elements: int):
         self.data, self.E_b, self.E_e, self.fit_E_b = data, E_b, E_e, fit_E_b
         self.models = [BendModel(b.geometry, elements=elements) for b in data]
         self.paths: list[BendPath | None] = [None] * len(data)
+        self.dforce: list[dict | None] = [None] * len(data)
         self.nose = [b.d.copy() for b in data]  # nose travel of the model at each row
-        self.cache: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self.nose_rate: list[tuple | None] = [None] * len(data)  # (E_s, E_b, dn/dE_s, dn/dE_b)
+        self.evaluations: dict[bytes, tuple] = {}
         self.solves = 0
+        self.newton_iterations = 0
         self.cold_runtime_s: float | None = None  # one solve of every curve from scratch
 
     def params(self, x: np.ndarray) -> tuple[float, float]:
@@ -151,8 +147,12 @@ class Problem:
         return E_s, float(np.exp(x[1])) if self.fit_E_b else self.E_b
 
     def evaluate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self.cache is not None and np.array_equal(self.cache[0], x):
-            return self.cache[1], self.cache[2]
+        key = np.asarray(x, float).tobytes()
+        kept = self.evaluations.get(key)
+        if kept is not None:
+            r, J, paths, dforce, nose, rates = kept
+            self.paths, self.dforce, self.nose, self.nose_rate = list(paths), list(dforce), list(nose), list(rates)
+            return r, J
         t0 = time.perf_counter()
         E_s, E_b = self.params(x)
         names = ("E_s", "E_b", "E_e")  # extra back-substitutions on the same factorisation
@@ -160,40 +160,56 @@ class Problem:
         for k, (b, model) in enumerate(zip(self.data, self.models, strict=True)):
             path = self._path(k, b, model, E_b, E_s, names)
             res.append(path.force - b.F)
-            cols = [path.dforce["E_s"] * E_s] + ([path.dforce["E_b"] * E_b] if self.fit_E_b else [])
+            dF = self.dforce[k]
+            cols = [dF["E_s"] * E_s] + ([dF["E_b"] * E_b] if self.fit_E_b else [])
             jac.append(np.column_stack(cols))  # d r / d log p
         r, J = np.concatenate(res), np.vstack(jac)
         if self.cold_runtime_s is None:
             self.cold_runtime_s = time.perf_counter() - t0
-        self.cache = (x.copy(), r, J)
+        self.evaluations[key] = (r, J, list(self.paths), list(self.dforce), list(self.nose), list(self.nose_rate))
         return r, J
 
     def _path(self, k: int, b: BendData, model: BendModel, E_b: float, E_s: float, names) -> BendPath:
         """The solved path at the rows of test k: at the measured nose travel, or for centreline
-        data at the nose travel whose centreline deflection is the measured one (fixed point
-        d <- d * target / centreline(d); converges at the rate of the ~1 % difference).
+        data at the nose travel whose centreline deflection is the measured one.
 
-        The Jacobian neglects how that nose travel moves with the stiffnesses (a
-        second-order effect), which changes the convergence rate only, not the optimum.
+        Centreline: Newton's method on the nose travel of each row, n <- n + (d - c(n)) / (dc/dn),
+        started from the last evaluation's nose travel moved by dn/dp (first order).
         """
+        if not b.centreline:
+            path = self._solve_path(k, model, E_b, E_s, names, self.nose[k])
+            self.dforce[k] = path.dforce
+            return path
+        nose = self.nose[k]
+        if self.nose_rate[k] is not None:
+            E_s0, E_b0, dn_s, dn_b = self.nose_rate[k]
+            nose = np.maximum.accumulate(np.maximum(nose + dn_s * (E_s - E_s0) + dn_b * (E_b - E_b0), 0.0))
         for _ in range(8):
-            path = model.solve(E_b, E_s, self.E_e, self.nose[k], sensitivities=names, start=self.paths[k])
-            self.paths[k] = path
-            self.solves += 1
-            if not b.centreline:
+            path = self._solve_path(k, model, E_b, E_s, names, nose)
+            self.nose[k] = nose
+            c = centreline_deflection(model, path)
+            slope = bend_centreline.nose_slope(model, path)
+            if np.all(np.abs(c - b.d) <= 1e-9 * b.d[-1]):
+                self.dforce[k], dn = bend_centreline.at_fixed_centreline(model, path, E_b, slope)
+                self.nose_rate[k] = (E_s, E_b, dn["E_s"], dn["E_b"])
                 return path
-            dc = centreline_deflection(model, path)
-            if np.all(np.abs(dc - b.d) <= 1e-9 * b.d[-1]):
-                return path
-            ratio = np.where(dc > 0, b.d / np.where(dc > 0, dc, 1.0), 1.0)
-            self.nose[k] = np.maximum.accumulate(self.nose[k] * ratio)
+            if not np.all(slope > 0):
+                break
+            nose = np.maximum.accumulate(np.maximum(nose + (b.d - c) / slope, 0.0))
         raise FitError(
             f"{b.measurement.test.file.name}: the centreline deflection of the model did not match"
         )
 
+    def _solve_path(self, k: int, model: BendModel, E_b: float, E_s: float, names, nose) -> BendPath:
+        path = model.solve(E_b, E_s, self.E_e, nose, sensitivities=names, start=self.paths[k])
+        self.paths[k] = path
+        self.solves += 1
+        self.newton_iterations += path.newton_iterations
+        return path
+
     def sensitivity(self, name: str) -> np.ndarray:
         """dF/dp at the last evaluation for any stiffness, stacked over tests."""
-        return np.concatenate([path.dforce[name] for path in self.paths])
+        return np.concatenate([dF[name] for dF in self.dforce])
 
 
 def _held(known: Mapping[str, Estimate], name: str, specimen: str) -> Estimate:
@@ -206,17 +222,54 @@ def _held(known: Mapping[str, Estimate], name: str, specimen: str) -> Estimate:
     return est
 
 
-def _solve(problem: Problem, x0: np.ndarray) -> optimize.OptimizeResult:
-    fun = lambda x: problem.evaluate(x)[0]  # noqa: E731 - residual and Jacobian share one solve
-    jac = lambda x: problem.evaluate(x)[1]  # noqa: E731
+#: Levenberg-Marquardt stops when its Gauss-Newton step in (log E_s[, log E_b]) is below
+#: XTOL (1 + |x|): the same test as MINPACK's xtol = 1e-9 used before (scipy least_squares).
+XTOL = 1e-9
+MAX_EVALUATIONS = 60
+
+
+def _solve(problem: Problem, x0: np.ndarray) -> np.ndarray:
+    """Levenberg-Marquardt on the log stiffnesses; returns x with the problem's paths at x.
+
+    The residual is nearly linear in log E_s: Gauss-Newton (no damping) converges in
+    3-5 evaluations. Marquardt damping (diag(J^T J)) only after a step that raised the
+    cost. Convergence is read off the Gauss-Newton step predicted at the last
+    evaluation, so no model solve is spent to confirm it (scipy's least_squares spent
+    two per fit: a trial step of 1e-11 and the solve at its best point again).
+    """
+    x = np.asarray(x0, float).copy()
     try:
-        result = optimize.least_squares(fun, x0, jac=jac, method="lm", xtol=1e-9, ftol=1e-12, gtol=1e-12)
+        r, J = problem.evaluate(x)
+        cost, mu = float(r @ r), 0.0
+        for _ in range(MAX_EVALUATIONS):
+            A, g = J.T @ J, J.T @ r
+            scale = np.diag(A).copy()
+            if not (np.all(np.isfinite(A)) and np.all(scale > 0)):
+                raise FitError("E_s least squares: the model force does not depend on the fitted stiffness")
+            newton_step = np.linalg.solve(A, -g)
+            tol = XTOL * (XTOL + float(np.linalg.norm(x)))
+            if float(np.linalg.norm(newton_step)) <= tol:
+                return _at(problem, x)
+            step = newton_step if mu == 0.0 else np.linalg.solve(A + mu * np.diag(scale), -g)
+            r_new, J_new = problem.evaluate(x + step)
+            cost_new = float(r_new @ r_new)
+            if np.isfinite(cost_new) and cost_new <= cost:
+                x, r, J, cost = x + step, r_new, J_new, cost_new
+                mu = 0.0 if mu <= 1e-3 else 0.1 * mu
+            elif float(np.linalg.norm(step)) <= 10 * tol:  # at the cost's round-off: x is the minimum
+                return _at(problem, x)
+            else:
+                mu = max(1e-3, 10.0 * mu)
     except ConvergenceError as exc:
         raise FitError(f"the bend model did not converge during the fit: {exc}") from exc
-    if not result.success or not np.all(np.isfinite(result.x)):
-        raise FitError(f"E_s least squares did not converge: {result.message}")
-    problem.evaluate(result.x)  # the cache and warm-start paths at the solution
-    return result
+    raise FitError(f"E_s least squares did not converge in {MAX_EVALUATIONS} evaluations")
+
+
+def _at(problem: Problem, x: np.ndarray) -> np.ndarray:
+    if not np.all(np.isfinite(x)):
+        raise FitError("E_s least squares did not converge: the estimate is not finite")
+    problem.evaluate(x)  # the paths at the solution (kept: no solve)
+    return x
 
 
 @dataclass
@@ -282,8 +335,7 @@ def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progre
     solves, levels = 0, []
     while True:
         problem = Problem(data, E_b, E_e, fit_E_b=fit_E_b, elements=n)
-        result = _solve(problem, x)
-        x = result.x
+        x = _solve(problem, x)
         r, J = problem.evaluate(x)
         cov, sigma, full = _statistics(r, J, [b.d.size for b in data])
         fe, tried = _fe_error(problem, x, data, E_e, fit_E_b)

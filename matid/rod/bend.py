@@ -68,6 +68,8 @@ class BendPath:
     #: first-order predictor of a warm start at other stiffnesses
     scaled: tuple[float, float] | None = field(repr=False, default=None)
     tangents: list[dict] = field(repr=False, default_factory=list)
+    #: dF/dd along the path [N/m] (at fixed stiffnesses)
+    dforce_dd: np.ndarray | None = field(repr=False, default=None)
     newton_iterations: int = 0
     load_steps: int = 0
     runtime_s: float = 0.0
@@ -169,6 +171,26 @@ class BendSystem:
         dh = np.where(np.arange(ne) < k, 1.0 / k, -1.0 / (ne - k))[:, None, None]
         return disc.residual(geff * dh)[disc.free]
 
+    def load_derivative(self, X: np.ndarray, lam: float) -> np.ndarray:
+        """dR/dlam in closed form: lam moves only the nose centre, c = (rho - lam d_max, 0).
+
+        With n = (r - c)/|r - c|: dg/dlam = n_x d_max and dn/dlam = (I - n n^T)(d_max, 0)/|r - c|,
+        which enters the residual through -G^T lam (zero when the nose vertex stays on the
+        axis, z = 0, as symmetry holds it).
+        """
+        out = np.zeros(X.size)
+        U = self.rod.expand(X[: self.nu])
+        r = U[:2]  # vertex 0: (x, z)
+        c = self.nose(lam).centre
+        dist = max(float(np.hypot(r[0] - c[0], r[1] - c[1])), 1e-300)
+        n = (r - c) / dist
+        dn = (np.array([1.0, 0.0]) - n * n[0]) * self.d_max / dist
+        idx = self.rod.index[:2]
+        ok = idx >= 0
+        out[idx[ok]] = -X[self.nu + 1] * dn[ok]
+        out[self.nu + 1] = -n[0] * self.d_max  # the nose gap row holds -g
+        return out
+
     def stiffness_derivative(self, X: np.ndarray, name: str) -> np.ndarray:
         """dR/dp for a scaled stiffness p of the rod (the residual of that energy term alone)."""
         rod = self.rod
@@ -180,6 +202,13 @@ class BendSystem:
         finally:
             rod.props = saved
         return np.concatenate([R, np.zeros(3)])
+
+    def force_derivative(self, X: np.ndarray, lam: float, dX: np.ndarray) -> float:
+        """Scaled nose force change along a state change dX. The nose vertex stays on the axis
+        (z = 0 by symmetry), so its contact normal is (+-1, 0) whatever X and lam: only the
+        multiplier moves the force."""
+        normal = self.contacts(self.rod.expand(X[: self.nu]), lam)[1][4]
+        return float(2.0 * dX[self.nu + 1] * (-normal[0]))
 
     def force(self, X: np.ndarray, lam: float) -> float:
         """Scaled nose force of the whole tube."""
@@ -255,12 +284,18 @@ class BendModel:
         system = self.system(E_b, E_s, E_e, d_max)
         X = system.initial()
         info, lam = NewtonInfo(), 0.0
-        rec: dict[str, list] = {"X": [], "F": [], "dF": []}
+        rec: dict[str, list] = {"X": [], "F": [], "dF": [], "dFdd": []}
         scaled = (system.rod.rod.E_s, system.rod.rod.E_e)
         tangents: list[dict] = []
+        slope, d_last = None, 0.0  # dX/dd at the last converged point: the predictor of the next
+        curvature = None  # d2X/dd2 from the last two slopes
         for i, target in enumerate(d / d_max):
-            X = self._step(system, X, lam, target, _predict(start, i, scaled), info, d_max)
-            lam = target
+            guess = _predict(start, i, scaled, d[i])
+            if guess is None and slope is not None:
+                h = d[i] - d_last
+                guess = X + slope * h + (0.5 * h * h * curvature if curvature is not None else 0.0)
+            X = self._step(system, X, lam, target, guess, info, d_max)
+            lam, d_last, previous = target, d[i], (slope, d_last)
             self._check(system, X, lam)
             F = system.force(X, lam)
             rec["X"].append(X.copy()), rec["F"].append(F)
@@ -268,6 +303,10 @@ class BendModel:
             rec["dF"].append(
                 _sensitivities(system, X, info.lu, sensitivities, E_s, E_e, F * scale_F, E_b, dX)
             )
+            dX["d"] = slope = info.lu.solve(-system.load_derivative(X, lam)) / d_max
+            if previous[0] is not None and d_last > previous[1]:
+                curvature = (slope - previous[0]) / (d_last - previous[1])
+            rec["dFdd"].append(system.force_derivative(X, lam, slope) * scale_F)
             tangents.append(dX)
         dF = {p: np.array([r[p] for r in rec["dF"]]) for p in sensitivities}
         return BendPath(
@@ -278,6 +317,7 @@ class BendModel:
             states=rec["X"],
             scaled=scaled,
             tangents=tangents,
+            dforce_dd=np.array(rec["dFdd"]),
             newton_iterations=info.iterations,
             load_steps=info.steps,
             runtime_s=time.perf_counter() - t0,
@@ -285,9 +325,14 @@ class BendModel:
 
     def half_state(self, path: BendPath, index: int = -1) -> tuple[np.ndarray, ...]:
         """(s, x, z, theta) of the half model at one path state, SI, sorted by s from mid-span."""
+        return self.half_state_of(path.states[index])
+
+    def half_state_of(self, X: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(s, x, z, theta) of the half model at a state X (see :meth:`half_state`)."""
         S = self.geometry.span
-        system = self.system(1.0, 1.0, 1.0, float(path.deflection[-1]) or 1.0)  # geometry only
-        X = path.states[index]
+        system = self.__dict__.get("_shape_system")
+        if system is None:  # geometry only: built once per model
+            system = self._shape_system = self.system(1.0, 1.0, 1.0, 1.0)
         system.at(X[-1])
         order = np.argsort(system.rod.disc.s_dof)
         x, z, theta = system.rod.expand(X[: system.nu]).reshape(-1, 3)[order].T
@@ -348,8 +393,9 @@ class BendModel:
             )
 
 
-def _predict(start: BendPath | None, i: int, scaled: tuple[float, float]) -> np.ndarray | None:
-    """Warm-start state i: the earlier state plus dX/dp (dp) for the scaled E_s, E_e when known.
+def _predict(start: BendPath | None, i: int, scaled: tuple[float, float], d: float) -> np.ndarray | None:
+    """Warm-start state i: the earlier state plus dX/dp dp for the scaled E_s, E_e and
+    dX/dd dd for the deflection, as far as they are known (first order).
 
     Measured on the E_s fit: Newton from this first-order prediction needs 2 iterations
     per point where the bare earlier state needs 3.
@@ -360,11 +406,9 @@ def _predict(start: BendPath | None, i: int, scaled: tuple[float, float]) -> np.
     if start.scaled is None or i >= len(start.tangents) or not start.tangents[i]:
         return X
     t = start.tangents[i]
-    return X + sum(
-        t[name] * (new - old)
-        for name, new, old in zip(("E_s", "E_e"), scaled, start.scaled, strict=True)
-        if name in t
-    )
+    steps = [(name, new - old) for name, new, old in zip(("E_s", "E_e"), scaled, start.scaled, strict=True)]
+    steps.append(("d", d - start.deflection[i]))
+    return X + sum(t[name] * step for name, step in steps if name in t and step != 0.0)
 
 
 def _sensitivities(system, X, lu, names, E_s, E_e, F, E_b, dX_out: dict | None = None) -> dict[str, float]:
