@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from matid.errors import ConvergenceError, SlipOffError
-from matid.rod.bordered import Bordered
+from matid.rod.bend_system import BendSystem
 from matid.rod.contact import Circle
 from matid.rod.fem import Discretisation
 from matid.rod.models import PLANAR, RodSystem, ScaledRod
@@ -73,160 +73,6 @@ class BendPath:
     newton_iterations: int = 0
     load_steps: int = 0
     runtime_s: float = 0.0
-
-
-class BendSystem:
-    """Residual and tangent of the half-model bend at nose deflection lam * d_max (scaled).
-
-    Unknowns X = (free planar dofs, lam_support, lam_nose, sigma): sigma is the
-    arc length of the support vertex, on which the mesh is built (uniform
-    elements on each side of it). Its equation is h(vertex) = 0: the vertex is
-    the contact section. dR/dsigma is a central difference of the residual on
-    the rescaled mesh (nodal values held), which is smooth in sigma.
-    """
-
-    def __init__(self, rod: RodSystem, model: BendModel, support: Circle, d_max: float):
-        self.rod, self.model, self.support, self.d_max = rod, model, support, d_max
-        self.base = rod.disc
-        self.k = model.support_vertex
-        self.nu = int(rod.disc.free.sum())
-
-    def at(self, sigma: float) -> None:
-        if not 0.0 < sigma < self.model.half:
-            raise NewtonFailure(f"the support contact section left the rod (s = {sigma:.4g} span)")
-        if getattr(self, "_sigma", None) != sigma:
-            self.rod.disc = self.base.moved(self.model.vertices(sigma))
-            self._sigma = sigma
-
-    def nose(self, lam: float) -> Circle:
-        rho = self.model.nose_rho
-        return Circle((rho - lam * self.d_max, 0.0), rho)
-
-    @property
-    def roundoff(self) -> float:
-        return self.rod.roundoff
-
-    def step_size(self, dx: np.ndarray) -> float:
-        """Trust region and convergence on the displacements and sigma (multipliers follow them)."""
-        return float(max(np.max(np.abs(dx[: self.nu])), abs(dx[-1])))
-
-    def contacts(self, U: np.ndarray, lam: float):
-        """[(gap, dofs, grad, hess, normal)] for the support and the nose, each at its vertex."""
-        nodes = U.reshape(-1, 3)
-        out = []
-        for circle, vertex in ((self.support, self.k), (self.nose(lam), 0)):
-            g, grad, hess = circle.vertex_gap(nodes, vertex)
-            out.append((g, vertex * 3 + np.arange(3), grad, hess, grad[:2]))
-        return out
-
-    def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
-        u, mult, sigma = X[: self.nu], X[self.nu : self.nu + 2], X[-1]
-        self.at(sigma)
-        U = self.rod.expand(u)
-        R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
-        index = self.rod.index
-        G = np.zeros((2, self.nu))
-        gaps = np.zeros(2)
-        blocks = []
-        for c, (g, dofs, grad, hess, _) in enumerate(self.contacts(U, lam)):
-            idx = index[dofs]
-            ok = idx >= 0
-            G[c, idx[ok]] = grad[ok]
-            gaps[c] = g
-            blocks.append((dofs, -mult[c] * hess))
-        h, dh = self.support.section(U.reshape(-1, 3), self.k)
-        R_all = np.concatenate([R - G.T @ mult, -gaps, [h]])
-        if not tangent:
-            return R_all, None
-        n = self.nu
-        rows, cols, vals = self.rod._triplets(blocks)
-        K.add_blocks(rows, cols, vals)
-        idx = index[self.k * 3 + np.arange(3)]
-        B = np.empty((n, 3))
-        B[:, :2] = -G.T
-        B[:, 2] = self._mesh_derivative(u, U, sigma)
-        C = np.zeros((3, n))
-        C[:2] = -G
-        C[2, idx[idx >= 0]] = dh[idx >= 0]
-        return R_all, Bordered(K, B, C)
-
-    def _mesh_derivative(self, u: np.ndarray, U: np.ndarray, sigma: float) -> np.ndarray:
-        """dR/dsigma with nodal values held, in closed form from the pointwise g and H.
-
-        Moving sigma changes only element lengths h (dh/dsigma = 1/k inside the support
-        vertex, -1/(n - k) outside); with u' = phi_ref' U/h each element residual
-        R_e = sum_q w_q [h g_u phi + g_u' phi_ref'] has
-        dR_e/dh = sum_q [W_0 (g_u/h + dg_u/dh) + W_1 dg_u'/dh],  dg/dh = -H[:, u'] u'/h,
-        with W_0 = phi dx, W_1 = phi' dx the assembly tables (checked against differences).
-        """
-        rod, disc = self.rod, self.rod.disc
-        U_used, g, H = rod.last_points
-        assert U_used is U, "the mesh derivative needs the pointwise derivatives at U"
-        nf, ne, k = disc.nf, disc.ne, self.k
-        h = np.diff(disc.vertices)[:, None, None]  # (ne, 1, 1)
-        up = disc.point_values(U)[..., nf:]  # u' at the points (ne, nq, nf)
-        dg = -np.matmul(H[..., :, nf:], up[..., None])[..., 0] / h  # dg/dh (ne, nq, 2 nf)
-        geff = dg.copy()
-        geff[..., :nf] += g[..., :nf] / h
-        dh = np.where(np.arange(ne) < k, 1.0 / k, -1.0 / (ne - k))[:, None, None]
-        return disc.residual(geff * dh)[disc.free]
-
-    def load_derivative(self, X: np.ndarray, lam: float) -> np.ndarray:
-        """dR/dlam in closed form: lam moves only the nose centre, c = (rho - lam d_max, 0).
-
-        With n = (r - c)/|r - c|: dg/dlam = n_x d_max and dn/dlam = (I - n n^T)(d_max, 0)/|r - c|,
-        which enters the residual through -G^T lam (zero when the nose vertex stays on the
-        axis, z = 0, as symmetry holds it).
-        """
-        out = np.zeros(X.size)
-        U = self.rod.expand(X[: self.nu])
-        r = U[:2]  # vertex 0: (x, z)
-        c = self.nose(lam).centre
-        dist = max(float(np.hypot(r[0] - c[0], r[1] - c[1])), 1e-300)
-        n = (r - c) / dist
-        dn = (np.array([1.0, 0.0]) - n * n[0]) * self.d_max / dist
-        idx = self.rod.index[:2]
-        ok = idx >= 0
-        out[idx[ok]] = -X[self.nu + 1] * dn[ok]
-        out[self.nu + 1] = -n[0] * self.d_max  # the nose gap row holds -g
-        return out
-
-    def stiffness_derivative(self, X: np.ndarray, name: str) -> np.ndarray:
-        """dR/dp for a scaled stiffness p of the rod (the residual of that energy term alone)."""
-        rod = self.rod
-        self.at(X[-1])
-        saved = rod.props
-        rod.props = {k: (np.ones_like(v) if k == name else np.zeros_like(v)) for k, v in saved.items()}
-        try:
-            R, _ = rod.evaluate(X[: self.nu], 0.0, tangent=False)
-        finally:
-            rod.props = saved
-        return np.concatenate([R, np.zeros(3)])
-
-    def force_derivative(self, X: np.ndarray, lam: float, dX: np.ndarray) -> float:
-        """Scaled nose force change along a state change dX. The nose vertex stays on the axis
-        (z = 0 by symmetry), so its contact normal is (+-1, 0) whatever X and lam: only the
-        multiplier moves the force."""
-        normal = self.contacts(self.rod.expand(X[: self.nu]), lam)[1][4]
-        return float(2.0 * dX[self.nu + 1] * (-normal[0]))
-
-    def force(self, X: np.ndarray, lam: float) -> float:
-        """Scaled nose force of the whole tube."""
-        self.at(X[-1])
-        normal = self.contacts(self.rod.expand(X[: self.nu]), lam)[1][4]
-        return 2.0 * X[self.nu + 1] * (-normal[0])
-
-    def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
-        """A pulling contact is no answer: g = |r - c| - rho = 0 also holds on the far side of a
-        cylinder, where Newton lands after a step longer than rho (see newton.follow)."""
-        mult = X[self.nu : self.nu + 2]
-        if np.any(mult < -1e-9 * max(1.0, float(np.max(np.abs(mult))))):
-            return "a contact pulls (the tube crossed a cylinder or lifts off)"
-        return None
-
-    def initial(self) -> np.ndarray:
-        self.at(0.5)
-        return np.concatenate([self.rod.reduce(self.rod.reference()), np.zeros(2), [0.5]])
 
 
 class BendModel:
@@ -288,22 +134,23 @@ class BendModel:
         scaled = (system.rod.rod.E_s, system.rod.rod.E_e)
         tangents: list[dict] = []
         slope, d_last = None, 0.0  # dX/dd at the last converged point: the predictor of the next
-        curvature = None  # d2X/dd2 from the last two slopes
+        curvature = miss = None  # d2X/dd2 from the last two slopes
         for i, target in enumerate(d / d_max):
-            guess = _predict(start, i, scaled, d[i])
+            guess = predicted = _predict(start, i, scaled, d[i])
+            if guess is not None and miss is not None:  # the last point's prediction error: smooth in d
+                guess = guess + miss
             if guess is None and slope is not None:
                 h = d[i] - d_last
                 guess = X + slope * h + (0.5 * h * h * curvature if curvature is not None else 0.0)
             X = self._step(system, X, lam, target, guess, info, d_max)
+            miss = X - predicted if predicted is not None else None
             lam, d_last, previous = target, d[i], (slope, d_last)
             self._check(system, X, lam)
             F = system.force(X, lam)
             rec["X"].append(X.copy()), rec["F"].append(F)
-            dX: dict = {}
-            rec["dF"].append(
-                _sensitivities(system, X, info.lu, sensitivities, E_s, E_e, F * scale_F, E_b, dX)
-            )
-            dX["d"] = slope = info.lu.solve(-system.load_derivative(X, lam)) / d_max
+            dX = system.derivatives(X, lam, info.lu, stiffness=bool(sensitivities))
+            dX["d"] = slope = dX.pop("lam") / d_max
+            rec["dF"].append(_sensitivities(system, X, lam, dX, sensitivities, E_s, E_e, F * scale_F, E_b))
             if previous[0] is not None and d_last > previous[1]:
                 curvature = (slope - previous[0]) / (d_last - previous[1])
             rec["dFdd"].append(system.force_derivative(X, lam, slope) * scale_F)
@@ -411,19 +258,11 @@ def _predict(start: BendPath | None, i: int, scaled: tuple[float, float], d: flo
     return X + sum(t[name] * step for name, step in steps if name in t and step != 0.0)
 
 
-def _sensitivities(system, X, lu, names, E_s, E_e, F, E_b, dX_out: dict | None = None) -> dict[str, float]:
-    """dF/dp from the linearised equilibrium (SI; see the module docstring); dX/dp (scaled) into dX_out."""
-    out: dict[str, float] = {}
+def _sensitivities(system, X, lam, dX: dict, names, E_s, E_e, F, E_b) -> dict[str, float]:
+    """dF/dp (SI) from dX/dp of the linearised equilibrium (see the module docstring)."""
     if not names:
-        return out
-    system.at(X[-1])
-    normal = system.contacts(system.rod.expand(X[: system.nu]), 0.0)[1][4]
-    for name in ("E_s", "E_e"):
-        if name in names or "E_b" in names:
-            dX = lu.solve(-system.stiffness_derivative(X, name))
-            if dX_out is not None:
-                dX_out[name] = dX
-            out[name] = float(2.0 * dX[system.nu + 1] * (-normal[0]))
+        return {}
+    out = {name: system.force_derivative(X, lam, dX[name]) for name in ("E_s", "E_e")}
     if "E_b" in names:
         out["E_b"] = (F - E_s * out["E_s"] - E_e * out["E_e"]) / E_b
     return {k: v for k, v in out.items() if k in names}

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy import linalg
 
 from matid.rod.fem import Banded
 
@@ -43,22 +42,24 @@ class Bordered:
         self.rho = max(1.0, float(np.max(np.abs(K.ab[K.u]))))
         aug = Banded(K.ab.copy(), K.u, K.order, K.symmetric)
         aug.position = K.position
+        rows, cols, vals = [], [], []
         for row in C[:2]:  # each contact row lives on its own vertex: rho g g^T is in the band
             nz = np.flatnonzero(row)
-            aug.add_blocks(
-                np.repeat(nz, nz.size), np.tile(nz, nz.size), self.rho * np.outer(row[nz], row[nz]).ravel()
-            )
+            rows.append(np.repeat(nz, nz.size)), cols.append(np.tile(nz, nz.size))
+            vals.append(self.rho * np.outer(row[nz], row[nz]).ravel())
+        aug.add_blocks(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals))
         self.F = aug.factor()
         self.Z = self.F.solve(self.B)
         S = C @ self.Z
         if not np.all(np.isfinite(S)) or abs(np.linalg.det(S)) <= 1e-300:
             raise np.linalg.LinAlgError("singular bordered tangent")
-        self.S_lu = linalg.lu_factor(S)
+        self.S_inv = np.linalg.inv(S)  # 3 x 3: applied to every right-hand side
         return self
 
     def solve(self, r: np.ndarray) -> np.ndarray:
+        """The solution for a right-hand side r of shape (n + 3,) or (n + 3, m)."""
         n = self.B.shape[0]
         f = r[:n] + self.rho * (self.C[:2].T @ r[n : n + 2])
         y = self.F.solve(f)
-        w = linalg.lu_solve(self.S_lu, self.C @ y - r[n:])
+        w = self.S_inv @ (self.C @ y - r[n:])
         return np.concatenate([y - self.Z @ w, w])
