@@ -130,8 +130,18 @@ class Problem:
     (for centreline tests at fixed centreline deflection, :mod:`matid.fits.bend_centreline`).
     """
 
-    def __init__(self, data: Sequence[BendData], E_b: float, E_e: float, *, fit_E_b: bool, elements: int):
+    def __init__(
+        self,
+        data: Sequence[BendData],
+        E_b: float,
+        E_e: float,
+        *,
+        fit_E_b: bool,
+        elements: int,
+        jacobian: bool = True,
+    ):
         self.data, self.E_b, self.E_e, self.fit_E_b = data, E_b, E_e, fit_E_b
+        self.jacobian = jacobian or any(b.centreline for b in data)  # False: residuals only (J is None)
         self.models = [BendModel(b.geometry, elements=elements) for b in data]
         self.paths: list[BendPath | None] = [None] * len(data)
         self.dforce: list[dict | None] = [None] * len(data)
@@ -155,15 +165,16 @@ class Problem:
             return r, J
         t0 = time.perf_counter()
         E_s, E_b = self.params(x)
-        names = ("E_s", "E_b", "E_e")  # extra back-substitutions on the same factorisation
+        names = ("E_s", "E_b", "E_e") if self.jacobian else ()  # back-substitutions on the factorisation
         res, jac = [], []
         for k, (b, model) in enumerate(zip(self.data, self.models, strict=True)):
             path = self._path(k, b, model, E_b, E_s, names)
             res.append(path.force - b.F)
-            dF = self.dforce[k]
-            cols = [dF["E_s"] * E_s] + ([dF["E_b"] * E_b] if self.fit_E_b else [])
-            jac.append(np.column_stack(cols))  # d r / d log p
-        r, J = np.concatenate(res), np.vstack(jac)
+            if self.jacobian:
+                dF = self.dforce[k]
+                cols = [dF["E_s"] * E_s] + ([dF["E_b"] * E_b] if self.fit_E_b else [])
+                jac.append(np.column_stack(cols))  # d r / d log p
+        r, J = np.concatenate(res), (np.vstack(jac) if self.jacobian else None)
         if self.cold_runtime_s is None:
             self.cold_runtime_s = time.perf_counter() - t0
         self.evaluations[key] = (r, J, list(self.paths), list(self.dforce), list(self.nose), list(self.nose_rate))
@@ -306,7 +317,8 @@ def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) 
     r, J = problem.evaluate(x)
     picks = [np.unique(np.r_[np.arange(0, b.d.size, 3), b.d.size - 1]) for b in data]
     sub = [replace(b, d=b.d[k], F=b.F[k]) for b, k in zip(data, picks, strict=True)]
-    coarse = Problem(sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=max(problem.models[0].elements // 2, 2))
+    elements = max(problem.models[0].elements // 2, 2)
+    coarse = Problem(sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=elements, jacobian=False)
     r_coarse, _ = coarse.evaluate(x)
     scale = sum(b.d.size for b in data) / sum(b.d.size for b in sub)
     offsets = np.cumsum([0] + [b.d.size for b in data[:-1]])

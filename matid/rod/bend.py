@@ -134,15 +134,22 @@ class BendModel:
         scaled = (system.rod.rod.E_s, system.rod.rod.E_e)
         tangents: list[dict] = []
         slope, d_last = None, 0.0  # dX/dd at the last converged point: the predictor of the next
-        curvature = miss = None  # d2X/dd2 from the last two slopes
+        curvature = miss = None  # d2X/dd2 from the last two slopes; the last warm prediction's error
+        errors = [np.inf, np.inf]  # of the warm and the along-the-path guess at the last point
         for i, target in enumerate(d / d_max):
-            guess = predicted = _predict(start, i, scaled, d[i])
-            if guess is not None and miss is not None:  # the last point's prediction error: smooth in d
-                guess = guess + miss
-            if guess is None and slope is not None:
+            # two guesses: the earlier path's state moved to these stiffnesses (warm), and this
+            # path's last state moved along its tangent (second order); Newton starts from the one
+            # that was closer at the last point (warm wins for small changes, along for large ones)
+            warm = predicted = _predict(start, i, scaled, d[i])
+            if warm is not None and miss is not None:  # the last point's prediction error: smooth in d
+                warm = warm + miss
+            along = None
+            if slope is not None:
                 h = d[i] - d_last
-                guess = X + slope * h + (0.5 * h * h * curvature if curvature is not None else 0.0)
+                along = X + slope * h + (0.5 * h * h * curvature if curvature is not None else 0.0)
+            guess = warm if along is None or (warm is not None and errors[0] <= errors[1]) else along
             X = self._step(system, X, lam, target, guess, info, d_max)
+            errors = [np.inf if g is None else float(np.max(np.abs(X - g))) for g in (warm, along)]
             miss = X - predicted if predicted is not None else None
             lam, d_last, previous = target, d[i], (slope, d_last)
             self._check(system, X, lam)
