@@ -89,7 +89,9 @@ def load_point(repeat: int) -> dict:
 def _measurement(d, F, span, at="nose", name="3pb.csv", **rig) -> Measurement:
     params = {**RIG, "span": span, **rig}
     test = study.Test("three_point_bend", "T", Path(name), params, deflection_at=at)
-    return Measurement(test, Table(Path(name), {"deflection": np.asarray(d), "force": np.asarray(F)}, {}, {}, ""))
+    return Measurement(
+        test, Table(Path(name), {"deflection": np.asarray(d), "force": np.asarray(F)}, {}, {}, "")
+    )
 
 
 def _answer(fit) -> dict:
@@ -111,7 +113,11 @@ def es_fit(repeat: int, counter: Counter) -> dict:
         counter.reset()
         t0, c0 = time.perf_counter(), time.process_time()
         fit = shear.fit_three_point_bend(
-            [_measurement(d, F, 0.01)], specimen=spec, known=known, local_compliance=(0.0, 0.0), model_form=0.0
+            [_measurement(d, F, 0.01)],
+            specimen=spec,
+            known=known,
+            local_compliance=(0.0, 0.0),
+            model_form=0.0,
         )
         best, cpu = min(best, time.perf_counter() - t0), min(cpu, time.process_time() - c0)
         paths, its = counter.reset()
@@ -172,6 +178,14 @@ def tube3d(counter: Counter) -> dict:
     return out
 
 
+def _line(v: dict) -> str:
+    low, high = v["ci95"]
+    return (
+        f"{v['seconds']:.3f} s, {v['paths']} paths, {v['newton_iterations']} Newton its; "
+        f"E_s {v['E_s']:.6g} [{low:.6g}, {high:.6g}], {len(v['warnings'])} warnings"
+    )
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
@@ -184,32 +198,23 @@ def main(argv=None) -> int:
     if "load_point" in parts:
         doc["load_point"] = lp = load_point(args.repeat)
         print(
-            f"load point (warm, 24 el.): {lp['warm_ms_per_point']:.2f} ms (CPU {lp['warm_cpu_ms_per_point']:.2f}), "
-            f"{lp['warm_newton_iterations']} Newton "
-            f"its / 30 points; cold path {lp['cold_path_ms']:.1f} ms ({lp['cold_newton_iterations']} its)"
+            f"load point (warm, 24 el.): {lp['warm_ms_per_point']:.2f} ms "
+            f"(CPU {lp['warm_cpu_ms_per_point']:.2f}), {lp['warm_newton_iterations']} Newton its / 30 pts; "
+            f"cold path {lp['cold_path_ms']:.1f} ms ({lp['cold_newton_iterations']} its)"
         )
     if "es_fit" in parts:
         doc["es_fit"] = f = es_fit(max(1, args.repeat // 2 + 1), counter)
-        print(
-            f"E_s fit, 30 points: {f['seconds']:.3f} s (CPU {f['cpu_seconds']:.3f}), {f['paths']} paths, {f['newton_iterations']} Newton its; "
-            f"E_s {f['E_s']:.6g} [{f['ci95'][0]:.6g}, {f['ci95'][1]:.6g}]"
-        )
+        print(f"E_s fit, 30 points: {_line(f)} (CPU {f['cpu_seconds']:.3f} s)")
     if "demo" in parts:
         doc["demo"] = dm = demo(counter)
         for k, v in dm.items():
             if k != "total_seconds":
-                print(
-                    f"demo {k}: {v['seconds']:.3f} s, {v['paths']} paths, {v['newton_iterations']} its; "
-                    f"E_s {v['E_s']:.6g} [{v['ci95'][0]:.6g}, {v['ci95'][1]:.6g}], {len(v['warnings'])} warnings"
-                )
+                print(f"demo {k}: {_line(v)}")
         print(f"demo E_s fits total: {dm['total_seconds']:.3f} s")
     if "tube3d" in parts:
         doc["tube3d"] = tb = tube3d(counter)
         for k, v in tb.items():
-            print(
-                f"tube3d {k}: {v['seconds']:.3f} s, {v['paths']} paths, {v['newton_iterations']} its; "
-                f"E_s {v['E_s']:.6g} [{v['ci95'][0]:.6g}, {v['ci95'][1]:.6g}], {len(v['warnings'])} warnings"
-            )
+            print(f"tube3d {k}: {_line(v)}")
     if args.json:
         args.json.write_text(json.dumps(doc, indent=1))
     return 0

@@ -162,7 +162,12 @@ class Problem:
         kept = self.evaluations.get(key)
         if kept is not None:
             r, J, paths, dforce, nose, rates = kept
-            self.paths, self.dforce, self.nose, self.nose_rate = list(paths), list(dforce), list(nose), list(rates)
+            self.paths, self.dforce, self.nose, self.nose_rate = (
+                list(paths),
+                list(dforce),
+                list(nose),
+                list(rates),
+            )
             return r, J
         t0 = time.perf_counter()
         E_s, E_b = self.params(x)
@@ -178,7 +183,14 @@ class Problem:
         r, J = np.concatenate(res), (np.vstack(jac) if self.jacobian else None)
         if self.cold_runtime_s is None:
             self.cold_runtime_s = time.perf_counter() - t0
-        self.evaluations[key] = (r, J, list(self.paths), list(self.dforce), list(self.nose), list(self.nose_rate))
+        self.evaluations[key] = (
+            r,
+            J,
+            list(self.paths),
+            list(self.dforce),
+            list(self.nose),
+            list(self.nose_rate),
+        )
         return r, J
 
     def _path(self, k: int, b: BendData, model: BendModel, E_b: float, E_s: float, names) -> BendPath:
