@@ -9,7 +9,10 @@ the specimen's own fits or [[fixed]] entries (physics.md section 6). F_rod is
 the nose force of :class:`matid.rod.bend.BendModel`, followed along the
 measured deflections by continuation and warm-started from the previous
 iterate; its Jacobian dF/dE_s comes from the linearised equilibrium (one
-back-substitution per point), not from differences of solver output.
+back-substitution per point), not from differences of solver output
+(:mod:`matid.fits.bend_problem`: the residuals, the Jacobian, and
+Levenberg-Marquardt; for centreline data the Jacobian at fixed centreline
+deflection, :mod:`matid.fits.bend_centreline`).
 
 The start is the classic Timoshenko estimate from the small-deflection
 compliance C = d/F:  C = S^3/(48 E_b) + S/(4 E_s).
@@ -40,16 +43,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import stats
 
-from matid.errors import ConvergenceError, DataError, FitError
-from matid.fits import bend_centreline
+from matid.errors import DataError, FitError
 from matid.fits.bend_centreline import centreline_deflection  # noqa: F401 - public here too
 from matid.fits.bend_checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
+from matid.fits.bend_problem import Problem, least_squares
 from matid.fits.bend_window import Cut, check_plausible, cut
 from matid.fits.shear_torsion import agreement
 from matid.fits.stats import Covariance, ar1_covariance, lack_of_fit
 from matid.ingest import Measurement
 from matid.results import Estimate, Series, TestFit
-from matid.rod.bend import BendGeometry, BendModel, BendPath
+from matid.rod.bend import BendGeometry, BendPath
 from matid.study import Specimen
 
 #: The FE error must stay below this fraction of the statistical standard error
@@ -121,122 +124,6 @@ def timoshenko_start(data: Sequence[BendData], E_b: float) -> float:
     return float(np.median(estimates)) if estimates else 1e3 * E_b / min(b.geometry.span for b in data) ** 2
 
 
-class Problem:
-    """Residuals and Jacobian of the bend fit, with the paths of every evaluation kept.
-
-    Each evaluation is kept with its paths (a fit makes a handful): returning to an
-    earlier x costs nothing, and the paths of the last x asked for are ``paths``,
-    the warm starts of the next solve. ``dforce[k]``: dF/dp of test k at its rows
-    (for centreline tests at fixed centreline deflection, :mod:`matid.fits.bend_centreline`).
-    """
-
-    def __init__(
-        self,
-        data: Sequence[BendData],
-        E_b: float,
-        E_e: float,
-        *,
-        fit_E_b: bool,
-        elements: int,
-        jacobian: bool = True,
-    ):
-        self.data, self.E_b, self.E_e, self.fit_E_b = data, E_b, E_e, fit_E_b
-        self.jacobian = jacobian or any(b.centreline for b in data)  # False: residuals only (J is None)
-        self.models = [BendModel(b.geometry, elements=elements) for b in data]
-        self.paths: list[BendPath | None] = [None] * len(data)
-        self.dforce: list[dict | None] = [None] * len(data)
-        self.nose = [b.d.copy() for b in data]  # nose travel of the model at each row
-        self.nose_rate: list[tuple | None] = [None] * len(data)  # (E_s, E_b, dn/dE_s, dn/dE_b)
-        self.centre: list[bend_centreline.Centreline | None] = [None] * len(data)
-        self.evaluations: dict[bytes, tuple] = {}
-        self.solves = 0
-        self.newton_iterations = 0
-        self.cold_runtime_s: float | None = None  # one solve of every curve from scratch
-
-    def params(self, x: np.ndarray) -> tuple[float, float]:
-        E_s = float(np.exp(x[0]))
-        return E_s, float(np.exp(x[1])) if self.fit_E_b else self.E_b
-
-    def evaluate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        key = np.asarray(x, float).tobytes()
-        kept = self.evaluations.get(key)
-        if kept is not None:
-            r, J, paths, dforce, nose, rates = kept
-            self.paths, self.dforce, self.nose, self.nose_rate = (
-                list(paths),
-                list(dforce),
-                list(nose),
-                list(rates),
-            )
-            return r, J
-        t0 = time.perf_counter()
-        E_s, E_b = self.params(x)
-        names = ("E_s", "E_b", "E_e") if self.jacobian else ()  # back-substitutions on the factorisation
-        res, jac = [], []
-        for k, (b, model) in enumerate(zip(self.data, self.models, strict=True)):
-            path = self._path(k, b, model, E_b, E_s, names)
-            res.append(path.force - b.F)
-            if self.jacobian:
-                dF = self.dforce[k]
-                cols = [dF["E_s"] * E_s] + ([dF["E_b"] * E_b] if self.fit_E_b else [])
-                jac.append(np.column_stack(cols))  # d r / d log p
-        r, J = np.concatenate(res), (np.vstack(jac) if self.jacobian else None)
-        if self.cold_runtime_s is None:
-            self.cold_runtime_s = time.perf_counter() - t0
-        self.evaluations[key] = (
-            r,
-            J,
-            list(self.paths),
-            list(self.dforce),
-            list(self.nose),
-            list(self.nose_rate),
-        )
-        return r, J
-
-    def _path(self, k: int, b: BendData, model: BendModel, E_b: float, E_s: float, names) -> BendPath:
-        """The solved path at the rows of test k: at the measured nose travel, or for centreline
-        data at the nose travel whose centreline deflection is the measured one.
-
-        Centreline: Newton's method on the nose travel of each row, n <- n + (d - c(n)) / (dc/dn),
-        started from the last evaluation's nose travel moved by dn/dp (first order).
-        """
-        if not b.centreline:
-            path = self._solve_path(k, model, E_b, E_s, names, self.nose[k])
-            self.dforce[k] = path.dforce
-            return path
-        nose = self.nose[k]
-        if self.nose_rate[k] is not None:
-            E_s0, E_b0, dn_s, dn_b = self.nose_rate[k]
-            nose = np.maximum.accumulate(np.maximum(nose + dn_s * (E_s - E_s0) + dn_b * (E_b - E_b0), 0.0))
-        if self.centre[k] is None:
-            self.centre[k] = bend_centreline.Centreline(model)
-        for _ in range(8):
-            path = self._solve_path(k, model, E_b, E_s, names, nose)
-            self.nose[k] = nose
-            c, slope, grads = bend_centreline.centreline_path(self.centre[k], path)
-            if np.all(np.abs(c - b.d) <= 1e-9 * b.d[-1]):
-                self.dforce[k], dn = bend_centreline.at_fixed_centreline(model, path, E_b, slope, grads)
-                self.nose_rate[k] = (E_s, E_b, dn["E_s"], dn["E_b"])
-                return path
-            if not np.all(slope > 0):
-                break
-            nose = np.maximum.accumulate(np.maximum(nose + (b.d - c) / slope, 0.0))
-        raise FitError(
-            f"{b.measurement.test.file.name}: the centreline deflection of the model did not match"
-        )
-
-    def _solve_path(self, k: int, model: BendModel, E_b: float, E_s: float, names, nose) -> BendPath:
-        path = model.solve(E_b, E_s, self.E_e, nose, sensitivities=names, start=self.paths[k])
-        self.paths[k] = path
-        self.solves += 1
-        self.newton_iterations += path.newton_iterations
-        return path
-
-    def sensitivity(self, name: str) -> np.ndarray:
-        """dF/dp at the last evaluation for any stiffness, stacked over tests."""
-        return np.concatenate([dF[name] for dF in self.dforce])
-
-
 def _held(known: Mapping[str, Estimate], name: str, specimen: str) -> Estimate:
     est = known.get(name)
     if est is None:
@@ -245,62 +132,6 @@ def _held(known: Mapping[str, Estimate], name: str, specimen: str) -> Estimate:
             f"E_s of specimen {specimen} needs {name}: add {source} or a [[fixed]] {name} for {specimen}"
         )
     return est
-
-
-#: Levenberg-Marquardt stops when its Gauss-Newton step in (log E_s[, log E_b]) is below
-#: XTOL (1 + |x|) (MINPACK's xtol = 1e-9, used before with scipy's least_squares) or below
-#: STAT_FRACTION of each parameter's standard error s sqrt((J^T J)^-1_ii): Gauss-Newton
-#: converges quadratically here, so the estimate then moves by less than 1e-4 of its standard
-#: error (0.0025 % of a 95 % interval's width) and no solve is spent to refine it further.
-XTOL = 1e-9
-STAT_FRACTION = 1e-4
-MAX_EVALUATIONS = 60
-
-
-def _solve(problem: Problem, x0: np.ndarray) -> np.ndarray:
-    """Levenberg-Marquardt on the log stiffnesses; returns x with the problem's paths at x.
-
-    The residual is nearly linear in log E_s: Gauss-Newton (no damping) converges in
-    3-5 evaluations. Marquardt damping (diag(J^T J)) only after a step that raised the
-    cost. Convergence is read off the Gauss-Newton step predicted at the last
-    evaluation, so no model solve is spent to confirm it (scipy's least_squares spent
-    two per fit: a trial step of 1e-11 and the solve at its best point again).
-    """
-    x = np.asarray(x0, float).copy()
-    try:
-        r, J = problem.evaluate(x)
-        cost, mu = float(r @ r), 0.0
-        for _ in range(MAX_EVALUATIONS):
-            A, g = J.T @ J, J.T @ r
-            scale = np.diag(A).copy()
-            if not (np.all(np.isfinite(A)) and np.all(scale > 0)):
-                raise FitError("E_s least squares: the model force does not depend on the fitted stiffness")
-            newton_step = np.linalg.solve(A, -g)
-            tol = XTOL * (XTOL + float(np.linalg.norm(x)))
-            dof = max(r.size - x.size, 1)
-            sd = np.sqrt(cost / dof * np.diag(np.linalg.inv(A)))
-            if float(np.linalg.norm(newton_step)) <= tol or np.all(np.abs(newton_step) <= STAT_FRACTION * sd):
-                return _at(problem, x)
-            step = newton_step if mu == 0.0 else np.linalg.solve(A + mu * np.diag(scale), -g)
-            r_new, J_new = problem.evaluate(x + step)
-            cost_new = float(r_new @ r_new)
-            if np.isfinite(cost_new) and cost_new <= cost:
-                x, r, J, cost = x + step, r_new, J_new, cost_new
-                mu = 0.0 if mu <= 1e-3 else 0.1 * mu
-            elif float(np.linalg.norm(step)) <= 10 * tol:  # at the cost's round-off: x is the minimum
-                return _at(problem, x)
-            else:
-                mu = max(1e-3, 10.0 * mu)
-    except ConvergenceError as exc:
-        raise FitError(f"the bend model did not converge during the fit: {exc}") from exc
-    raise FitError(f"E_s least squares did not converge in {MAX_EVALUATIONS} evaluations")
-
-
-def _at(problem: Problem, x: np.ndarray) -> np.ndarray:
-    if not np.all(np.isfinite(x)):
-        raise FitError("E_s least squares did not converge: the estimate is not finite")
-    problem.evaluate(x)  # the paths at the solution (kept: no solve)
-    return x
 
 
 @dataclass
@@ -367,7 +198,7 @@ def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progre
     solves, levels = 0, []
     while True:
         problem = Problem(data, E_b, E_e, fit_E_b=fit_E_b, elements=n)
-        x = _solve(problem, x)
+        x = least_squares(problem, x)
         r, J = problem.evaluate(x)
         cov, sigma, full = _statistics(r, J, [b.d.size for b in data])
         fe, tried = _fe_error(problem, x, data, E_e, fit_E_b)
