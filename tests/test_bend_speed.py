@@ -35,11 +35,11 @@ def path():
     return BendModel(GEOMETRY, elements=8).solve(E_B, E_S, E_E, np.linspace(0.0, 1e-3, 6), sensitivities=ALL)
 
 
-def test_load_derivative_matches_central_differences(path):
+def test_lam_derivative_matches_central_differences(path):
     model = BendModel(GEOMETRY, elements=8)
     system = model.system(E_B, E_S, E_E, 1e-3)
     X, lam, h = path.states[-1], 1.0, 1e-6
-    exact = system.load_derivative(X, lam)
+    exact = system.lam_derivative(X, lam)
     fd = (system.evaluate(X, lam + h, tangent=False)[0] - system.evaluate(X, lam - h, tangent=False)[0]) / (
         2 * h
     )
@@ -47,7 +47,7 @@ def test_load_derivative_matches_central_differences(path):
     X_off = X.copy()
     X_off[system.dofs[1][0]] += 1e-3  # a state off the axis normal: the general formula, not +-1
     system2 = BendModel(BendGeometry(0.01, 0.03, 2e-3, 2e-3, 2.4e-3), elements=8).system(E_B, E_S, E_E, 1e-3)
-    exact = system2.load_derivative(X_off, 0.7)
+    exact = system2.lam_derivative(X_off, 0.7)
     fd = (
         system2.evaluate(X_off, 0.7 + h, tangent=False)[0]
         - system2.evaluate(X_off, 0.7 - h, tangent=False)[0]

@@ -152,8 +152,11 @@ class BendSystem:
         dh = np.where(np.arange(ne) < k, 1.0 / k, -1.0 / (ne - k))[:, None, None]
         return disc.residual(dg * dh)[disc.free]
 
-    def load_derivative(self, X: np.ndarray, lam: float) -> np.ndarray:
+    def lam_derivative(self, X: np.ndarray, lam: float) -> np.ndarray:
         """dR/dlam in closed form: lam moves only the nose centre, c = (rho - lam d_max, 0).
+
+        (Not named ``load_derivative``: newton.tangent may call that as R(x, 1) - R(x, 0), which
+        holds for loads linear in lam only; the nose moves the residual nonlinearly.)
 
         With n = (r - c)/|r - c|: dg/dlam = n_x d_max and dn/dlam = (I - n n^T)(d_max, 0)/|r - c|,
         which enters the residual through -G^T lam (zero when the nose vertex stays on the
@@ -186,7 +189,7 @@ class BendSystem:
         stiffness) at a converged state: A dX/dq = -dR/dq, one back-substitution for all."""
         names = ("lam", "E_s", "E_e") if stiffness else ("lam",)
         rhs = np.empty((X.size, len(names)))
-        rhs[:, 0] = self.load_derivative(X, lam)
+        rhs[:, 0] = self.lam_derivative(X, lam)
         for j, name in enumerate(names[1:], start=1):
             rhs[:, j] = self.stiffness_derivative(X, name)
         out = lu.solve(-rhs)
