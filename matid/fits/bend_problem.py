@@ -184,6 +184,10 @@ def least_squares(problem: Problem, x0: np.ndarray) -> np.ndarray:
                 mu = max(1e-3, 10.0 * mu)
     except ConvergenceError as exc:
         raise FitError(f"the bend model did not converge during the fit: {exc}") from exc
+    except np.linalg.LinAlgError as exc:  # J^T J singular: the fitted stiffnesses cannot be told apart
+        raise FitError(
+            f"E_s least squares: the bend data do not determine the fitted stiffnesses ({exc})"
+        ) from exc
     raise FitError(f"E_s least squares did not converge in {MAX_EVALUATIONS} evaluations")
 
 
