@@ -9,8 +9,6 @@ back-substitution with three right-hand sides.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from matid.rod.bordered import Bordered
@@ -106,12 +104,10 @@ class BendSystem:
             for a, value in ((0, nx), (1, nz)):
                 if idx[a] >= 0:
                     G[c, idx[a]] = value
-        xs, zs, th = self._vertex(U, self.k)
-        dx, dz = xs - self.support.centre[0], zs - self.support.centre[1]
-        s, co = math.sin(th), math.cos(th)
+        h, dh = self.support.section(U.reshape(-1, 3), self.k)  # the support's contact section
         R_all = np.empty(n + 3)
         R_all[:n] = R - G.T @ mult
-        R_all[n], R_all[n + 1], R_all[n + 2] = -gaps[0][0], -gaps[1][0], dx * s + dz * co
+        R_all[n], R_all[n + 1], R_all[n + 2] = -gaps[0][0], -gaps[1][0], h
         if not tangent:
             return R_all, None
         rows, cols, entries = self._hess
@@ -127,9 +123,9 @@ class BendSystem:
         B[:, 2] = self._mesh_derivative(U)
         C = np.zeros((3, n))
         C[:2] = -G
-        for a, value in enumerate((s, co, dx * co - dz * s)):  # dh/d(x, z, theta) at the support vertex
+        for a in range(3):  # dh/d(x, z, theta) at the support vertex
             if self.dofs[0][a] >= 0:
-                C[2, self.dofs[0][a]] = value
+                C[2, self.dofs[0][a]] = dh[a]
         return R_all, Bordered(K, B, C)
 
     def _mesh_derivative(self, U: np.ndarray) -> np.ndarray:
