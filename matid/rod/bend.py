@@ -17,7 +17,9 @@ force to the stiffnesses come from the linearised equilibrium at each converged
 point: A dX/dp = -dR/dp, one back-substitution with the factorised tangent
 (the energy is linear in each stiffness, so dR/dp is the residual of that one
 energy term). The force is homogeneous of degree one in (E_b, E_s, E_e), so
-dF/dE_b = (F - E_s dF/dE_s - E_e dF/dE_e) / E_b.
+dF/dE_b = (F - E_s dF/dE_s - E_e dF/dE_e) / E_b. The same back-substitution
+gives the load tangent dX/dd (dR/dlam in closed form), which predicts the next
+point of the path and gives dF/dd.
 """
 
 from __future__ import annotations
@@ -117,8 +119,11 @@ class BendModel:
     ) -> BendPath:
         """Nose force at each deflection (increasing from 0), following the path by continuation.
 
-        ``start``: the path of an earlier solve at the same deflections (warm
-        start: Newton from each of its states, continuation as the fallback).
+        Each point starts Newton from a prediction: the last point moved along the load
+        tangent dX/dd (second order), or with ``start``, the path of an earlier solve at
+        as many deflections (other stiffnesses, deflections moved a little: the centreline
+        fit), each of its states moved by dX/dp dp + dX/dd dd, whichever guess was closer
+        at the last point; continuation is the fallback.
         ``sensitivities``: any of "E_s", "E_e", "E_b" for dF/dp.
         """
         t0 = time.perf_counter()
