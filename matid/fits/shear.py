@@ -347,10 +347,19 @@ def _per_span(data, out: Outcome, E_b: float, E_e: float, spans) -> list[dict]:
         return []
     rows = []
     for S in spans:
-        group = [b for b in data if b.geometry.span == S]
-        one = _fit_adaptive(group, E_b, E_e, fit_E_b=False, elements=out.elements, progress=None)
-        sd = float(np.sqrt(one.cov_log[0, 0]))
-        rows.append({"span": S, "span_mm": 1e3 * S, "E_s": float(np.exp(one.x[0])), "sd_log": sd})
+        # started at the joint E_s from the joint fit's paths of these tests (warm), on its mesh
+        idx = [k for k, b in enumerate(data) if b.geometry.span == S]
+        group = [data[k] for k in idx]
+        problem = Problem(group, E_b, E_e, fit_E_b=False, elements=out.elements)
+        joint = out.problem
+        problem.paths = [joint.paths[k] for k in idx]
+        problem.nose = [joint.nose[k].copy() for k in idx]
+        problem.nose_rate = [joint.nose_rate[k] for k in idx]
+        x = least_squares(problem, out.x[:1])
+        r, J = problem.evaluate(x)
+        cov, _, _ = _statistics(r, J, [b.d.size for b in group])
+        sd = float(np.sqrt(cov[0, 0]))
+        rows.append({"span": S, "span_mm": 1e3 * S, "E_s": float(np.exp(x[0])), "sd_log": sd})
     return rows
 
 
