@@ -170,6 +170,7 @@ def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) 
     sub = [replace(b, d=b.d[k], F=b.F[k]) for b, k in zip(data, picks, strict=True)]
     elements = max(problem.models[0].elements // 2, 2)
     coarse = Problem(sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=elements, jacobian=False)
+    coarse.nose = [n[k] for n, k in zip(problem.nose, picks, strict=True)]  # centreline: the fine mesh's
     r_coarse, _ = coarse.evaluate(x)
     scale = sum(b.d.size for b in data) / sum(b.d.size for b in sub)
     offsets = np.cumsum([0] + [b.d.size for b in data[:-1]])
