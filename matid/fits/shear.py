@@ -9,7 +9,10 @@ the specimen's own fits or [[fixed]] entries (physics.md section 6). F_rod is
 the nose force of :class:`matid.rod.bend.BendModel`, followed along the
 measured deflections by continuation and warm-started from the previous
 iterate; its Jacobian dF/dE_s comes from the linearised equilibrium (one
-back-substitution per point), not from differences of solver output.
+back-substitution per point), not from differences of solver output
+(:mod:`matid.fits.bend_problem`: the residuals, the Jacobian, and
+Levenberg-Marquardt; for centreline data the Jacobian at fixed centreline
+deflection, :mod:`matid.fits.bend_centreline`).
 
 The start is the classic Timoshenko estimate from the small-deflection
 compliance C = d/F:  C = S^3/(48 E_b) + S/(4 E_s).
@@ -38,16 +41,18 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import stats
 
-from matid.errors import ConvergenceError, DataError, FitError
+from matid.errors import DataError, FitError
+from matid.fits.bend_centreline import centreline_deflection  # noqa: F401 - public here too
 from matid.fits.bend_checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
+from matid.fits.bend_problem import Problem, least_squares
 from matid.fits.bend_window import Cut, check_plausible, cut
 from matid.fits.shear_torsion import agreement
 from matid.fits.stats import Covariance, ar1_covariance, lack_of_fit
 from matid.ingest import Measurement
 from matid.results import Estimate, Series, TestFit
-from matid.rod.bend import BendGeometry, BendModel, BendPath
+from matid.rod.bend import BendGeometry, BendPath
 from matid.study import Specimen
 
 #: The FE error must stay below this fraction of the statistical standard error
@@ -101,21 +106,6 @@ def bend_data(m: Measurement, specimen: Specimen, E_b: float) -> BendData:
     return BendData(m, geometry, dl, Fl, c.used, centreline, c)
 
 
-def centreline_deflection(model: BendModel, path: BendPath) -> np.ndarray:
-    """Mid-span centreline deflection relative to the material sections over the supports (s = S/2).
-
-    From the solved states' public shape (``BendModel.half_state``): x(S/2) - x(0),
-    x up. It differs from the nose travel by the rotation of the support sections
-    (second order: +0.8 % at d/S = 1 % on a 8 mm span).
-    """
-    half = 0.5 * model.geometry.span
-    out = np.zeros(path.deflection.size)
-    for i in range(path.deflection.size):
-        s, x, _, _ = model.half_state(path, i)
-        out[i] = float(np.interp(half, s, x) - x[0])
-    return out
-
-
 def timoshenko_force(d: np.ndarray, S: float, E_b: float, E_s: float) -> np.ndarray:
     """F = d / (S^3/(48 E_b) + S/(4 E_s)), physics.md section 5."""
     return d / (S**3 / (48 * E_b) + S / (4 * E_s))
@@ -134,68 +124,6 @@ def timoshenko_start(data: Sequence[BendData], E_b: float) -> float:
     return float(np.median(estimates)) if estimates else 1e3 * E_b / min(b.geometry.span for b in data) ** 2
 
 
-class Problem:
-    """Residuals and Jacobian of the bend fit, with the last paths kept for warm starts."""
-
-    def __init__(self, data: Sequence[BendData], E_b: float, E_e: float, *, fit_E_b: bool, elements: int):
-        self.data, self.E_b, self.E_e, self.fit_E_b = data, E_b, E_e, fit_E_b
-        self.models = [BendModel(b.geometry, elements=elements) for b in data]
-        self.paths: list[BendPath | None] = [None] * len(data)
-        self.nose = [b.d.copy() for b in data]  # nose travel of the model at each row
-        self.cache: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        self.solves = 0
-        self.cold_runtime_s: float | None = None  # one solve of every curve from scratch
-
-    def params(self, x: np.ndarray) -> tuple[float, float]:
-        E_s = float(np.exp(x[0]))
-        return E_s, float(np.exp(x[1])) if self.fit_E_b else self.E_b
-
-    def evaluate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self.cache is not None and np.array_equal(self.cache[0], x):
-            return self.cache[1], self.cache[2]
-        t0 = time.perf_counter()
-        E_s, E_b = self.params(x)
-        names = ("E_s", "E_b", "E_e")  # extra back-substitutions on the same factorisation
-        res, jac = [], []
-        for k, (b, model) in enumerate(zip(self.data, self.models, strict=True)):
-            path = self._path(k, b, model, E_b, E_s, names)
-            res.append(path.force - b.F)
-            cols = [path.dforce["E_s"] * E_s] + ([path.dforce["E_b"] * E_b] if self.fit_E_b else [])
-            jac.append(np.column_stack(cols))  # d r / d log p
-        r, J = np.concatenate(res), np.vstack(jac)
-        if self.cold_runtime_s is None:
-            self.cold_runtime_s = time.perf_counter() - t0
-        self.cache = (x.copy(), r, J)
-        return r, J
-
-    def _path(self, k: int, b: BendData, model: BendModel, E_b: float, E_s: float, names) -> BendPath:
-        """The solved path at the rows of test k: at the measured nose travel, or for centreline
-        data at the nose travel whose centreline deflection is the measured one (fixed point
-        d <- d * target / centreline(d); converges at the rate of the ~1 % difference).
-
-        The Jacobian neglects how that nose travel moves with the stiffnesses (a
-        second-order effect), which changes the convergence rate only, not the optimum.
-        """
-        for _ in range(8):
-            path = model.solve(E_b, E_s, self.E_e, self.nose[k], sensitivities=names, start=self.paths[k])
-            self.paths[k] = path
-            self.solves += 1
-            if not b.centreline:
-                return path
-            dc = centreline_deflection(model, path)
-            if np.all(np.abs(dc - b.d) <= 1e-9 * b.d[-1]):
-                return path
-            ratio = np.where(dc > 0, b.d / np.where(dc > 0, dc, 1.0), 1.0)
-            self.nose[k] = np.maximum.accumulate(self.nose[k] * ratio)
-        raise FitError(
-            f"{b.measurement.test.file.name}: the centreline deflection of the model did not match"
-        )
-
-    def sensitivity(self, name: str) -> np.ndarray:
-        """dF/dp at the last evaluation for any stiffness, stacked over tests."""
-        return np.concatenate([path.dforce[name] for path in self.paths])
-
-
 def _held(known: Mapping[str, Estimate], name: str, specimen: str) -> Estimate:
     est = known.get(name)
     if est is None:
@@ -204,19 +132,6 @@ def _held(known: Mapping[str, Estimate], name: str, specimen: str) -> Estimate:
             f"E_s of specimen {specimen} needs {name}: add {source} or a [[fixed]] {name} for {specimen}"
         )
     return est
-
-
-def _solve(problem: Problem, x0: np.ndarray) -> optimize.OptimizeResult:
-    fun = lambda x: problem.evaluate(x)[0]  # noqa: E731 - residual and Jacobian share one solve
-    jac = lambda x: problem.evaluate(x)[1]  # noqa: E731
-    try:
-        result = optimize.least_squares(fun, x0, jac=jac, method="lm", xtol=1e-9, ftol=1e-12, gtol=1e-12)
-    except ConvergenceError as exc:
-        raise FitError(f"the bend model did not converge during the fit: {exc}") from exc
-    if not result.success or not np.all(np.isfinite(result.x)):
-        raise FitError(f"E_s least squares did not converge: {result.message}")
-    problem.evaluate(result.x)  # the cache and warm-start paths at the solution
-    return result
 
 
 @dataclass
@@ -253,7 +168,9 @@ def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) 
     r, J = problem.evaluate(x)
     picks = [np.unique(np.r_[np.arange(0, b.d.size, 3), b.d.size - 1]) for b in data]
     sub = [replace(b, d=b.d[k], F=b.F[k]) for b, k in zip(data, picks, strict=True)]
-    coarse = Problem(sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=max(problem.models[0].elements // 2, 2))
+    elements = max(problem.models[0].elements // 2, 2)
+    coarse = Problem(sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=elements, jacobian=False)
+    coarse.nose = [n[k] for n, k in zip(problem.nose, picks, strict=True)]  # centreline: the fine mesh's
     r_coarse, _ = coarse.evaluate(x)
     scale = sum(b.d.size for b in data) / sum(b.d.size for b in sub)
     offsets = np.cumsum([0] + [b.d.size for b in data[:-1]])
@@ -282,8 +199,7 @@ def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progre
     solves, levels = 0, []
     while True:
         problem = Problem(data, E_b, E_e, fit_E_b=fit_E_b, elements=n)
-        result = _solve(problem, x)
-        x = result.x
+        x = least_squares(problem, x)
         r, J = problem.evaluate(x)
         cov, sigma, full = _statistics(r, J, [b.d.size for b in data])
         fe, tried = _fe_error(problem, x, data, E_e, fit_E_b)
@@ -433,10 +349,19 @@ def _per_span(data, out: Outcome, E_b: float, E_e: float, spans) -> list[dict]:
         return []
     rows = []
     for S in spans:
-        group = [b for b in data if b.geometry.span == S]
-        one = _fit_adaptive(group, E_b, E_e, fit_E_b=False, elements=out.elements, progress=None)
-        sd = float(np.sqrt(one.cov_log[0, 0]))
-        rows.append({"span": S, "span_mm": 1e3 * S, "E_s": float(np.exp(one.x[0])), "sd_log": sd})
+        # started at the joint E_s from the joint fit's paths of these tests (warm), on its mesh
+        idx = [k for k, b in enumerate(data) if b.geometry.span == S]
+        group = [data[k] for k in idx]
+        problem = Problem(group, E_b, E_e, fit_E_b=False, elements=out.elements)
+        joint = out.problem
+        problem.paths = [joint.paths[k] for k in idx]
+        problem.nose = [joint.nose[k].copy() for k in idx]
+        problem.nose_rate = [joint.nose_rate[k] for k in idx]
+        x = least_squares(problem, out.x[:1])
+        r, J = problem.evaluate(x)
+        cov, _, _ = _statistics(r, J, [b.d.size for b in group])
+        sd = float(np.sqrt(cov[0, 0]))
+        rows.append({"span": S, "span_mm": 1e3 * S, "E_s": float(np.exp(x[0])), "sd_log": sd})
     return rows
 
 

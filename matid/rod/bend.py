@@ -17,7 +17,9 @@ force to the stiffnesses come from the linearised equilibrium at each converged
 point: A dX/dp = -dR/dp, one back-substitution with the factorised tangent
 (the energy is linear in each stiffness, so dR/dp is the residual of that one
 energy term). The force is homogeneous of degree one in (E_b, E_s, E_e), so
-dF/dE_b = (F - E_s dF/dE_s - E_e dF/dE_e) / E_b.
+dF/dE_b = (F - E_s dF/dE_s - E_e dF/dE_e) / E_b. The same back-substitution
+gives the load tangent dX/dd (dR/dlam in closed form), which predicts the next
+point of the path and gives dF/dd.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from matid.errors import ConvergenceError, SlipOffError
-from matid.rod.bordered import Bordered
+from matid.rod.bend_system import BendSystem
 from matid.rod.contact import Circle
 from matid.rod.fem import Discretisation
 from matid.rod.models import PLANAR, RodSystem, ScaledRod
@@ -68,136 +70,11 @@ class BendPath:
     #: first-order predictor of a warm start at other stiffnesses
     scaled: tuple[float, float] | None = field(repr=False, default=None)
     tangents: list[dict] = field(repr=False, default_factory=list)
+    #: dF/dd along the path [N/m] (at fixed stiffnesses)
+    dforce_dd: np.ndarray | None = field(repr=False, default=None)
     newton_iterations: int = 0
     load_steps: int = 0
     runtime_s: float = 0.0
-
-
-class BendSystem:
-    """Residual and tangent of the half-model bend at nose deflection lam * d_max (scaled).
-
-    Unknowns X = (free planar dofs, lam_support, lam_nose, sigma): sigma is the
-    arc length of the support vertex, on which the mesh is built (uniform
-    elements on each side of it). Its equation is h(vertex) = 0: the vertex is
-    the contact section. dR/dsigma is a central difference of the residual on
-    the rescaled mesh (nodal values held), which is smooth in sigma.
-    """
-
-    def __init__(self, rod: RodSystem, model: BendModel, support: Circle, d_max: float):
-        self.rod, self.model, self.support, self.d_max = rod, model, support, d_max
-        self.base = rod.disc
-        self.k = model.support_vertex
-        self.nu = int(rod.disc.free.sum())
-
-    def at(self, sigma: float) -> None:
-        if not 0.0 < sigma < self.model.half:
-            raise NewtonFailure(f"the support contact section left the rod (s = {sigma:.4g} span)")
-        if getattr(self, "_sigma", None) != sigma:
-            self.rod.disc = self.base.moved(self.model.vertices(sigma))
-            self._sigma = sigma
-
-    def nose(self, lam: float) -> Circle:
-        rho = self.model.nose_rho
-        return Circle((rho - lam * self.d_max, 0.0), rho)
-
-    @property
-    def roundoff(self) -> float:
-        return self.rod.roundoff
-
-    def step_size(self, dx: np.ndarray) -> float:
-        """Trust region and convergence on the displacements and sigma (multipliers follow them)."""
-        return float(max(np.max(np.abs(dx[: self.nu])), abs(dx[-1])))
-
-    def contacts(self, U: np.ndarray, lam: float):
-        """[(gap, dofs, grad, hess, normal)] for the support and the nose, each at its vertex."""
-        nodes = U.reshape(-1, 3)
-        out = []
-        for circle, vertex in ((self.support, self.k), (self.nose(lam), 0)):
-            g, grad, hess = circle.vertex_gap(nodes, vertex)
-            out.append((g, vertex * 3 + np.arange(3), grad, hess, grad[:2]))
-        return out
-
-    def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
-        u, mult, sigma = X[: self.nu], X[self.nu : self.nu + 2], X[-1]
-        self.at(sigma)
-        U = self.rod.expand(u)
-        R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
-        index = self.rod.index
-        G = np.zeros((2, self.nu))
-        gaps = np.zeros(2)
-        blocks = []
-        for c, (g, dofs, grad, hess, _) in enumerate(self.contacts(U, lam)):
-            idx = index[dofs]
-            ok = idx >= 0
-            G[c, idx[ok]] = grad[ok]
-            gaps[c] = g
-            blocks.append((dofs, -mult[c] * hess))
-        h, dh = self.support.section(U.reshape(-1, 3), self.k)
-        R_all = np.concatenate([R - G.T @ mult, -gaps, [h]])
-        if not tangent:
-            return R_all, None
-        n = self.nu
-        rows, cols, vals = self.rod._triplets(blocks)
-        K.add_blocks(rows, cols, vals)
-        idx = index[self.k * 3 + np.arange(3)]
-        B = np.empty((n, 3))
-        B[:, :2] = -G.T
-        B[:, 2] = self._mesh_derivative(u, U, sigma)
-        C = np.zeros((3, n))
-        C[:2] = -G
-        C[2, idx[idx >= 0]] = dh[idx >= 0]
-        return R_all, Bordered(K, B, C)
-
-    def _mesh_derivative(self, u: np.ndarray, U: np.ndarray, sigma: float) -> np.ndarray:
-        """dR/dsigma with nodal values held, in closed form from the pointwise g and H.
-
-        Moving sigma changes only element lengths h (dh/dsigma = 1/k inside the support
-        vertex, -1/(n - k) outside); with u' = phi_ref' U/h each element residual
-        R_e = sum_q w_q [h g_u phi + g_u' phi_ref'] has
-        dR_e/dh = sum_q [W_0 (g_u/h + dg_u/dh) + W_1 dg_u'/dh],  dg/dh = -H[:, u'] u'/h,
-        with W_0 = phi dx, W_1 = phi' dx the assembly tables (checked against differences).
-        """
-        rod, disc = self.rod, self.rod.disc
-        U_used, g, H = rod.last_points
-        assert U_used is U, "the mesh derivative needs the pointwise derivatives at U"
-        nf, ne, k = disc.nf, disc.ne, self.k
-        h = np.diff(disc.vertices)[:, None, None]  # (ne, 1, 1)
-        up = disc.point_values(U)[..., nf:]  # u' at the points (ne, nq, nf)
-        dg = -np.matmul(H[..., :, nf:], up[..., None])[..., 0] / h  # dg/dh (ne, nq, 2 nf)
-        geff = dg.copy()
-        geff[..., :nf] += g[..., :nf] / h
-        dh = np.where(np.arange(ne) < k, 1.0 / k, -1.0 / (ne - k))[:, None, None]
-        return disc.residual(geff * dh)[disc.free]
-
-    def stiffness_derivative(self, X: np.ndarray, name: str) -> np.ndarray:
-        """dR/dp for a scaled stiffness p of the rod (the residual of that energy term alone)."""
-        rod = self.rod
-        self.at(X[-1])
-        saved = rod.props
-        rod.props = {k: (np.ones_like(v) if k == name else np.zeros_like(v)) for k, v in saved.items()}
-        try:
-            R, _ = rod.evaluate(X[: self.nu], 0.0, tangent=False)
-        finally:
-            rod.props = saved
-        return np.concatenate([R, np.zeros(3)])
-
-    def force(self, X: np.ndarray, lam: float) -> float:
-        """Scaled nose force of the whole tube."""
-        self.at(X[-1])
-        normal = self.contacts(self.rod.expand(X[: self.nu]), lam)[1][4]
-        return 2.0 * X[self.nu + 1] * (-normal[0])
-
-    def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
-        """A pulling contact is no answer: g = |r - c| - rho = 0 also holds on the far side of a
-        cylinder, where Newton lands after a step longer than rho (see newton.follow)."""
-        mult = X[self.nu : self.nu + 2]
-        if np.any(mult < -1e-9 * max(1.0, float(np.max(np.abs(mult))))):
-            return "a contact pulls (the tube crossed a cylinder or lifts off)"
-        return None
-
-    def initial(self) -> np.ndarray:
-        self.at(0.5)
-        return np.concatenate([self.rod.reduce(self.rod.reference()), np.zeros(2), [0.5]])
 
 
 class BendModel:
@@ -242,8 +119,11 @@ class BendModel:
     ) -> BendPath:
         """Nose force at each deflection (increasing from 0), following the path by continuation.
 
-        ``start``: the path of an earlier solve at the same deflections (warm
-        start: Newton from each of its states, continuation as the fallback).
+        Each point starts Newton from a prediction: the last point moved along the load
+        tangent dX/dd (second order), or with ``start``, the path of an earlier solve at
+        as many deflections (other stiffnesses, deflections moved a little: the centreline
+        fit), each of its states moved by dX/dp dp + dX/dd dd, whichever guess was closer
+        at the last point; continuation is the fallback.
         ``sensitivities``: any of "E_s", "E_e", "E_b" for dF/dp.
         """
         t0 = time.perf_counter()
@@ -255,19 +135,37 @@ class BendModel:
         system = self.system(E_b, E_s, E_e, d_max)
         X = system.initial()
         info, lam = NewtonInfo(), 0.0
-        rec: dict[str, list] = {"X": [], "F": [], "dF": []}
+        rec: dict[str, list] = {"X": [], "F": [], "dF": [], "dFdd": []}
         scaled = (system.rod.rod.E_s, system.rod.rod.E_e)
         tangents: list[dict] = []
+        slope, d_last = None, 0.0  # dX/dd at the last converged point: the predictor of the next
+        curvature = miss = None  # d2X/dd2 from the last two slopes; the last warm prediction's error
+        errors = [np.inf, np.inf]  # of the warm and the along-the-path guess at the last point
         for i, target in enumerate(d / d_max):
-            X = self._step(system, X, lam, target, _predict(start, i, scaled), info, d_max)
-            lam = target
+            # two guesses: the earlier path's state moved to these stiffnesses (warm), and this
+            # path's last state moved along its tangent (second order); Newton starts from the one
+            # that was closer at the last point (warm wins for small changes, along for large ones)
+            warm = predicted = _predict(start, i, scaled, d[i])
+            if warm is not None and miss is not None:  # the last point's prediction error: smooth in d
+                warm = warm + miss
+            along = None
+            if slope is not None:
+                h = d[i] - d_last
+                along = X + slope * h + (0.5 * h * h * curvature if curvature is not None else 0.0)
+            guess = warm if along is None or (warm is not None and errors[0] <= errors[1]) else along
+            X = self._step(system, X, lam, target, guess, info, d_max)
+            errors = [np.inf if g is None else float(np.max(np.abs(X - g))) for g in (warm, along)]
+            miss = X - predicted if predicted is not None else None
+            lam, d_last, previous = target, d[i], (slope, d_last)
             self._check(system, X, lam)
             F = system.force(X, lam)
             rec["X"].append(X.copy()), rec["F"].append(F)
-            dX: dict = {}
-            rec["dF"].append(
-                _sensitivities(system, X, info.lu, sensitivities, E_s, E_e, F * scale_F, E_b, dX)
-            )
+            dX = system.derivatives(X, lam, info.lu, stiffness=bool(sensitivities))
+            dX["d"] = slope = dX.pop("lam") / d_max
+            rec["dF"].append(_sensitivities(system, X, lam, dX, sensitivities, E_s, E_e, F * scale_F, E_b))
+            if previous[0] is not None and d_last > previous[1]:
+                curvature = (slope - previous[0]) / (d_last - previous[1])
+            rec["dFdd"].append(system.force_derivative(X, lam, slope) * scale_F)
             tangents.append(dX)
         dF = {p: np.array([r[p] for r in rec["dF"]]) for p in sensitivities}
         return BendPath(
@@ -278,6 +176,7 @@ class BendModel:
             states=rec["X"],
             scaled=scaled,
             tangents=tangents,
+            dforce_dd=np.array(rec["dFdd"]),
             newton_iterations=info.iterations,
             load_steps=info.steps,
             runtime_s=time.perf_counter() - t0,
@@ -285,9 +184,14 @@ class BendModel:
 
     def half_state(self, path: BendPath, index: int = -1) -> tuple[np.ndarray, ...]:
         """(s, x, z, theta) of the half model at one path state, SI, sorted by s from mid-span."""
+        return self.half_state_of(path.states[index])
+
+    def half_state_of(self, X: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(s, x, z, theta) of the half model at a state X (see :meth:`half_state`)."""
         S = self.geometry.span
-        system = self.system(1.0, 1.0, 1.0, float(path.deflection[-1]) or 1.0)  # geometry only
-        X = path.states[index]
+        system = self.__dict__.get("_shape_system")
+        if system is None:  # geometry only: built once per model
+            system = self._shape_system = self.system(1.0, 1.0, 1.0, 1.0)
         system.at(X[-1])
         order = np.argsort(system.rod.disc.s_dof)
         x, z, theta = system.rod.expand(X[: system.nu]).reshape(-1, 3)[order].T
@@ -348,8 +252,9 @@ class BendModel:
             )
 
 
-def _predict(start: BendPath | None, i: int, scaled: tuple[float, float]) -> np.ndarray | None:
-    """Warm-start state i: the earlier state plus dX/dp (dp) for the scaled E_s, E_e when known.
+def _predict(start: BendPath | None, i: int, scaled: tuple[float, float], d: float) -> np.ndarray | None:
+    """Warm-start state i: the earlier state plus dX/dp dp for the scaled E_s, E_e and
+    dX/dd dd for the deflection, as far as they are known (first order).
 
     Measured on the E_s fit: Newton from this first-order prediction needs 2 iterations
     per point where the bare earlier state needs 3.
@@ -360,26 +265,16 @@ def _predict(start: BendPath | None, i: int, scaled: tuple[float, float]) -> np.
     if start.scaled is None or i >= len(start.tangents) or not start.tangents[i]:
         return X
     t = start.tangents[i]
-    return X + sum(
-        t[name] * (new - old)
-        for name, new, old in zip(("E_s", "E_e"), scaled, start.scaled, strict=True)
-        if name in t
-    )
+    steps = [(name, new - old) for name, new, old in zip(("E_s", "E_e"), scaled, start.scaled, strict=True)]
+    steps.append(("d", d - start.deflection[i]))
+    return X + sum(t[name] * step for name, step in steps if name in t and step != 0.0)
 
 
-def _sensitivities(system, X, lu, names, E_s, E_e, F, E_b, dX_out: dict | None = None) -> dict[str, float]:
-    """dF/dp from the linearised equilibrium (SI; see the module docstring); dX/dp (scaled) into dX_out."""
-    out: dict[str, float] = {}
+def _sensitivities(system, X, lam, dX: dict, names, E_s, E_e, F, E_b) -> dict[str, float]:
+    """dF/dp (SI) from dX/dp of the linearised equilibrium (see the module docstring)."""
     if not names:
-        return out
-    system.at(X[-1])
-    normal = system.contacts(system.rod.expand(X[: system.nu]), 0.0)[1][4]
-    for name in ("E_s", "E_e"):
-        if name in names or "E_b" in names:
-            dX = lu.solve(-system.stiffness_derivative(X, name))
-            if dX_out is not None:
-                dX_out[name] = dX
-            out[name] = float(2.0 * dX[system.nu + 1] * (-normal[0]))
+        return {}
+    out = {name: system.force_derivative(X, lam, dX[name]) for name in ("E_s", "E_e")}
     if "E_b" in names:
         out["E_b"] = (F - E_s * out["E_s"] - E_e * out["E_e"]) / E_b
     return {k: v for k, v in out.items() if k in names}

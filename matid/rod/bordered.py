@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy import linalg
 
 from matid.rod.fem import Banded
 
@@ -40,25 +39,38 @@ class Bordered:
 
     def factor(self) -> Bordered:
         K, C = self.K, self.C
-        self.rho = max(1.0, float(np.max(np.abs(K.ab[K.u]))))
-        aug = Banded(K.ab.copy(), K.u, K.order, K.symmetric)
+        u = K.u
+        self.rho = max(1.0, float(np.max(np.abs(K.ab[u]))))
+        aug = Banded(K.ab.copy(), u, K.order, K.symmetric)
         aug.position = K.position
         for row in C[:2]:  # each contact row lives on its own vertex: rho g g^T is in the band
             nz = np.flatnonzero(row)
-            aug.add_blocks(
-                np.repeat(nz, nz.size), np.tile(nz, nz.size), self.rho * np.outer(row[nz], row[nz]).ravel()
-            )
+            pos = K.position[nz]
+            aug.ab[u + pos[:, None] - pos[None, :], pos[None, :]] += self.rho * np.outer(row[nz], row[nz])
         self.F = aug.factor()
         self.Z = self.F.solve(self.B)
-        S = C @ self.Z
-        if not np.all(np.isfinite(S)) or abs(np.linalg.det(S)) <= 1e-300:
-            raise np.linalg.LinAlgError("singular bordered tangent")
-        self.S_lu = linalg.lu_factor(S)
+        self.S_inv = _inverse3(C @ self.Z)  # 3 x 3: applied to every right-hand side
         return self
 
     def solve(self, r: np.ndarray) -> np.ndarray:
+        """The solution for a right-hand side r of shape (n + 3,) or (n + 3, m)."""
         n = self.B.shape[0]
         f = r[:n] + self.rho * (self.C[:2].T @ r[n : n + 2])
         y = self.F.solve(f)
-        w = linalg.lu_solve(self.S_lu, self.C @ y - r[n:])
+        w = self.S_inv @ (self.C @ y - r[n:])
         return np.concatenate([y - self.Z @ w, w])
+
+
+def _inverse3(S: np.ndarray) -> np.ndarray:
+    """Inverse of a 3 x 3 matrix by its adjugate; LinAlgError when singular or not finite."""
+    (a, b, c), (d, e, f), (g, h, i) = S.tolist()
+    cof = [e * i - f * h, f * g - d * i, d * h - e * g]
+    det = a * cof[0] + b * cof[1] + c * cof[2]
+    if not (np.isfinite(det) and abs(det) > 1e-300):
+        raise np.linalg.LinAlgError("singular bordered tangent")
+    adj = [
+        [cof[0], c * h - b * i, b * f - c * e],
+        [cof[1], a * i - c * g, c * d - a * f],
+        [cof[2], b * g - a * h, a * e - b * d],
+    ]
+    return np.array(adj) / det

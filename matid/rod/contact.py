@@ -33,6 +33,8 @@ and the nose force of the whole tube is F = 2 lam_nose (-n_x).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -40,22 +42,26 @@ class Circle:
     """A rigid circle (cylinder axis out of the plane) the tube must stay outside of."""
 
     def __init__(self, centre: tuple[float, float], radius: float):
-        self.centre = np.asarray(centre, float)
-        self.radius = radius
+        self.centre = (float(centre[0]), float(centre[1]))
+        self.radius = float(radius)
 
     def vertex_gap(self, U: np.ndarray, vertex: int) -> tuple[float, np.ndarray, np.ndarray]:
         """Gap at a mesh vertex, g = |r_v - c| - rho, with dg/d(x_v, z_v, theta_v) and d2g."""
-        r = U[vertex, :2]
-        d = max(float(np.linalg.norm(r - self.centre)), 1e-300)  # a wild iterate may hit the centre
-        n = (r - self.centre) / d
-        grad = np.array([n[0], n[1], 0.0])
+        g, nx, nz, d = self.gap(float(U[vertex, 0]), float(U[vertex, 1]))
+        grad = np.array([nx, nz, 0.0])
         hess = np.zeros((3, 3))
-        hess[:2, :2] = (np.eye(2) - np.outer(n, n)) / d
-        return d - self.radius, grad, hess
+        hess[:2, :2] = (np.eye(2) - np.outer(grad[:2], grad[:2])) / d
+        return g, grad, hess
+
+    def gap(self, x: float, z: float) -> tuple[float, float, float, float]:
+        """(g, n_x, n_z, |r - c|) at a point r = (x, z), in plain floats (the Newton hot path)."""
+        dx, dz = x - self.centre[0], z - self.centre[1]
+        d = max(math.hypot(dx, dz), 1e-300)  # a wild iterate may hit the centre
+        return d - self.radius, dx / d, dz / d, d
 
     def section(self, U: np.ndarray, vertex: int) -> tuple[float, np.ndarray]:
         """h = (r_v - c) . d3(theta_v) at a vertex and its gradient in (x_v, z_v, theta_v)."""
-        x, z, th = U[vertex]
+        x, z, th = (float(v) for v in U[vertex])
         dx, dz = x - self.centre[0], z - self.centre[1]
-        s, c = np.sin(th), np.cos(th)
+        s, c = math.sin(th), math.cos(th)
         return dx * s + dz * c, np.array([s, c, dx * c - dz * s])

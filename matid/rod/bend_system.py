@@ -1,0 +1,223 @@
+"""Residual and bordered tangent of the three-point bend's half model (see :mod:`matid.rod.bend`).
+
+Unknowns X = (free planar dofs, lam_support, lam_nose, sigma). The contact terms
+live on two vertices, so they are computed in plain floats and put into the
+rod's banded tangent at positions found once per system; the derivatives the
+E_s fit needs at a converged point (dX/dE_s, dX/dE_e and dX/dd) are one
+back-substitution with three right-hand sides.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from matid.rod.bordered import Bordered
+from matid.rod.contact import Circle
+from matid.rod.models import RodSystem
+from matid.rod.newton import NewtonFailure
+
+
+class BendSystem:
+    """Residual and tangent of the half-model bend at nose deflection lam * d_max (scaled).
+
+    Unknowns X = (free planar dofs, lam_support, lam_nose, sigma): sigma is the
+    arc length of the support vertex, on which the mesh is built (uniform
+    elements on each side of it). Its equation is h(vertex) = 0: the vertex is
+    the contact section. dR/dsigma is in closed form (:meth:`_mesh_derivative`).
+    """
+
+    def __init__(self, rod: RodSystem, model, support: Circle, d_max: float):
+        self.rod, self.model, self.support, self.d_max = rod, model, support, d_max
+        self.base = rod.disc
+        self.k = model.support_vertex
+        self.nu = int(rod.disc.free.sum())
+        index = rod.index
+        #: free-dof index of (x, z, theta) at the support vertex and at the nose vertex (0)
+        self.dofs = (index[3 * self.k : 3 * self.k + 3], index[0:3])
+        # the contact Hessians -lam_c (I - n n^T)/|r - c| on (x, z) of each vertex, free entries only
+        entries = [
+            (c, a, b)
+            for c, idx in enumerate(self.dofs)
+            for a in range(2)
+            for b in range(2)
+            if idx[a] >= 0 and idx[b] >= 0
+        ]
+        self._hess = (
+            np.array([self.dofs[c][a] for c, a, _ in entries]),
+            np.array([self.dofs[c][b] for c, _, b in entries]),
+            entries,
+        )
+        self._z0 = float(rod.reference()[1])
+        # unit stiffness fields: dR/dE of one energy term (the energy is linear in each stiffness)
+        props = rod.props
+        self._unit = {
+            name: {p: (np.ones_like(v) if p == name else np.zeros_like(v)) for p, v in props.items()}
+            for name in ("E_s", "E_e")
+        }
+
+    def at(self, sigma: float) -> None:
+        if not 0.0 < sigma < self.model.half:
+            raise NewtonFailure(f"the support contact section left the rod (s = {sigma:.4g} span)")
+        if getattr(self, "_sigma", None) != sigma:
+            self.rod.disc = self.base.moved(self.model.vertices(sigma))
+            self._sigma = sigma
+
+    def nose(self, lam: float) -> Circle:
+        rho = self.model.nose_rho
+        return Circle((rho - lam * self.d_max, 0.0), rho)
+
+    @property
+    def roundoff(self) -> float:
+        return self.rod.roundoff
+
+    def step_size(self, dx: np.ndarray) -> float:
+        """Trust region and convergence on the displacements and sigma (multipliers follow them)."""
+        return float(max(np.max(np.abs(dx[: self.nu])), abs(dx[-1])))
+
+    def _vertex(self, U: np.ndarray, vertex: int) -> tuple[float, float, float]:
+        return float(U[3 * vertex]), float(U[3 * vertex + 1]), float(U[3 * vertex + 2])
+
+    def _gaps(self, U: np.ndarray, lam: float) -> list[tuple[float, float, float, float]]:
+        """[(g, n_x, n_z, |r - c|)] of the support (at vertex k) and the nose (at vertex 0)."""
+        xs, zs, _ = self._vertex(U, self.k)
+        x0, z0, _ = self._vertex(U, 0)
+        return [self.support.gap(xs, zs), self.nose(lam).gap(x0, z0)]
+
+    def contacts(self, U: np.ndarray, lam: float):
+        """[(gap, dofs, grad, hess, normal)] for the support and the nose, each at its vertex."""
+        nodes = U.reshape(-1, 3)
+        out = []
+        for circle, vertex in ((self.support, self.k), (self.nose(lam), 0)):
+            g, grad, hess = circle.vertex_gap(nodes, vertex)
+            out.append((g, vertex * 3 + np.arange(3), grad, hess, grad[:2]))
+        return out
+
+    def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
+        n = self.nu
+        u, mult, sigma = X[:n], X[n : n + 2], float(X[-1])
+        self.at(sigma)
+        U = self.rod.expand(u)
+        R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
+        gaps = self._gaps(U, lam)
+        G = np.zeros((2, n))
+        for c, (idx, (_, nx, nz, _)) in enumerate(zip(self.dofs, gaps, strict=True)):
+            for a, value in ((0, nx), (1, nz)):
+                if idx[a] >= 0:
+                    G[c, idx[a]] = value
+        h, dh = self.support.section(U.reshape(-1, 3), self.k)  # the support's contact section
+        R_all = np.empty(n + 3)
+        R_all[:n] = R - G.T @ mult
+        R_all[n], R_all[n + 1], R_all[n + 2] = -gaps[0][0], -gaps[1][0], h
+        if not tangent:
+            return R_all, None
+        rows, cols, entries = self._hess
+        vals = np.array(
+            [
+                -float(mult[c]) * ((a == b) - gaps[c][1 + a] * gaps[c][1 + b]) / gaps[c][3]
+                for c, a, b in entries
+            ]
+        )
+        K.add_blocks(rows, cols, vals)
+        B = np.empty((n, 3))
+        B[:, :2] = -G.T
+        B[:, 2] = self._mesh_derivative(U)
+        C = np.zeros((3, n))
+        C[:2] = -G
+        for a in range(3):  # dh/d(x, z, theta) at the support vertex
+            if self.dofs[0][a] >= 0:
+                C[2, self.dofs[0][a]] = dh[a]
+        return R_all, Bordered(K, B, C)
+
+    def _mesh_derivative(self, U: np.ndarray) -> np.ndarray:
+        """dR/dsigma with nodal values held, in closed form from the pointwise g and H.
+
+        Moving sigma changes only element lengths h (dh/dsigma = 1/k inside the support
+        vertex, -1/(n - k) outside); with u' = phi_ref' U/h each element residual
+        R_e = sum_q w_q [h g_u phi + g_u' phi_ref'] has
+        dR_e/dh = sum_q [W_0 (g_u/h + dg_u/dh) + W_1 dg_u'/dh],  dg/dh = -H[:, u'] u'/h,
+        with W_0 = phi dx, W_1 = phi' dx the assembly tables (checked against differences).
+        """
+        rod, disc = self.rod, self.rod.disc
+        U_used, g, H = rod.last_points
+        assert U_used is U, "the mesh derivative needs the pointwise derivatives at U"
+        nf, ne, k = disc.nf, disc.ne, self.k
+        h = np.diff(disc.vertices)[:, None, None]  # (ne, 1, 1)
+        up = disc.point_values(U)[..., nf:]  # u' at the points (ne, nq, nf)
+        dg = -np.matmul(H[..., :, nf:], up[..., None])[..., 0] / h  # dg/dh (ne, nq, 2 nf)
+        dg[..., :nf] += g[..., :nf] / h
+        dh = np.where(np.arange(ne) < k, 1.0 / k, -1.0 / (ne - k))[:, None, None]
+        return disc.residual(dg * dh)[disc.free]
+
+    def lam_derivative(self, X: np.ndarray, lam: float) -> np.ndarray:
+        """dR/dlam in closed form: lam moves only the nose centre, c = (rho - lam d_max, 0).
+
+        (Not named ``load_derivative``: newton.tangent may call that as R(x, 1) - R(x, 0), which
+        holds for loads linear in lam only; the nose moves the residual nonlinearly.)
+
+        With n = (r - c)/|r - c|: dg/dlam = n_x d_max and dn/dlam = (I - n n^T)(d_max, 0)/|r - c|,
+        which enters the residual through -G^T lam (zero when the nose vertex stays on the
+        axis, z = 0, as symmetry holds it).
+        """
+        out = np.zeros(X.size)
+        x0, z0 = self.rod.expand(X[: self.nu])[:2]
+        _, nx, nz, dist = self.nose(lam).gap(float(x0), float(z0))
+        dn = ((1.0 - nx * nx) * self.d_max / dist, -nz * nx * self.d_max / dist)
+        for a in range(2):
+            if self.dofs[1][a] >= 0:
+                out[self.dofs[1][a]] = -X[self.nu + 1] * dn[a]
+        out[self.nu + 1] = -nx * self.d_max  # the nose gap row holds -g
+        return out
+
+    def stiffness_derivative(self, X: np.ndarray, name: str) -> np.ndarray:
+        """dR/dp for a scaled stiffness p (E_s or E_e) of the rod (the residual of that energy term)."""
+        rod = self.rod
+        self.at(X[-1])
+        saved = rod.props
+        rod.props = self._unit[name]
+        try:
+            R, _ = rod.evaluate(X[: self.nu], 0.0, tangent=False)
+        finally:
+            rod.props = saved
+        return np.concatenate([R, np.zeros(3)])
+
+    def derivatives(self, X: np.ndarray, lam: float, lu: Bordered, stiffness: bool) -> dict[str, np.ndarray]:
+        """dX/dd (scaled, per unit lam) and, with ``stiffness``, dX/dE_s and dX/dE_e (per scaled
+        stiffness) at a converged state: A dX/dq = -dR/dq, one back-substitution for all."""
+        names = ("lam", "E_s", "E_e") if stiffness else ("lam",)
+        rhs = np.empty((X.size, len(names)))
+        rhs[:, 0] = self.lam_derivative(X, lam)
+        for j, name in enumerate(names[1:], start=1):
+            rhs[:, j] = self.stiffness_derivative(X, name)
+        out = lu.solve(-rhs)
+        return {name: out[:, j] for j, name in enumerate(names)}
+
+    def normal_x(self, X: np.ndarray, lam: float) -> float:
+        """n_x of the nose contact (+-1 while symmetry keeps the nose vertex on the axis)."""
+        ix, iz = self.dofs[1][0], self.dofs[1][1]
+        if ix >= 0 and iz < 0:  # z(0) held (symmetry): no expansion needed
+            x0, z0 = float(X[ix]), self._z0
+        else:
+            x0, z0 = (float(v) for v in self.rod.expand(X[: self.nu])[:2])
+        return self.nose(lam).gap(x0, z0)[1]
+
+    def force_derivative(self, X: np.ndarray, lam: float, dX: np.ndarray) -> float:
+        """Scaled nose force change along a state change dX. The nose vertex stays on the axis
+        (z = 0 by symmetry), so its contact normal is (+-1, 0) whatever X and lam: only the
+        multiplier moves the force."""
+        return float(2.0 * dX[self.nu + 1] * (-self.normal_x(X, lam)))
+
+    def force(self, X: np.ndarray, lam: float) -> float:
+        """Scaled nose force of the whole tube."""
+        return float(2.0 * X[self.nu + 1] * (-self.normal_x(X, lam)))
+
+    def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
+        """A pulling contact is no answer: g = |r - c| - rho = 0 also holds on the far side of a
+        cylinder, where Newton lands after a step longer than rho (see newton.follow)."""
+        mult = X[self.nu : self.nu + 2]
+        if np.any(mult < -1e-9 * max(1.0, float(np.max(np.abs(mult))))):
+            return "a contact pulls (the tube crossed a cylinder or lifts off)"
+        return None
+
+    def initial(self) -> np.ndarray:
+        self.at(0.5)
+        return np.concatenate([self.rod.reduce(self.rod.reference()), np.zeros(2), [0.5]])
