@@ -115,7 +115,8 @@ class RodSystem:
         nf = self.disc.nf
         free = np.ones(self.disc.n, dtype=bool)
         free[list(range(nf)) if self.fixed is None else list(self.fixed)] = False
-        self.disc.set_free(free)
+        if not np.array_equal(self.disc.free, free):  # a shared (cached) mesh keeps its patterns
+            self.disc.set_free(free)
         self.index = np.full(self.disc.n, -1)
         self.index[free] = np.arange(int(free.sum()))
         self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
@@ -327,6 +328,13 @@ class RodSystem:
         H = self.c_u * (2.0 * e[:, None, None] * np.eye(4) + 4.0 * Q[:, :, None] * Q[:, None, :])
         dofs = np.arange(Q.shape[0])[:, None] * nf + 3 + np.arange(4)[None, :]
         return R.ravel(), [(dofs, H)]
+
+    def compiled_newton(self, x0: np.ndarray, lam: float, **options):
+        """:func:`matid.rod.newton.newton` in one compiled call (:mod:`matid.rod.compiled`), or None
+        when this system is not one it serves."""
+        from matid.rod import compiled
+
+        return compiled.newton(self, x0, lam, **options) if compiled.supported(self) else None
 
     # -- residual and tangent on the free dofs ---------------------------------
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):

@@ -86,6 +86,12 @@ def newton(
     load step is halved by :func:`follow`.
     """
     floor = min(max(xtol, float(getattr(system, "roundoff", 0.0))), FLOOR_CAP)
+    compiled = getattr(system, "compiled_newton", None)
+    if compiled is not None:  # the same iteration in one compiled call (matid.rod.kernel)
+        options = {"xtol": xtol, "max_iter": max_iter, "max_step": max_step, "floor": floor}
+        out = compiled(x0, lam, mixed_above=MIXED_ABOVE, **options)
+        if out is not None:
+            return _compiled_result(out, max_iter)
     measure = getattr(system, "step_size", None) or (lambda d: float(np.max(np.abs(d))) if d.size else 0.0)
     x = x0.copy()
     sizes: list[float] = []
@@ -105,11 +111,7 @@ def newton(
             return x + dx, it, lu
         if len(sizes) >= 3 and size > sizes[-1] and size > sizes[-3]:
             if size < 1e-3 and max(sizes[-3:]) < 10 * min(sizes[-3:]) and size < 1e-2 * sizes[0]:
-                raise RoundoffStagnation(
-                    f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
-                    f"{sizes[0]:.2g}: the precision double arithmetic allows for this mesh and stiffness "
-                    "spread; use fewer elements or a less extreme stiffness ratio"
-                )
+                raise _stagnation(size, sizes[0])
             raise NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}")
         sizes.append(size)
         alpha = min(1.0, max_step / size)
@@ -117,6 +119,31 @@ def newton(
             mixed(dx, alpha) if size > MIXED_ABOVE else system.mixed_reset()
         x = x + dx * alpha
     raise NewtonFailure(f"no convergence in {max_iter} iterations (correction {size:.3g})")
+
+
+def _stagnation(size: float, first: float) -> RoundoffStagnation:
+    return RoundoffStagnation(
+        f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
+        f"{first:.2g}: the precision double arithmetic allows for this mesh and stiffness "
+        "spread; use fewer elements or a less extreme stiffness ratio"
+    )
+
+
+def _compiled_result(out: tuple, max_iter: int) -> tuple[np.ndarray, int, object]:
+    """(x, iterations, factor) of a compiled Newton (matid.rod.compiled), or its failure raised."""
+    from matid.rod import kernel
+
+    status, x, it, size, first, factor, info = out
+    if status == kernel.CONVERGED:
+        return x, it, factor
+    raise {
+        kernel.SINGULAR: NewtonFailure(f"singular tangent (zero pivot {info})"),
+        kernel.NOT_FINITE_R: NewtonFailure("residual is not finite"),
+        kernel.NOT_FINITE_DX: NewtonFailure("Newton correction is not finite"),
+        kernel.DIVERGING: NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}"),
+        kernel.STAGNATION: _stagnation(size, first),
+        kernel.MAX_ITER: NewtonFailure(f"no convergence in {max_iter} iterations (correction {size:.3g})"),
+    }[status]
 
 
 def _factor(K) -> object:

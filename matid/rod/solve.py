@@ -8,6 +8,7 @@ Positions and directors come back in the lab frame and in metres.
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -179,12 +180,7 @@ def solve_cantilever_state(
     e_a = None if chosen == FULL else np.asarray(plane)
     ne = elements or scene.elements or DEFAULT_ELEMENTS
     order = intorder or (DEFAULT_INTORDER if element == "P2" else 2)
-    disc = Discretisation(
-        graded_vertices(1.0, ne, breaks=breaks(scene)),
-        3 if chosen == PLANAR else 7,
-        element=element,
-        intorder=order,
-    )
+    disc = mesh(ne, breaks(scene), 3 if chosen == PLANAR else 7, element, order)
     rod = scaled_rod(scene, e_a)
     system = RodSystem(
         disc,
@@ -204,6 +200,17 @@ def solve_cantilever_state(
     sol = _solution(scene, chosen, disc, U, e_a, info, time.perf_counter() - t0, system.terms)
     order = np.argsort(disc.s_dof)
     return sol, (disc.vertices.copy(), U[order]) if element == "P2" else None
+
+
+@functools.lru_cache(maxsize=64)
+def mesh(elements: int, at: tuple[float, ...], nf: int, element: str, intorder: int) -> Discretisation:
+    """The cantilever's discretisation, built once per (mesh, fields, element, rule).
+
+    Nothing in it depends on the loads or stiffnesses, and the clamp (the only
+    fixed dofs of a cantilever) is the same for every scene, so repeated solves and
+    the meshes of the error estimate share it (its tables are read-only).
+    """
+    return Discretisation(graded_vertices(1.0, elements, breaks=at), nf, element=element, intorder=intorder)
 
 
 def _warm(system: RodSystem, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, NewtonInfo] | None:
