@@ -25,7 +25,7 @@ from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
 from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene, plane_of
-from matid.rod.solve import Solution, solve_cantilever_state
+from matid.rod.solve import Equilibrium, Solution, equilibrium
 
 MODELS = ("auto", PLANAR, FULL)
 #: Energy terms of the bend half model (no field, no twist: planar by construction).
@@ -77,19 +77,18 @@ def solve(
     state: list = [None]  # the last mesh's state: each finer mesh starts from it
 
     def at(n: int):
-        if scene.kind == "cantilever":
-            sol, state[0] = solve_cantilever_state(
-                scene, elements=n, model=chosen, variant=variant, element=element, start=state[0]
-            )
-            quantity = np.concatenate([sol.position[-1] / scene.rod.length, sol.d3[-1]])
-        else:
-            sol = solve_bend(scene, elements=n)
-            force = np.asarray(sol.three_point_bend["force"])
-            quantity = force / max(float(np.max(np.abs(force))), 1e-300)
-        return sol, quantity, sol.runtime_s
+        if scene.kind == "cantilever":  # presented as a Solution only if it is the answer
+            options = {"model": chosen, "variant": variant, "element": element}
+            eq = equilibrium(scene, elements=n, start=state[0], **options)
+            state[0] = eq.state()
+            return eq, eq.tip(), eq.runtime_s
+        sol = solve_bend(scene, elements=n)
+        force = np.asarray(sol.three_point_bend["force"])
+        return sol, force / max(float(np.max(np.abs(force))), 1e-300), sol.runtime_s
 
     fixed = elements or scene.elements
-    sol, est = refine(at, tolerance=scene.tolerance, fixed=fixed, start=8)
+    result, est = refine(at, tolerance=scene.tolerance, fixed=fixed, start=8)
+    sol = result.solution() if isinstance(result, Equilibrium) else result
     total = sum(t for _, t in est.history)
     return replace(
         sol,

@@ -52,11 +52,16 @@ def supported(system) -> bool:
     """Whether the kernel computes exactly what ``system.evaluate`` does."""
     from matid.rod.models import FULL, PLANAR
 
-    if not (ENABLED and system.banded and system.analytic and system.symmetric):
+    if not (ENABLED and system.banded and system.analytic):
         return False
     if system.model == PLANAR:
         return True
-    return system.model == FULL and system.variant == kin.NORMALISED and not system.magnet_nodes
+    return (
+        system.model == FULL
+        and system.variant == kin.NORMALISED
+        and not system.magnet_nodes
+        and not any(system.rod.tip_moment)  # a dead moment in 3D: unsymmetric tangent
+    )
 
 
 def _mesh_arrays(disc) -> dict:
@@ -84,12 +89,13 @@ def _mesh_arrays(disc) -> dict:
 
 
 def _load_arrays(system) -> dict:
-    """Stiffnesses, field and loads of a system for the kernel, cached per mesh and properties."""
+    """Stiffnesses, field and loads of a system for the kernel, cached per mesh, rod and properties."""
     from matid.rod.models import PLANAR
 
-    cached = system.__dict__.get("_kernel_loads")
-    if cached is not None and cached[0] is system.disc and cached[1] is system.props:
-        return cached[2]
+    cache = system.disc.__dict__.setdefault("_kernel_loads", {})
+    cached = cache.get(system.rod)
+    if cached is not None and cached[0] is system.props:
+        return cached[1]
     disc, rod, p = system.disc, system.rod, system.props
     nf = disc.nf
     props = np.ascontiguousarray(np.stack([p["E_b"], p["E_t"], p["E_s"], p["E_e"]]), dtype=float)
@@ -113,7 +119,9 @@ def _load_arrays(system) -> dict:
         "point": point,
         "magnets": magnets,
     }
-    system._kernel_loads = (system.disc, system.props, arrays)
+    if len(cache) > 32:
+        cache.clear()
+    cache[system.rod] = (system.props, arrays)
     return arrays
 
 
@@ -157,9 +165,8 @@ def newton(system, x0: np.ndarray, lam: float, *, xtol, max_iter, max_step, floo
     return status, U[system.disc.free], its, size, first, factor, info
 
 
-def evaluate(system, X: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
-    """Residual and dense tangent on the free dofs (free-dof numbering) as the kernel assembles them,
-    with the consistent tangent: the tests compare them with ``system.evaluate`` and the jets."""
+def _assemble(system, X: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
+    """(residual, lower band of the consistent tangent) in band order, as the kernel assembles them."""
     from matid.rod import kernel
     from matid.rod.models import PLANAR
 
@@ -174,6 +181,21 @@ def evaluate(system, X: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]
         loads["f"], loads["kref"], _A, _Q, loads["M"], loads["point"], loads["magnets"], float(system.c_u),
         np.zeros((ne, nq, ns)), False, np.zeros((ne, nq, ns)), np.zeros((ne, nq, ns, nv)), R, S,
     )  # fmt: skip
+    return R, S
+
+
+def load_derivative(system, X: np.ndarray) -> np.ndarray:
+    """dR/dlam = R(X, 1) - R(X, 0) on the free dofs (free-dof numbering)."""
+    out = np.empty(X.size)
+    out[system.disc.band_order] = _assemble(system, X, 1.0)[0] - _assemble(system, X, 0.0)[0]
+    return out
+
+
+def evaluate(system, X: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
+    """Residual and dense tangent on the free dofs (free-dof numbering) as the kernel assembles them,
+    with the consistent tangent: the tests compare them with ``system.evaluate`` and the jets."""
+    R, S = _assemble(system, X, lam)
+    n, u = S.shape[0], S.shape[1] - 1
     K = np.zeros((n, n))
     for t in range(u + 1):  # S[i, t] = K[i, i - u + t]
         i = np.arange(max(0, u - t), n)

@@ -109,16 +109,13 @@ class RodSystem:
 
     def __post_init__(self) -> None:
         self._stress = self._strain = None
-        s = self.disc.s_quad
-        self.props = self.rod.stiffness_at(s)
-        self.mu = self.rod.mu_at(s)
+        self.props, self.mu = _fields(self.disc, self.rod)
         nf = self.disc.nf
         free = np.ones(self.disc.n, dtype=bool)
         free[list(range(nf)) if self.fixed is None else list(self.fixed)] = False
         if not np.array_equal(self.disc.free, free):  # a shared (cached) mesh keeps its patterns
             self.disc.set_free(free)
-        self.index = np.full(self.disc.n, -1)
-        self.index[free] = np.arange(int(free.sum()))
+        self.index = self.disc._index  # free dof number of each dof, -1 where fixed
         self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
         magnets = [(s_m, m) for s_m, m in self.rod.magnets]
         verts = self.disc.vertices
@@ -336,6 +333,12 @@ class RodSystem:
 
         return compiled.newton(self, x0, lam, **options) if compiled.supported(self) else None
 
+    def load_derivative(self, X: np.ndarray) -> np.ndarray | None:
+        """dR/dlam = R(X, 1) - R(X, 0) from the kernel, or None (then newton.tangent evaluates)."""
+        from matid.rod import compiled
+
+        return compiled.load_derivative(self, X) if compiled.supported(self) else None
+
     # -- residual and tangent on the free dofs ---------------------------------
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):
         """Residual on the free dofs and, with ``tangent``, its Jacobian (CSR)."""
@@ -431,6 +434,18 @@ class RodSystem:
 
     def reduce(self, U: np.ndarray) -> np.ndarray:
         return U[self.disc.free].copy()
+
+
+def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """(stiffnesses, magnetisation) of the rod at the mesh's quadrature points, remembered per
+    mesh and rod (a cached mesh serves every solve of a scene); read-only arrays."""
+    cache = disc.__dict__.setdefault("_fields", {})
+    hit = cache.get(rod)
+    if hit is None or hit[0] is not disc.s_quad:  # a moved mesh shares the dict, not the points
+        if len(cache) > 32:
+            cache.clear()
+        hit = cache[rod] = (disc.s_quad, rod.stiffness_at(disc.s_quad), rod.mu_at(disc.s_quad))
+    return hit[1], hit[2]
 
 
 def _moment_work(q: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -161,11 +161,14 @@ def _factor(K) -> object:
 def tangent(system: System, x: np.ndarray, lam: float, lu: object) -> np.ndarray:
     """dx/dlam on the equilibrium path: K dx/dlam = -dR/dlam.
 
-    Every load of the rod scenes is linear in lam, so dR/dlam = R(x, 1) - R(x, 0) exactly.
+    Every load of the rod scenes is linear in lam, so dR/dlam = R(x, 1) - R(x, 0) exactly
+    (``system.load_derivative(x)`` when it offers it, e.g. compiled).
     """
-    R1, _ = system.evaluate(x, 1.0, tangent=False)
-    R0, _ = system.evaluate(x, 0.0, tangent=False)
-    return lu.solve(-(R1 - R0))
+    load = getattr(system, "load_derivative", None)
+    dR = load(x) if load is not None else None
+    if dR is None:
+        dR = system.evaluate(x, 1.0, tangent=False)[0] - system.evaluate(x, 0.0, tangent=False)[0]
+    return lu.solve(-dR)
 
 
 def _check_admissible(system: System, x: np.ndarray, lam: float, factor: object = None) -> None:

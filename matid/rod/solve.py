@@ -9,6 +9,7 @@ Positions and directors come back in the lab frame and in metres.
 from __future__ import annotations
 
 import functools
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -69,7 +70,9 @@ class Solution:
 def _rotate(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rodrigues: rotate the fixed vector v about the unit axis by each angle."""
     c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
-    return v * c + np.cross(axis, v)[None, :] * s + axis * (axis @ v) * (1 - c)
+    a0, a1, a2 = axis
+    cross = np.array([a1 * v[2] - a2 * v[1], a2 * v[0] - a0 * v[2], a0 * v[1] - a1 * v[0]])  # axis x v
+    return v * c + cross * s + axis * (axis @ v) * (1 - c)
 
 
 def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
@@ -154,7 +157,16 @@ def solve_cantilever(scene: Scene, **options) -> Solution:
     return solve_cantilever_state(scene, **options)[0]
 
 
-def solve_cantilever_state(
+def solve_cantilever_state(scene: Scene, **options) -> tuple[Solution, tuple[np.ndarray, np.ndarray] | None]:
+    """:func:`solve_cantilever` plus the scaled state (vertices, nodal values sorted by s) for a warm start.
+
+    ``options`` are those of :func:`equilibrium`.
+    """
+    eq = equilibrium(scene, **options)
+    return eq.solution(), eq.state()
+
+
+def equilibrium(
     scene: Scene,
     *,
     elements: int | None = None,
@@ -165,23 +177,18 @@ def solve_cantilever_state(
     intorder: int | None = None,
     first_step: float = 1.0,
     start: tuple[np.ndarray, np.ndarray] | None = None,
-) -> tuple[Solution, tuple[np.ndarray, np.ndarray] | None]:
-    """:func:`solve_cantilever` plus the scaled state (vertices, nodal values sorted by s) for a warm start.
+) -> Equilibrium:
+    """The converged scaled state of a cantilever (raises ConvergenceError, never returns a failed state).
 
-    ``start``: such a state of the same scene on another mesh (P2). Newton runs at
-    the full load from its interpolant (measured: 3-6 iterations from the half mesh);
-    the load continuation from the straight rod is the fallback when that fails.
+    ``start``: a state of the same scene on another mesh (P2, :meth:`Equilibrium.state`).
+    Newton runs at the full load from its interpolant (measured: 3-6 iterations from the
+    half mesh); the load continuation from the straight rod is the fallback when that fails.
     """
     t0 = time.perf_counter()
-    plane = plane_of(scene) if model in ("auto", PLANAR) else None
-    if model == PLANAR and plane is None:
-        raise ValueError("the scene is not planar: use model='full' or 'auto'")
-    chosen = PLANAR if plane is not None else FULL
-    e_a = None if chosen == FULL else np.asarray(plane)
+    chosen, e_a, rod, at = _prepare(scene, model)
     ne = elements or scene.elements or DEFAULT_ELEMENTS
     order = intorder or (DEFAULT_INTORDER if element == "P2" else 2)
-    disc = mesh(ne, breaks(scene), 3 if chosen == PLANAR else 7, element, order)
-    rod = scaled_rod(scene, e_a)
+    disc = mesh(ne, at, 3 if chosen == PLANAR else 7, element, order)
     system = RodSystem(
         disc,
         rod,
@@ -197,9 +204,61 @@ def solve_cantilever_state(
     else:
         X, info = X
     U = system.expand(X).reshape(disc.nscalar, disc.nf)
-    sol = _solution(scene, chosen, disc, U, e_a, info, time.perf_counter() - t0, system.terms)
-    order = np.argsort(disc.s_dof)
-    return sol, (disc.vertices.copy(), U[order]) if element == "P2" else None
+    return Equilibrium(scene, chosen, disc, U, e_a, info, time.perf_counter() - t0, tuple(system.terms))
+
+
+@dataclass(frozen=True)
+class Equilibrium:
+    """A converged cantilever in scaled units, before it is presented as a :class:`Solution`
+    (the error estimate's coarser meshes only need the tip and the state)."""
+
+    scene: Scene
+    model: str
+    disc: Discretisation
+    U: np.ndarray  # (nscalar, nf) nodal values, scikit-fem order
+    e_a: np.ndarray | None
+    info: NewtonInfo
+    runtime_s: float
+    terms: tuple[str, ...]
+
+    def solution(self) -> Solution:
+        scene, disc, info = self.scene, self.disc, self.info
+        return _solution(scene, self.model, disc, self.U, self.e_a, info, self.runtime_s, self.terms)
+
+    def state(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(vertices, nodal values sorted by s) for a warm start on another mesh (P2 only)."""
+        if self.disc.element != "P2":
+            return None
+        return self.disc.vertices.copy(), self.U[np.argsort(self.disc.s_dof)]
+
+    def tip(self) -> np.ndarray:
+        """(tip position / L, tip d3): the Solution's last row (to round-off), without building it."""
+        u = self.U[self.disc.vertices.size - 1]  # the last vertex (vertex dofs come first)
+        if self.model == PLANAR:  # d3 = cos(theta) e3 + sin(theta) e_a, see _frames
+            a0, a1 = float(self.e_a[0]), float(self.e_a[1])
+            c, s = math.cos(u[2]), math.sin(u[2])
+            return np.array([u[0] * a0, u[0] * a1, u[1], s * a0, s * a1, c])
+        q = u[3:] / math.sqrt(float(u[3:] @ u[3:]))
+        return np.array([u[0], u[1], u[2], *(float(r[2]) for r in kin.directors(q))])
+
+
+_PREPARED: list = [None]
+
+
+def _prepare(scene: Scene, model: str) -> tuple[str, np.ndarray | None, ScaledRod, tuple[float, ...]]:
+    """(model, plane direction, scaled rod, mesh breaks) of a scene; the last one is remembered
+    (scenes are frozen), so the meshes of one error estimate compute them once."""
+    last = _PREPARED[0]
+    if last is not None and last[0] is scene and last[1] == model:
+        return last[2]
+    plane = plane_of(scene) if model in ("auto", PLANAR) else None
+    if model == PLANAR and plane is None:
+        raise ValueError("the scene is not planar: use model='full' or 'auto'")
+    chosen = PLANAR if plane is not None else FULL
+    e_a = None if chosen == FULL else np.asarray(plane)
+    prepared = (chosen, e_a, scaled_rod(scene, e_a), breaks(scene))
+    _PREPARED[0] = (scene, model, prepared)
+    return prepared
 
 
 @functools.lru_cache(maxsize=64)
@@ -229,28 +288,38 @@ def _warm(system: RodSystem, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.n
 
 def interpolate_p2(vertices: np.ndarray, values: np.ndarray, s: np.ndarray) -> np.ndarray:
     """The P2 field with nodal ``values`` (vertex, mid-point, vertex, ... sorted by s) at points s."""
-    e = np.clip(np.searchsorted(vertices, s, side="right") - 1, 0, vertices.size - 2)
-    t = ((s - vertices[e]) / (vertices[e + 1] - vertices[e]))[:, None]
-    a, m, b = values[2 * e], values[2 * e + 1], values[2 * e + 2]
-    return a * (2 * (t - 0.5) * (t - 1)) + m * (4 * t * (1 - t)) + b * (2 * t * (t - 0.5))
+    e, wa, wm, wb = _p2_weights(np.asarray(vertices, float).tobytes(), np.asarray(s, float).tobytes())
+    return values[2 * e] * wa + values[2 * e + 1] * wm + values[2 * e + 2] * wb
+
+
+@functools.lru_cache(maxsize=64)
+def _p2_weights(vertices: bytes, points: bytes) -> tuple[np.ndarray, ...]:
+    """Element and basis weights of :func:`interpolate_p2` (the meshes of a solve repeat)."""
+    v, s = np.frombuffer(vertices), np.frombuffer(points)
+    e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
+    t = ((s - v[e]) / (v[e + 1] - v[e]))[:, None]
+    return e, 2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)
+
+
+def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(position, d1, d3) in the lab frame (metres) of nodal rows U."""
+    if chosen == PLANAR:
+        e3 = np.array([0.0, 0.0, 1.0])
+        n = np.array([-e_a[1], e_a[0], 0.0])  # e3 x e_a
+        position = (U[:, 0:1] * e_a + U[:, 1:2] * e3) * L
+        theta = U[:, 2]
+        return position, _rotate(n, theta, np.array([1.0, 0.0, 0.0])), _rotate(n, theta, e3)
+    position = U[:, :3] * L
+    q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
+    R = np.array(kin.directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
+    return position, R[:, :, 0], R[:, :, 2]
 
 
 def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms) -> Solution:
     L = scene.rod.length
     order = np.argsort(disc.s_dof)
     s, U = disc.s_dof[order] * L, U[order]
-    if chosen == PLANAR:
-        e3 = np.array([0.0, 0.0, 1.0])
-        n = np.cross(e3, e_a)
-        position = (U[:, 0:1] * e_a + U[:, 1:2] * e3) * L
-        theta = U[:, 2]
-        d1 = _rotate(n, theta, np.array([1.0, 0.0, 0.0]))
-        d3 = _rotate(n, theta, e3)
-    else:
-        position = U[:, :3] * L
-        q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
-        R = np.array(kin.directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
-        d1, d3 = R[:, :, 0], R[:, :, 2]
+    position, d1, d3 = _frames(chosen, U, e_a, L)
     if not (np.all(np.isfinite(position)) and np.all(np.isfinite(d1))):
         raise FloatingPointError("non-finite solution")  # unreachable: Newton rejects NaN
     return Solution(
