@@ -74,13 +74,13 @@ def solve(
             f"elements: at most {MAX_SCENE_ELEMENTS} (the automatic meshing's limit), got {elements}"
         )
     chosen = resolve_model(scene, model)
-    state: list = [None]  # the last mesh's state: each finer mesh starts from it
+    state: list = [None]  # the last mesh's Equilibrium: each finer mesh starts from it
 
     def at(n: int):
         if scene.kind == "cantilever":  # presented as a Solution only if it is the answer
             options = {"model": chosen, "variant": variant, "element": element}
             eq = equilibrium(scene, elements=n, start=state[0], **options)
-            state[0] = eq.state()
+            state[0] = eq
             return eq, eq.tip(), eq.runtime_s
         sol = solve_bend(scene, elements=n)
         force = np.asarray(sol.three_point_bend["force"])

@@ -133,6 +133,10 @@ def newton(system, x0: np.ndarray, lam: float, *, xtol, max_iter, max_step, floo
 
     mesh, loads = _mesh_arrays(system.disc), _load_arrays(system)
     U0 = system.expand(x0)
+    ne, nq = system.disc.dx.shape
+    start = system.stress_start
+    stress = np.zeros((ne, nq, 2 if system.model == PLANAR else 6)) if start is None else start.copy()
+    system.point_stress = su_all = np.zeros_like(stress)
     U, status, its, size, first, L, abd, ipvt, info = kernel.newton(
         U0,
         float(lam),
@@ -160,6 +164,9 @@ def newton(system, x0: np.ndarray, lam: float, *, xtol, max_iter, max_step, floo
         float(max_step),
         bool(system.mixed),
         float(mixed_above),
+        stress,
+        start is not None,
+        su_all,
     )
     factor = KernelFactor(L, abd, ipvt, info == -1, mesh["u"], system.disc.band_order)
     return status, U[system.disc.free], its, size, first, factor, info

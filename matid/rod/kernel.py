@@ -258,16 +258,17 @@ def _assemble(
                     pos = bpos[gdofs[e, i * nf + c]]
                     if pos >= 0:
                         R[pos] += b0 * g[c] + b1 * g[nf + c]
-            for i in range(nloc):
-                for j in range(nloc):
-                    for k in range(2):
-                        for kk in range(2):
-                            wk = w * T[e, qp, k, i] * T[e, qp, kk, j]
-                            if wk == 0.0:
-                                continue
-                            for c in range(nf):
-                                for d in range(nf):
-                                    Kl[i * nf + c, j * nf + d] += wk * H[k * nf + c, kk * nf + d]
+            for a in range(nv):  # K_(i,c)(j,d) += w B_(k,i) H_ab B_(l,j), a = k nf + c, b = l nf + d
+                k, c = a // nf, a % nf
+                for b in range(nv):
+                    h = H[a, b]
+                    if h == 0.0:  # most of the planar H (10 of 36 entries are not zero)
+                        continue
+                    kk, d = b // nf, b % nf
+                    for i in range(nloc):
+                        wh = w * T[e, qp, k, i] * h
+                        for j in range(nloc):
+                            Kl[i * nf + c, j * nf + d] += wh * T[e, qp, kk, j]
         m = nloc * nf
         for a in range(m):
             pa = bpos[gdofs[e, a]]
@@ -397,9 +398,15 @@ def newton(
     max_step,
     mixed,
     mixed_above,
+    stress,
+    use0,
+    su_all,
 ):
     """Newton at load factor lam from U0 (all dofs), as :func:`matid.rod.newton.newton`.
 
+    ``stress`` (ne, nq, ns): the mixed tangent's point stresses of the first iteration when
+    ``use0`` (a warm start), overwritten by the iteration; ``su_all`` receives C e(u) at the
+    points of the last evaluation (the converged state's stresses, for the next warm start).
     Returns (U, status, iterations, last correction, first correction, L, abd, ipvt, info):
     status is one of CONVERGED ... SINGULAR; the last tangent's factors are the Cholesky
     L when ``info`` is -1, else the LU factors (abd, ipvt) and ``info`` LINPACK's.
@@ -413,10 +420,9 @@ def newton(
     S = np.empty((n, u + 1))
     L = np.empty((n, u + 1))
     abd, ipvt = np.zeros((1, 1)), np.zeros(1, dtype=np.int64)
-    su_all = np.zeros((ne, nq, ns))
     CJ_all = np.zeros((ne, nq, ns, nv))
-    stress = np.zeros((ne, nq, ns))
     use_stress = np.zeros(1, dtype=np.int64)  # an array, not a literal: one compiled _assemble
+    use_stress[0] = 1 if (mixed and use0) else 0
     dU = np.zeros(U.size)
     sizes = np.zeros(max_iter)
     size = 0.0

@@ -109,6 +109,11 @@ class RodSystem:
 
     def __post_init__(self) -> None:
         self._stress = self._strain = None
+        #: point stresses (ne, nq, ns) for the mixed tangent's first iteration (a warm start
+        #: from a coarser mesh's recovered stresses), and C e(u) at the points of the last
+        #: compiled Newton (the converged state's stresses, for the next warm start)
+        self.stress_start: np.ndarray | None = None
+        self.point_stress: np.ndarray | None = None
         self.props, self.mu = _fields(self.disc, self.rod)
         nf = self.disc.nf
         free = np.ones(self.disc.n, dtype=bool)
@@ -248,6 +253,16 @@ class RodSystem:
     def mixed_reset(self) -> None:
         """Back to the consistent tangent (stresses from the displacements)."""
         self._stress = None
+
+    def converged_stress(self) -> np.ndarray | None:
+        """C e(u) (ne, nq, ns) at the points of the last Newton evaluation (mixed systems)."""
+        if self.point_stress is not None:
+            return self.point_stress
+        return None if self._strain is None else self._strain[0]
+
+    def mixed_begin(self) -> None:
+        """The first iteration's tangent: from ``stress_start`` when given (mixed), else consistent."""
+        self._stress = None if (self.stress_start is None or not self.mixed) else self.stress_start.copy()
 
     def mixed_update(self, dx: np.ndarray, alpha: float) -> None:
         """Point stresses after a Newton step alpha dx: sigma += alpha (C (e(u) + J du) - sigma).

@@ -97,7 +97,7 @@ def newton(
     sizes: list[float] = []
     mixed = getattr(system, "mixed_update", None)
     if mixed is not None:
-        system.mixed_reset()
+        getattr(system, "mixed_begin", system.mixed_reset)()
     for it in range(1, max_iter + 1):
         R, K = system.evaluate(x, lam)
         if not np.all(np.isfinite(R)):

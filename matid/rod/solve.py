@@ -198,13 +198,20 @@ def equilibrium(
         banded=True,
         mixed=MIXED[chosen],
     )
+    if isinstance(start, Equilibrium):
+        system.stress_start = start.stress_at(disc)
+        start = start.state()
     X = _warm(system, start) if start is not None and element == "P2" else None
     if X is None:
+        system.stress_start = None  # the continuation starts from the straight rod
         X, info = follow(system, system.reduce(system.reference()), [1.0], first_step=first_step)
     else:
         X, info = X
     U = system.expand(X).reshape(disc.nscalar, disc.nf)
-    return Equilibrium(scene, chosen, disc, U, e_a, info, time.perf_counter() - t0, tuple(system.terms))
+    runtime = time.perf_counter() - t0
+    return Equilibrium(
+        scene, chosen, disc, U, e_a, info, runtime, tuple(system.terms), system.converged_stress()
+    )
 
 
 @dataclass(frozen=True)
@@ -220,6 +227,16 @@ class Equilibrium:
     info: NewtonInfo
     runtime_s: float
     terms: tuple[str, ...]
+    stress: np.ndarray | None = None  # C e(u) at the quadrature points (ne, nq, ns), mixed Newton
+
+    def stress_at(self, disc: Discretisation) -> np.ndarray | None:
+        """The point stresses recovered at another mesh's quadrature points: linear through the
+        two Gauss points of the element of this mesh holding each point (where P2 stresses are
+        accurate). Only the first Newton tangent of a warm start uses them (see equilibrium)."""
+        if self.stress is None or self.disc.element != "P2" or self.stress.shape[1] != 2:
+            return None
+        e, t = _recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
+        return (self.stress[e, 0] * (1.0 - t) + self.stress[e, 1] * t).reshape(disc.s_quad.shape + (-1,))
 
     def solution(self) -> Solution:
         scene, disc, info = self.scene, self.disc, self.info
@@ -290,6 +307,16 @@ def interpolate_p2(vertices: np.ndarray, values: np.ndarray, s: np.ndarray) -> n
     """The P2 field with nodal ``values`` (vertex, mid-point, vertex, ... sorted by s) at points s."""
     e, wa, wm, wb = _p2_weights(np.asarray(vertices, float).tobytes(), np.asarray(s, float).tobytes())
     return values[2 * e] * wa + values[2 * e + 1] * wm + values[2 * e + 2] * wb
+
+
+@functools.lru_cache(maxsize=64)
+def _recovery(vertices: bytes, coarse: bytes, points: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """(element, weight) of :meth:`Equilibrium.stress_at` for each point (cached per mesh pair)."""
+    v, s = np.frombuffer(vertices), np.frombuffer(points)
+    q = np.frombuffer(coarse).reshape(v.size - 1, 2)
+    e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2).reshape(-1)
+    t = (s - q[e, 0]) / (q[e, 1] - q[e, 0])
+    return e, t[:, None]
 
 
 @functools.lru_cache(maxsize=64)
