@@ -187,6 +187,7 @@ def _assemble(system, X: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray
         mesh["T"], mesh["dx"], mesh["gdofs"], mesh["bpos"], u, loads["props"], loads["mu"], loads["B"],
         loads["f"], loads["kref"], _A, _Q, loads["M"], loads["point"], loads["magnets"], float(system.c_u),
         np.zeros((ne, nq, ns)), False, np.zeros((ne, nq, ns)), np.zeros((ne, nq, ns, nv)), R, S,
+        kernel.scratch(system.disc.nf, mesh["T"].shape[3]),
     )  # fmt: skip
     return R, S
 

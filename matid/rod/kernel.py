@@ -159,6 +159,35 @@ def _full_point(z, lam, C, mu, M, f, kref, A, Q, g, H, su, CJ, stress, use_stres
 
 
 @njit(cache=True)
+def scratch(nf, nloc):
+    """Work arrays of :func:`_assemble` (allocated once per Newton solve, not per evaluation)."""
+    nv = 2 * nf
+    return (
+        np.empty(nv),
+        np.empty(nv),
+        np.zeros((nv, nv)),
+        np.empty(6),
+        np.empty((nloc * nf, nloc * nf)),
+        np.empty((3, 3, 4)),
+        np.empty((7, 14)),
+        np.empty(7),
+        np.empty(7),
+        np.empty(14),
+    )
+
+
+@njit(cache=True)
+def _max_abs(x):
+    """max |x|, or -1 when an entry is not finite."""
+    m = 0.0
+    for v in x:
+        if not np.isfinite(v):
+            return -1.0
+        m = max(m, abs(v))
+    return m
+
+
+@njit(cache=True)
 def _assemble(
     U,
     lam,
@@ -185,20 +214,17 @@ def _assemble(
     CJ_all,
     R,
     S,
+    work,
 ):
-    """Residual R (band order) and the lower band S of the tangent at U."""
+    """Residual R (band order) and the lower band S of the tangent at U; ``work`` from :func:`scratch`."""
     ne, nq = dx.shape
     nloc = T.shape[3]
     nf = gdofs.shape[1] // nloc
     nv = 2 * nf
     R[:] = 0.0
     S[:] = 0.0
-    z = np.empty(nv)
-    g = np.empty(nv)
-    H = np.zeros((nv, nv))
-    C = np.empty(6)
-    Kl = np.empty((nloc * nf, nloc * nf))
-    Qq, gF, F, sk, G = np.empty((3, 3, 4)), np.empty((7, 14)), np.empty(7), np.empty(7), np.empty(14)
+    z, g, H, C, Kl, Qq, gF, F, sk, G = work
+    H[:] = 0.0
     for e in range(ne):
         Kl[:] = 0.0
         for qp in range(nq):
@@ -315,17 +341,21 @@ def _point_terms(U, lam, model, bpos, u, B, point, magnets, c_u, R, S):
 def cholesky(S, u):
     """In-place banded Cholesky of the lower band S (rows); False when a pivot is not positive."""
     n = S.shape[0]
+    inv = np.empty(n)  # 1 / L[j, j]
     for i in range(n):
-        for j in range(max(0, i - u), i + 1):
-            s = S[i, j - i + u]
-            for k in range(max(0, i - u), j):
-                s -= S[i, k - i + u] * S[j, k - j + u]
+        j0, oi = max(0, i - u), u - i
+        for j in range(j0, i + 1):
+            oj = u - j
+            s = S[i, j + oi]
+            for k in range(j0, j):
+                s -= S[i, k + oi] * S[j, k + oj]
             if j < i:
-                S[i, j - i + u] = s / S[j, u]
+                S[i, j + oi] = s * inv[j]
             elif not s > 0.0:
                 return False
             else:
                 S[i, u] = np.sqrt(s)
+                inv[i] = 1.0 / S[i, u]
     return True
 
 
@@ -426,6 +456,7 @@ def newton(
     dU = np.zeros(U.size)
     sizes = np.zeros(max_iter)
     size = 0.0
+    work = scratch(gdofs.shape[1] // T.shape[3], T.shape[3])
     for it in range(1, max_iter + 1):
         _assemble(
             U,
@@ -453,8 +484,9 @@ def newton(
             CJ_all,
             R,
             S,
+            work,
         )
-        if not np.all(np.isfinite(R)):
+        if _max_abs(R) < 0.0:
             return U, NOT_FINITE_R, it, size, sizes[0], L, abd, ipvt, -1
         L[:] = S
         if cholesky(L, u):
@@ -465,9 +497,9 @@ def newton(
             if info != 0:
                 return U, SINGULAR, it, size, sizes[0], L, abd, ipvt, info
             d = band_lu_solve(abd, ipvt, u, -R)
-        if not np.all(np.isfinite(d)):
+        size = _max_abs(d)
+        if size < 0.0:
             return U, NOT_FINITE_DX, it, size, sizes[0], L, abd, ipvt, info
-        size = np.max(np.abs(d)) if n else 0.0
         k = it - 1
         if size <= xtol or (size <= floor and k > 0 and size > 0.1 * sizes[k - 1]):
             for j in range(n):

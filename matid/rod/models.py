@@ -114,12 +114,15 @@ class RodSystem:
         #: compiled Newton (the converged state's stresses, for the next warm start)
         self.stress_start: np.ndarray | None = None
         self.point_stress: np.ndarray | None = None
-        self.props, self.mu = _fields(self.disc, self.rod)
+        self.props, self.mu, roundoff = _fields(self.disc, self.rod)
+        self._roundoff = (self.props, roundoff)
         nf = self.disc.nf
-        free = np.ones(self.disc.n, dtype=bool)
-        free[list(range(nf)) if self.fixed is None else list(self.fixed)] = False
-        if not np.array_equal(self.disc.free, free):  # a shared (cached) mesh keeps its patterns
+        fixed = tuple(range(nf)) if self.fixed is None else tuple(self.fixed)
+        if self.disc.__dict__.get("_fixed") != fixed:  # a shared (cached) mesh keeps its patterns
+            free = np.ones(self.disc.n, dtype=bool)
+            free[list(fixed)] = False
             self.disc.set_free(free)
+            self.disc._fixed = fixed
         self.index = self.disc._index  # free dof number of each dof, -1 where fixed
         self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
         magnets = [(s_m, m) for s_m, m in self.rod.magnets]
@@ -451,16 +454,19 @@ class RodSystem:
         return U[self.disc.free].copy()
 
 
-def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """(stiffnesses, magnetisation) of the rod at the mesh's quadrature points, remembered per
-    mesh and rod (a cached mesh serves every solve of a scene); read-only arrays."""
+def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
+    """(stiffnesses, magnetisation, round-off floor) of the rod at the mesh's quadrature points,
+    remembered per mesh and rod (a cached mesh serves every solve of a scene); read-only arrays.
+    The floor is :attr:`RodSystem.roundoff`: eps times the stiffness spread."""
     cache = disc.__dict__.setdefault("_fields", {})
     hit = cache.get(rod)
     if hit is None or hit[0] is not disc.s_quad:  # a moved mesh shares the dict, not the points
         if len(cache) > 32:
             cache.clear()
-        hit = cache[rod] = (disc.s_quad, rod.stiffness_at(disc.s_quad), rod.mu_at(disc.s_quad))
-    return hit[1], hit[2]
+        props = rod.stiffness_at(disc.s_quad)
+        stiff = max(float(np.max(v)) for v in props.values())
+        hit = cache[rod] = (disc.s_quad, props, rod.mu_at(disc.s_quad), 1e-15 * max(stiff, 1.0))
+    return hit[1], hit[2], hit[3]
 
 
 def _moment_work(q: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
