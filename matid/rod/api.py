@@ -24,8 +24,8 @@ from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
-from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene, plane_of
-from matid.rod.solve import Equilibrium, Solution, equilibrium
+from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene
+from matid.rod.solve import Equilibrium, Solution, equilibrium, scene_plane
 
 MODELS = ("auto", PLANAR, FULL)
 #: Energy terms of the bend half model (no field, no twist: planar by construction).
@@ -40,7 +40,7 @@ def resolve_model(scene: Scene, model: str = "auto") -> str:
         if model == FULL:
             raise ValueError("the three-point bend runs the planar half model only: model 'auto' or 'planar'")
         return PLANAR
-    planar = plane_of(scene) is not None
+    planar = scene_plane(scene) is not None
     if model == PLANAR and not planar:
         raise ValueError(
             "the scene is not planar (a load, moment or precurvature leaves the plane): "
@@ -88,22 +88,16 @@ def solve(
 
     fixed = elements or scene.elements
     result, est = refine(at, tolerance=scene.tolerance, fixed=fixed, start=8)
-    sol = result.solution() if isinstance(result, Equilibrium) else result
-    total = sum(t for _, t in est.history)
-    return replace(
-        sol,
-        discretization_error=est.error,
-        extra={
-            **sol.extra,
-            "error_estimate": {
-                "method": "richardson",
-                "order": est.order,
-                "meshes": [n for n, _ in est.history],
-                "total_runtime_s": total,
-                "tolerance": None if fixed else scene.tolerance,
-            },
-        },
-    )
+    estimate = {
+        "method": "richardson",
+        "order": est.order,
+        "meshes": [n for n, _ in est.history],
+        "total_runtime_s": sum(t for _, t in est.history),
+        "tolerance": None if fixed else scene.tolerance,
+    }
+    if isinstance(result, Equilibrium):  # the Solution is built once, with its estimate
+        return result.solution(discretization_error=est.error, extra={"error_estimate": estimate})
+    return replace(result, discretization_error=est.error, extra={**result.extra, "error_estimate": estimate})
 
 
 def solve_bend(scene: Scene, *, elements: int | None = None) -> Solution:

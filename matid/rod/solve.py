@@ -238,9 +238,12 @@ class Equilibrium:
         e, t = _recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
         return (self.stress[e, 0] * (1.0 - t) + self.stress[e, 1] * t).reshape(disc.s_quad.shape + (-1,))
 
-    def solution(self) -> Solution:
+    def solution(self, **fields) -> Solution:
+        """The state presented (SI, lab frame); ``fields``: further Solution fields (the estimate)."""
         scene, disc, info = self.scene, self.disc, self.info
-        return _solution(scene, self.model, disc, self.U, self.e_a, info, self.runtime_s, self.terms)
+        return _solution(
+            scene, self.model, disc, self.U, self.e_a, info, self.runtime_s, self.terms, **fields
+        )
 
     def state(self) -> tuple[np.ndarray, np.ndarray] | None:
         """(vertices, nodal values sorted by s) for a warm start on another mesh (P2 only)."""
@@ -260,6 +263,15 @@ class Equilibrium:
 
 
 _PREPARED: list = [None]
+_PLANE: list = [None]
+
+
+def scene_plane(scene: Scene) -> tuple[float, float, float] | None:
+    """:func:`matid.rod.scenes.plane_of`, remembered for the last scene asked (scenes are frozen)."""
+    last = _PLANE[0]
+    if last is None or last[0] is not scene:
+        last = _PLANE[0] = (scene, plane_of(scene))
+    return last[1]
 
 
 def _prepare(scene: Scene, model: str) -> tuple[str, np.ndarray | None, ScaledRod, tuple[float, ...]]:
@@ -268,7 +280,7 @@ def _prepare(scene: Scene, model: str) -> tuple[str, np.ndarray | None, ScaledRo
     last = _PREPARED[0]
     if last is not None and last[0] is scene and last[1] == model:
         return last[2]
-    plane = plane_of(scene) if model in ("auto", PLANAR) else None
+    plane = scene_plane(scene) if model in ("auto", PLANAR) else None
     if model == PLANAR and plane is None:
         raise ValueError("the scene is not planar: use model='full' or 'auto'")
     chosen = PLANAR if plane is not None else FULL
@@ -342,7 +354,7 @@ def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.n
     return position, R[:, :, 0], R[:, :, 2]
 
 
-def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms) -> Solution:
+def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms, **fields) -> Solution:
     L = scene.rod.length
     order = np.argsort(disc.s_dof)
     s, U = disc.s_dof[order] * L, U[order]
@@ -362,4 +374,5 @@ def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms) -> 
         d1=d1,
         d3=d3,
         terms=tuple(terms),
+        **fields,
     )
