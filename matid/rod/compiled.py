@@ -18,6 +18,7 @@ import numpy as np
 from matid.rod import full
 from matid.rod import kinematics as kin
 
+_NO_LOAD = np.zeros(0)
 _A, _Q = np.ascontiguousarray(full.A, dtype=float), np.ascontiguousarray(full.Q, dtype=float)
 ENABLED = os.environ.get("MATID_JIT", "1") != "0" and importlib.util.find_spec("numba") is not None
 
@@ -125,18 +126,20 @@ def _load_arrays(system) -> dict:
     return arrays
 
 
-def newton(system, x0: np.ndarray, lam: float, *, xtol, max_iter, max_step, floor, mixed_above):
+def newton(system, x0: np.ndarray, lam: float, *, xtol, max_iter, max_step, floor, mixed_above, load=None):
     """(status, x, iterations, last correction, first correction, factor, LINPACK info) of the
-    compiled Newton."""
+    compiled Newton (``max_iter`` = 0 with ``load``: only dR/dlam at x0 into ``load``, band order)."""
     from matid.rod import kernel
     from matid.rod.models import PLANAR
 
     mesh, loads = _mesh_arrays(system.disc), _load_arrays(system)
     U0 = system.expand(x0)
     ne, nq = system.disc.dx.shape
-    start = system.stress_start
+    start = system.stress_start if max_iter else None
     stress = np.zeros((ne, nq, 2 if system.model == PLANAR else 6)) if start is None else start.copy()
-    system.point_stress = su_all = np.zeros_like(stress)
+    su_all = np.zeros_like(stress)
+    if max_iter:
+        system.point_stress = su_all
     U, status, its, size, first, L, abd, ipvt, info = kernel.newton(
         U0,
         float(lam),
@@ -167,6 +170,7 @@ def newton(system, x0: np.ndarray, lam: float, *, xtol, max_iter, max_step, floo
         stress,
         start is not None,
         su_all,
+        _NO_LOAD if load is None else load,
     )
     factor = KernelFactor(L, abd, ipvt, info == -1, mesh["u"], system.disc.band_order)
     return status, U[system.disc.free], its, size, first, factor, info
@@ -193,9 +197,13 @@ def _assemble(system, X: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray
 
 
 def load_derivative(system, X: np.ndarray) -> np.ndarray:
-    """dR/dlam = R(X, 1) - R(X, 0) on the free dofs (free-dof numbering)."""
+    """dR/dlam = R(X, 1) - R(X, 0) on the free dofs (free-dof numbering), by the compiled Newton's
+    evaluation (one call, no iteration)."""
+    load = np.empty(X.size)
+    options = {"xtol": 0.0, "max_iter": 0, "max_step": 1.0, "floor": 0.0, "mixed_above": 0.0}
+    newton(system, X, 1.0, load=load, **options)
     out = np.empty(X.size)
-    out[system.disc.band_order] = _assemble(system, X, 1.0)[0] - _assemble(system, X, 0.0)[0]
+    out[system.disc.band_order] = load
     return out
 
 

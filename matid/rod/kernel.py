@@ -431,8 +431,12 @@ def newton(
     stress,
     use0,
     su_all,
+    load,
 ):
     """Newton at load factor lam from U0 (all dofs), as :func:`matid.rod.newton.newton`.
+
+    With ``max_iter`` = 0 there is no iteration: ``load`` (band order) receives dR/dlam =
+    R(U0, 1) - R(U0, 0) for the continuation's tangent predictor (every load is linear in lam).
 
     ``stress`` (ne, nq, ns): the mixed tangent's point stresses of the first iteration when
     ``use0`` (a warm start), overwritten by the iteration; ``su_all`` receives C e(u) at the
@@ -457,6 +461,14 @@ def newton(
     sizes = np.zeros(max_iter)
     size = 0.0
     work = scratch(gdofs.shape[1] // T.shape[3], T.shape[3])
+    if max_iter == 0:
+        for level in (1.0, 0.0):
+            _assemble(U, level, model, T, dx, gdofs, bpos, u, props, mu, B, f, kref, A, Q, M, point,
+                      magnets, c_u, stress, use_stress[0] != 0, su_all, CJ_all, R, S, work)  # fmt: skip
+            if level == 1.0:
+                load[:] = R
+        load -= R
+        return U, CONVERGED, 0, size, size, L, abd, ipvt, -1
     for it in range(1, max_iter + 1):
         _assemble(
             U,
