@@ -21,6 +21,9 @@ from matid.rod import kinematics as kin
 _NO_LOAD = np.zeros(0)
 _A, _Q = np.ascontiguousarray(full.A, dtype=float), np.ascontiguousarray(full.Q, dtype=float)
 ENABLED = os.environ.get("MATID_JIT", "1") != "0" and importlib.util.find_spec("numba") is not None
+#: Models of the kernel and its statuses (kernel.py reads them from here).
+PLANAR, FULL = 0, 1
+CONVERGED, NOT_FINITE_R, NOT_FINITE_DX, DIVERGING, STAGNATION, MAX_ITER, SINGULAR = range(7)
 
 
 class KernelFactor:
@@ -51,14 +54,12 @@ class KernelFactor:
 
 def supported(system) -> bool:
     """Whether the kernel computes exactly what ``system.evaluate`` does."""
-    from matid.rod.models import FULL, PLANAR
-
     if not (ENABLED and system.banded and system.analytic):
         return False
-    if system.model == PLANAR:
+    if system.model == "planar":
         return True
     return (
-        system.model == FULL
+        system.model == "full"
         and system.variant == kin.NORMALISED
         and not system.magnet_nodes
         and not any(system.rod.tip_moment)  # a dead moment in 3D: unsymmetric tangent
@@ -91,8 +92,6 @@ def _mesh_arrays(disc) -> dict:
 
 def _load_arrays(system) -> dict:
     """Stiffnesses, field and loads of a system for the kernel, cached per mesh, rod and properties."""
-    from matid.rod.models import PLANAR
-
     cache = system.disc.__dict__.setdefault("_kernel_loads", {})
     cached = cache.get(system.rod)
     if cached is not None and cached[0] is system.props:
@@ -104,7 +103,7 @@ def _load_arrays(system) -> dict:
     point = np.zeros(disc.n)
     tip = system.tip * nf
     B = np.asarray(rod.B, dtype=float)
-    if system.model == PLANAR:
+    if system.model == "planar":
         point[tip : tip + 3] = (rod.tip_force[0], rod.tip_force[2], rod.tip_moment[1])
         magnets = np.array([[node, m] for node, m in system.magnet_nodes], dtype=float).reshape(-1, 2)
     else:
@@ -126,41 +125,41 @@ def _load_arrays(system) -> dict:
     return arrays
 
 
+def _arguments(system) -> tuple:
+    """The kernel's mesh and load arguments of a system, in order (built once per system)."""
+    cached = system.__dict__.get("_kernel_args")
+    if cached is not None and cached[0] is system.disc and cached[1] is system.props:
+        return cached[2]
+    mesh, loads = _mesh_arrays(system.disc), _load_arrays(system)
+    args = (
+        PLANAR if system.model == "planar" else FULL,
+        *(mesh[k] for k in ("T", "dx", "gdofs", "bpos", "order", "u")),
+        *(loads[k] for k in ("props", "mu", "B", "f", "kref")),
+        _A,
+        _Q,
+        *(loads[k] for k in ("M", "point", "magnets")),
+        float(system.c_u),
+    )
+    system._kernel_args = (system.disc, system.props, args)
+    return args
+
+
 def newton(system, x0: np.ndarray, lam: float, *, xtol, max_iter, max_step, floor, mixed_above, load=None):
     """(status, x, iterations, last correction, first correction, factor, LINPACK info) of the
     compiled Newton (``max_iter`` = 0 with ``load``: only dR/dlam at x0 into ``load``, band order)."""
     from matid.rod import kernel
-    from matid.rod.models import PLANAR
 
-    mesh, loads = _mesh_arrays(system.disc), _load_arrays(system)
-    U0 = system.expand(x0)
-    ne, nq = system.disc.dx.shape
+    args = _arguments(system)
+    disc = system.disc
     start = system.stress_start if max_iter else None
-    stress = np.zeros((ne, nq, 2 if system.model == PLANAR else 6)) if start is None else start.copy()
+    stress = np.zeros(disc.dx.shape + (2 if args[0] == PLANAR else 6,)) if start is None else start.copy()
     su_all = np.zeros_like(stress)
     if max_iter:
         system.point_stress = su_all
     U, status, its, size, first, L, abd, ipvt, info = kernel.newton(
-        U0,
+        system.expand(x0),
         float(lam),
-        kernel.PLANAR if system.model == PLANAR else kernel.FULL,
-        mesh["T"],
-        mesh["dx"],
-        mesh["gdofs"],
-        mesh["bpos"],
-        mesh["order"],
-        mesh["u"],
-        loads["props"],
-        loads["mu"],
-        loads["B"],
-        loads["f"],
-        loads["kref"],
-        _A,
-        _Q,
-        loads["M"],
-        loads["point"],
-        loads["magnets"],
-        float(system.c_u),
+        *args,
         float(xtol),
         float(floor),
         int(max_iter),
@@ -172,26 +171,24 @@ def newton(system, x0: np.ndarray, lam: float, *, xtol, max_iter, max_step, floo
         su_all,
         _NO_LOAD if load is None else load,
     )
-    factor = KernelFactor(L, abd, ipvt, info == -1, mesh["u"], system.disc.band_order)
-    return status, U[system.disc.free], its, size, first, factor, info
+    factor = KernelFactor(L, abd, ipvt, info == -1, args[6], disc.band_order)
+    return status, U[disc.free], its, size, first, factor, info
 
 
 def _assemble(system, X: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
     """(residual, lower band of the consistent tangent) in band order, as the kernel assembles them."""
     from matid.rod import kernel
-    from matid.rod.models import PLANAR
 
-    mesh, loads = _mesh_arrays(system.disc), _load_arrays(system)
-    n, u = mesh["order"].size, mesh["u"]
-    ne, nq = system.disc.dx.shape
-    ns, nv = (2 if system.model == PLANAR else 6), 2 * system.disc.nf
+    args = _arguments(system)
+    n, u = args[5].size, args[6]
+    ns, nv = (2 if args[0] == PLANAR else 6), 2 * system.disc.nf
+    shape = system.disc.dx.shape
     R, S = np.empty(n), np.empty((n, u + 1))
+    model, T, dx, gdofs, bpos, _, _, *rest = args
     kernel._assemble(
-        system.expand(X), float(lam), kernel.PLANAR if system.model == PLANAR else kernel.FULL,
-        mesh["T"], mesh["dx"], mesh["gdofs"], mesh["bpos"], u, loads["props"], loads["mu"], loads["B"],
-        loads["f"], loads["kref"], _A, _Q, loads["M"], loads["point"], loads["magnets"], float(system.c_u),
-        np.zeros((ne, nq, ns)), False, np.zeros((ne, nq, ns)), np.zeros((ne, nq, ns, nv)), R, S,
-        kernel.scratch(system.disc.nf, mesh["T"].shape[3]),
+        system.expand(X), float(lam), model, T, dx, gdofs, bpos, u, *rest,
+        np.zeros(shape + (ns,)), False, np.zeros(shape + (ns,)), np.zeros(shape + (ns, nv)), R, S,
+        kernel.scratch(system.disc.nf, T.shape[3]),
     )  # fmt: skip
     return R, S
 

@@ -22,8 +22,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-CONVERGED, NOT_FINITE_R, NOT_FINITE_DX, DIVERGING, STAGNATION, MAX_ITER, SINGULAR = range(7)
-PLANAR, FULL = 0, 1
+from matid.rod.compiled import (  # noqa: F401 - the statuses are read off this module too
+    CONVERGED,
+    DIVERGING,
+    FULL,
+    MAX_ITER,
+    NOT_FINITE_DX,
+    NOT_FINITE_R,
+    PLANAR,
+    SINGULAR,
+    STAGNATION,
+)
 
 
 @njit(cache=True)

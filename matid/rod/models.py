@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from matid.rod import full
+from matid.rod import compiled, full
 from matid.rod import kinematics as kin
 from matid.rod.fem import Discretisation
 from matid.rod.jet import Jet
@@ -347,14 +347,13 @@ class RodSystem:
     def compiled_newton(self, x0: np.ndarray, lam: float, **options):
         """:func:`matid.rod.newton.newton` in one compiled call (:mod:`matid.rod.compiled`), or None
         when this system is not one it serves."""
-        from matid.rod import compiled
-
-        return compiled.newton(self, x0, lam, **options) if compiled.supported(self) else None
+        ok = self.__dict__.get("_compiled")
+        if ok is None:
+            ok = self._compiled = compiled.supported(self)
+        return compiled.newton(self, x0, lam, **options) if ok else None
 
     def load_derivative(self, X: np.ndarray) -> np.ndarray | None:
         """dR/dlam = R(X, 1) - R(X, 0) from the kernel, or None (then newton.tangent evaluates)."""
-        from matid.rod import compiled
-
         return compiled.load_derivative(self, X) if compiled.supported(self) else None
 
     # -- residual and tangent on the free dofs ---------------------------------

@@ -131,7 +131,7 @@ def _stagnation(size: float, first: float) -> RoundoffStagnation:
 
 def _compiled_result(out: tuple, max_iter: int) -> tuple[np.ndarray, int, object]:
     """(x, iterations, factor) of a compiled Newton (matid.rod.compiled), or its failure raised."""
-    from matid.rod import kernel
+    from matid.rod import compiled as kernel  # the statuses, without importing numba
 
     status, x, it, size, first, factor, info = out
     if status == kernel.CONVERGED:

@@ -236,7 +236,8 @@ class Equilibrium:
         if self.stress is None or self.disc.element != "P2" or self.stress.shape[1] != 2:
             return None
         e, t = _recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
-        return (self.stress[e, 0] * (1.0 - t) + self.stress[e, 1] * t).reshape(disc.s_quad.shape + (-1,))
+        first, second = self.stress[:, 0], self.stress[:, 1]
+        return (first[e] + (second[e] - first[e]) * t).reshape(disc.s_quad.shape + (-1,))
 
     def solution(self, **fields) -> Solution:
         """The state presented (SI, lab frame); ``fields``: further Solution fields (the estimate)."""
@@ -317,8 +318,8 @@ def _warm(system: RodSystem, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.n
 
 def interpolate_p2(vertices: np.ndarray, values: np.ndarray, s: np.ndarray) -> np.ndarray:
     """The P2 field with nodal ``values`` (vertex, mid-point, vertex, ... sorted by s) at points s."""
-    e, wa, wm, wb = _p2_weights(np.asarray(vertices, float).tobytes(), np.asarray(s, float).tobytes())
-    return values[2 * e] * wa + values[2 * e + 1] * wm + values[2 * e + 2] * wb
+    a, m, b, wa, wm, wb = _p2_weights(np.asarray(vertices, float).tobytes(), np.asarray(s, float).tobytes())
+    return values[a] * wa + values[m] * wm + values[b] * wb
 
 
 @functools.lru_cache(maxsize=64)
@@ -337,7 +338,7 @@ def _p2_weights(vertices: bytes, points: bytes) -> tuple[np.ndarray, ...]:
     v, s = np.frombuffer(vertices), np.frombuffer(points)
     e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
     t = ((s - v[e]) / (v[e + 1] - v[e]))[:, None]
-    return e, 2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)
+    return 2 * e, 2 * e + 1, 2 * e + 2, 2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)
 
 
 def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
