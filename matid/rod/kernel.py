@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from matid.rod.bandsolve import band_lu, band_lu_solve, cholesky, cholesky_solve  # noqa: F401
 from matid.rod.compiled import (  # noqa: F401 - the statuses are read off this module too
     CONVERGED,
     DIVERGING,
@@ -198,33 +199,9 @@ def _max_abs(x):
 
 @njit(cache=True)
 def _assemble(
-    U,
-    lam,
-    model,
-    T,
-    dx,
-    gdofs,
-    bpos,
-    u,
-    props,
-    mu,
-    B,
-    f,
-    kref,
-    A,
-    Q,
-    M,
-    point,
-    magnets,
-    c_u,
-    stress,
-    use_stress,
-    su_all,
-    CJ_all,
-    R,
-    S,
-    work,
-):
+    U, lam, model, T, dx, gdofs, bpos, u, props, mu, B, f, kref, A, Q, M, point, magnets, c_u, stress,
+    use_stress, su_all, CJ_all, R, S, work
+):  # fmt: skip
     """Residual R (band order) and the lower band S of the tangent at U; ``work`` from :func:`scratch`."""
     ne, nq = dx.shape
     nloc = T.shape[3]
@@ -246,47 +223,16 @@ def _assemble(
                     z[k * nf + c] = t
             if model == PLANAR:
                 _planar_point(
-                    z,
-                    lam,
-                    props[0, e, qp],
-                    props[2, e, qp],
-                    props[3, e, qp],
-                    lam * mu[e, qp],
-                    B,
-                    f,
-                    kref,
-                    g,
-                    H,
-                    su_all[e, qp],
-                    CJ_all[e, qp],
-                    stress[e, qp],
-                    use_stress,
-                )
+                    z, lam, props[0, e, qp], props[2, e, qp], props[3, e, qp], lam * mu[e, qp], B, f,
+                    kref, g, H, su_all[e, qp], CJ_all[e, qp], stress[e, qp], use_stress
+                )  # fmt: skip
             else:
                 C[0] = C[1] = props[0, e, qp]
                 C[2], C[3], C[4], C[5] = props[1, e, qp], props[2, e, qp], props[2, e, qp], props[3, e, qp]
                 _full_point(
-                    z,
-                    lam,
-                    C,
-                    mu[e, qp],
-                    M,
-                    f,
-                    kref,
-                    A,
-                    Q,
-                    g,
-                    H,
-                    su_all[e, qp],
-                    CJ_all[e, qp],
-                    stress[e, qp],
-                    use_stress,
-                    Qq,
-                    gF,
-                    F,
-                    sk,
-                    G,
-                )
+                    z, lam, C, mu[e, qp], M, f, kref, A, Q, g, H, su_all[e, qp], CJ_all[e, qp],
+                    stress[e, qp], use_stress, Qq, gF, F, sk, G
+                )  # fmt: skip
             for i in range(nloc):
                 b0, b1 = w * T[e, qp, 0, i], w * T[e, qp, 1, i]
                 for c in range(nf):
@@ -347,46 +293,6 @@ def _point_terms(U, lam, model, bpos, u, B, point, magnets, c_u, R, S):
 
 
 @njit(cache=True)
-def cholesky(S, u):
-    """In-place banded Cholesky of the lower band S (rows); False when a pivot is not positive."""
-    n = S.shape[0]
-    inv = np.empty(n)  # 1 / L[j, j]
-    for i in range(n):
-        j0, oi = max(0, i - u), u - i
-        for j in range(j0, i + 1):
-            oj = u - j
-            s = S[i, j + oi]
-            for k in range(j0, j):
-                s -= S[i, k + oi] * S[j, k + oj]
-            if j < i:
-                S[i, j + oi] = s * inv[j]
-            elif not s > 0.0:
-                return False
-            else:
-                S[i, u] = np.sqrt(s)
-                inv[i] = 1.0 / S[i, u]
-    return True
-
-
-@njit(cache=True)
-def cholesky_solve(L, u, b):
-    """x with L L^T x = b, L from :func:`cholesky`."""
-    n = L.shape[0]
-    x = b.copy()
-    for i in range(n):
-        s = x[i]
-        for k in range(max(0, i - u), i):
-            s -= L[i, k - i + u] * x[k]
-        x[i] = s / L[i, u]
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, min(n, i + u + 1)):
-            s -= L[k, i - k + u] * x[k]
-        x[i] = s / L[i, u]
-    return x
-
-
-@njit(cache=True)
 def _mixed_update(dU, alpha, T, gdofs, su_all, CJ_all, stress, use_stress):
     """sigma += alpha (C (e(u) + J du) - sigma) at every point (RodSystem.mixed_update)."""
     ne, nq, _, nloc = T.shape
@@ -411,37 +317,9 @@ def _mixed_update(dU, alpha, T, gdofs, su_all, CJ_all, stress, use_stress):
 
 @njit(cache=True)
 def newton(
-    U0,
-    lam,
-    model,
-    T,
-    dx,
-    gdofs,
-    bpos,
-    order,
-    u,
-    props,
-    mu,
-    B,
-    f,
-    kref,
-    A,
-    Q,
-    M,
-    point,
-    magnets,
-    c_u,
-    xtol,
-    floor,
-    max_iter,
-    max_step,
-    mixed,
-    mixed_above,
-    stress,
-    use0,
-    su_all,
-    load,
-):
+    U0, lam, model, T, dx, gdofs, bpos, order, u, props, mu, B, f, kref, A, Q, M, point, magnets, c_u,
+    xtol, floor, max_iter, max_step, mixed, mixed_above, stress, use0, su_all, load
+):  # fmt: skip
     """Newton at load factor lam from U0 (all dofs), as :func:`matid.rod.newton.newton`.
 
     With ``max_iter`` = 0 there is no iteration: ``load`` (band order) receives dR/dlam =
@@ -480,33 +358,9 @@ def newton(
         return U, CONVERGED, 0, size, size, L, abd, ipvt, -1
     for it in range(1, max_iter + 1):
         _assemble(
-            U,
-            lam,
-            model,
-            T,
-            dx,
-            gdofs,
-            bpos,
-            u,
-            props,
-            mu,
-            B,
-            f,
-            kref,
-            A,
-            Q,
-            M,
-            point,
-            magnets,
-            c_u,
-            stress,
-            use_stress[0] != 0,
-            su_all,
-            CJ_all,
-            R,
-            S,
-            work,
-        )
+            U, lam, model, T, dx, gdofs, bpos, u, props, mu, B, f, kref, A, Q, M, point, magnets, c_u,
+            stress, use_stress[0] != 0, su_all, CJ_all, R, S, work
+        )  # fmt: skip
         if _max_abs(R) < 0.0:
             return U, NOT_FINITE_R, it, size, sizes[0], L, abd, ipvt, -1
         L[:] = S
@@ -545,77 +399,3 @@ def newton(
         for j in range(n):
             U[order[j]] += alpha * d[j]
     return U, MAX_ITER, max_iter, size, sizes[0], L, abd, ipvt, info
-
-
-@njit(cache=True)
-def band_lu(S, u):
-    """LU with partial pivoting (LINPACK dgbfa) of the symmetric band matrix whose lower band is S.
-
-    Returns (abd, ipvt, info): abd[2u + i - j, j] holds the factors (0-based), info > 0
-    names a zero pivot (1-based, as LAPACK).
-    """
-    n = S.shape[0]
-    ml = mu = u
-    m = ml + mu  # 0-based row of the diagonal
-    abd = np.zeros((2 * ml + mu + 1, n))
-    for i in range(n):
-        for t in range(u + 1):
-            j = i - u + t
-            if j >= 0:
-                abd[m + i - j, j] = S[i, t]
-                abd[m + j - i, i] = S[i, t]
-    ipvt = np.zeros(n, dtype=np.int64)
-    info = 0
-    ju = 0
-    for k in range(n - 1):
-        lm = min(ml, n - 1 - k)
-        best, r = -1.0, m
-        for i in range(m, m + lm + 1):
-            if abs(abd[i, k]) > best:
-                best, r = abs(abd[i, k]), i
-        ipvt[k] = r + k - m
-        if abd[r, k] == 0.0:
-            info = k + 1
-            continue
-        if r != m:
-            abd[r, k], abd[m, k] = abd[m, k], abd[r, k]
-        t = -1.0 / abd[m, k]
-        for i in range(m + 1, m + lm + 1):
-            abd[i, k] *= t
-        ju = min(max(ju, mu + ipvt[k] + 1), n)
-        mm = m
-        for j in range(k + 1, ju):
-            r -= 1
-            mm -= 1
-            t = abd[r, j]
-            if r != mm:
-                abd[r, j], abd[mm, j] = abd[mm, j], t
-            for i in range(lm):
-                abd[mm + 1 + i, j] += t * abd[m + 1 + i, k]
-    ipvt[n - 1] = n - 1
-    if n and abd[m, n - 1] == 0.0:
-        info = n
-    return abd, ipvt, info
-
-
-@njit(cache=True)
-def band_lu_solve(abd, ipvt, u, b):
-    """x with A x = b from :func:`band_lu` (LINPACK dgbsl)."""
-    n = abd.shape[1]
-    m = 2 * u
-    x = b.copy()
-    for k in range(n - 1):
-        lm = min(u, n - 1 - k)
-        r = ipvt[k]
-        t = x[r]
-        if r != k:
-            x[r], x[k] = x[k], t
-        for i in range(lm):
-            x[k + 1 + i] += t * abd[m + 1 + i, k]
-    for k in range(n - 1, -1, -1):
-        x[k] /= abd[m, k]
-        lm = min(k, m)
-        t = -x[k]
-        for i in range(lm):
-            x[k - lm + i] += t * abd[m - lm + i, k]
-    return x
