@@ -9,7 +9,7 @@ quadrature points. Per point, with z = (u, u') and the element tables [phi, phi'
     R_(i,c)      += dx [g_c phi_i + g_(nf+c) phi_i']
     K_(i,c)(j,d) += dx sum_(k,l) B_k,i H_(k nf + c)(l nf + d) B_l,j,   B = [phi, phi']
 
-with g, H the closed forms of :meth:`RodSystem._planar_derivatives` and
+with g, H the closed forms of :func:`matid.rod.planar.derivatives` and
 :func:`matid.rod.full.derivatives` (tests compare them with the jets). Band storage
 is by rows, ``S[i, t] = K[i, i - u + t]`` for t = 0..u (the lower triangle: the
 tangent is symmetric). As in :meth:`matid.rod.fem.Banded.factor`, each tangent is

@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from matid.rod import compiled, full
+from matid.rod import compiled, full, planar
 from matid.rod import kinematics as kin
 from matid.rod.fem import Discretisation
 from matid.rod.jet import Jet
@@ -180,12 +180,11 @@ class RodSystem:
 
     def energy_derivatives(self, U: np.ndarray, lam: float, tangent: bool = True):
         vals, ders = self.disc.interpolate(U)
-        if self.model == PLANAR and self.analytic:
-            return self._planar_derivatives(vals, ders, lam, tangent)
-        if self.analytic and self.variant == kin.NORMALISED:
+        closed_form = self.model == PLANAR or self.variant == kin.NORMALISED
+        if self.analytic and closed_form:  # the jets below are the cross-check (tests)
             rod = self.rod
             mu = self.mu if "magnetic" in self.terms else None
-            out = full.derivatives(
+            out = (planar if self.model == PLANAR else full).derivatives(
                 vals,
                 ders,
                 lam,
@@ -205,52 +204,6 @@ class RodSystem:
         nf = self.disc.nf
         w = self.density(variables[:nf], variables[nf:], lam)
         return w.g, w.h
-
-    def _planar_derivatives(self, vals, ders, lam: float, tangent: bool):
-        """Closed-form gradient and Hessian of the planar density (the Newton hot path).
-
-        Variables (x, z, t, x', z', t'); with c, s = cos t, sin t,
-        nu1 = x'c - z's, nu3 = x's + z'c, dnu1/dt = -nu3, dnu3/dt = nu1, and
-        W = 1/2 [E_b (t' - k)^2 + E_s nu1^2 + E_e (nu3 - 1)^2] - mu (s Bx + c Bz) - f.r.
-        Checked against the jet derivatives of :meth:`density` in the tests.
-        """
-        p, rod = self.props, self.rod
-        Eb, Es, Ee = p["E_b"], p["E_s"], p["E_e"]
-        th, dx, dz, dth = vals[2], ders[0], ders[1], ders[2]
-        c, s = np.cos(th), np.sin(th)
-        nu1, nu3 = dx * c - dz * s, dx * s + dz * c
-        n1, n3 = Es * nu1, Ee * (nu3 - 1.0)  # internal forces in the director frame
-        g = np.zeros(th.shape + (6,))
-        g[..., 0], g[..., 1] = -lam * rod.f[0], -lam * rod.f[2]
-        g[..., 2] = -n1 * nu3 + n3 * nu1
-        g[..., 3], g[..., 4] = n1 * c + n3 * s, -n1 * s + n3 * c
-        g[..., 5] = Eb * (dth - lam * rod.kappa_ref[1])
-        mag = "magnetic" in self.terms
-        if mag:
-            mu = lam * self.mu
-            g[..., 2] -= mu * (c * rod.B[0] - s * rod.B[2])
-        if not tangent:
-            return g, None
-        if self.mixed:  # stress of the displacement field and C J, for the mixed update
-            J = np.zeros(th.shape + (2, 6))
-            J[..., 0, 2], J[..., 0, 3], J[..., 0, 4] = -nu3, c, -s
-            J[..., 1, 2], J[..., 1, 3], J[..., 1, 4] = nu1, s, c
-            self._strain = (np.stack([n1, n3], axis=-1), J * np.stack([Es, Ee], axis=-1)[..., None])
-            if self._stress is not None:
-                n1, n3 = self._stress[..., 0], self._stress[..., 1]
-        # H = J^T C J + n1 Hess(nu1) + n3 Hess(nu3); in the mixed tangent (n1, n3) are the
-        # independent point stresses of the iteration instead of those of the displacements
-        H = np.zeros(th.shape + (6, 6))
-        H[..., 2, 2] = Es * nu3 * nu3 + Ee * nu1 * nu1 - n1 * nu1 - n3 * nu3
-        H[..., 2, 3] = H[..., 3, 2] = -Es * nu3 * c + Ee * nu1 * s - n1 * s + n3 * c
-        H[..., 2, 4] = H[..., 4, 2] = Es * nu3 * s + Ee * nu1 * c - n1 * c - n3 * s
-        H[..., 3, 3] = Es * c * c + Ee * s * s
-        H[..., 3, 4] = H[..., 4, 3] = (Ee - Es) * s * c
-        H[..., 4, 4] = Es * s * s + Ee * c * c
-        H[..., 5, 5] = Eb
-        if mag:
-            H[..., 2, 2] += mu * (s * rod.B[0] + c * rod.B[2])
-        return g, H
 
     # -- mixed-integration-point Newton (independent stresses at the quadrature points) ----------
     def mixed_reset(self) -> None:
