@@ -14,6 +14,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from matid.rod import kinematics as kin
 from matid.rod.fem import Discretisation, graded_vertices
@@ -235,9 +236,9 @@ class Equilibrium:
         accurate). Only the first Newton tangent of a warm start uses them (see equilibrium)."""
         if self.stress is None or self.disc.element != "P2" or self.stress.shape[1] != 2:
             return None
-        e, t = _recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
-        first, second = self.stress[:, 0], self.stress[:, 1]
-        return (first[e] + (second[e] - first[e]) * t).reshape(disc.s_quad.shape + (-1,))
+        R = _recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
+        ns = self.stress.shape[-1]
+        return (R @ self.stress.reshape(-1, ns)).reshape(disc.s_quad.shape + (ns,))
 
     def solution(self, **fields) -> Solution:
         """The state presented (SI, lab frame); ``fields``: further Solution fields (the estimate)."""
@@ -318,27 +319,46 @@ def _warm(system: RodSystem, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.n
 
 def interpolate_p2(vertices: np.ndarray, values: np.ndarray, s: np.ndarray) -> np.ndarray:
     """The P2 field with nodal ``values`` (vertex, mid-point, vertex, ... sorted by s) at points s."""
-    a, m, b, wa, wm, wb = _p2_weights(np.asarray(vertices, float).tobytes(), np.asarray(s, float).tobytes())
-    return values[a] * wa + values[m] * wm + values[b] * wb
+    return _p2_operator(np.asarray(vertices, float).tobytes(), np.asarray(s, float).tobytes()) @ values
+
+
+#: Interpolation operators up to this many entries are dense (one small matmul), larger ones sparse.
+DENSE_ENTRIES = 1 << 16
+
+
+def _operator(rows: np.ndarray, cols: np.ndarray, weights: np.ndarray, shape: tuple[int, int]):
+    """The matrix with the given entries: dense when small (the error estimate's meshes), else CSR."""
+    if shape[0] * shape[1] > DENSE_ENTRIES:
+        return sp.csr_matrix((weights.ravel(), (rows.ravel(), cols.ravel())), shape=shape)
+    out = np.zeros(shape)
+    np.add.at(out, (rows.ravel(), cols.ravel()), weights.ravel())
+    return out
 
 
 @functools.lru_cache(maxsize=64)
-def _recovery(vertices: bytes, coarse: bytes, points: bytes) -> tuple[np.ndarray, np.ndarray]:
-    """(element, weight) of :meth:`Equilibrium.stress_at` for each point (cached per mesh pair)."""
-    v, s = np.frombuffer(vertices), np.frombuffer(points)
-    q = np.frombuffer(coarse).reshape(v.size - 1, 2)
-    e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2).reshape(-1)
-    t = (s - q[e, 0]) / (q[e, 1] - q[e, 0])
-    return e, t[:, None]
-
-
-@functools.lru_cache(maxsize=64)
-def _p2_weights(vertices: bytes, points: bytes) -> tuple[np.ndarray, ...]:
-    """Element and basis weights of :func:`interpolate_p2` (the meshes of a solve repeat)."""
+def _p2_operator(vertices: bytes, points: bytes):
+    """The matrix of :func:`interpolate_p2` from one mesh to the points (cached: the meshes of a
+    solve repeat)."""
     v, s = np.frombuffer(vertices), np.frombuffer(points)
     e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
-    t = ((s - v[e]) / (v[e + 1] - v[e]))[:, None]
-    return 2 * e, 2 * e + 1, 2 * e + 2, 2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)
+    t = (s - v[e]) / (v[e + 1] - v[e])
+    weights = np.stack([2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)], axis=1)
+    cols = np.stack([2 * e, 2 * e + 1, 2 * e + 2], axis=1)
+    rows = np.broadcast_to(np.arange(s.size)[:, None], cols.shape)
+    return _operator(rows, cols, weights, (s.size, 2 * v.size - 1))
+
+
+@functools.lru_cache(maxsize=64)
+def _recovery(vertices: bytes, coarse: bytes, points: bytes):
+    """The matrix of :meth:`Equilibrium.stress_at`: linear through the two Gauss points of the
+    coarse element holding each point (cached per mesh pair)."""
+    v, s = np.frombuffer(vertices), np.frombuffer(points)
+    q = np.frombuffer(coarse).reshape(v.size - 1, 2)
+    e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
+    t = (s - q[e, 0]) / (q[e, 1] - q[e, 0])
+    cols = np.stack([2 * e, 2 * e + 1], axis=1)
+    rows = np.broadcast_to(np.arange(s.size)[:, None], cols.shape)
+    return _operator(rows, cols, np.stack([1.0 - t, t], axis=1), (s.size, q.size))
 
 
 def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
