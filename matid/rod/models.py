@@ -216,6 +216,12 @@ class RodSystem:
             return self.point_stress
         return None if self._strain is None else self._strain[0]
 
+    def hold_stress(self) -> None:
+        """Keep the converged state's point stresses for the next Newton solve's first mixed
+        tangent (the continuation's next load step); the residual, hence the root, is unchanged."""
+        if self.mixed:
+            self.stress_start = self.converged_stress()
+
     def mixed_begin(self) -> None:
         """The first iteration's tangent: from ``stress_start`` when given (mixed), else consistent."""
         self._stress = None if (self.stress_start is None or not self.mixed) else self.stress_start.copy()
