@@ -84,6 +84,7 @@ def _mesh_arrays(disc) -> dict:
         "gdofs": np.ascontiguousarray(disc.gdofs, dtype=np.int64),
         "bpos": bpos,
         "order": order.astype(np.int64),
+        "free_dofs": free_dofs.astype(np.int64),
         "u": int(disc.band_u),
     }
     disc._kernel_mesh = (disc.free, disc.dphi, arrays)
@@ -156,8 +157,10 @@ def newton(system, x0: np.ndarray, lam: float, *, xtol, max_iter, max_step, floo
     su_all = np.zeros_like(stress)
     if max_iter:
         system.point_stress = su_all
-    U, status, its, size, first, L, abd, ipvt, info = kernel.newton(
-        system.expand(x0),
+    x, status, its, size, first, L, abd, ipvt, info = kernel.newton(
+        np.ascontiguousarray(x0, dtype=float),
+        system._reference(),
+        _mesh_arrays(disc)["free_dofs"],
         float(lam),
         *args,
         float(xtol),
@@ -172,7 +175,7 @@ def newton(system, x0: np.ndarray, lam: float, *, xtol, max_iter, max_step, floo
         _NO_LOAD if load is None else load,
     )
     factor = KernelFactor(L, abd, ipvt, info == -1, args[6], disc.band_order)
-    return status, U[disc.free], its, size, first, factor, info
+    return status, x, its, size, first, factor, info
 
 
 def _assemble(system, X: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:

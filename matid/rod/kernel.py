@@ -317,18 +317,20 @@ def _mixed_update(dU, alpha, T, gdofs, su_all, CJ_all, stress, use_stress):
 
 @njit(cache=True)
 def newton(
-    U0, lam, model, T, dx, gdofs, bpos, order, u, props, mu, B, f, kref, A, Q, M, point, magnets, c_u,
+    x0, U_ref, free_dofs, lam, model, T, dx, gdofs, bpos, order, u, props, mu, B, f, kref, A, Q, M, point,
+    magnets, c_u,
     xtol, floor, max_iter, max_step, mixed, mixed_above, stress, use0, su_all, load
 ):  # fmt: skip
-    """Newton at load factor lam from U0 (all dofs), as :func:`matid.rod.newton.newton`.
+    """Newton at load factor lam from the free dofs x0 (``free_dofs``: their global numbers; the
+    fixed ones from ``U_ref``), as :func:`matid.rod.newton.newton`.
 
     With ``max_iter`` = 0 there is no iteration: ``load`` (band order) receives dR/dlam =
-    R(U0, 1) - R(U0, 0) for the continuation's tangent predictor (every load is linear in lam).
+    R(x0, 1) - R(x0, 0) for the continuation's tangent predictor (every load is linear in lam).
 
     ``stress`` (ne, nq, ns): the mixed tangent's point stresses of the first iteration when
     ``use0`` (a warm start), overwritten by the iteration; ``su_all`` receives C e(u) at the
     points of the last evaluation (the converged state's stresses, for the next warm start).
-    Returns (U, status, iterations, last correction, first correction, L, abd, ipvt, info):
+    Returns (x, status, iterations, last correction, first correction, L, abd, ipvt, info):
     status is one of CONVERGED ... SINGULAR; the last tangent's factors are the Cholesky
     L when ``info`` is -1, else the LU factors (abd, ipvt) and ``info`` LINPACK's.
     """
@@ -336,7 +338,9 @@ def newton(
     ne, nq = dx.shape
     ns = 2 if model == PLANAR else 6
     nv = gdofs.shape[1] // T.shape[3] * 2
-    U = U0.copy()
+    U = U_ref.copy()
+    for i in range(free_dofs.size):
+        U[free_dofs[i]] = x0[i]
     R = np.empty(n)
     S = np.empty((n, u + 1))
     L = np.empty((n, u + 1))
@@ -355,14 +359,14 @@ def newton(
             if level == 1.0:
                 load[:] = R
         load -= R
-        return U, CONVERGED, 0, size, size, L, abd, ipvt, -1
+        return x0, CONVERGED, 0, size, size, L, abd, ipvt, -1
     for it in range(1, max_iter + 1):
         _assemble(
             U, lam, model, T, dx, gdofs, bpos, u, props, mu, B, f, kref, A, Q, M, point, magnets, c_u,
             stress, use_stress[0] != 0, su_all, CJ_all, R, S, work
         )  # fmt: skip
         if _max_abs(R) < 0.0:
-            return U, NOT_FINITE_R, it, size, sizes[0], L, abd, ipvt, -1
+            return x0, NOT_FINITE_R, it, size, sizes[0], L, abd, ipvt, -1
         L[:] = S
         if cholesky(L, u):
             info = -1
@@ -370,22 +374,22 @@ def newton(
         else:  # not positive definite: LU, as fem.Banded.factor
             abd, ipvt, info = band_lu(S, u)
             if info != 0:
-                return U, SINGULAR, it, size, sizes[0], L, abd, ipvt, info
+                return x0, SINGULAR, it, size, sizes[0], L, abd, ipvt, info
             d = band_lu_solve(abd, ipvt, u, -R)
         size = _max_abs(d)
         if size < 0.0:
-            return U, NOT_FINITE_DX, it, size, sizes[0], L, abd, ipvt, info
+            return x0, NOT_FINITE_DX, it, size, sizes[0], L, abd, ipvt, info
         k = it - 1
         if size <= xtol or (size <= floor and k > 0 and size > 0.1 * sizes[k - 1]):
             for j in range(n):
                 U[order[j]] += d[j]
-            return U, CONVERGED, it, size, sizes[0], L, abd, ipvt, info
+            return U[free_dofs], CONVERGED, it, size, sizes[0], L, abd, ipvt, info
         if k >= 3 and size > sizes[k - 1] and size > sizes[k - 3]:
             lo = min(sizes[k - 3], sizes[k - 2], sizes[k - 1])
             hi = max(sizes[k - 3], sizes[k - 2], sizes[k - 1])
             if size < 1e-3 and hi < 10 * lo and size < 1e-2 * sizes[0]:
-                return U, STAGNATION, it, size, sizes[0], L, abd, ipvt, info
-            return U, DIVERGING, it, size, sizes[0], L, abd, ipvt, info
+                return x0, STAGNATION, it, size, sizes[0], L, abd, ipvt, info
+            return x0, DIVERGING, it, size, sizes[0], L, abd, ipvt, info
         sizes[k] = size
         alpha = min(1.0, max_step / size)
         if mixed:
@@ -398,4 +402,4 @@ def newton(
                 use_stress[0] = 0
         for j in range(n):
             U[order[j]] += alpha * d[j]
-    return U, MAX_ITER, max_iter, size, sizes[0], L, abd, ipvt, info
+    return x0, MAX_ITER, max_iter, size, sizes[0], L, abd, ipvt, info
