@@ -239,17 +239,17 @@ def _assemble(
                     pos = bpos[gdofs[e, i * nf + c]]
                     if pos >= 0:
                         R[pos] += b0 * g[c] + b1 * g[nf + c]
-            for a in range(nv):  # K_(i,c)(j,d) += w B_(k,i) H_ab B_(l,j), a = k nf + c, b = l nf + d
-                k, c = a // nf, a % nf
-                for b in range(nv):
-                    h = H[a, b]
-                    if h == 0.0:  # most of the planar H (10 of 36 entries are not zero)
-                        continue
-                    kk, d = b // nf, b % nf
-                    for i in range(nloc):
-                        wh = w * T[e, qp, k, i] * h
-                        for j in range(nloc):
-                            Kl[i * nf + c, j * nf + d] += wh * T[e, qp, kk, j]
+            for k in range(2):  # K_(i,c)(j,d) += w B_(k,i) H_ab B_(l,j), a = k nf + c, b = l nf + d
+                for c in range(nf):
+                    for kk in range(2):
+                        for d in range(nf):
+                            h = H[k * nf + c, kk * nf + d]
+                            if h == 0.0:  # most of the planar H (10 of 36 entries are not zero)
+                                continue
+                            for i in range(nloc):
+                                wh = w * T[e, qp, k, i] * h
+                                for j in range(nloc):
+                                    Kl[i * nf + c, j * nf + d] += wh * T[e, qp, kk, j]
         m = nloc * nf
         for a in range(m):
             pa = bpos[gdofs[e, a]]
