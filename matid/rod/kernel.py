@@ -206,7 +206,6 @@ def _assemble(
     ne, nq = dx.shape
     nloc = T.shape[3]
     nf = gdofs.shape[1] // nloc
-    nv = 2 * nf
     R[:] = 0.0
     S[:] = 0.0
     z, g, H, C, Kl, Qq, gF, F, sk, G = work

@@ -68,14 +68,6 @@ class Solution:
         }
 
 
-def _rotate(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rodrigues: rotate the fixed vector v about the unit axis by each angle."""
-    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
-    a0, a1, a2 = axis
-    cross = np.array([a1 * v[2] - a2 * v[1], a2 * v[0] - a0 * v[2], a0 * v[1] - a1 * v[0]])  # axis x v
-    return v * c + cross * s + axis * (axis @ v) * (1 - c)
-
-
 def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
     """The scene's rod and loads in scaled units; projected onto the plane when e_a is given."""
     rod, loads = scene.rod, scene.loads
@@ -363,12 +355,12 @@ def _recovery(vertices: bytes, coarse: bytes, points: bytes):
 
 def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(position, d1, d3) in the lab frame (metres) of nodal rows U."""
-    if chosen == PLANAR:
-        e3 = np.array([0.0, 0.0, 1.0])
-        n = np.array([-e_a[1], e_a[0], 0.0])  # e3 x e_a
-        position = (U[:, 0:1] * e_a + U[:, 1:2] * e3) * L
-        theta = U[:, 2]
-        return position, _rotate(n, theta, np.array([1.0, 0.0, 0.0])), _rotate(n, theta, e3)
+    if chosen == PLANAR:  # rotation by theta about n = e3 x e_a = (-a1, a0, 0) (Rodrigues)
+        a0, a1 = float(e_a[0]), float(e_a[1])
+        c, s = np.cos(U[:, 2]), np.sin(U[:, 2])
+        position = np.column_stack([U[:, 0] * a0, U[:, 0] * a1, U[:, 1]]) * L
+        d1 = np.column_stack([c + a1 * a1 * (1.0 - c), -a0 * a1 * (1.0 - c), -a0 * s])  # R e1
+        return position, d1, np.column_stack([a0 * s, a1 * s, c])  # d3 = R e3 = c e3 + s e_a
     position = U[:, :3] * L
     q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
     R = np.array(kin.directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
@@ -380,7 +372,7 @@ def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms, **f
     order = np.argsort(disc.s_dof)
     s, U = disc.s_dof[order] * L, U[order]
     position, d1, d3 = _frames(chosen, U, e_a, L)
-    if not (np.all(np.isfinite(position)) and np.all(np.isfinite(d1))):
+    if not (np.isfinite(position).all() and np.isfinite(d1).all()):
         raise FloatingPointError("non-finite solution")  # unreachable: Newton rejects NaN
     return Solution(
         scene=scene,
