@@ -24,8 +24,8 @@ from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
-from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene, plane_of
-from matid.rod.solve import Solution, solve_cantilever_state
+from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene
+from matid.rod.solve import Equilibrium, Solution, equilibrium, scene_plane
 
 MODELS = ("auto", PLANAR, FULL)
 #: Energy terms of the bend half model (no field, no twist: planar by construction).
@@ -40,7 +40,7 @@ def resolve_model(scene: Scene, model: str = "auto") -> str:
         if model == FULL:
             raise ValueError("the three-point bend runs the planar half model only: model 'auto' or 'planar'")
         return PLANAR
-    planar = plane_of(scene) is not None
+    planar = scene_plane(scene) is not None
     if model == PLANAR and not planar:
         raise ValueError(
             "the scene is not planar (a load, moment or precurvature leaves the plane): "
@@ -74,37 +74,30 @@ def solve(
             f"elements: at most {MAX_SCENE_ELEMENTS} (the automatic meshing's limit), got {elements}"
         )
     chosen = resolve_model(scene, model)
-    state: list = [None]  # the last mesh's state: each finer mesh starts from it
+    state: list = [None]  # the last mesh's Equilibrium: each finer mesh starts from it
 
     def at(n: int):
-        if scene.kind == "cantilever":
-            sol, state[0] = solve_cantilever_state(
-                scene, elements=n, model=chosen, variant=variant, element=element, start=state[0]
-            )
-            quantity = np.concatenate([sol.position[-1] / scene.rod.length, sol.d3[-1]])
-        else:
-            sol = solve_bend(scene, elements=n)
-            force = np.asarray(sol.three_point_bend["force"])
-            quantity = force / max(float(np.max(np.abs(force))), 1e-300)
-        return sol, quantity, sol.runtime_s
+        if scene.kind == "cantilever":  # presented as a Solution only if it is the answer
+            options = {"model": chosen, "variant": variant, "element": element}
+            eq = equilibrium(scene, elements=n, start=state[0], **options)
+            state[0] = eq
+            return eq, eq.tip(), eq.runtime_s
+        sol = solve_bend(scene, elements=n)
+        force = np.asarray(sol.three_point_bend["force"])
+        return sol, force / max(float(np.max(np.abs(force))), 1e-300), sol.runtime_s
 
     fixed = elements or scene.elements
-    sol, est = refine(at, tolerance=scene.tolerance, fixed=fixed, start=8)
-    total = sum(t for _, t in est.history)
-    return replace(
-        sol,
-        discretization_error=est.error,
-        extra={
-            **sol.extra,
-            "error_estimate": {
-                "method": "richardson",
-                "order": est.order,
-                "meshes": [n for n, _ in est.history],
-                "total_runtime_s": total,
-                "tolerance": None if fixed else scene.tolerance,
-            },
-        },
-    )
+    result, est = refine(at, tolerance=scene.tolerance, fixed=fixed, start=8)
+    estimate = {
+        "method": "richardson",
+        "order": est.order,
+        "meshes": [n for n, _ in est.history],
+        "total_runtime_s": sum(t for _, t in est.history),
+        "tolerance": None if fixed else scene.tolerance,
+    }
+    if isinstance(result, Equilibrium):  # the Solution is built once, with its estimate
+        return result.solution(discretization_error=est.error, extra={"error_estimate": estimate})
+    return replace(result, discretization_error=est.error, extra={**result.extra, "error_estimate": estimate})
 
 
 def solve_bend(scene: Scene, *, elements: int | None = None) -> Solution:

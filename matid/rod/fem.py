@@ -210,6 +210,7 @@ class Discretisation:
     def set_free(self, free: np.ndarray) -> None:
         """Which dofs are free: the band pattern now, the CSR pattern when first used."""
         self.free = np.asarray(free, dtype=bool)
+        self._fixed = None  # which clamp set this is, when a RodSystem set it (models.RodSystem)
         index = np.full(self.n, -1)
         nfree = int(self.free.sum())
         index[self.free] = np.arange(nfree)

@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from matid.rod import full
+from matid.rod import compiled, full, planar
 from matid.rod import kinematics as kin
 from matid.rod.fem import Discretisation
 from matid.rod.jet import Jet
@@ -109,15 +109,21 @@ class RodSystem:
 
     def __post_init__(self) -> None:
         self._stress = self._strain = None
-        s = self.disc.s_quad
-        self.props = self.rod.stiffness_at(s)
-        self.mu = self.rod.mu_at(s)
+        #: point stresses (ne, nq, ns) for the mixed tangent's first iteration (a warm start
+        #: from a coarser mesh's recovered stresses), and C e(u) at the points of the last
+        #: compiled Newton (the converged state's stresses, for the next warm start)
+        self.stress_start: np.ndarray | None = None
+        self.point_stress: np.ndarray | None = None
+        self.props, self.mu, roundoff = _fields(self.disc, self.rod)
+        self._roundoff = (self.props, roundoff)
         nf = self.disc.nf
-        free = np.ones(self.disc.n, dtype=bool)
-        free[list(range(nf)) if self.fixed is None else list(self.fixed)] = False
-        self.disc.set_free(free)
-        self.index = np.full(self.disc.n, -1)
-        self.index[free] = np.arange(int(free.sum()))
+        fixed = tuple(range(nf)) if self.fixed is None else tuple(self.fixed)
+        if self.disc.__dict__.get("_fixed") != fixed:  # a shared (cached) mesh keeps its patterns
+            free = np.ones(self.disc.n, dtype=bool)
+            free[list(fixed)] = False
+            self.disc.set_free(free)
+            self.disc._fixed = fixed
+        self.index = self.disc._index  # free dof number of each dof, -1 where fixed
         self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
         magnets = [(s_m, m) for s_m, m in self.rod.magnets]
         verts = self.disc.vertices
@@ -174,12 +180,11 @@ class RodSystem:
 
     def energy_derivatives(self, U: np.ndarray, lam: float, tangent: bool = True):
         vals, ders = self.disc.interpolate(U)
-        if self.model == PLANAR and self.analytic:
-            return self._planar_derivatives(vals, ders, lam, tangent)
-        if self.analytic and self.variant == kin.NORMALISED:
+        closed_form = self.model == PLANAR or self.variant == kin.NORMALISED
+        if self.analytic and closed_form:  # the jets below are the cross-check (tests)
             rod = self.rod
             mu = self.mu if "magnetic" in self.terms else None
-            out = full.derivatives(
+            out = (planar if self.model == PLANAR else full).derivatives(
                 vals,
                 ders,
                 lam,
@@ -200,56 +205,26 @@ class RodSystem:
         w = self.density(variables[:nf], variables[nf:], lam)
         return w.g, w.h
 
-    def _planar_derivatives(self, vals, ders, lam: float, tangent: bool):
-        """Closed-form gradient and Hessian of the planar density (the Newton hot path).
-
-        Variables (x, z, t, x', z', t'); with c, s = cos t, sin t,
-        nu1 = x'c - z's, nu3 = x's + z'c, dnu1/dt = -nu3, dnu3/dt = nu1, and
-        W = 1/2 [E_b (t' - k)^2 + E_s nu1^2 + E_e (nu3 - 1)^2] - mu (s Bx + c Bz) - f.r.
-        Checked against the jet derivatives of :meth:`density` in the tests.
-        """
-        p, rod = self.props, self.rod
-        Eb, Es, Ee = p["E_b"], p["E_s"], p["E_e"]
-        th, dx, dz, dth = vals[2], ders[0], ders[1], ders[2]
-        c, s = np.cos(th), np.sin(th)
-        nu1, nu3 = dx * c - dz * s, dx * s + dz * c
-        n1, n3 = Es * nu1, Ee * (nu3 - 1.0)  # internal forces in the director frame
-        g = np.zeros(th.shape + (6,))
-        g[..., 0], g[..., 1] = -lam * rod.f[0], -lam * rod.f[2]
-        g[..., 2] = -n1 * nu3 + n3 * nu1
-        g[..., 3], g[..., 4] = n1 * c + n3 * s, -n1 * s + n3 * c
-        g[..., 5] = Eb * (dth - lam * rod.kappa_ref[1])
-        mag = "magnetic" in self.terms
-        if mag:
-            mu = lam * self.mu
-            g[..., 2] -= mu * (c * rod.B[0] - s * rod.B[2])
-        if not tangent:
-            return g, None
-        if self.mixed:  # stress of the displacement field and C J, for the mixed update
-            J = np.zeros(th.shape + (2, 6))
-            J[..., 0, 2], J[..., 0, 3], J[..., 0, 4] = -nu3, c, -s
-            J[..., 1, 2], J[..., 1, 3], J[..., 1, 4] = nu1, s, c
-            self._strain = (np.stack([n1, n3], axis=-1), J * np.stack([Es, Ee], axis=-1)[..., None])
-            if self._stress is not None:
-                n1, n3 = self._stress[..., 0], self._stress[..., 1]
-        # H = J^T C J + n1 Hess(nu1) + n3 Hess(nu3); in the mixed tangent (n1, n3) are the
-        # independent point stresses of the iteration instead of those of the displacements
-        H = np.zeros(th.shape + (6, 6))
-        H[..., 2, 2] = Es * nu3 * nu3 + Ee * nu1 * nu1 - n1 * nu1 - n3 * nu3
-        H[..., 2, 3] = H[..., 3, 2] = -Es * nu3 * c + Ee * nu1 * s - n1 * s + n3 * c
-        H[..., 2, 4] = H[..., 4, 2] = Es * nu3 * s + Ee * nu1 * c - n1 * c - n3 * s
-        H[..., 3, 3] = Es * c * c + Ee * s * s
-        H[..., 3, 4] = H[..., 4, 3] = (Ee - Es) * s * c
-        H[..., 4, 4] = Es * s * s + Ee * c * c
-        H[..., 5, 5] = Eb
-        if mag:
-            H[..., 2, 2] += mu * (s * rod.B[0] + c * rod.B[2])
-        return g, H
-
     # -- mixed-integration-point Newton (independent stresses at the quadrature points) ----------
     def mixed_reset(self) -> None:
         """Back to the consistent tangent (stresses from the displacements)."""
         self._stress = None
+
+    def converged_stress(self) -> np.ndarray | None:
+        """C e(u) (ne, nq, ns) at the points of the last Newton evaluation (mixed systems)."""
+        if self.point_stress is not None:
+            return self.point_stress
+        return None if self._strain is None else self._strain[0]
+
+    def hold_stress(self) -> None:
+        """Keep the converged state's point stresses for the next Newton solve's first mixed
+        tangent (the continuation's next load step); the residual, hence the root, is unchanged."""
+        if self.mixed:
+            self.stress_start = self.converged_stress()
+
+    def mixed_begin(self) -> None:
+        """The first iteration's tangent: from ``stress_start`` when given (mixed), else consistent."""
+        self._stress = None if (self.stress_start is None or not self.mixed) else self.stress_start.copy()
 
     def mixed_update(self, dx: np.ndarray, alpha: float) -> None:
         """Point stresses after a Newton step alpha dx: sigma += alpha (C (e(u) + J du) - sigma).
@@ -327,6 +302,18 @@ class RodSystem:
         H = self.c_u * (2.0 * e[:, None, None] * np.eye(4) + 4.0 * Q[:, :, None] * Q[:, None, :])
         dofs = np.arange(Q.shape[0])[:, None] * nf + 3 + np.arange(4)[None, :]
         return R.ravel(), [(dofs, H)]
+
+    def compiled_newton(self, x0: np.ndarray, lam: float, **options):
+        """:func:`matid.rod.newton.newton` in one compiled call (:mod:`matid.rod.compiled`), or None
+        when this system is not one it serves."""
+        ok = self.__dict__.get("_compiled")
+        if ok is None:
+            ok = self._compiled = compiled.supported(self)
+        return compiled.newton(self, x0, lam, **options) if ok else None
+
+    def load_derivative(self, X: np.ndarray) -> np.ndarray | None:
+        """dR/dlam = R(X, 1) - R(X, 0) from the kernel, or None (then newton.tangent evaluates)."""
+        return compiled.load_derivative(self, X) if compiled.supported(self) else None
 
     # -- residual and tangent on the free dofs ---------------------------------
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):
@@ -423,6 +410,21 @@ class RodSystem:
 
     def reduce(self, U: np.ndarray) -> np.ndarray:
         return U[self.disc.free].copy()
+
+
+def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
+    """(stiffnesses, magnetisation, round-off floor) of the rod at the mesh's quadrature points,
+    remembered per mesh and rod (a cached mesh serves every solve of a scene); read-only arrays.
+    The floor is :attr:`RodSystem.roundoff`: eps times the stiffness spread."""
+    cache = disc.__dict__.setdefault("_fields", {})
+    hit = cache.get(rod)
+    if hit is None or hit[0] is not disc.s_quad:  # a moved mesh shares the dict, not the points
+        if len(cache) > 32:
+            cache.clear()
+        props = rod.stiffness_at(disc.s_quad)
+        stiff = max(float(np.max(v)) for v in props.values())
+        hit = cache[rod] = (disc.s_quad, props, rod.mu_at(disc.s_quad), 1e-15 * max(stiff, 1.0))
+    return hit[1], hit[2], hit[3]
 
 
 def _moment_work(q: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -86,12 +86,18 @@ def newton(
     load step is halved by :func:`follow`.
     """
     floor = min(max(xtol, float(getattr(system, "roundoff", 0.0))), FLOOR_CAP)
+    compiled = getattr(system, "compiled_newton", None)
+    if compiled is not None:  # the same iteration in one compiled call (matid.rod.kernel)
+        options = {"xtol": xtol, "max_iter": max_iter, "max_step": max_step, "floor": floor}
+        out = compiled(x0, lam, mixed_above=MIXED_ABOVE, **options)
+        if out is not None:
+            return _compiled_result(out, max_iter)
     measure = getattr(system, "step_size", None) or (lambda d: float(np.max(np.abs(d))) if d.size else 0.0)
     x = x0.copy()
     sizes: list[float] = []
     mixed = getattr(system, "mixed_update", None)
     if mixed is not None:
-        system.mixed_reset()
+        getattr(system, "mixed_begin", system.mixed_reset)()
     for it in range(1, max_iter + 1):
         R, K = system.evaluate(x, lam)
         if not np.all(np.isfinite(R)):
@@ -105,11 +111,7 @@ def newton(
             return x + dx, it, lu
         if len(sizes) >= 3 and size > sizes[-1] and size > sizes[-3]:
             if size < 1e-3 and max(sizes[-3:]) < 10 * min(sizes[-3:]) and size < 1e-2 * sizes[0]:
-                raise RoundoffStagnation(
-                    f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
-                    f"{sizes[0]:.2g}: the precision double arithmetic allows for this mesh and stiffness "
-                    "spread; use fewer elements or a less extreme stiffness ratio"
-                )
+                raise _stagnation(size, sizes[0])
             raise NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}")
         sizes.append(size)
         alpha = min(1.0, max_step / size)
@@ -117,6 +119,31 @@ def newton(
             mixed(dx, alpha) if size > MIXED_ABOVE else system.mixed_reset()
         x = x + dx * alpha
     raise NewtonFailure(f"no convergence in {max_iter} iterations (correction {size:.3g})")
+
+
+def _stagnation(size: float, first: float) -> RoundoffStagnation:
+    return RoundoffStagnation(
+        f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
+        f"{first:.2g}: the precision double arithmetic allows for this mesh and stiffness "
+        "spread; use fewer elements or a less extreme stiffness ratio"
+    )
+
+
+def _compiled_result(out: tuple, max_iter: int) -> tuple[np.ndarray, int, object]:
+    """(x, iterations, factor) of a compiled Newton (matid.rod.compiled), or its failure raised."""
+    from matid.rod import compiled as kernel  # the statuses, without importing numba
+
+    status, x, it, size, first, factor, info = out
+    if status == kernel.CONVERGED:
+        return x, it, factor
+    raise {
+        kernel.SINGULAR: NewtonFailure(f"singular tangent (zero pivot {info})"),
+        kernel.NOT_FINITE_R: NewtonFailure("residual is not finite"),
+        kernel.NOT_FINITE_DX: NewtonFailure("Newton correction is not finite"),
+        kernel.DIVERGING: NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}"),
+        kernel.STAGNATION: _stagnation(size, first),
+        kernel.MAX_ITER: NewtonFailure(f"no convergence in {max_iter} iterations (correction {size:.3g})"),
+    }[status]
 
 
 def _factor(K) -> object:
@@ -134,11 +161,14 @@ def _factor(K) -> object:
 def tangent(system: System, x: np.ndarray, lam: float, lu: object) -> np.ndarray:
     """dx/dlam on the equilibrium path: K dx/dlam = -dR/dlam.
 
-    Every load of the rod scenes is linear in lam, so dR/dlam = R(x, 1) - R(x, 0) exactly.
+    Every load of the rod scenes is linear in lam, so dR/dlam = R(x, 1) - R(x, 0) exactly
+    (``system.load_derivative(x)`` when it offers it, e.g. compiled).
     """
-    R1, _ = system.evaluate(x, 1.0, tangent=False)
-    R0, _ = system.evaluate(x, 0.0, tangent=False)
-    return lu.solve(-(R1 - R0))
+    load = getattr(system, "load_derivative", None)
+    dR = load(x) if load is not None else None
+    if dR is None:
+        dR = system.evaluate(x, 1.0, tangent=False)[0] - system.evaluate(x, 0.0, tangent=False)[0]
+    return lu.solve(-dR)
 
 
 def _check_admissible(system: System, x: np.ndarray, lam: float, factor: object = None) -> None:
@@ -207,6 +237,9 @@ def follow(
                     load_factor=lam_try,
                 )
             lam, x = lam_try, x_new
+            hold = getattr(system, "hold_stress", None)
+            if hold is not None:  # the next step's first mixed tangent starts from these stresses
+                hold()
             slope = tangent(system, x, lam, lu) if lam != targets[-1] else None
             if its <= 2 * fast:  # grow with the observed effort: x2 when easy, x1.5 when moderate
                 step = min((2.0 if its <= fast else 1.5) * step, max_step)

@@ -8,10 +8,13 @@ Positions and directors come back in the lab frame and in metres.
 
 from __future__ import annotations
 
+import functools
+import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from matid.rod import kinematics as kin
 from matid.rod.fem import Discretisation, graded_vertices
@@ -63,12 +66,6 @@ class Solution:
             "d1": self.d1[-1].tolist(),
             "d3": self.d3[-1].tolist(),
         }
-
-
-def _rotate(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rodrigues: rotate the fixed vector v about the unit axis by each angle."""
-    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
-    return v * c + np.cross(axis, v)[None, :] * s + axis * (axis @ v) * (1 - c)
 
 
 def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
@@ -153,7 +150,16 @@ def solve_cantilever(scene: Scene, **options) -> Solution:
     return solve_cantilever_state(scene, **options)[0]
 
 
-def solve_cantilever_state(
+def solve_cantilever_state(scene: Scene, **options) -> tuple[Solution, tuple[np.ndarray, np.ndarray] | None]:
+    """:func:`solve_cantilever` plus the scaled state (vertices, nodal values sorted by s) for a warm start.
+
+    ``options`` are those of :func:`equilibrium`.
+    """
+    eq = equilibrium(scene, **options)
+    return eq.solution(), eq.state()
+
+
+def equilibrium(
     scene: Scene,
     *,
     elements: int | None = None,
@@ -164,28 +170,18 @@ def solve_cantilever_state(
     intorder: int | None = None,
     first_step: float = 1.0,
     start: tuple[np.ndarray, np.ndarray] | None = None,
-) -> tuple[Solution, tuple[np.ndarray, np.ndarray] | None]:
-    """:func:`solve_cantilever` plus the scaled state (vertices, nodal values sorted by s) for a warm start.
+) -> Equilibrium:
+    """The converged scaled state of a cantilever (raises ConvergenceError, never returns a failed state).
 
-    ``start``: such a state of the same scene on another mesh (P2). Newton runs at
-    the full load from its interpolant (measured: 3-6 iterations from the half mesh);
-    the load continuation from the straight rod is the fallback when that fails.
+    ``start``: a state of the same scene on another mesh (P2, :meth:`Equilibrium.state`).
+    Newton runs at the full load from its interpolant (measured: 3-6 iterations from the
+    half mesh); the load continuation from the straight rod is the fallback when that fails.
     """
     t0 = time.perf_counter()
-    plane = plane_of(scene) if model in ("auto", PLANAR) else None
-    if model == PLANAR and plane is None:
-        raise ValueError("the scene is not planar: use model='full' or 'auto'")
-    chosen = PLANAR if plane is not None else FULL
-    e_a = None if chosen == FULL else np.asarray(plane)
+    chosen, e_a, rod, at = _prepare(scene, model)
     ne = elements or scene.elements or DEFAULT_ELEMENTS
     order = intorder or (DEFAULT_INTORDER if element == "P2" else 2)
-    disc = Discretisation(
-        graded_vertices(1.0, ne, breaks=breaks(scene)),
-        3 if chosen == PLANAR else 7,
-        element=element,
-        intorder=order,
-    )
-    rod = scaled_rod(scene, e_a)
+    disc = mesh(ne, at, 3 if chosen == PLANAR else 7, element, order)
     system = RodSystem(
         disc,
         rod,
@@ -195,15 +191,108 @@ def solve_cantilever_state(
         banded=True,
         mixed=MIXED[chosen],
     )
+    if isinstance(start, Equilibrium):
+        system.stress_start = start.stress_at(disc)
+        start = start.state()
     X = _warm(system, start) if start is not None and element == "P2" else None
     if X is None:
+        system.stress_start = None  # the continuation starts from the straight rod
         X, info = follow(system, system.reduce(system.reference()), [1.0], first_step=first_step)
     else:
         X, info = X
     U = system.expand(X).reshape(disc.nscalar, disc.nf)
-    sol = _solution(scene, chosen, disc, U, e_a, info, time.perf_counter() - t0, system.terms)
-    order = np.argsort(disc.s_dof)
-    return sol, (disc.vertices.copy(), U[order]) if element == "P2" else None
+    runtime = time.perf_counter() - t0
+    return Equilibrium(
+        scene, chosen, disc, U, e_a, info, runtime, tuple(system.terms), system.converged_stress()
+    )
+
+
+@dataclass(frozen=True)
+class Equilibrium:
+    """A converged cantilever in scaled units, before it is presented as a :class:`Solution`
+    (the error estimate's coarser meshes only need the tip and the state)."""
+
+    scene: Scene
+    model: str
+    disc: Discretisation
+    U: np.ndarray  # (nscalar, nf) nodal values, scikit-fem order
+    e_a: np.ndarray | None
+    info: NewtonInfo
+    runtime_s: float
+    terms: tuple[str, ...]
+    stress: np.ndarray | None = None  # C e(u) at the quadrature points (ne, nq, ns), mixed Newton
+
+    def stress_at(self, disc: Discretisation) -> np.ndarray | None:
+        """The point stresses recovered at another mesh's quadrature points: linear through the
+        two Gauss points of the element of this mesh holding each point (where P2 stresses are
+        accurate). Only the first Newton tangent of a warm start uses them (see equilibrium)."""
+        if self.stress is None or self.disc.element != "P2" or self.stress.shape[1] != 2:
+            return None
+        R = _recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
+        ns = self.stress.shape[-1]
+        return (R @ self.stress.reshape(-1, ns)).reshape(disc.s_quad.shape + (ns,))
+
+    def solution(self, **fields) -> Solution:
+        """The state presented (SI, lab frame); ``fields``: further Solution fields (the estimate)."""
+        scene, disc, info = self.scene, self.disc, self.info
+        return _solution(
+            scene, self.model, disc, self.U, self.e_a, info, self.runtime_s, self.terms, **fields
+        )
+
+    def state(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(vertices, nodal values sorted by s) for a warm start on another mesh (P2 only)."""
+        if self.disc.element != "P2":
+            return None
+        return self.disc.vertices.copy(), self.U[np.argsort(self.disc.s_dof)]
+
+    def tip(self) -> np.ndarray:
+        """(tip position / L, tip d3): the Solution's last row (to round-off), without building it."""
+        u = self.U[self.disc.vertices.size - 1]  # the last vertex (vertex dofs come first)
+        if self.model == PLANAR:  # d3 = cos(theta) e3 + sin(theta) e_a, see _frames
+            a0, a1 = float(self.e_a[0]), float(self.e_a[1])
+            c, s = math.cos(u[2]), math.sin(u[2])
+            return np.array([u[0] * a0, u[0] * a1, u[1], s * a0, s * a1, c])
+        q = u[3:] / math.sqrt(float(u[3:] @ u[3:]))
+        return np.array([u[0], u[1], u[2], *(float(r[2]) for r in kin.directors(q))])
+
+
+_PREPARED: list = [None]
+_PLANE: list = [None]
+
+
+def scene_plane(scene: Scene) -> tuple[float, float, float] | None:
+    """:func:`matid.rod.scenes.plane_of`, remembered for the last scene asked (scenes are frozen)."""
+    last = _PLANE[0]
+    if last is None or last[0] is not scene:
+        last = _PLANE[0] = (scene, plane_of(scene))
+    return last[1]
+
+
+def _prepare(scene: Scene, model: str) -> tuple[str, np.ndarray | None, ScaledRod, tuple[float, ...]]:
+    """(model, plane direction, scaled rod, mesh breaks) of a scene; the last one is remembered
+    (scenes are frozen), so the meshes of one error estimate compute them once."""
+    last = _PREPARED[0]
+    if last is not None and last[0] is scene and last[1] == model:
+        return last[2]
+    plane = scene_plane(scene) if model in ("auto", PLANAR) else None
+    if model == PLANAR and plane is None:
+        raise ValueError("the scene is not planar: use model='full' or 'auto'")
+    chosen = PLANAR if plane is not None else FULL
+    e_a = None if chosen == FULL else np.asarray(plane)
+    prepared = (chosen, e_a, scaled_rod(scene, e_a), breaks(scene))
+    _PREPARED[0] = (scene, model, prepared)
+    return prepared
+
+
+@functools.lru_cache(maxsize=64)
+def mesh(elements: int, at: tuple[float, ...], nf: int, element: str, intorder: int) -> Discretisation:
+    """The cantilever's discretisation, built once per (mesh, fields, element, rule).
+
+    Nothing in it depends on the loads or stiffnesses, and the clamp (the only
+    fixed dofs of a cantilever) is the same for every scene, so repeated solves and
+    the meshes of the error estimate share it (its tables are read-only).
+    """
+    return Discretisation(graded_vertices(1.0, elements, breaks=at), nf, element=element, intorder=intorder)
 
 
 def _warm(system: RodSystem, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, NewtonInfo] | None:
@@ -222,29 +311,68 @@ def _warm(system: RodSystem, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.n
 
 def interpolate_p2(vertices: np.ndarray, values: np.ndarray, s: np.ndarray) -> np.ndarray:
     """The P2 field with nodal ``values`` (vertex, mid-point, vertex, ... sorted by s) at points s."""
-    e = np.clip(np.searchsorted(vertices, s, side="right") - 1, 0, vertices.size - 2)
-    t = ((s - vertices[e]) / (vertices[e + 1] - vertices[e]))[:, None]
-    a, m, b = values[2 * e], values[2 * e + 1], values[2 * e + 2]
-    return a * (2 * (t - 0.5) * (t - 1)) + m * (4 * t * (1 - t)) + b * (2 * t * (t - 0.5))
+    return _p2_operator(np.asarray(vertices, float).tobytes(), np.asarray(s, float).tobytes()) @ values
 
 
-def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms) -> Solution:
+#: Interpolation operators up to this many entries are dense (one small matmul), larger ones sparse.
+DENSE_ENTRIES = 1 << 16
+
+
+def _operator(rows: np.ndarray, cols: np.ndarray, weights: np.ndarray, shape: tuple[int, int]):
+    """The matrix with the given entries: dense when small (the error estimate's meshes), else CSR."""
+    if shape[0] * shape[1] > DENSE_ENTRIES:
+        return sp.csr_matrix((weights.ravel(), (rows.ravel(), cols.ravel())), shape=shape)
+    out = np.zeros(shape)
+    np.add.at(out, (rows.ravel(), cols.ravel()), weights.ravel())
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _p2_operator(vertices: bytes, points: bytes):
+    """The matrix of :func:`interpolate_p2` from one mesh to the points (cached: the meshes of a
+    solve repeat)."""
+    v, s = np.frombuffer(vertices), np.frombuffer(points)
+    e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
+    t = (s - v[e]) / (v[e + 1] - v[e])
+    weights = np.stack([2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)], axis=1)
+    cols = np.stack([2 * e, 2 * e + 1, 2 * e + 2], axis=1)
+    rows = np.broadcast_to(np.arange(s.size)[:, None], cols.shape)
+    return _operator(rows, cols, weights, (s.size, 2 * v.size - 1))
+
+
+@functools.lru_cache(maxsize=64)
+def _recovery(vertices: bytes, coarse: bytes, points: bytes):
+    """The matrix of :meth:`Equilibrium.stress_at`: linear through the two Gauss points of the
+    coarse element holding each point (cached per mesh pair)."""
+    v, s = np.frombuffer(vertices), np.frombuffer(points)
+    q = np.frombuffer(coarse).reshape(v.size - 1, 2)
+    e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
+    t = (s - q[e, 0]) / (q[e, 1] - q[e, 0])
+    cols = np.stack([2 * e, 2 * e + 1], axis=1)
+    rows = np.broadcast_to(np.arange(s.size)[:, None], cols.shape)
+    return _operator(rows, cols, np.stack([1.0 - t, t], axis=1), (s.size, q.size))
+
+
+def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(position, d1, d3) in the lab frame (metres) of nodal rows U."""
+    if chosen == PLANAR:  # rotation by theta about n = e3 x e_a = (-a1, a0, 0) (Rodrigues)
+        a0, a1 = float(e_a[0]), float(e_a[1])
+        c, s = np.cos(U[:, 2]), np.sin(U[:, 2])
+        position = np.column_stack([U[:, 0] * a0, U[:, 0] * a1, U[:, 1]]) * L
+        d1 = np.column_stack([c + a1 * a1 * (1.0 - c), -a0 * a1 * (1.0 - c), -a0 * s])  # R e1
+        return position, d1, np.column_stack([a0 * s, a1 * s, c])  # d3 = R e3 = c e3 + s e_a
+    position = U[:, :3] * L
+    q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
+    R = np.array(kin.directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
+    return position, R[:, :, 0], R[:, :, 2]
+
+
+def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms, **fields) -> Solution:
     L = scene.rod.length
     order = np.argsort(disc.s_dof)
     s, U = disc.s_dof[order] * L, U[order]
-    if chosen == PLANAR:
-        e3 = np.array([0.0, 0.0, 1.0])
-        n = np.cross(e3, e_a)
-        position = (U[:, 0:1] * e_a + U[:, 1:2] * e3) * L
-        theta = U[:, 2]
-        d1 = _rotate(n, theta, np.array([1.0, 0.0, 0.0]))
-        d3 = _rotate(n, theta, e3)
-    else:
-        position = U[:, :3] * L
-        q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
-        R = np.array(kin.directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
-        d1, d3 = R[:, :, 0], R[:, :, 2]
-    if not (np.all(np.isfinite(position)) and np.all(np.isfinite(d1))):
+    position, d1, d3 = _frames(chosen, U, e_a, L)
+    if not (np.isfinite(position).all() and np.isfinite(d1).all()):
         raise FloatingPointError("non-finite solution")  # unreachable: Newton rejects NaN
     return Solution(
         scene=scene,
@@ -259,4 +387,5 @@ def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms) -> 
         d1=d1,
         d3=d3,
         terms=tuple(terms),
+        **fields,
     )
