@@ -1,0 +1,86 @@
+"""The PDF's lines of text (matid.report.pdftext): the same bytes as matplotlib's own Text.draw."""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+from datetime import datetime
+
+import pytest
+from matplotlib.backends.backend_pdf import PdfPages
+from matplotlib.figure import Figure
+from test_report import bend_result, make_result
+
+from matid.report import pdftext, render_report
+from matid.report.layout import MONO, SANS, add_text
+
+pytestmark = pytest.mark.filterwarnings("ignore:Glyph .* missing from font")
+
+#: Plain text, kerning pairs, Latin-1, symbols the report prints, a glyph from a fallback font,
+#: right-to-left text, dollars (no mathtext here), a tab, descenders only, and nothing below the line.
+STRINGS = (
+    "Stiffness identification report",
+    "AVAWAY To Ty Yo LT 'quoted' \"double\" fi fl ffi",
+    "E_e = 119.97 ± 0.046 N   sls_eta 450.5 N s   ⚠ [2]   µm  °C  ×10⁻⁵  ≤ ≥ → …",
+    "Çàéîõü ßÆØå ñ ¿¡ § ¶ © ®",
+    "price $5 and $x^2$ stay text",
+    "tab\there",
+    "gjpqy",
+    "---",
+    "· ·",
+    "עברית and العربية mixed",
+    "批次 2611 样品",
+    "a" * 300,
+)
+
+
+def _pages(draw) -> bytes:
+    """Two A4 pages with every string in every style, drawn by ``draw(fig, x, y, text, **style)``."""
+    buffer = io.BytesIO()
+    with PdfPages(buffer, metadata={"CreationDate": datetime(2024, 1, 1)}) as pdf:
+        for family in (SANS, MONO):
+            fig = Figure(figsize=(8.27, 11.69))
+            y = 0.97
+            for size in (6.5, 8.5, 14):
+                for weight in ("normal", "bold"):
+                    for k, text in enumerate(STRINGS):
+                        style = {"family": family, "size": size, "weight": weight, "color": "#5f6368" if k % 2 else "k"}
+                        draw(fig, 0.05 + 0.0001 * k, y, text, va="bottom", parse_math=False, **style)
+                        y -= 0.0125
+            pdf.savefig(fig)
+    return buffer.getvalue()
+
+
+def test_page_text_writes_the_bytes_of_text_draw():
+    fast = _pages(add_text)
+    slow = _pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
+    assert fast == slow
+
+
+def test_page_text_other_cases_fall_back_to_text_draw(monkeypatch):
+    """Right-aligned, rotated or several lines: drawn by matplotlib, and still the same bytes."""
+    calls = []
+    monkeypatch.setattr(pdftext, "draw_line", lambda *a: calls.append(a) or False)
+
+    def cases(draw) -> bytes:
+        buffer = io.BytesIO()
+        with PdfPages(buffer, metadata={"CreationDate": datetime(2024, 1, 1)}) as pdf:
+            fig = Figure(figsize=(8.27, 11.69))
+            draw(fig, 0.9, 0.1, "page 3", ha="right", va="bottom", size=7)
+            draw(fig, 0.5, 0.5, "rotated", rotation=30, va="bottom")
+            draw(fig, 0.1, 0.3, "two\nlines", va="bottom")
+            draw(fig, 0.1, 0.6, "centred", va="center")
+            pdf.savefig(fig)
+        return buffer.getvalue()
+
+    assert cases(add_text) == cases(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
+    assert calls == []  # none of them took the one-line path
+
+
+@pytest.mark.parametrize("make", [make_result, bend_result])
+def test_report_pdf_is_the_same_with_matplotlib_text(monkeypatch, make):
+    result = dataclasses.replace(make(), started="2024-11-26T10:00:00+01:00")  # a fixed CreationDate
+    fast = render_report(result)["report.pdf"]
+    monkeypatch.setattr(pdftext.PageText, "_plain", lambda self, renderer: False)
+    slow = render_report(result)["report.pdf"]
+    assert fast == slow
