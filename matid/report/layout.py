@@ -24,6 +24,7 @@ from matplotlib.textpath import TextToPath
 
 from matid.report.content import Table
 from matid.report.figures import DPI, png_size
+from matid.report.imagejob import Pending
 from matid.report.pdftext import PageText
 
 PAGE = (8.27, 11.69)  # A4 portrait, inches
@@ -38,6 +39,7 @@ class Flow:
     def __init__(self, pdf: PdfPages, *, footer: str) -> None:
         self.pdf, self.footer = pdf, footer
         self.fig: Figure | None = None
+        self._pending: list[tuple[object, Pending]] = []  # axes of this page waiting for a PNG
         self.page = 0
         self.y = 0.0  # inches from the bottom of the page to the next free line
 
@@ -79,6 +81,9 @@ class Flow:
 
     def _finish(self) -> None:
         if self.fig is not None:
+            for ax, png in self._pending:  # the pixels of the page's figures, waited for now
+                _show(ax, png.result())
+            self._pending.clear()
             self.pdf.savefig(self.fig)
             self.fig = None
 
@@ -221,9 +226,13 @@ class Flow:
             )
         )
 
-    def image(self, png: bytes, *, max_height: float = 5.0) -> None:
-        """A PNG scaled to the text width (never enlarged beyond its size at the report's dpi)."""
-        px_w, px_h = png_size(png)
+    def image(self, png: bytes | Pending, *, max_height: float = 5.0) -> None:
+        """A PNG scaled to the text width (never enlarged beyond its size at the report's dpi).
+
+        A :class:`~matid.report.imagejob.Pending` PNG is placed at its known size now and its
+        pixels put in when the page is saved.
+        """
+        px_w, px_h = (png.width, png.height) if isinstance(png, Pending) else png_size(png)
         width = min(px_w / DPI, self.width)
         height = width * px_h / px_w
         if height > max_height:
@@ -233,10 +242,17 @@ class Flow:
         ax = self.fig.add_axes(
             (left / PAGE[0], (self.y - height) / PAGE[1], width / PAGE[0], height / PAGE[1])
         )
-        # unresampled: the PDF holds the PNG's own pixels, scaled by the viewer
-        ax.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"), interpolation="none")
-        ax.set_axis_off()
+        if isinstance(png, Pending):
+            self._pending.append((ax, png))
+        else:
+            _show(ax, png)
         self.y -= height
+
+
+def _show(ax, png: bytes) -> None:
+    # unresampled: the PDF holds the PNG's own pixels, scaled by the viewer
+    ax.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"), interpolation="none")
+    ax.set_axis_off()
 
 
 # -- layout helpers ---------------------------------------------------------------------------
