@@ -18,6 +18,7 @@ for, in this process.
 
 from __future__ import annotations
 
+import gc
 import os
 import pickle
 import threading
@@ -136,10 +137,12 @@ class ImageJob:
 
     def _start(self) -> None:
         read, write = os.pipe()
+        gc.freeze()  # the collector would otherwise touch, and so copy, every object in the child
         pid = os.fork()
         if pid == 0:  # the child: render, send, leave without running the parent's exit handlers
             code = 1
             try:
+                gc.disable()  # a short life: the parent's garbage is not worth copying pages for
                 os.close(read)
                 with os.fdopen(write, "wb") as out:
                     for key, task in self._tasks.items():
@@ -148,6 +151,7 @@ class ImageJob:
                 code = 0
             finally:
                 os._exit(code)
+        gc.unfreeze()
         os.close(write)
         self._pid, self._pipe = pid, os.fdopen(read, "rb")
 
