@@ -3,7 +3,7 @@
 Rendering the figures (Agg, one PNG each) and drawing the PDF's pages are the two halves of
 the report's time, and only the pages that show a figure need its pixels. :func:`start`
 forks a child that renders every figure in the order the PDF shows them and streams the PNGs
-back through a pipe; meanwhile the PDF places each figure at the size its PNG will have
+back through a pipe (read by a thread as they come, so the child never waits); meanwhile the PDF places each figure at the size its PNG will have
 (:func:`pixels`, from the figure size and the dpi alone) and waits for the pixels only when it
 saves that figure's page. The HTML page then takes the same PNGs: each figure is still
 rendered once, and the bytes are those :func:`matid.report.images.render_images` gives.
@@ -21,6 +21,7 @@ from __future__ import annotations
 import gc
 import os
 import pickle
+import signal
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -82,7 +83,10 @@ class ImageJob:
                     self._sizes[(block.anchor, i)] = drawing.size
         self._done: dict[Key, Image] = {}
         self._rc = matplotlib.rcParams.copy()  # the settings the figures are rendered with
-        self._pid, self._pipe = 0, None
+        self._frames: dict[Key, tuple[bool, object]] = {}  # sent by the child, not yet taken
+        self._arrived = threading.Condition()
+        self._open = False  # the child may still send
+        self._pid, self._reader = 0, None
         if (_can_fork() if fork is None else fork) and self._tasks:
             self._start()
 
@@ -90,11 +94,17 @@ class ImageJob:
 
     def image(self, key: Key) -> Image:
         """The figure of ``key``, waiting for the child if it has not sent it yet."""
-        while key not in self._done and self._pipe is not None:
-            self._receive()
-        if key not in self._done:  # no child, or it stopped early: render it here, as the child would
-            with matplotlib.rc_context(self._rc):  # not in the PDF's settings
-                self._done[key] = self._tasks[key]()
+        if key not in self._done:
+            sent = self._take(key)
+            meta = self._tasks[key].meta  # type: ignore[attr-defined]
+            if sent is not None and sent[0]:
+                png, width, height = sent[1]  # type: ignore[misc]
+                self._done[key] = replace(meta, png=png, width=width, height=height)
+            elif sent is not None and key[1] > 0:  # a drawing that could not be drawn: shown as such
+                self._done[key] = replace(meta, png=b"", width=0, height=0, error=sent[1])
+            else:  # no child, it stopped early, or a fit plot failed (to raise its own error here)
+                with matplotlib.rc_context(self._rc):  # rendered as the child would, not in the PDF's settings
+                    self._done[key] = self._tasks[key]()
         return self._done[key]
 
     def images(self) -> Images:
@@ -104,7 +114,7 @@ class ImageJob:
     def pending(self) -> Images:
         """Every figure as a :class:`Pending` PNG, for the PDF to place before the pixels exist
         (without a child: every figure, rendered now)."""
-        if self._pipe is None:
+        if not self._pid:
             return self.images()
 
         def placeholder(key: Key) -> Image:
@@ -115,11 +125,13 @@ class ImageJob:
         return self._collect(placeholder)
 
     def close(self) -> None:
-        """Stop listening to the child and reap it (it exits at the next figure it sends)."""
-        if self._pipe is not None:
-            self._pipe.close()
-            self._pipe = None
+        """Stop the child if it is still rendering (nothing more is wanted) and reap it."""
         if self._pid:
+            try:
+                os.kill(self._pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            self._reader.join()  # type: ignore[union-attr]
             os.waitpid(self._pid, 0)
             self._pid = 0
 
@@ -153,19 +165,32 @@ class ImageJob:
                 os._exit(code)
         gc.unfreeze()
         os.close(write)
-        self._pid, self._pipe = pid, os.fdopen(read, "rb")
+        self._pid, self._open = pid, True
+        # read as the figures come, so that the child never waits on a full pipe
+        self._reader = threading.Thread(target=self._drain, args=(os.fdopen(read, "rb"),), daemon=True)
+        self._reader.start()
 
-    def _receive(self) -> None:
+    def _drain(self, pipe) -> None:
         try:
-            key, ok, payload = pickle.load(self._pipe)
-        except (EOFError, OSError, pickle.UnpicklingError):  # the child is gone: the rest is rendered here
-            self.close()
-            return
-        if ok:
-            self._done[key] = replace(self._tasks[key].meta, png=payload[0], width=payload[1], height=payload[2])  # type: ignore[attr-defined]
-        elif key[1] > 0:  # a drawing that could not be drawn: shown as such
-            self._done[key] = replace(self._tasks[key].meta, png=b"", width=0, height=0, error=payload)  # type: ignore[attr-defined]
-        # a fit plot that failed is rendered again here, to raise its own exception
+            with pipe:
+                while True:
+                    key, ok, payload = pickle.load(pipe)
+                    with self._arrived:
+                        self._frames[key] = (ok, payload)
+                        self._arrived.notify_all()
+        except Exception:  # noqa: BLE001 -- the end of the pipe: the child is done or gone
+            pass
+        finally:
+            with self._arrived:
+                self._open = False
+                self._arrived.notify_all()
+
+    def _take(self, key: Key) -> tuple[bool, object] | None:
+        """What the child sent for ``key``, waiting while it may still send it; None if it never will."""
+        with self._arrived:
+            while key not in self._frames and self._open:
+                self._arrived.wait()
+            return self._frames.pop(key, None)
 
 
 def _sent(key: Key, task) -> tuple[Key, bool, object]:
