@@ -14,7 +14,8 @@ import io
 import textwrap
 from functools import lru_cache
 
-import matplotlib.image
+import numpy as np
+import PIL.Image
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure, _stale_figure_callback
 from matplotlib.font_manager import FontProperties
@@ -251,7 +252,9 @@ class Flow:
 
 def _show(ax, png: bytes) -> None:
     # unresampled: the PDF holds the PNG's own pixels, scaled by the viewer
-    ax.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"), interpolation="none")
+    # as 8-bit RGBA (imread would make floats of it, which the PDF turns back into the same bytes)
+    with PIL.Image.open(io.BytesIO(png)) as image:
+        ax.imshow(np.asarray(image.convert("RGBA")), interpolation="none")
     ax.set_axis_off()
 
 
