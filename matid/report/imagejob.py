@@ -10,7 +10,7 @@ rendered once, and the bytes are those :func:`matid.report.images.render_images`
 
 Where the pixels turn out not to fit the place kept for them (a drawing that could not be
 drawn, whose page shows the reason instead, or a size other than predicted), the PDF is
-drawn again from the start with every figure known (:class:`Relayout`). Without ``os.fork``,
+drawn again from the start with every figure known (:class:`Relayout`). Outside Linux,
 with more than one thread, inside a worker process of a batch run (whose siblings keep the
 cores busy) or on one core, no child is started and each figure is rendered when first asked
 for, in this process.
@@ -22,6 +22,7 @@ import gc
 import os
 import pickle
 import signal
+import sys
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -227,7 +228,7 @@ def _can_fork() -> bool:
 
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     return (
-        hasattr(os, "fork")
+        sys.platform.startswith("linux")  # macOS: fork after system frameworks are loaded is unsafe
         and cores > 1
         and threading.active_count() == 1
         and multiprocessing.parent_process() is None
