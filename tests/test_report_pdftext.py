@@ -101,3 +101,32 @@ def test_figures_go_in_as_the_pixels_imread_gives(monkeypatch):
 
     monkeypatch.setattr(layout, "_show", with_imread)
     assert render_report(result)["report.pdf"] == fast
+
+
+def test_monospaced_layout_is_raqms():
+    """Table rows in DejaVu Sans Mono are laid out without raqm: the same glyphs, positions and kerns."""
+    import random
+    import string
+
+    from matplotlib.backends.backend_pdf import PdfFile, RendererPdf
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.ft2font import LoadFlags
+
+    rng = random.Random(7)
+    alphabet = string.ascii_letters + string.digits + string.punctuation + " " * 10 + "±µ°×éàüßÆØñ§·–—…≤≥→⚠©¿"
+    renderer = RendererPdf(PdfFile(io.BytesIO()), 72, 8.27, 11.69)
+    taken = 0
+    for size in (6.5, 7, 7.5, 8, 9.5, 14):
+        for weight in ("normal", "bold"):
+            font = renderer._get_font_ttf(FontProperties(family=MONO, size=size, weight=weight))
+            texts = ["".join(rng.choice(alphabet) for _ in range(rng.randint(1, 150))) for _ in range(150)]
+            for text in [*texts, "fi fl ffi --> <= != ==", "a\u0301 combining", "עברית", "tab\there", "批次"]:
+                ours = pdftext._monospaced(font, text, size)
+                if ours is None:
+                    continue
+                taken += 1
+                theirs = font._layout(text, LoadFlags.NO_HINTING, features=None, language=None)
+                assert [tuple(item) for item in ours] == [
+                    (i.ft_object, i.char, i.glyph_index, i.x, i.y, i.prev_kern) for i in theirs
+                ], text
+    assert taken == 12 * 151  # every random text and the ligature candidates; none of the other four

@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import itertools
 import math
+import unicodedata
 import weakref
+from typing import NamedTuple
 
 import matplotlib as mpl
 from matplotlib import colors as mcolors
@@ -99,8 +101,8 @@ def draw_line(renderer: RendererPdf, gc, x: float, bottom: float, s: str, prop, 
         return False
     min_ascent, min_descent = extent
     font = renderer._get_font_ttf(prop)  # sized to prop
-    items = list(font._layout(s, LoadFlags.NO_HINTING, features=None, language=None))
     size = prop.get_size_in_points()
+    items = _monospaced(font, s, size) or list(font._layout(s, LoadFlags.NO_HINTING, features=None, language=None))
     y_min, y_max = 32000, -32000  # FT2Font.set_text's empty box, in 1/64 point
     for item in items:
         low, high = _glyph_ybox(item.ft_object, item.glyph_index, size)
@@ -166,6 +168,51 @@ def _emit(renderer: RendererPdf, gc, x: float, y: float, items, fontsize: float)
     flush()
     out(Op.end_text)
     out(Op.grestore)
+
+
+class _Item(NamedTuple):
+    """The fields of raqm's LayoutItem that drawing reads."""
+
+    ft_object: object
+    char: str
+    glyph_index: int
+    x: float
+    y: float
+    prev_kern: float
+
+
+#: Left to right without shaping: the bidi classes of Latin text, digits, punctuation, symbols, space.
+_SIMPLE_BIDI = frozenset({"L", "EN", "ES", "ET", "CS", "ON", "WS"})
+_MONO_FILES = ("DejaVuSansMono.ttf", "DejaVuSansMono-Bold.ttf")
+_MONO_STEP: dict[tuple, tuple[float, float]] = {}
+_MONO_GLYPH: dict[tuple, int] = {}
+
+
+def _monospaced(font, s: str, size: float) -> list[_Item] | None:
+    """raqm's layout of ``s`` in DejaVu Sans Mono at ``size`` points, without raqm: the same advance
+    for every character and the same (rounding) kern between any two, read off raqm once per
+    font and size. None for another font, or a character that is missing, combining or
+    right-to-left (raqm lays those out). tests/test_report_pdftext.py compares the two."""
+    if not font.fname.endswith(_MONO_FILES):
+        return None
+    glyphs = []
+    for char in s:
+        key = (font.fname, char)
+        if key not in _MONO_GLYPH:
+            simple = unicodedata.bidirectional(char) in _SIMPLE_BIDI and not unicodedata.combining(char)
+            _MONO_GLYPH[key] = font.get_char_index(ord(char)) if simple and char.isprintable() else 0
+        if not _MONO_GLYPH[key]:
+            return None
+        glyphs.append(_MONO_GLYPH[key])
+    key = (font.fname, font.face_index, size)
+    if key not in _MONO_STEP:
+        second = list(font._layout("00", LoadFlags.NO_HINTING, features=None, language=None))[1]
+        _MONO_STEP[key] = (second.x, second.prev_kern)
+    step, kern = _MONO_STEP[key]
+    return [
+        _Item(font, char, glyph, i * step, 0.0, kern if i else 0.0)
+        for i, (char, glyph) in enumerate(zip(s, glyphs, strict=True))
+    ]
 
 
 _GLYPH_YBOX: dict[tuple, tuple[int, int]] = {}
