@@ -92,3 +92,17 @@ def test_predicted_pixels_are_the_rendered_ones():
     assert imagejob.pixels(FIT_SIZE) == png_size(png_bytes(fit_figure(fits[0])))
     for size in [(7.5, 3.2), (6.3, 2.9), (7.1, 4.45), (5.55, 3.35)]:
         assert imagejob.pixels(size) == png_size(png_bytes(imagejob.Figure(figsize=size)))
+
+
+def test_the_parent_renders_figures_the_child_has_not_begun(case, monkeypatch):
+    import time
+
+    result, want = case
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    real_sent = imagejob._sent
+    monkeypatch.setattr(imagejob, "_sent", lambda key, task: time.sleep(0.3) or real_sent(key, task))  # a slow child
+    here = []
+    real_here = imagejob.ImageJob._render_here
+    monkeypatch.setattr(imagejob.ImageJob, "_render_here", lambda self, key: here.append(key) or real_here(self, key))
+    assert render_report(result) == want
+    assert here  # the parent did not only wait

@@ -1,12 +1,15 @@
 """The report's figures rendered in a second process while the PDF is being drawn.
 
 Rendering the figures (Agg, one PNG each) and drawing the PDF's pages are the two halves of
-the report's time, and only the pages that show a figure need its pixels. :func:`start`
+the report's time, and only the pages that show a figure need its pixels. :class:`ImageJob`
 forks a child that renders every figure in the order the PDF shows them and streams the PNGs
-back through a pipe (read by a thread as they come, so the child never waits); meanwhile the PDF places each figure at the size its PNG will have
-(:func:`pixels`, from the figure size and the dpi alone) and waits for the pixels only when it
-saves that figure's page. The HTML page then takes the same PNGs: each figure is still
-rendered once, and the bytes are those :func:`matid.report.images.render_images` gives.
+back through a pipe (read by a thread as they come, so the child never waits). Meanwhile the
+PDF places each figure at the size its PNG will have (:func:`pixels`, from the figure size
+and the dpi alone) and needs the pixels only when it saves that figure's page; rather than
+wait for them it renders figures the child has not begun, from the end of the list. The HTML
+page then takes the same PNGs: each figure is still rendered once (twice at most when both
+sides claim it at the same instant), and the bytes are those
+:func:`matid.report.images.render_images` gives.
 
 Where the pixels turn out not to fit the place kept for them (a drawing that could not be
 drawn, whose page shows the reason instead, or a size other than predicted), the PDF is
@@ -19,6 +22,7 @@ for, in this process.
 from __future__ import annotations
 
 import gc
+import mmap
 import os
 import pickle
 import signal
@@ -88,6 +92,8 @@ class ImageJob:
         self._arrived = threading.Condition()
         self._open = False  # the child may still send
         self._pid, self._reader = 0, None
+        self._order = list(self._tasks)  # the order the child renders in
+        self._claims: mmap.mmap | None = None
         if (_can_fork() if fork is None else fork) and self._tasks:
             self._start()
 
@@ -95,6 +101,8 @@ class ImageJob:
 
     def image(self, key: Key) -> Image:
         """The figure of ``key``, waiting for the child if it has not sent it yet."""
+        if key not in self._done:
+            self._steal(key)
         if key not in self._done:
             sent = self._take(key)
             meta = self._tasks[key].meta  # type: ignore[attr-defined]
@@ -104,9 +112,34 @@ class ImageJob:
             elif sent is not None and key[1] > 0:  # a drawing that could not be drawn: shown as such
                 self._done[key] = replace(meta, png=b"", width=0, height=0, error=sent[1])
             else:  # no child, it stopped early, or a fit plot failed (to raise its own error here)
-                with matplotlib.rc_context(self._rc):  # rendered as the child would, not in the PDF's settings
-                    self._done[key] = self._tasks[key]()
+                self._render_here(key)
         return self._done[key]
+
+    def _render_here(self, key: Key) -> None:
+        with matplotlib.rc_context(self._rc):  # rendered as the child would, not in the PDF's settings
+            self._done[key] = self._tasks[key]()
+
+    def _steal(self, key: Key) -> None:
+        """Rather than wait for ``key``: render it here if the child has not begun it, else render
+        the last figure the child has not begun, and look again. Each figure is claimed in a
+        byte of shared memory first (a figure both sides claim at once is rendered twice, the
+        same bytes either way)."""
+        if self._claims is None:
+            return
+        i = self._order.index(key)
+        while True:
+            with self._arrived:
+                if key in self._frames or not self._open:
+                    return
+            last = next((j for j in range(len(self._order) - 1, -1, -1) if not self._claims[j]), None)
+            if last is None:
+                return  # the child has every figure in hand: wait for it
+            if not self._claims[i]:
+                last = i
+            self._claims[last] = 2
+            self._render_here(self._order[last])
+            if last == i:
+                return
 
     def images(self) -> Images:
         """Every figure, rendered (for the HTML page, and the PDF drawn again after a Relayout)."""
@@ -149,6 +182,7 @@ class ImageJob:
     # -- the child --------------------------------------------------------------------------
 
     def _start(self) -> None:
+        self._claims = mmap.mmap(-1, len(self._order))  # shared with the child: 0 free, 1 child's, 2 ours
         read, write = os.pipe()
         gc.freeze()  # the collector would otherwise touch, and so copy, every object in the child
         pid = os.fork()
@@ -158,7 +192,10 @@ class ImageJob:
                 gc.disable()  # a short life: the parent's garbage is not worth copying pages for
                 os.close(read)
                 with os.fdopen(write, "wb") as out:
-                    for key, task in self._tasks.items():
+                    for i, (key, task) in enumerate(self._tasks.items()):
+                        if self._claims[i]:  # the parent took it
+                            continue
+                        self._claims[i] = 1
                         pickle.dump(_sent(key, task), out, protocol=pickle.HIGHEST_PROTOCOL)
                         out.flush()
                 code = 0
