@@ -26,7 +26,7 @@ from typing import NamedTuple
 import matplotlib as mpl
 from matplotlib import colors as mcolors
 from matplotlib.backends.backend_mixed import MixedModeRenderer
-from matplotlib.backends.backend_pdf import Op, RendererPdf
+from matplotlib.backends.backend_pdf import Op, RendererPdf, _fill, pdfRepr
 from matplotlib.font_manager import FontPath, fontManager, get_font
 from matplotlib.ft2font import LoadFlags
 from matplotlib.text import Text
@@ -129,13 +129,11 @@ def _emit(renderer: RendererPdf, gc, x: float, y: float, items, fontsize: float)
 
     def flush() -> None:
         if chunk:
-            out(
-                [
-                    (-1000 * next(group) / fontsize) if kind is float else renderer._encode_glyphs(group, fonttype)
-                    for kind, group in itertools.groupby(chunk, type)
-                ],
-                Op.showkern,
-            )
+            values = [
+                (-1000 * next(group) / fontsize) if kind is float else renderer._encode_glyphs(group, fonttype)
+                for kind, group in itertools.groupby(chunk, type)
+            ]
+            out(_Array(values), Op.showkern)
             chunk.clear()
 
     out(Op.gsave)
@@ -168,6 +166,29 @@ def _emit(renderer: RendererPdf, gc, x: float, y: float, items, fontsize: float)
     flush()
     out(Op.end_text)
     out(Op.grestore)
+
+
+#: pdfRepr of the kerns and glyph strings met so far (a table row repeats a few of them).
+_REPR: dict[object, bytes] = {}
+
+
+class _Array:
+    """A TJ array, written as ``pdfRepr(list)`` writes it, each element's repr looked up once."""
+
+    __slots__ = ("values",)
+
+    def __init__(self, values: list) -> None:
+        self.values = values
+
+    def pdfRepr(self) -> bytes:  # noqa: N802 -- the name backend_pdf.pdfRepr looks for
+        parts = [b"["]
+        for value in self.values:
+            key = (type(value), value)  # (float, 0.0) would also find -0.0: zero kerns are never written
+            if key not in _REPR:
+                _REPR[key] = pdfRepr(value)
+            parts.append(_REPR[key])
+        parts.append(b"]")
+        return _fill(parts)
 
 
 class _Item(NamedTuple):
