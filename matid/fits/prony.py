@@ -29,6 +29,7 @@ arms ordered by tau, fastest first.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections.abc import Sequence
@@ -39,7 +40,7 @@ from scipy import optimize
 from scipy import stats as sstats
 
 from matid.fits import stats
-from matid.fits.sls import sls_force
+from matid.fits.sls import History, sls_force
 from matid.results import Estimate
 
 #: Most arms tried.
@@ -57,6 +58,10 @@ class Data:
     force: np.ndarray
     used: np.ndarray
     sigma: float
+
+    @functools.cached_property
+    def history(self) -> History:
+        return History(self.t, self.eps)
 
 
 def arm(t: np.ndarray, eps: np.ndarray, tau: float) -> np.ndarray:
@@ -91,7 +96,7 @@ def _basis(data: Sequence[Data], taus, arms: Arms | None = None) -> tuple[np.nda
                 continue
             key = (i, float(tau))
             if key not in arms:
-                arms[key] = arm(d.t, d.eps, tau)
+                arms[key] = d.history.force(0.0, 1.0, tau)  # = arm(d.t, d.eps, tau)
             block.append(arms[key])
         cols.append(np.column_stack(block)[d.used] / d.sigma)
         rhs.append(d.force[d.used] / d.sigma)
