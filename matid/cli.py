@@ -26,7 +26,7 @@ import importlib
 import sys
 import time
 import traceback
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -98,25 +98,30 @@ def _common() -> argparse.ArgumentParser:
     return common
 
 
-class _UnitSystems:
-    """The ``--units`` choices, read from :mod:`matid.units` (which loads pint) only when needed."""
+#: The ``--units`` choices as shown in the help; :func:`_unit_system` checks a given name against
+#: :data:`matid.units.UNIT_SYSTEMS` itself (tests/test_cli.py holds the two equal).
+UNITS_METAVAR = "{SI,cgs}"
 
-    def _names(self) -> list[str]:
-        from matid.units import UNIT_SYSTEMS
 
-        return sorted(UNIT_SYSTEMS)
+def _unit_system(name: str) -> str:
+    """``--units NAME``: one of :data:`matid.units.UNIT_SYSTEMS`, read (and pint loaded) only when given."""
+    if name == "SI":  # the default, which argparse passes through here too
+        return name
+    from matid.units import UNIT_SYSTEMS
 
-    def __contains__(self, name: object) -> bool:
-        return name in self._names()
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._names())
+    if name not in UNIT_SYSTEMS:
+        choices = ", ".join(repr(n) for n in sorted(UNIT_SYSTEMS))
+        raise argparse.ArgumentTypeError(f"invalid choice: {name!r} (choose from {choices})")
+    return name
 
 
 def _add_units(parser: argparse.ArgumentParser) -> None:
+    # No ``choices``: argparse iterates them while the parser is built, which would load pint
+    # for every command; a ``type`` is called only for a --units that is given.
     parser.add_argument(
         "--units",
-        choices=_UnitSystems(),
+        type=_unit_system,
+        metavar=UNITS_METAVAR,
         default="SI",
         help="unit system of the reported stiffnesses (default SI: N, N m^2, N s; cgs: dyn, dyn cm^2, dyn s)",
     )

@@ -192,6 +192,25 @@ def test_version_and_help(capsys):
     assert main(["fit"]) == 2  # PATH is required
 
 
+def test_units_option_without_pint():
+    """--units lists the systems of matid.units; the parser loads pint only for a --units given."""
+    from matid.cli import UNITS_METAVAR
+    from matid.units import UNIT_SYSTEMS
+
+    assert UNITS_METAVAR == "{" + ",".join(sorted(UNIT_SYSTEMS)) + "}"
+    code = (
+        "import sys; from matid.cli import build_parser; "
+        "p = build_parser(['demo']); p.format_help(); p.parse_args(['demo']); a = 'pint' in sys.modules; "
+        "b = p.parse_args(['demo', '--units', 'cgs']).units; print(a, b, 'pint' in sys.modules)"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["False", "cgs", "True"]
+    with pytest.raises(SystemExit):
+        from matid.cli import build_parser
+
+        build_parser(["demo"]).parse_args(["demo", "--units", "imperial"])
+
+
 def test_python_dash_m_matid(tmp_path):
     # From another folder: in the repository root, -m would import the source tree, which
     # lacks matid.example (it ships from data/example only when installed).

@@ -28,6 +28,7 @@ local minima seed lmfit.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections.abc import Mapping, Sequence
@@ -42,7 +43,7 @@ from scipy import stats as sstats
 
 from matid.errors import DataError, FitError
 from matid.fits import prony, stats
-from matid.fits.sls import sls_force, sls_ramp  # noqa: F401  (sls_ramp: public here too)
+from matid.fits.sls import History, sls_force, sls_ramp  # noqa: F401  (sls_force, sls_ramp: public here too)
 from matid.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
@@ -74,6 +75,10 @@ class _Run:
     window: np.ndarray  # rows inside the test's window
     used: np.ndarray  # rows whose residuals enter the fit (the model runs over all rows)
     left_out: Mapping[str, int] = field(default_factory=dict)  # reason -> rows
+
+    @functools.cached_property
+    def history(self) -> History:
+        return History(self.t, self.eps)
 
     @property
     def duration(self) -> float:
@@ -170,7 +175,7 @@ def _profile_point(
     eps = np.concatenate([run.eps[run.used] / s for run, s in zip(runs, sigma, strict=True)])
     g = np.concatenate(
         [
-            sls_force(run.t, run.eps, 0.0, 1.0 / tau, 1.0)[run.used] / s
+            run.history.force(0.0, 1.0 / tau, 1.0)[run.used] / s
             for run, s in zip(runs, sigma, strict=True)
         ]
     )
@@ -230,7 +235,7 @@ def _values(params: lmfit.Parameters, ref: Mapping[str, float]) -> dict[str, flo
 
 
 def _models(runs: Sequence[_Run], k: Mapping[str, float]) -> list[np.ndarray]:
-    return [sls_force(run.t, run.eps, k["k1"], k["k2"], k["eta"]) for run in runs]
+    return [run.history.force(k["k1"], k["k2"], k["eta"]) for run in runs]  # = sls_force(run.t, run.eps, ...)
 
 
 def _residual(params, runs, sigma, ref) -> np.ndarray:

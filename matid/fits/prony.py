@@ -29,6 +29,7 @@ arms ordered by tau, fastest first.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections.abc import Sequence
@@ -39,7 +40,7 @@ from scipy import optimize
 from scipy import stats as sstats
 
 from matid.fits import stats
-from matid.fits.sls import sls_force
+from matid.fits.sls import History, sls_force
 from matid.results import Estimate
 
 #: Most arms tried.
@@ -58,6 +59,10 @@ class Data:
     used: np.ndarray
     sigma: float
 
+    @functools.cached_property
+    def history(self) -> History:
+        return History(self.t, self.eps)
+
 
 def arm(t: np.ndarray, eps: np.ndarray, tau: float) -> np.ndarray:
     """Force of a unit-stiffness Maxwell arm of relaxation time tau under the strain history."""
@@ -72,19 +77,35 @@ def prony_force(t, eps, k0: float, ks: Sequence[float], taus: Sequence[float]) -
     return out
 
 
-def _basis(data: Sequence[Data], taus) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted design [eps, arm(tau_1), ...] and weighted force over the used rows."""
+#: Arms already computed during one fit: (run index, tau) -> arm over all rows of that run.
+Arms = dict[tuple[int, float], np.ndarray]
+
+
+def _basis(data: Sequence[Data], taus, arms: Arms | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted design [eps, arm(tau_1), ...] and weighted force over the used rows.
+
+    With ``arms``, an arm already computed for the same run and tau is reused: a
+    finite-difference Jacobian moves one tau at a time, so most of its arms repeat.
+    """
     cols, rhs = [], []
-    for d in data:
-        block = [d.eps] + [arm(d.t, d.eps, tau) for tau in taus]
+    for i, d in enumerate(data):
+        block = [d.eps]
+        for tau in taus:
+            if arms is None:
+                block.append(arm(d.t, d.eps, tau))
+                continue
+            key = (i, float(tau))
+            if key not in arms:
+                arms[key] = d.history.force(0.0, 1.0, tau)  # = arm(d.t, d.eps, tau)
+            block.append(arms[key])
         cols.append(np.column_stack(block)[d.used] / d.sigma)
         rhs.append(d.force[d.used] / d.sigma)
     return np.vstack(cols), np.concatenate(rhs)
 
 
-def _inner(data, log_taus) -> tuple[np.ndarray, np.ndarray]:
+def _inner(data, log_taus, arms: Arms | None = None) -> tuple[np.ndarray, np.ndarray]:
     """NNLS stiffnesses for these taus and the weighted residuals."""
-    design, rhs = _basis(data, np.exp(log_taus))
+    design, rhs = _basis(data, np.exp(log_taus), arms)
     scale = np.maximum(np.linalg.norm(design, axis=0), 1e-300)
     coef, _ = optimize.nnls(design / scale, rhs)
     coef = coef / scale
@@ -173,11 +194,12 @@ def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
     high = max(float(d.t[-1] - d.t[0]) for d in data) * 100.0
     bounds = (math.log(low), math.log(high))
     best = None
+    arms: Arms = {}
     for start in _starts(data, n_terms):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             sol = optimize.least_squares(
-                lambda lt: _inner(data, np.sort(lt))[1],
+                lambda lt: _inner(data, np.sort(lt), arms)[1],
                 np.clip(start, *bounds),
                 bounds=bounds,
                 x_scale=1.0,
@@ -186,7 +208,7 @@ def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
         if best is None or sol.cost < best.cost:
             best = sol
     log_taus = np.sort(best.x)
-    coef, resid = _inner(data, log_taus)
+    coef, resid = _inner(data, log_taus, arms)
     if np.any(coef <= 0) or np.any(np.diff(log_taus) < 1e-3):
         return None  # a vanished or duplicated arm: this n says nothing beyond n - 1
     x = np.r_[np.log(coef), log_taus]

@@ -49,6 +49,35 @@ def sls_force(t: np.ndarray, eps: np.ndarray, k1: float, k2: float, eta: float) 
     return k1 * eps + f2
 
 
+class History:
+    """A strain history linear between samples, checked and differenced once, for the many
+    :func:`sls_force` evaluations of a fit: ``History(t, eps).force(k1, k2, eta)`` evaluates the
+    same expressions, so it gives the same bits."""
+
+    __slots__ = ("t", "eps", "dt", "deps", "elapsed")
+
+    def __init__(self, t: np.ndarray, eps: np.ndarray) -> None:
+        self.t = np.asarray(t, dtype=float)
+        self.eps = np.asarray(eps, dtype=float)
+        if self.t.ndim != 1 or self.t.shape != self.eps.shape:
+            raise ValueError("t and eps must be 1-d arrays of the same length")
+        self.dt = np.diff(self.t)
+        if np.any(self.dt <= 0):
+            raise ValueError("t must be strictly increasing")
+        self.deps = np.diff(self.eps)
+        self.elapsed = self.t[1:] - self.t[0]
+
+    def force(self, k1: float, k2: float, eta: float) -> np.ndarray:
+        """:func:`sls_force` of this history."""
+        if not (k2 > 0 and eta > 0):
+            raise ValueError(f"k2 and eta must be positive, got k2={k2}, eta={eta}")
+        tau = eta / k2
+        b = -eta * self.deps / self.dt * np.expm1(-self.dt / tau)  # eta r_i (1 - a_i)
+        f2 = np.zeros_like(self.t)
+        f2[1:] = _decaying_sum(self.elapsed / tau, b)
+        return k1 * self.eps + f2
+
+
 def _decaying_sum(s: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``g_i = sum_{j<=i} exp(-(s_i - s_j)) b_j`` for non-decreasing s, vectorised.
 
@@ -61,12 +90,20 @@ def _decaying_sum(s: np.ndarray, b: np.ndarray) -> np.ndarray:
     g = np.empty_like(b)
     if s.size == 0:
         return g
-    forget = np.r_[True, np.diff(s) > _FORGET]
-    starts = np.flatnonzero(forget | np.r_[True, np.diff(np.floor(s / _BLOCK_SPAN)) > 0])
-    ends = np.r_[starts[1:], s.size]
+    # np.concatenate rather than np.r_: this runs thousands of times per fit on short runs
+    step = np.diff(s)
+    if s.size > 1 and math.floor(s[0] / _BLOCK_SPAN) == math.floor(s[-1] / _BLOCK_SPAN) and step.max() <= _FORGET:
+        # one block (the usual case: tau within the run): the loop below, run once from i0 = 0
+        ds = s - s[0]
+        g[:] = np.exp(-ds) * (0.0 + np.cumsum(np.exp(ds) * b))
+        return g
+    forget = np.concatenate(([True], step > _FORGET))
+    new_block = np.concatenate(([True], np.diff(np.floor(s / _BLOCK_SPAN)) > 0))
+    starts = np.flatnonzero(forget | new_block)
+    ends = np.append(starts[1:], s.size)
     lone = (ends - starts == 1) & forget[starts]
     g[starts[lone]] = b[starts[lone]]
-    for i0, i1 in zip(starts[~lone], ends[~lone], strict=True):
+    for i0, i1 in zip(starts[~lone].tolist(), ends[~lone].tolist(), strict=True):
         ds = s[i0:i1] - s[i0]
         head = 0.0 if i0 == 0 else math.exp(s[i0 - 1] - s[i0]) * g[i0 - 1]
         g[i0:i1] = np.exp(-ds) * (head + np.cumsum(np.exp(ds) * b[i0:i1]))

@@ -3,7 +3,8 @@
 ``render_report(result, units="SI")`` returns ``{"report.html": bytes, "report.pdf": bytes}``;
 the caller writes them (atomically, see :func:`matid.results.atomic_write`). Content is built
 once (:mod:`matid.report.content`), its figures rendered once to PNG
-(:mod:`matid.report.images`), then drawn by :mod:`matid.report.html` (jinja2 template,
+(:mod:`matid.report.images`; by a second process while the PDF is drawn,
+:mod:`matid.report.imagejob`), then drawn by :mod:`matid.report.html` (jinja2 template,
 plots inlined as PNG) and :mod:`matid.report.pdf` (A4 pages via matplotlib's PdfPages). The
 hook for extra figures of a fit, ``TestFit.info["figures"]``, is described in
 :mod:`matid.report.figures`; the three-point-bend figures drawn from ``info["plot_data"]`` in
@@ -14,7 +15,7 @@ from __future__ import annotations
 
 from matid.report.content import build_report
 from matid.report.html import render_html
-from matid.report.images import render_images
+from matid.report.imagejob import ImageJob, Relayout
 from matid.report.pdf import render_pdf
 from matid.results import StudyResult
 from matid.units import UNIT_SYSTEMS
@@ -27,5 +28,12 @@ def render_report(result: StudyResult, *, units: str = "SI") -> dict[str, bytes]
     if units not in UNIT_SYSTEMS:
         raise ValueError(f"units must be one of {', '.join(UNIT_SYSTEMS)}, got {units!r}")
     report = build_report(result, units)
-    images = render_images(report)  # each figure drawn once, for both documents
-    return {"report.html": render_html(report, images), "report.pdf": render_pdf(report, images)}
+    job = ImageJob(report)  # each figure drawn once, for both documents, beside the PDF if it can
+    try:
+        try:
+            pdf = render_pdf(report, job.pending())
+        except Relayout:  # a figure came out other than the place kept for it
+            pdf = render_pdf(report, job.images())
+        return {"report.html": render_html(report, job.images()), "report.pdf": pdf}
+    finally:
+        job.close()

@@ -7,6 +7,7 @@ of user text (study name, notes, metadata, warnings) is escaped.
 from __future__ import annotations
 
 import base64
+import functools
 
 import jinja2
 
@@ -18,6 +19,15 @@ from matid.report.quantities import Nested
 def render_html(report: Report, images: Images | None = None) -> bytes:
     """The report page as UTF-8 bytes (figures from ``images``, rendered here if not given)."""
     images = render_images(report) if images is None else images
+    page = _template().render(
+        report=report, plots=images.plots, drawings=images.drawings, data_uri=data_uri, nested=is_nested
+    )
+    return page.encode("utf-8")
+
+
+@functools.lru_cache(maxsize=1)
+def _template() -> jinja2.Template:
+    """The page template, compiled once per process."""
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("matid.report", "templates"),
         autoescape=True,
@@ -25,10 +35,7 @@ def render_html(report: Report, images: Images | None = None) -> bytes:
         lstrip_blocks=True,
         undefined=jinja2.StrictUndefined,
     )
-    page = env.get_template("report.html").render(
-        report=report, plots=images.plots, drawings=images.drawings, data_uri=data_uri, nested=is_nested
-    )
-    return page.encode("utf-8")
+    return env.get_template("report.html")
 
 
 def data_uri(png: bytes) -> str:

@@ -54,16 +54,17 @@ def render_images(report: Report) -> Images:
     return Images(plots, drawings)
 
 
-def fit_image(block: Block, units: str, title: str) -> Image:
+def fit_image(block: Block, units: str, title: str, *, png: bool = True) -> Image:
+    """The fit plot of ``block``; with ``png=False`` only its texts (no pixels, size 0 x 0)."""
     fit = block.fit
     assert fit is not None
-    png = png_bytes(fit_figure(fit, units))
-    width, height = png_size(png)
+    data = png_bytes(fit_figure(fit, units)) if png else b""
+    width, height = png_size(data) if png else (0, 0)
     names = ", ".join(s.label for s in fit.series)
     y_label, x_label = axis_unit(fit.y_label, units).label, axis_unit(fit.x_label, units).label
     text = caption(fit, units)
     alt = f"{title} of specimen {fit.specimen}: {y_label} against {x_label} for {names}. {text}"
-    return Image(png, width, height, alt, text, f"{title}, specimen {fit.specimen}")
+    return Image(data, width, height, alt, text, f"{title}, specimen {fit.specimen}")
 
 
 def drawing_image(drawing: Drawing) -> Image:

@@ -1,0 +1,270 @@
+"""Lines of text on the PDF pages, drawn for a third of matplotlib's cost and byte for byte the same.
+
+Every line of the PDF report is a matplotlib Text placed at its bottom-left corner. Drawn by
+:meth:`matplotlib.text.Text.draw`, each string is laid out three times: ``set_text`` for its
+extent (``Text._get_layout``), then raqm's layout and one ``load_glyph`` per character inside
+``RendererPdf.draw_text``. That was four fifths of the PDF's time (profiled on the demo report).
+
+For one line, unrotated and aligned at its bottom left, the extent only sets the baseline:
+``bottom + max(descent, the font's typographic descent)``, the ascent entering through the
+same floating-point expression matplotlib evaluates. :class:`PageText` gets the extent from the
+one raqm layout it draws with (the control boxes of its glyphs, cached per glyph and size) and
+writes the operators of ``RendererPdf.draw_text`` itself, the font-subset lookups cached per
+PDF file. Any other case (another renderer, several lines, rotation, other alignment, a path
+effect, a box, a link, the PDF core fonts) goes through ``Text.draw`` unchanged;
+tests/test_report.py compares pages drawn both ways byte for byte.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import unicodedata
+import weakref
+from typing import NamedTuple
+
+import matplotlib as mpl
+from matplotlib import colors as mcolors
+from matplotlib.backends.backend_mixed import MixedModeRenderer
+from matplotlib.backends.backend_pdf import Op, RendererPdf, _fill, pdfRepr
+from matplotlib.font_manager import FontPath, fontManager, get_font
+from matplotlib.ft2font import LoadFlags
+from matplotlib.text import Text
+
+#: Per PDF file: (font file, face, char, glyph) -> (subset, code), and (font file, face, subset) -> name.
+_TRACKED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+class PageText(Text):
+    """A Text whose plain one-line case is drawn by :func:`draw_line` (see the module docstring)."""
+
+    def draw(self, renderer) -> None:
+        if not self._plain(renderer):
+            return super().draw(renderer)
+        if renderer is not None:
+            self._renderer = renderer
+        if not self.get_visible() or self.get_text() == "":
+            return
+        posx, posy = self.get_transform().transform((float(self._x), float(self._y)))
+        if not (math.isfinite(posx) and math.isfinite(posy)):
+            return super().draw(renderer)
+        renderer.open_group("text", self.get_gid())
+        gc = renderer.new_gc()
+        gc.set_foreground(mcolors.to_rgba(self.get_color()), isRGBA=True)
+        gc.set_alpha(self.get_alpha())
+        gc.set_url(self._url)
+        gc.set_antialiased(self._antialiased)
+        gc.set_snap(self.get_snap())
+        self._set_gc_clip(gc)
+        dpi = self.get_figure(root=True).dpi
+        if not draw_line(_pdf(renderer), gc, posx, posy, self.get_text(), self._fontproperties, dpi):
+            gc.restore()
+            renderer.close_group("text")
+            return super().draw(renderer)
+        gc.restore()
+        renderer.close_group("text")
+        self.stale = False
+
+    def _plain(self, renderer) -> bool:
+        return (
+            isinstance(_pdf(renderer), RendererPdf)
+            and not mpl.rcParams["pdf.use14corefonts"]
+            and "\n" not in self.get_text()
+            and self.get_rotation() == 0
+            and self.get_horizontalalignment() == "left"
+            and self.get_verticalalignment() == "bottom"
+            and self.get_rotation_mode() != "anchor"
+            and not self.get_usetex()
+            and not self.get_parse_math()
+            and not self.get_wrap()
+            and self._linespacing == "normal"
+            and self._bbox_patch is None
+            and not self.get_path_effects()
+            and self._url is None
+            and self.get_fontfeatures() is None
+            and self.get_language() is None
+        )
+
+
+def _pdf(renderer):
+    """The PDF renderer behind PdfPages' MixedModeRenderer (outside a rasterised artist)."""
+    return renderer._renderer if isinstance(renderer, MixedModeRenderer) else renderer
+
+
+def draw_line(renderer: RendererPdf, gc, x: float, bottom: float, s: str, prop, dpi: float) -> bool:
+    """``Text.draw`` of the one-line text ``s`` whose bottom-left corner is at (x, bottom), in points.
+
+    False (and nothing drawn) when the font has no table to read its typographic extent from.
+    """
+    extent = _font_extent(prop, dpi)
+    if extent is None:
+        return False
+    min_ascent, min_descent = extent
+    font = renderer._get_font_ttf(prop)  # sized to prop
+    size = prop.get_size_in_points()
+    items = _monospaced(font, s, size) or list(font._layout(s, LoadFlags.NO_HINTING, features=None, language=None))
+    y_min, y_max = 32000, -32000  # FT2Font.set_text's empty box, in 1/64 point
+    for item in items:
+        low, high = _glyph_ybox(item.ft_object, item.glyph_index, size)
+        y_min, y_max = min(y_min, low), max(y_max, high)
+    if not items:
+        y_min = y_max = 0
+    h, d = (y_max - y_min) / 64, -y_min / 64
+    # Text._get_layout for one line with linespacing "normal", then the bottom alignment
+    a = max(h - d, min_ascent)
+    d = max(d, min_descent)
+    top = 0.0
+    top -= a
+    _emit(renderer, gc, x, bottom + (top - (top - d)), items, size)
+    return True
+
+
+def _emit(renderer: RendererPdf, gc, x: float, y: float, items, fontsize: float) -> None:
+    """The text operators of ``RendererPdf.draw_text`` (TrueType/Type 3 branch, angle 0)."""
+    renderer.check_gc(gc, gc._rgb)
+    out = renderer.file.output
+    fonttype = mpl.rcParams["pdf.fonttype"]
+    tracked = _TRACKED.setdefault(renderer.file, {})
+    chunk: list = []
+
+    def flush() -> None:
+        if chunk:
+            values = [
+                (-1000 * next(group) / fontsize) if kind is float else renderer._encode_glyphs(group, fonttype)
+                for kind, group in itertools.groupby(chunk, type)
+            ]
+            out(_Array(values), Op.showkern)
+            chunk.clear()
+
+    out(Op.gsave)
+    out(math.cos(0.0), math.sin(0.0), -math.sin(0.0), math.cos(0.0), x, y, Op.concat_matrix)
+    previous, start_x = None, 0
+    out(Op.begin_text)
+    for item in items:
+        ft = item.ft_object
+        key = (ft.fname, ft.face_index, item.char, item.glyph_index)
+        if key not in tracked:
+            tracked[key] = renderer.file._character_tracker.track_glyph(ft, item.char, item.glyph_index)
+        subset, charcode = tracked[key]
+        if (ft, subset) != previous:
+            flush()
+            name_key = (ft.fname, ft.face_index, subset)
+            if name_key not in tracked:
+                tracked[name_key] = renderer.file.fontName(FontPath(ft.fname, ft.face_index), subset)
+            out(tracked[name_key], fontsize, Op.selectfont)
+            renderer._setup_textpos(item.x, 0, 0, start_x, 0, 0)
+            previous, start_x = (ft, subset), item.x
+        if item.y:
+            flush()
+            out(item.y, Op.textrise)
+        if item.prev_kern:
+            chunk.append(item.prev_kern)
+        chunk.append(charcode)
+        if item.y:
+            flush()
+            out(0, Op.textrise)
+    flush()
+    out(Op.end_text)
+    out(Op.grestore)
+
+
+#: pdfRepr of the kerns and glyph strings met so far (a table row repeats a few of them).
+_REPR: dict[object, bytes] = {}
+
+
+class _Array:
+    """A TJ array, written as ``pdfRepr(list)`` writes it, each element's repr looked up once."""
+
+    __slots__ = ("values",)
+
+    def __init__(self, values: list) -> None:
+        self.values = values
+
+    def pdfRepr(self) -> bytes:  # noqa: N802 -- the name backend_pdf.pdfRepr looks for
+        parts = [b"["]
+        for value in self.values:
+            key = (type(value), value)  # (float, 0.0) would also find -0.0: zero kerns are never written
+            if key not in _REPR:
+                _REPR[key] = pdfRepr(value)
+            parts.append(_REPR[key])
+        parts.append(b"]")
+        return _fill(parts)
+
+
+class _Item(NamedTuple):
+    """The fields of raqm's LayoutItem that drawing reads."""
+
+    ft_object: object
+    char: str
+    glyph_index: int
+    x: float
+    y: float
+    prev_kern: float
+
+
+#: Left to right without shaping: the bidi classes of Latin text, digits, punctuation, symbols, space.
+_SIMPLE_BIDI = frozenset({"L", "EN", "ES", "ET", "CS", "ON", "WS"})
+_MONO_FILES = ("DejaVuSansMono.ttf", "DejaVuSansMono-Bold.ttf")
+_MONO_STEP: dict[tuple, tuple[float, float]] = {}
+_MONO_GLYPH: dict[tuple, int] = {}
+
+
+def _monospaced(font, s: str, size: float) -> list[_Item] | None:
+    """raqm's layout of ``s`` in DejaVu Sans Mono at ``size`` points, without raqm: the same advance
+    for every character and the same (rounding) kern between any two, read off raqm once per
+    font and size. None for another font, or a character that is missing, combining or
+    right-to-left (raqm lays those out). tests/test_report_pdftext.py compares the two."""
+    if not font.fname.endswith(_MONO_FILES):
+        return None
+    glyphs = []
+    for char in s:
+        key = (font.fname, char)
+        if key not in _MONO_GLYPH:
+            simple = unicodedata.bidirectional(char) in _SIMPLE_BIDI and not unicodedata.combining(char)
+            _MONO_GLYPH[key] = font.get_char_index(ord(char)) if simple and char.isprintable() else 0
+        if not _MONO_GLYPH[key]:
+            return None
+        glyphs.append(_MONO_GLYPH[key])
+    key = (font.fname, font.face_index, size)
+    if key not in _MONO_STEP:
+        second = list(font._layout("00", LoadFlags.NO_HINTING, features=None, language=None))[1]
+        _MONO_STEP[key] = (second.x, second.prev_kern)
+    step, kern = _MONO_STEP[key]
+    return [
+        _Item(font, char, glyph, i * step, 0.0, kern if i else 0.0)
+        for i, (char, glyph) in enumerate(zip(s, glyphs, strict=True))
+    ]
+
+
+_GLYPH_YBOX: dict[tuple, tuple[int, int]] = {}
+_FONT_EXTENT: dict[tuple, tuple[float, float] | None] = {}
+
+
+def _glyph_ybox(ft, glyph: int, size: float) -> tuple[int, int]:
+    """Bottom and top of a glyph's control box in 1/64 point, as ``FT2Font.set_text`` unites them."""
+    key = (ft.fname, ft.face_index, glyph, size)
+    if key not in _GLYPH_YBOX:
+        box = ft.load_glyph(glyph, flags=LoadFlags.NO_HINTING).bbox
+        _GLYPH_YBOX[key] = (box[1], box[3])
+    return _GLYPH_YBOX[key]
+
+
+def _font_extent(prop, dpi: float) -> tuple[float, float] | None:
+    """The font's typographic ascent and descent at this size, as ``Text._get_layout`` reads them."""
+    key = (
+        tuple(prop.get_family()), prop.get_style(), prop.get_variant(), prop.get_weight(),
+        prop.get_stretch(), prop.get_size_in_points(), prop.get_file(), prop.get_math_fontfamily(), dpi,
+    )  # fmt: skip
+    if key not in _FONT_EXTENT:
+        _FONT_EXTENT[key] = None
+        font = get_font(fontManager._find_fonts_by_props(prop))
+        for table_name, ascent_key, descent_key in (
+            ("OS/2", "sTypoAscender", "sTypoDescender"),
+            ("hhea", "ascent", "descent"),
+        ):
+            table = font.get_sfnt_table(table_name)
+            if table is not None:
+                scale = 1 / font.get_sfnt_table("head")["unitsPerEm"] * prop.get_size_in_points() * dpi / 72
+                _FONT_EXTENT[key] = (table[ascent_key] * scale, -table[descent_key] * scale)
+                break
+    return _FONT_EXTENT[key]

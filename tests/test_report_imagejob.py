@@ -1,0 +1,108 @@
+"""Figures rendered by a second process while the PDF is drawn (matid.report.imagejob): same bytes."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+
+import pytest
+from test_report import bend_result, make_result
+
+from matid.report import imagejob, render_report
+from matid.report.content import build_report
+from matid.report.figures import FIT_SIZE, drawing_png, fit_figure, png_bytes, png_size
+from matid.report.html import render_html
+from matid.report.images import render_images
+from matid.report.pdf import render_pdf
+
+pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
+
+
+def _result(make):
+    return dataclasses.replace(make(), started="2024-11-26T10:00:00+01:00")  # a fixed CreationDate
+
+
+def _sequential(result) -> dict[str, bytes]:
+    """The report as drawn before the job existed: every figure first, then the PDF, then the page."""
+    report = build_report(result, "SI")
+    images = render_images(report)
+    return {"report.html": render_html(report, images), "report.pdf": render_pdf(report, images)}
+
+
+@pytest.fixture(scope="module", params=[make_result, bend_result], ids=["kinds", "bend"])
+def case(request):
+    result = _result(request.param)
+    return result, _sequential(result)
+
+
+def test_forked_and_in_process_reports_are_the_sequential_bytes(case, monkeypatch):
+    result, want = case
+    started = []
+    real_start = imagejob.ImageJob._start
+    monkeypatch.setattr(imagejob.ImageJob, "_start", lambda self: started.append(1) or real_start(self))
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    assert render_report(result) == want
+    assert started == [1]
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: False)
+    assert render_report(result) == want
+    assert started == [1]
+
+
+def test_a_child_that_dies_leaves_the_rest_to_the_parent(case, monkeypatch):
+    result, want = case
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    real_sent, sent = imagejob._sent, []
+
+    def dies_after_one(key, task):  # runs in the child
+        if sent:
+            os._exit(9)
+        sent.append(key)
+        return real_sent(key, task)
+
+    monkeypatch.setattr(imagejob, "_sent", dies_after_one)
+    assert render_report(result) == want
+
+
+def test_a_figure_of_another_size_makes_the_pdf_drawn_again(case, monkeypatch):
+    result, want = case
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    monkeypatch.setattr(imagejob, "pixels", lambda size, dpi=0: (7, 5))
+    relayouts = []
+    real_pdf = imagejob.Pending.result
+
+    def counted(self):
+        try:
+            return real_pdf(self)
+        except imagejob.Relayout:
+            relayouts.append(self.key)
+            raise
+
+    monkeypatch.setattr(imagejob.Pending, "result", counted)
+    assert render_report(result) == want
+    assert len(relayouts) == 1
+
+
+def test_predicted_pixels_are_the_rendered_ones():
+    report = build_report(_result(bend_result), "SI")
+    drawings = [d for s in report.sections for b in s.blocks for d in b.drawings]
+    fits = [b.fit for s in report.sections for b in s.blocks if b.plot]
+    assert drawings and fits
+    for drawing in drawings:
+        assert imagejob.pixels(drawing.size) == png_size(drawing_png(drawing))
+    assert imagejob.pixels(FIT_SIZE) == png_size(png_bytes(fit_figure(fits[0])))
+    for size in [(7.5, 3.2), (6.3, 2.9), (7.1, 4.45), (5.55, 3.35)]:
+        assert imagejob.pixels(size) == png_size(png_bytes(imagejob.Figure(figsize=size)))
+
+
+def test_the_parent_renders_figures_the_child_has_not_begun(case, monkeypatch):
+    import time
+
+    result, want = case
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    real_sent = imagejob._sent
+    monkeypatch.setattr(imagejob, "_sent", lambda key, task: time.sleep(0.3) or real_sent(key, task))  # a slow child
+    here = []
+    real_here = imagejob.ImageJob._render_here
+    monkeypatch.setattr(imagejob.ImageJob, "_render_here", lambda self, key: here.append(key) or real_here(self, key))
+    assert render_report(result) == want
+    assert here  # the parent did not only wait

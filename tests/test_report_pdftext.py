@@ -1,0 +1,132 @@
+"""The PDF's lines of text (matid.report.pdftext): the same bytes as matplotlib's own Text.draw."""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+from datetime import datetime
+
+import pytest
+from matplotlib.backends.backend_pdf import PdfPages
+from matplotlib.figure import Figure
+from test_report import bend_result, make_result
+
+from matid.report import pdftext, render_report
+from matid.report.layout import MONO, SANS, add_text
+
+pytestmark = pytest.mark.filterwarnings("ignore:Glyph .* missing from font")
+
+#: Plain text, kerning pairs, Latin-1, symbols the report prints, a glyph from a fallback font,
+#: right-to-left text, dollars (no mathtext here), a tab, descenders only, and nothing below the line.
+STRINGS = (
+    "Stiffness identification report",
+    "AVAWAY To Ty Yo LT 'quoted' \"double\" fi fl ffi",
+    "E_e = 119.97 ± 0.046 N   sls_eta 450.5 N s   ⚠ [2]   µm  °C  ×10⁻⁵  ≤ ≥ → …",
+    "Çàéîõü ßÆØå ñ ¿¡ § ¶ © ®",
+    "price $5 and $x^2$ stay text",
+    "tab\there",
+    "gjpqy",
+    "---",
+    "· ·",
+    "עברית and العربية mixed",
+    "批次 2611 样品",
+    "a" * 300,
+)
+
+
+def _pages(draw) -> bytes:
+    """Two A4 pages with every string in every style, drawn by ``draw(fig, x, y, text, **style)``."""
+    buffer = io.BytesIO()
+    with PdfPages(buffer, metadata={"CreationDate": datetime(2024, 1, 1)}) as pdf:
+        for family in (SANS, MONO):
+            fig = Figure(figsize=(8.27, 11.69))
+            y = 0.97
+            for size in (6.5, 8.5, 14):
+                for weight in ("normal", "bold"):
+                    for k, text in enumerate(STRINGS):
+                        style = {"family": family, "size": size, "weight": weight, "color": "#5f6368" if k % 2 else "k"}
+                        draw(fig, 0.05 + 0.0001 * k, y, text, va="bottom", parse_math=False, **style)
+                        y -= 0.0125
+            pdf.savefig(fig)
+    return buffer.getvalue()
+
+
+def test_page_text_writes_the_bytes_of_text_draw():
+    fast = _pages(add_text)
+    slow = _pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
+    assert fast == slow
+
+
+def test_page_text_other_cases_fall_back_to_text_draw(monkeypatch):
+    """Right-aligned, rotated or several lines: drawn by matplotlib, and still the same bytes."""
+    calls = []
+    monkeypatch.setattr(pdftext, "draw_line", lambda *a: calls.append(a) or False)
+
+    def cases(draw) -> bytes:
+        buffer = io.BytesIO()
+        with PdfPages(buffer, metadata={"CreationDate": datetime(2024, 1, 1)}) as pdf:
+            fig = Figure(figsize=(8.27, 11.69))
+            draw(fig, 0.9, 0.1, "page 3", ha="right", va="bottom", size=7)
+            draw(fig, 0.5, 0.5, "rotated", rotation=30, va="bottom")
+            draw(fig, 0.1, 0.3, "two\nlines", va="bottom")
+            draw(fig, 0.1, 0.6, "centred", va="center")
+            pdf.savefig(fig)
+        return buffer.getvalue()
+
+    assert cases(add_text) == cases(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
+    assert calls == []  # none of them took the one-line path
+
+
+@pytest.mark.parametrize("make", [make_result, bend_result])
+def test_report_pdf_is_the_same_with_matplotlib_text(monkeypatch, make):
+    result = dataclasses.replace(make(), started="2024-11-26T10:00:00+01:00")  # a fixed CreationDate
+    fast = render_report(result)["report.pdf"]
+    monkeypatch.setattr(pdftext.PageText, "_plain", lambda self, renderer: False)
+    slow = render_report(result)["report.pdf"]
+    assert fast == slow
+
+
+def test_figures_go_in_as_the_pixels_imread_gives(monkeypatch):
+    """The PNGs are placed as 8-bit RGBA: the PDF holds the bytes it held with imread's floats."""
+    import matplotlib.image
+
+    from matid.report import layout
+
+    result = dataclasses.replace(bend_result(), started="2024-11-26T10:00:00+01:00")
+    fast = render_report(result)["report.pdf"]
+
+    def with_imread(ax, png):
+        ax.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"), interpolation="none")
+        ax.set_axis_off()
+
+    monkeypatch.setattr(layout, "_show", with_imread)
+    assert render_report(result)["report.pdf"] == fast
+
+
+def test_monospaced_layout_is_raqms():
+    """Table rows in DejaVu Sans Mono are laid out without raqm: the same glyphs, positions and kerns."""
+    import random
+    import string
+
+    from matplotlib.backends.backend_pdf import PdfFile, RendererPdf
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.ft2font import LoadFlags
+
+    rng = random.Random(7)
+    alphabet = string.ascii_letters + string.digits + string.punctuation + " " * 10 + "±µ°×éàüßÆØñ§·–—…≤≥→⚠©¿"
+    renderer = RendererPdf(PdfFile(io.BytesIO()), 72, 8.27, 11.69)
+    taken = 0
+    for size in (6.5, 7, 7.5, 8, 9.5, 14):
+        for weight in ("normal", "bold"):
+            font = renderer._get_font_ttf(FontProperties(family=MONO, size=size, weight=weight))
+            texts = ["".join(rng.choice(alphabet) for _ in range(rng.randint(1, 150))) for _ in range(150)]
+            for text in [*texts, "fi fl ffi --> <= != ==", "a\u0301 combining", "עברית", "tab\there", "批次"]:
+                ours = pdftext._monospaced(font, text, size)
+                if ours is None:
+                    continue
+                taken += 1
+                theirs = font._layout(text, LoadFlags.NO_HINTING, features=None, language=None)
+                assert [tuple(item) for item in ours] == [
+                    (i.ft_object, i.char, i.glyph_index, i.x, i.y, i.prev_kern) for i in theirs
+                ], text
+    assert taken == 12 * 151  # every random text and the ligature candidates; none of the other four
