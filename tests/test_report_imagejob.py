@@ -100,9 +100,13 @@ def test_the_parent_renders_figures_the_child_has_not_begun(case, monkeypatch):
     result, want = case
     monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
     real_sent = imagejob._sent
-    monkeypatch.setattr(imagejob, "_sent", lambda key, task: time.sleep(0.3) or real_sent(key, task))  # a slow child
+    monkeypatch.setattr(
+        imagejob, "_sent", lambda key, task: time.sleep(0.3) or real_sent(key, task)
+    )  # a slow child
     here = []
     real_here = imagejob.ImageJob._render_here
-    monkeypatch.setattr(imagejob.ImageJob, "_render_here", lambda self, key: here.append(key) or real_here(self, key))
+    monkeypatch.setattr(
+        imagejob.ImageJob, "_render_here", lambda self, key: here.append(key) or real_here(self, key)
+    )
     assert render_report(result) == want
     assert here  # the parent did not only wait

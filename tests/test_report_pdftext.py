@@ -44,7 +44,12 @@ def _pages(draw) -> bytes:
             for size in (6.5, 8.5, 14):
                 for weight in ("normal", "bold"):
                     for k, text in enumerate(STRINGS):
-                        style = {"family": family, "size": size, "weight": weight, "color": "#5f6368" if k % 2 else "k"}
+                        style = {
+                            "family": family,
+                            "size": size,
+                            "weight": weight,
+                            "color": "#5f6368" if k % 2 else "k",
+                        }
                         draw(fig, 0.05 + 0.0001 * k, y, text, va="bottom", parse_math=False, **style)
                         y -= 0.0125
             pdf.savefig(fig)

@@ -92,7 +92,11 @@ def _decaying_sum(s: np.ndarray, b: np.ndarray) -> np.ndarray:
         return g
     # np.concatenate rather than np.r_: this runs thousands of times per fit on short runs
     step = np.diff(s)
-    if s.size > 1 and math.floor(s[0] / _BLOCK_SPAN) == math.floor(s[-1] / _BLOCK_SPAN) and step.max() <= _FORGET:
+    if (
+        s.size > 1
+        and math.floor(s[0] / _BLOCK_SPAN) == math.floor(s[-1] / _BLOCK_SPAN)
+        and step.max() <= _FORGET
+    ):
         # one block (the usual case: tau within the run): the loop below, run once from i0 = 0
         ds = s - s[0]
         g[:] = np.exp(-ds) * (0.0 + np.cumsum(np.exp(ds) * b))

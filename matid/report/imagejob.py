@@ -257,7 +257,9 @@ def _fit_task(block, units: str, title: str) -> _Task:
 
 
 def _drawing_task(drawing: Drawing) -> _Task:
-    return _Task(lambda: drawing_image(drawing), Image(b"", 0, 0, drawing.alt, drawing.caption, drawing.title))
+    return _Task(
+        lambda: drawing_image(drawing), Image(b"", 0, 0, drawing.alt, drawing.caption, drawing.title)
+    )
 
 
 def _can_fork() -> bool:
@@ -271,4 +273,3 @@ def _can_fork() -> bool:
         and multiprocessing.parent_process() is None
         and os.environ.get("MATID_REPORT_FORK", "1") != "0"
     )
-

@@ -102,7 +102,9 @@ def draw_line(renderer: RendererPdf, gc, x: float, bottom: float, s: str, prop, 
     min_ascent, min_descent = extent
     font = renderer._get_font_ttf(prop)  # sized to prop
     size = prop.get_size_in_points()
-    items = _monospaced(font, s, size) or list(font._layout(s, LoadFlags.NO_HINTING, features=None, language=None))
+    items = _monospaced(font, s, size) or list(
+        font._layout(s, LoadFlags.NO_HINTING, features=None, language=None)
+    )
     y_min, y_max = 32000, -32000  # FT2Font.set_text's empty box, in 1/64 point
     for item in items:
         low, high = _glyph_ybox(item.ft_object, item.glyph_index, size)
@@ -130,7 +132,9 @@ def _emit(renderer: RendererPdf, gc, x: float, y: float, items, fontsize: float)
     def flush() -> None:
         if chunk:
             values = [
-                (-1000 * next(group) / fontsize) if kind is float else renderer._encode_glyphs(group, fonttype)
+                (-1000 * next(group) / fontsize)
+                if kind is float
+                else renderer._encode_glyphs(group, fonttype)
                 for kind, group in itertools.groupby(chunk, type)
             ]
             out(_Array(values), Op.showkern)
