@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import time
 import traceback
@@ -317,6 +318,10 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     from matid.rod.output import shape_png, solution_json
     from matid.rod.scenes import load_scene
 
+    if "MATID_JIT" not in os.environ:  # one scene per process: loading the compiled kernel (~1 s) costs more
+        from matid.rod import compiled
+
+        compiled.ENABLED = False
     scene = load_scene(args.scene)
     if args.tolerance is not None:
         scene = dataclasses.replace(scene, tolerance=args.tolerance)

@@ -129,3 +129,18 @@ def test_console_script_runs(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "tip at (25.0256, 0, 8.71892) mm" in proc.stdout
     assert json.loads((tmp_path / "solution.json").read_text())["elements"] == 20
+
+
+@pytest.mark.parametrize("env, compiled_after", [(None, False), ("1", True)])
+def test_one_shot_solve_uses_the_numpy_path_unless_asked(tmp_path, monkeypatch, env, compiled_after):
+    """One scene per process: loading numba and its cache (~1 s) costs more than it saves."""
+    from matid.rod import compiled
+
+    monkeypatch.setattr(compiled, "ENABLED", True)  # restored after the test
+    if env is None:
+        monkeypatch.delenv("MATID_JIT", raising=False)
+    else:
+        monkeypatch.setenv("MATID_JIT", env)
+    code, _, err = run(["solve", str(EXAMPLES / "magnetic_cantilever.toml"), "--out", str(tmp_path / "o")])
+    assert code == 0, err
+    assert compiled.ENABLED is compiled_after
