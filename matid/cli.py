@@ -22,6 +22,7 @@ the fits load only for the commands that need them).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import sys
@@ -318,10 +319,6 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     from matid.rod.output import shape_png, solution_json
     from matid.rod.scenes import load_scene
 
-    if "MATID_JIT" not in os.environ:  # one scene per process: loading the compiled kernel (~1 s) costs more
-        from matid.rod import compiled
-
-        compiled.ENABLED = False
     scene = load_scene(args.scene)
     if args.tolerance is not None:
         scene = dataclasses.replace(scene, tolerance=args.tolerance)
@@ -330,7 +327,8 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise DataError(f"--model {args.model}: {exc}", file=args.scene) from exc
     try:
-        sol = solve(scene, elements=args.elements, model=args.model)
+        with _numpy_path_unless_asked():
+            sol = solve(scene, elements=args.elements, model=args.model)
     except DataError as exc:  # scene content the solver cannot take: name the file
         raise exc if exc.file else DataError(exc.detail, file=args.scene) from exc
     except ConvergenceError as exc:
@@ -345,6 +343,22 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(f"outputs:\n  {json_path}\n  {png_path}")
     return 0
+
+
+@contextlib.contextmanager
+def _numpy_path_unless_asked():
+    """One scene per process: loading numba and the kernel's cache (~1 s) costs more than it
+    saves, so ``matid solve`` runs the numpy path unless MATID_JIT is set (README)."""
+    if "MATID_JIT" in os.environ:
+        yield
+        return
+    from matid.rod import compiled
+
+    saved, compiled.ENABLED = compiled.ENABLED, False
+    try:
+        yield
+    finally:
+        compiled.ENABLED = saved
 
 
 def _deflection_reached(scene, exc: ConvergenceError) -> str:
