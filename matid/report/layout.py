@@ -31,6 +31,8 @@ from matid.report.pdftext import PageText
 PAGE = (8.27, 11.69)  # A4 portrait, inches
 MARGIN_X, MARGIN_TOP, MARGIN_BOTTOM = 0.65, 0.6, 0.75
 SANS, MONO = "DejaVu Sans", "DejaVu Sans Mono"
+#: A word longer than this may be split across lines in a table cell.
+WORD_CAP = 24
 MONO_ADVANCE = 0.602  # advance width of DejaVu Sans Mono, in em
 
 
@@ -336,12 +338,17 @@ def column_widths(table: Table, available: int) -> list[int]:
         min(w, max(8, max(len(word) for word in h.split() or [""])))
         for w, h in zip(widths, table.header, strict=True)
     ]
-    while sum(widths) > available:
-        candidates = [j for j in range(len(widths)) if widths[j] > floors[j]]
-        if not candidates:
-            break
-        j = max(candidates, key=lambda k: widths[k])
-        widths[j] -= 1
+    words = [  # first narrow down to the longest word of each column, so no word is split if it can be helped
+        max(f, min(w, WORD_CAP, max(len(word) for cell in col for word in str(cell).split() or [""])))
+        for f, w, col in zip(floors, widths, columns, strict=True)
+    ]
+    for limit in (words, floors):
+        while sum(widths) > available:
+            candidates = [j for j in range(len(widths)) if widths[j] > limit[j]]
+            if not candidates:
+                break
+            j = max(candidates, key=lambda k: widths[k])
+            widths[j] -= 1
     return widths
 
 
