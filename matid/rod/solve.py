@@ -212,10 +212,10 @@ def probe_start(rod: ScaledRod, model: str) -> bool:
     """Whether the continuation's first step is tested for a stable start
     (:func:`matid.rod.newton.definite_step`): planar rods in a field.
 
-    Only a load acting through the orientation (the field's torque) changes the tangent at
-    the unloaded rod: dead forces and the planar moment have potentials linear in the
-    unknowns and the unloaded rod no stress, so there the tangent is the elastic one,
-    positive definite at every load, and the test is skipped. Not in 3D: with a lumped tip
+    In the planar model only a load acting through the orientation (the field's torque)
+    changes the tangent at the unloaded rod: dead forces and the moment have potentials
+    linear in (x, z, theta) and the unloaded rod no stress, so there the tangent is the
+    elastic one, positive definite at every load, and the test is skipped. Not in 3D: with a lumped tip
     magnet in a rigid body (bench stability, "3D, rigid magnet body") the tangent of the
     unloaded rod is already indefinite at lam = 1e-3, although Newton converges from there
     at lam = 0.125; the test would take 10 halvings and 41 iterations instead of 28.
