@@ -373,10 +373,15 @@ def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.n
     """(position, d1, d3) in the lab frame (metres) of nodal rows U."""
     if chosen == PLANAR:  # rotation by theta about n = e3 x e_a = (-a1, a0, 0) (Rodrigues)
         a0, a1 = float(e_a[0]), float(e_a[1])
-        c, s = np.cos(U[:, 2]), np.sin(U[:, 2])
-        position = np.column_stack([U[:, 0] * a0, U[:, 0] * a1, U[:, 1]]) * L
-        d1 = np.column_stack([c + a1 * a1 * (1.0 - c), -a0 * a1 * (1.0 - c), -a0 * s])  # R e1
-        return position, d1, np.column_stack([a0 * s, a1 * s, c])  # d3 = R e3 = c e3 + s e_a
+        x, z, c, s = U[:, 0], U[:, 1], np.cos(U[:, 2]), np.sin(U[:, 2])
+        out = np.empty((3, U.shape[0], 3))  # position, d1, d3 filled column by column
+        position, d1, d3 = out
+        position[:, 0], position[:, 1], position[:, 2] = x * a0, x * a1, z
+        position *= L
+        one_c = 1.0 - c
+        d1[:, 0], d1[:, 1], d1[:, 2] = c + a1 * a1 * one_c, -a0 * a1 * one_c, -a0 * s  # R e1
+        d3[:, 0], d3[:, 1], d3[:, 2] = a0 * s, a1 * s, c  # d3 = R e3 = c e3 + s e_a
+        return position, d1, d3
     position = U[:, :3] * L
     q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
     R = np.array(kin.directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
