@@ -28,13 +28,19 @@ def _dead_load_scenes():
     scale = S.E_B / S.L**2
     moment = scene_from_dict({"rod": S._rod(), "tip": {"moment": [0.0, 3.0 * S.E_B / S.L, 0.0]}})
     weight = scene_from_dict({"rod": S._rod(), "load": {"distributed_force": [40.0 * scale / S.L, 0, 0]}})
-    return {"tip force": S.tip_force(50.0), "end moment": moment, "distributed": weight}
+    return {
+        "tip force": S.tip_force(50.0),
+        "end moment": moment,
+        "distributed": weight,
+        "field at 90 deg": S.magnetic(30.0, 90.0),  # B_3 = 0: no torque stiffness on the straight rod
+        "field at 60 deg": S.magnetic(30.0, 60.0),  # m B_3 > 0: stiffens it
+    }
 
 
 @pytest.mark.parametrize("name", sorted(_dead_load_scenes()))
 def test_dead_loads_leave_the_unloaded_tangent_positive_definite(name):
     """The reason probe_start skips them (planar model): at any load the unloaded rod's tangent is
-    the elastic one."""
+    the elastic one, or stiffer."""
     scene = _dead_load_scenes()[name]
     system = _system(scene)
     assert not probe_start(system.rod, system.model)

@@ -210,17 +210,25 @@ def equilibrium(
 
 def probe_start(rod: ScaledRod, model: str) -> bool:
     """Whether the continuation's first step is tested for a stable start
-    (:func:`matid.rod.newton.definite_step`): planar rods in a field.
+    (:func:`matid.rod.newton.definite_step`): planar rods whose field can destabilise the
+    unloaded rod.
 
-    In the planar model only a load acting through the orientation (the field's torque)
-    changes the tangent at the unloaded rod: dead forces and the moment have potentials
-    linear in (x, z, theta) and the unloaded rod no stress, so there the tangent is the
-    elastic one, positive definite at every load, and the test is skipped. Not in 3D: with a lumped tip
-    magnet in a rigid body (bench stability, "3D, rigid magnet body") the tangent of the
-    unloaded rod is already indefinite at lam = 1e-3, although Newton converges from there
-    at lam = 0.125; the test would take 10 halvings and 41 iterations instead of 28.
+    In the planar model only the field's torque changes the tangent at the unloaded rod:
+    dead forces and the moment have potentials linear in (x, z, theta) and the unloaded rod
+    no stress, so there the tangent is the elastic one at every load. The field adds
+    lam m B.d3 to the theta-theta stiffness of each magnetised piece (energy -lam m B.d3): on a
+    straight rod (d3 = e3) nothing to test unless some m B_3 < 0, a field against the
+    magnetisation. Not in 3D: with a lumped tip magnet in a rigid body (bench stability,
+    "3D, rigid magnet body") the tangent of the unloaded rod is already indefinite at
+    lam = 1e-3, although Newton converges from there at lam = 0.125; the test would take 10
+    halvings and 41 iterations instead of 28.
     """
-    return model == PLANAR and rod.has_field
+    if model != PLANAR or not rod.has_field:
+        return False
+    if any(rod.kappa_ref):
+        return True  # d3 turns along the unloaded rod: test
+    moments = [m for _, _, m in rod.mu] + [m for _, m in rod.magnets]
+    return any(m * rod.B[2] < 0.0 for m in moments)
 
 
 @dataclass(frozen=True)
