@@ -66,7 +66,8 @@ def test_the_numpy_path_answers_as_the_kernel(monkeypatch):
     kernel = [definite(_system(scene), _start(_system(scene)), lam) for lam in lams]
     monkeypatch.setattr(compiled, "ENABLED", False)
     system = _system(scene)
-    assert system.compiled_newton(_start(system), 1.0, xtol=0.0, max_iter=1, max_step=0.0, floor=0.0, mixed_above=0.0) is None
+    options = {"xtol": 0.0, "max_iter": 1, "max_step": 0.0, "floor": 0.0, "mixed_above": 0.0}
+    assert system.compiled_newton(_start(system), 1.0, **options) is None  # the numpy path runs
     numpy_path = [definite(system, _start(system), lam) for lam in lams]
     assert numpy_path == kernel
     assert kernel[1] is True and kernel[-1] is False

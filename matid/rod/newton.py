@@ -216,7 +216,9 @@ def definite(system: System, x: np.ndarray, lam: float) -> bool | None:
         return False
 
 
-def definite_step(system: System, x: np.ndarray, lam0: float, target: float, step: float, min_step: float) -> float:
+def definite_step(
+    system: System, x: np.ndarray, lam0: float, target: float, step: float, min_step: float
+) -> float:
     """The first load step of a continuation from x at lam0: ``step``, halved while the tangent at x
     is not positive definite at the step's load.
 

@@ -209,19 +209,14 @@ def equilibrium(
 
 
 def probe_start(rod: ScaledRod, model: str) -> bool:
-    """Whether the continuation's first step is tested for a stable start
-    (:func:`matid.rod.newton.definite_step`): planar rods whose field can destabilise the
-    unloaded rod.
+    """Whether the continuation's first step is tested for a stable start (newton.definite_step).
 
-    In the planar model only the field's torque changes the tangent at the unloaded rod:
-    dead forces and the moment have potentials linear in (x, z, theta) and the unloaded rod
-    no stress, so there the tangent is the elastic one at every load. The field adds
-    lam m B.d3 to the theta-theta stiffness of each magnetised piece (energy -lam m B.d3): on a
-    straight rod (d3 = e3) nothing to test unless some m B_3 < 0, a field against the
-    magnetisation. Not in 3D: with a lumped tip magnet in a rigid body (bench stability,
-    "3D, rigid magnet body") the tangent of the unloaded rod is already indefinite at
-    lam = 1e-3, although Newton converges from there at lam = 0.125; the test would take 10
-    halvings and 41 iterations instead of 28.
+    Planar model: dead forces and moments have potentials linear in (x, z, theta) and the
+    unloaded rod no stress, so only the field changes its tangent, by lam m B.d3 in each
+    magnetised piece's theta-theta stiffness: nothing to test on a straight rod (d3 = e3)
+    unless some m B_3 < 0. Not in 3D: a lumped tip magnet in a rigid body (bench stability,
+    "3D, rigid magnet body") has an indefinite unloaded tangent at lam = 1e-3, yet Newton
+    converges at lam = 0.125: the test would cost 10 halvings and 41 iterations, not 28.
     """
     if model != PLANAR or not rod.has_field:
         return False
