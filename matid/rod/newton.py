@@ -6,7 +6,9 @@ its tangent K = dR/dx at load factor lam. :func:`newton` solves R = 0 from a
 guess; :func:`follow` walks lam from its current value to each target in turn,
 predicting each step from the tangent dx/dlam at the last converged state
 (one back-substitution with its factorised tangent), halving the step when
-Newton fails and doubling it when Newton converges in a few iterations. A state
+Newton fails and doubling it when Newton converges in a few iterations (with
+``definite_start``, the first step is halved beforehand while the start's tangent is not
+positive definite at its load: one factorisation instead of a failed Newton). A state
 is returned only when converged and admissible (``system.reject``); when the
 step falls below ``min_step``, Newton stagnates at round-off, or the work budget
 is spent, a ConvergenceError names the last load factor reached. NaN is a
