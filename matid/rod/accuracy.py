@@ -36,10 +36,10 @@ class Estimate:
 
 def richardson(values: list[np.ndarray], *, order_cap: float = P2_ORDER) -> tuple[float, float]:
     """(error of the last value, order used) from values on meshes halving in size."""
-    d1 = float(np.max(np.abs(values[-1] - values[-2])))
+    d1 = float(np.abs(values[-1] - values[-2]).max())  # the method: no np.max dispatch (~2 us)
     order = order_cap
     if len(values) >= 3:
-        d0 = float(np.max(np.abs(values[-2] - values[-3])))
+        d0 = float(np.abs(values[-2] - values[-3]).max())
         if d1 > 0 and d0 > d1:
             order = min(order_cap, float(np.log2(d0 / d1)))
         elif d1 > 0:

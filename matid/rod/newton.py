@@ -6,7 +6,9 @@ its tangent K = dR/dx at load factor lam. :func:`newton` solves R = 0 from a
 guess; :func:`follow` walks lam from its current value to each target in turn,
 predicting each step from the tangent dx/dlam at the last converged state
 (one back-substitution with its factorised tangent), halving the step when
-Newton fails and doubling it when Newton converges in a few iterations. A state
+Newton fails and doubling it when Newton converges in a few iterations (with
+``definite_start``, the first step is halved beforehand while the start's tangent is not
+positive definite at its load: one factorisation instead of a failed Newton). A state
 is returned only when converged and admissible (``system.reject``); when the
 step falls below ``min_step``, Newton stagnates at round-off, or the work budget
 is spent, a ConvergenceError names the last load factor reached. NaN is a
@@ -186,6 +188,59 @@ def _check_admissible(system: System, x: np.ndarray, lam: float, factor: object 
         raise NewtonFailure(reason)
 
 
+#: At most this many halvings of the first step by :func:`definite_step` (each one assembly and
+#: factorisation; 2^-10 of the load is far below any step Newton needs from a stable start).
+MAX_DEFINITE_HALVINGS = 10
+
+
+def definite(system: System, x: np.ndarray, lam: float) -> bool | None:
+    """Whether the tangent at (x, lam) is positive definite (its banded Cholesky succeeds), as
+    the first Newton iteration there factorises it; None when the system cannot tell
+    (unsymmetric or unbanded tangent, non-finite residual)."""
+    compiled = getattr(system, "compiled_newton", None)
+    if compiled is not None:
+        options = {"xtol": 0.0, "max_iter": 1, "max_step": 0.0, "floor": 0.0}
+        out = compiled(x, lam, mixed_above=MIXED_ABOVE, **options)
+        if out is not None:
+            from matid.rod import compiled as kernel  # the statuses, without importing numba
+
+            status, factor = out[0], out[5]
+            if status == kernel.SINGULAR:
+                return False
+            return None if status in (kernel.NOT_FINITE_R, kernel.NOT_FINITE_DX) else factor.positive_definite
+    getattr(system, "mixed_begin", getattr(system, "mixed_reset", lambda: None))()
+    R, K = system.evaluate(x, lam)
+    if not hasattr(K, "factor") or not np.all(np.isfinite(R)):
+        return None
+    try:
+        return K.factor().positive_definite
+    except np.linalg.LinAlgError:  # an exactly singular tangent
+        return False
+
+
+def definite_step(
+    system: System, x: np.ndarray, lam0: float, target: float, step: float, min_step: float
+) -> float:
+    """The first load step of a continuation from x at lam0: ``step``, halved while the tangent at x
+    is not positive definite at the step's load.
+
+    Where the start is itself no stable state under the step's load (the straight rod in a
+    field beyond its buckling load, e.g. the q = 6.4 magnetic cantilever at 120 deg beyond
+    lam ~0.75), Newton heads for the nearest root of the gradient, a saddle as well as a
+    minimum, and the step is halved after a failure anyway (measured there: 8 iterations
+    lost at lam = 1, then 7 + 5 from lam = 0.5). One factorisation per halving finds the
+    same step without them.
+    """
+    for _ in range(MAX_DEFINITE_HALVINGS):
+        if step < 2.0 * min_step:
+            break
+        lam_try = target if abs(target - lam0) <= step else lam0 + np.sign(target - lam0) * step
+        if lam_try == lam0 or definite(system, x, lam_try) is not False:
+            break
+        step *= 0.5
+    return step
+
+
 def follow(
     system: System,
     x: np.ndarray,
@@ -199,15 +254,20 @@ def follow(
     info: NewtonInfo | None = None,
     on_target: Callable[[float, np.ndarray, NewtonInfo], None] | None = None,
     newton_options: dict | None = None,
+    definite_start: bool = False,
 ) -> tuple[np.ndarray, NewtonInfo]:
     """Continue from (x, lam0) through each load factor in ``targets`` (increasing or not).
 
     ``on_target(lam, x, info)`` is called at each target with the converged state.
+    ``definite_start``: the first step is halved (before any Newton) until the tangent at the
+    start x is positive definite at its load (see :func:`definite_step`).
     """
     info = info or NewtonInfo()
     opts = newton_options or {}
     budget = max(MIN_ITERATIONS, int(WORK_BUDGET / max(x.size, 1)))
     lam, step = lam0, first_step
+    if definite_start and len(targets):
+        step = definite_step(system, x, lam0, targets[0], step, min_step)
     slope: np.ndarray | None = None  # dx/dlam at the last converged state (tangent predictor)
     for target in targets:
         while lam != target:
