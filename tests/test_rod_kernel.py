@@ -30,6 +30,12 @@ ROD = ScaledRod(
 )
 
 
+@pytest.fixture(autouse=True)
+def _kernel_on(monkeypatch):
+    """These tests are of the kernel itself: they run with MATID_JIT=0 too."""
+    monkeypatch.setattr(compiled, "ENABLED", True)
+
+
 def system(model: str, **kw) -> RodSystem:
     nf = 3 if model == PLANAR else 7
     rod = ROD if model == PLANAR else replace(ROD, magnets=(), tip_moment=(0.0, 0.0, 0.0))
