@@ -1,0 +1,90 @@
+"""The compiled rod part of :class:`matid.rod.bend_system.BendSystem` (:mod:`matid.rod.bend_kernel`).
+
+Serves the bend's planar rod whenever :func:`matid.rod.compiled.supported` serves it
+(``MATID_JIT=0`` switches it off; numba is imported on the first evaluation). The
+arguments are built once per bend system, on its base mesh; each evaluation moves the
+mesh to sigma inside the kernel, so no moved :class:`~matid.rod.fem.Discretisation`
+is built per Newton iteration.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from matid.rod import compiled
+from matid.rod.fem import Banded
+
+
+class CompiledBend:
+    """Residual, banded tangent and dR/dsigma of a bend's rod, and its dR/dE_s, dR/dE_e."""
+
+    def __init__(self, rod, model, unit: dict):
+        disc = rod.disc
+        _, T, dx, gdofs, bpos, _, u, props, *loads = compiled._arguments(rod)
+        model.vertices(0.5)  # the fractions of uniform elements on each side of the support
+        inner, outer = model._fractions
+        self.order, self.position, self.u = disc.band_order, disc.band_position, u
+        self.mesh = (
+            float(model.half),
+            int(model.support_vertex),
+            np.ascontiguousarray(inner, dtype=float),
+            np.ascontiguousarray(outer, dtype=float),
+            np.ascontiguousarray(disc.vertices, dtype=float),
+            T,
+            dx,
+            gdofs,
+            bpos,
+            np.ascontiguousarray(disc.band_order, dtype=np.int64),
+            int(u),
+        )
+        self.props, self.loads = props, tuple(loads)
+        stack = [np.stack([unit[name][p] for p in ("E_b", "E_t", "E_s", "E_e")]) for name in ("E_s", "E_e")]
+        self.unit = np.ascontiguousarray(np.stack(stack), dtype=float)
+        self.reference, self.free = rod._reference().copy(), np.flatnonzero(disc.free)
+        self.shape = (dx.shape[0], dx.shape[1], T.shape[3], disc.nf, disc.band_order.size, int(u))
+        self._work = None
+
+    def expand(self, x: np.ndarray) -> np.ndarray:
+        """All dofs from the free ones (the fixed ones do not move with the mesh)."""
+        U = self.reference.copy()
+        U[self.free] = x
+        return U
+
+    def _kernel(self):
+        from matid.rod import bend_kernel
+
+        if self._work is None:
+            self._work = bend_kernel.work_arrays(*self.shape)
+        return bend_kernel
+
+    def evaluate(self, U: np.ndarray, sigma: float) -> tuple[np.ndarray, Banded, np.ndarray]:
+        """(residual, banded tangent, dR/dsigma) of the rod at U on the mesh at sigma (free dofs)."""
+        kernel = self._kernel()
+        n, u = self.order.size, self.u
+        R, dR, ab = np.empty(n), np.empty(n), np.empty((2 * u + 1, n))
+        half, k, inner, outer, v0, T, dx, gdofs, bpos, order, _ = self.mesh
+        kernel.evaluate(
+            U, 0.0, float(sigma), half, k, inner, outer, v0, T, dx, gdofs, bpos, order, u, self.props,
+            *self.loads, self._work, R, ab, dR,
+        )  # fmt: skip
+        K = Banded(ab, u, self.order, True)
+        K.position = self.position
+        return R, K, dR
+
+    def stiffness_residuals(self, U: np.ndarray, sigma: float) -> np.ndarray:
+        """(n, 2): dR/dE_s and dR/dE_e (scaled) at U on the mesh at sigma (free dofs)."""
+        kernel = self._kernel()
+        out = np.empty((self.order.size, 2))
+        half, k, inner, outer, v0, T, dx, gdofs, bpos, order, u = self.mesh
+        kernel.stiffness_residuals(
+            U, float(sigma), half, k, inner, outer, v0, T, dx, gdofs, bpos, order, u, self.unit,
+            *self.loads, self._work, out,
+        )  # fmt: skip
+        return out
+
+
+def for_bend(rod, model, unit: dict) -> CompiledBend | None:
+    """The compiled rod of a bend system, or None when the kernel does not serve its rod."""
+    if rod.model != "planar" or not compiled.supported(rod):
+        return None
+    return CompiledBend(rod, model, unit)
