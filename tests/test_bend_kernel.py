@@ -9,7 +9,10 @@ import pytest
 
 pytest.importorskip("numba")
 
+from matid.rod import compiled  # noqa: E402
 from matid.rod.bend import BendGeometry, BendModel  # noqa: E402
+
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="MATID_JIT=0: no compiled path")
 
 E_B, E_S, E_E = 6.5e-5, 21.0, 120.0
 GEOMETRY = BendGeometry(0.01, 0.03, 2e-3, 2e-3, 2.4e-3)
