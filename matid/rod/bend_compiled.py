@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from matid.rod import compiled
+from matid.rod.bordered import Bordered
 from matid.rod.fem import Banded
 
 
@@ -71,6 +72,10 @@ class CompiledBend:
         K.position = self.position
         return R, K, dR
 
+    def bordered(self, K: Banded, B: np.ndarray, C: np.ndarray) -> CompiledBordered:
+        """The bend's bordered tangent with compiled factorisation and solves."""
+        return CompiledBordered(K, B, C, self._kernel())
+
     def stiffness_residuals(self, U: np.ndarray, sigma: float) -> np.ndarray:
         """(n, 2): dR/dE_s and dR/dE_e (scaled) at U on the mesh at sigma (free dofs)."""
         kernel = self._kernel()
@@ -81,6 +86,39 @@ class CompiledBend:
             *self.loads, self._work, out,
         )  # fmt: skip
         return out
+
+
+class CompiledBordered(Bordered):
+    """:class:`~matid.rod.bordered.Bordered` with its factorisation and solves compiled
+    (:func:`matid.rod.bend_kernel.bordered_factor`): the same elimination, one call each."""
+
+    def __init__(self, K: Banded, B: np.ndarray, C: np.ndarray, kernel):
+        super().__init__(K, B, C)
+        self._kernel = kernel
+
+    def factor(self) -> CompiledBordered:
+        K, n = self.K, self.B.shape[0]
+        self.L, self.S_inv = np.empty((n, K.u + 1)), np.empty((3, 3))
+        self.rho, ok, self.abd, self.ipvt, info, self.Z, det = self._kernel.bordered_factor(
+            K.ab, K.u, K.order, K.position, self.B, self.C, self.L, self.S_inv
+        )
+        if info > 0:
+            raise np.linalg.LinAlgError(f"singular tangent (zero pivot {info})")
+        if not (np.isfinite(det) and abs(det) > 1e-300):
+            raise np.linalg.LinAlgError("singular bordered tangent")
+        #: as fem.BandFactor: whether the banded Cholesky of K_rho succeeded
+        self.positive_definite = bool(ok)
+        return self
+
+    def solve(self, r: np.ndarray) -> np.ndarray:
+        rhs = np.asarray(r, dtype=float)
+        rhs2 = np.ascontiguousarray(rhs.reshape(rhs.shape[0], -1))
+        out = np.empty_like(rhs2)
+        self._kernel.bordered_solve(
+            rhs2, self.rho, self.positive_definite, self.L, self.abd, self.ipvt, self.K.u, self.K.order,
+            self.C, self.Z, self.S_inv, out,
+        )  # fmt: skip
+        return out.reshape(rhs.shape)
 
 
 def for_bend(rod, model, unit: dict) -> CompiledBend | None:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from matid.rod.bandsolve import band_lu, band_lu_solve, cholesky, cholesky_solve
 from matid.rod.kernel import PLANAR, _assemble, _planar_point, scratch
 
 
@@ -139,3 +140,95 @@ def stiffness_residuals(
                   magnets, c_u, stress, False, stress, CJ, R, S, scr)  # fmt: skip
         _to_free(R, order, col)
         out[:, m] = col
+
+
+@njit(cache=True)
+def bordered_factor(ab, u, order, position, B, C, L, Sinv):
+    """The factors of :meth:`matid.rod.bordered.Bordered.factor`: K_rho = K + rho G^T G (``ab``
+    plus the contact rows C[:2], rho = max(1, max |diag K|)) by banded Cholesky in ``L`` (rows,
+    :mod:`matid.rod.bandsolve`), or LU when a pivot is not positive; Z = K_rho^-1 B and the
+    inverse of the 3 x 3 Schur complement C Z into ``Sinv``.
+
+    Returns (rho, Cholesky succeeded, LU factors, pivots, LINPACK info, Z, det(C Z)).
+    """
+    n = ab.shape[1]
+    rho = 1.0
+    for j in range(n):
+        rho = max(rho, abs(ab[u, j]))
+    for i in range(n):
+        for t in range(u + 1):
+            j = i - u + t
+            L[i, t] = ab[u + i - j, j] if j >= 0 else 0.0
+    nz = np.empty(C.shape[1], dtype=np.int64)
+    for c in range(2):  # each contact row lives on one vertex: rho g g^T is in the band
+        m = 0
+        for a in range(C.shape[1]):
+            if C[c, a] != 0.0:
+                nz[m] = a
+                m += 1
+        for x in range(m):
+            for y in range(m):
+                pa, pb = position[nz[x]], position[nz[y]]
+                if pb <= pa:
+                    L[pa, pb - pa + u] += rho * C[c, nz[x]] * C[c, nz[y]]
+    S = L.copy()
+    ok = cholesky(L, u)
+    abd, ipvt, info = np.zeros((1, 1)), np.zeros(1, dtype=np.int64), -1
+    if not ok:
+        abd, ipvt, info = band_lu(S, u)
+        if info != 0:
+            return rho, ok, abd, ipvt, info, np.zeros((n, 3)), 0.0
+    Z = np.empty((n, 3))
+    rhs = np.empty(n)
+    for c in range(3):
+        for j in range(n):
+            rhs[j] = B[order[j], c]
+        x = cholesky_solve(L, u, rhs) if ok else band_lu_solve(abd, ipvt, u, rhs)
+        for j in range(n):
+            Z[order[j], c] = x[j]
+    CZ = np.zeros((3, 3))
+    for p in range(3):
+        for a in range(n):
+            for q in range(3):
+                CZ[p, q] += C[p, a] * Z[a, q]
+    return rho, ok, abd, ipvt, info, Z, _inverse3(CZ, Sinv)
+
+
+@njit(cache=True)
+def _inverse3(S, out):
+    """out = S^-1 (3 x 3) by the adjugate, as :func:`matid.rod.bordered._inverse3`; returns det S."""
+    a, b, c, d, e, f, g, h, i = S[0, 0], S[0, 1], S[0, 2], S[1, 0], S[1, 1], S[1, 2], S[2, 0], S[2, 1], S[2, 2]
+    c0, c1, c2 = e * i - f * h, f * g - d * i, d * h - e * g
+    det = a * c0 + b * c1 + c * c2
+    if not (np.isfinite(det) and abs(det) > 1e-300):  # singular: the caller raises
+        return det
+    out[0, 0], out[0, 1], out[0, 2] = c0 / det, (c * h - b * i) / det, (b * f - c * e) / det
+    out[1, 0], out[1, 1], out[1, 2] = c1 / det, (a * i - c * g) / det, (c * d - a * f) / det
+    out[2, 0], out[2, 1], out[2, 2] = c2 / det, (b * g - a * h) / det, (a * e - b * d) / det
+    return det
+
+
+@njit(cache=True)
+def bordered_solve(r, rho, ok, L, abd, ipvt, u, order, C, Z, Sinv, out):
+    """out[:, m] = the bordered tangent's solution for r[:, m] (:meth:`matid.rod.bordered.Bordered.solve`)."""
+    n = Z.shape[0]
+    f, y, w = np.empty(n), np.empty(n), np.empty(3)
+    for col in range(r.shape[1]):
+        for j in range(n):
+            a = order[j]
+            f[j] = r[a, col] + rho * (C[0, a] * r[n, col] + C[1, a] * r[n + 1, col])
+        x = cholesky_solve(L, u, f) if ok else band_lu_solve(abd, ipvt, u, f)
+        for j in range(n):
+            y[order[j]] = x[j]
+        for p in range(3):
+            t = -r[n + p, col]
+            for a in range(n):
+                t += C[p, a] * y[a]
+            w[p] = t
+        for p in range(3):
+            t = 0.0
+            for q in range(3):
+                t += Sinv[p, q] * w[q]
+            out[n + p, col] = t
+        for a in range(n):
+            out[a, col] = y[a] - (Z[a, 0] * out[n, col] + Z[a, 1] * out[n + 1, col] + Z[a, 2] * out[n + 2, col])

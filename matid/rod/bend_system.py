@@ -137,7 +137,7 @@ class BendSystem:
         for a in range(3):  # dh/d(x, z, theta) at the support vertex
             if self.dofs[0][a] >= 0:
                 C[2, self.dofs[0][a]] = dh[a]
-        return R_all, Bordered(K, B, C)
+        return R_all, (Bordered(K, B, C) if self.jit is None else self.jit.bordered(K, B, C))
 
     def _mesh_derivative(self, U: np.ndarray) -> np.ndarray:
         """dR/dsigma with nodal values held, in closed form from the pointwise g and H.
