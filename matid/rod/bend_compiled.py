@@ -21,7 +21,7 @@ class CompiledBend:
 
     def __init__(self, rod, model, unit: dict):
         disc = rod.disc
-        _, T, dx, gdofs, bpos, _, u, props, *loads = compiled._arguments(rod)
+        _, T, dx, gdofs, bpos, _, u, props, mu, B, f, kref, *_ = compiled._arguments(rod)
         model.vertices(0.5)  # the fractions of uniform elements on each side of the support
         inner, outer = model._fractions
         self.order, self.position, self.u = disc.band_order, disc.band_position, u
@@ -38,11 +38,11 @@ class CompiledBend:
             np.ascontiguousarray(disc.band_order, dtype=np.int64),
             int(u),
         )
-        self.props, self.loads = props, tuple(loads)
+        self.props, self.loads = props, (mu, B, f, kref)
         stack = [np.stack([unit[name][p] for p in ("E_b", "E_t", "E_s", "E_e")]) for name in ("E_s", "E_e")]
         self.unit = np.ascontiguousarray(np.stack(stack), dtype=float)
         self.reference, self.free = rod._reference().copy(), np.flatnonzero(disc.free)
-        self.shape = (dx.shape[0], dx.shape[1], T.shape[3], disc.nf, disc.band_order.size, int(u))
+        self.shape = (dx.shape[0], dx.shape[1], T.shape[3], disc.nf, disc.band_order.size)
         self._work = None
 
     def expand(self, x: np.ndarray) -> np.ndarray:
@@ -58,17 +58,18 @@ class CompiledBend:
             self._work = bend_kernel.work_arrays(*self.shape)
         return bend_kernel
 
+    def _call(self, U, sigma, props, tangent: bool, ab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        kernel = self._kernel()
+        n = self.order.size
+        R, dR = np.empty(n), np.empty(n)
+        kernel.evaluate(U, 0.0, float(sigma), *self.mesh, props, *self.loads, tangent, self._work, R, ab, dR)
+        return R, dR
+
     def evaluate(self, U: np.ndarray, sigma: float) -> tuple[np.ndarray, Banded, np.ndarray]:
         """(residual, banded tangent, dR/dsigma) of the rod at U on the mesh at sigma (free dofs)."""
-        kernel = self._kernel()
-        n, u = self.order.size, self.u
-        R, dR, ab = np.empty(n), np.empty(n), np.empty((2 * u + 1, n))
-        half, k, inner, outer, v0, T, dx, gdofs, bpos, order, _ = self.mesh
-        kernel.evaluate(
-            U, 0.0, float(sigma), half, k, inner, outer, v0, T, dx, gdofs, bpos, order, u, self.props,
-            *self.loads, self._work, R, ab, dR,
-        )  # fmt: skip
-        K = Banded(ab, u, self.order, True)
+        ab = np.empty((2 * self.u + 1, self.order.size))
+        R, dR = self._call(U, sigma, self.props, True, ab)
+        K = Banded(ab, self.u, self.order, True)
         K.position = self.position
         return R, K, dR
 
@@ -77,15 +78,10 @@ class CompiledBend:
         return CompiledBordered(K, B, C, self._kernel())
 
     def stiffness_residuals(self, U: np.ndarray, sigma: float) -> np.ndarray:
-        """(n, 2): dR/dE_s and dR/dE_e (scaled) at U on the mesh at sigma (free dofs)."""
-        kernel = self._kernel()
-        out = np.empty((self.order.size, 2))
-        half, k, inner, outer, v0, T, dx, gdofs, bpos, order, u = self.mesh
-        kernel.stiffness_residuals(
-            U, float(sigma), half, k, inner, outer, v0, T, dx, gdofs, bpos, order, u, self.unit,
-            *self.loads, self._work, out,
-        )  # fmt: skip
-        return out
+        """(n, 2): dR/dE_s and dR/dE_e (scaled) at U on the mesh at sigma (free dofs): the residual of
+        that one energy term (the energy is linear in each stiffness)."""
+        ab = np.empty((1, 1))  # not written without the tangent
+        return np.column_stack([self._call(U, sigma, unit, False, ab)[0] for unit in self.unit])
 
 
 class CompiledBordered(Bordered):
@@ -123,6 +119,7 @@ class CompiledBordered(Bordered):
 
 def for_bend(rod, model, unit: dict) -> CompiledBend | None:
     """The compiled rod of a bend system, or None when the kernel does not serve its rod."""
-    if rod.model != "planar" or not compiled.supported(rod):
-        return None
+    loads = (rod.rod.tip_force, rod.rod.tip_moment)
+    if rod.model != "planar" or not compiled.supported(rod) or rod.magnet_nodes or any(map(any, loads)):
+        return None  # the kernel assembles the planar rod without point loads
     return CompiledBend(rod, model, unit)
