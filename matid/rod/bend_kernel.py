@@ -198,7 +198,9 @@ def bordered_factor(ab, u, order, position, B, C, L, Sinv):
 @njit(cache=True)
 def _inverse3(S, out):
     """out = S^-1 (3 x 3) by the adjugate, as :func:`matid.rod.bordered._inverse3`; returns det S."""
-    a, b, c, d, e, f, g, h, i = S[0, 0], S[0, 1], S[0, 2], S[1, 0], S[1, 1], S[1, 2], S[2, 0], S[2, 1], S[2, 2]
+    a, b, c = S[0, 0], S[0, 1], S[0, 2]
+    d, e, f = S[1, 0], S[1, 1], S[1, 2]
+    g, h, i = S[2, 0], S[2, 1], S[2, 2]
     c0, c1, c2 = e * i - f * h, f * g - d * i, d * h - e * g
     det = a * c0 + b * c1 + c * c2
     if not (np.isfinite(det) and abs(det) > 1e-300):  # singular: the caller raises
@@ -231,5 +233,6 @@ def bordered_solve(r, rho, ok, L, abd, ipvt, u, order, C, Z, Sinv, out):
             for q in range(3):
                 t += Sinv[p, q] * w[q]
             out[n + p, col] = t
+        w0, w1, w2 = out[n, col], out[n + 1, col], out[n + 2, col]
         for a in range(n):
-            out[a, col] = y[a] - (Z[a, 0] * out[n, col] + Z[a, 1] * out[n + 1, col] + Z[a, 2] * out[n + 2, col])
+            out[a, col] = y[a] - (Z[a, 0] * w0 + Z[a, 1] * w1 + Z[a, 2] * w2)
