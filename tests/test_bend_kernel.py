@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("numba")
 
-from matid.rod import compiled  # noqa: E402
+from matid.rod import bend_compiled, compiled  # noqa: E402
 from matid.rod.bend import BendGeometry, BendModel  # noqa: E402
 
 pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="MATID_JIT=0: no compiled path")
@@ -102,3 +102,20 @@ def test_compiled_and_numpy_paths_give_the_same_forces_and_sensitivities():
     assert np.allclose(ours.force, numpy_path.force, rtol=1e-12, atol=0)
     for name in ("E_s", "E_b", "E_e"):
         assert np.allclose(ours.dforce[name], numpy_path.dforce[name], rtol=1e-9, atol=1e-12)
+
+
+def test_the_kernel_serves_new_systems_once_numpy_evaluations_pass_the_warmup(monkeypatch):
+    monkeypatch.delenv("MATID_JIT", raising=False)
+    monkeypatch.setattr(bend_compiled, "_numba_loaded", lambda: False)
+    monkeypatch.setattr(bend_compiled, "WARMUP", 3)
+    monkeypatch.setattr(bend_compiled, "_numpy_evaluations", 0)
+    model = BendModel(GEOMETRY, elements=6)
+    first = model.system(E_B, E_S, E_E, 1e-3)
+    assert first.jit is None  # a short job: numba is not loaded for it
+    X = first.initial()
+    for _ in range(3):
+        first.evaluate(X, 0.5)
+    assert model.system(E_B, E_S, E_E, 1e-3).jit is not None
+    monkeypatch.setattr(bend_compiled, "_numpy_evaluations", 0)
+    monkeypatch.setenv("MATID_JIT", "1")  # asked for: from the first system
+    assert model.system(E_B, E_S, E_E, 1e-3).jit is not None

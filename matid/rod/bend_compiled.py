@@ -1,13 +1,16 @@
 """The compiled rod part of :class:`matid.rod.bend_system.BendSystem` (:mod:`matid.rod.bend_kernel`).
 
-Serves the bend's planar rod whenever :func:`matid.rod.compiled.supported` serves it
-(``MATID_JIT=0`` switches it off; numba is imported on the first evaluation). The
-arguments are built once per bend system, on its base mesh; each evaluation moves the
-mesh to sigma inside the kernel, so no moved :class:`~matid.rod.fem.Discretisation`
+Serves the bend's planar rod where :func:`matid.rod.compiled.supported` serves it
+(``MATID_JIT=0`` switches it off) and once it pays in this process (:data:`WARMUP`).
+The arguments are built once per bend system, on its base mesh; each evaluation moves
+the mesh to sigma inside the kernel, so no moved :class:`~matid.rod.fem.Discretisation`
 is built per Newton iteration.
 """
 
 from __future__ import annotations
+
+import os
+import sys
 
 import numpy as np
 
@@ -117,9 +120,33 @@ class CompiledBordered(Bordered):
         return out.reshape(rhs.shape)
 
 
+#: Bend evaluations on the numpy path after which new bend systems of this process use the kernel.
+#: Loading numba and the kernel from its cache costs a process about 0.4 s, what about 2000
+#: numpy evaluations cost more (measured: 0.35 against 0.13 ms per Newton iteration of the
+#: demo bend; ``matid demo``'s E_s fits, ~540 iterations, took 0.2-0.3 s numpy and 0.7 s with
+#: the kernel). Where numba is loaded already, or with ``MATID_JIT=1``, the kernel serves from
+#: the first system. The answers are the same either way (tests/test_bend_kernel.py).
+WARMUP = 2000
+_numpy_evaluations = 0
+
+
+def count_numpy_evaluation() -> None:
+    """One more bend evaluation on the numpy path (:data:`WARMUP`)."""
+    global _numpy_evaluations
+    _numpy_evaluations += 1
+
+
+def _numba_loaded() -> bool:
+    return "numba" in sys.modules
+
+
 def for_bend(rod, model, unit: dict) -> CompiledBend | None:
-    """The compiled rod of a bend system, or None when the kernel does not serve its rod."""
+    """The compiled rod of a bend system, or None: the kernel does not serve its rod, or does not
+    pay yet in this process (:data:`WARMUP`)."""
     loads = (rod.rod.tip_force, rod.rod.tip_moment)
     if rod.model != "planar" or not compiled.supported(rod) or rod.magnet_nodes or any(map(any, loads)):
         return None  # the kernel assembles the planar rod without point loads
+    eager = os.environ.get("MATID_JIT") == "1" or _numba_loaded()
+    if not eager and _numpy_evaluations < WARMUP:
+        return None
     return CompiledBend(rod, model, unit)

@@ -106,6 +106,7 @@ class BendSystem:
             U = self.jit.expand(u)
             R, K, dR_dsigma = self.jit.evaluate(U, sigma)
         else:
+            bend_compiled.count_numpy_evaluation()
             self.at(sigma)
             U = self.rod.expand(u)
             R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
