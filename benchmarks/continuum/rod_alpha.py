@@ -16,7 +16,6 @@ and adds the h row's coupling to the neighbour nodes to the Newton tangent.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
 from matid.rod.bend import BendModel, BendSystem
 from matid.rod.contact import Circle
@@ -59,15 +58,13 @@ class AlphaSystem(BendSystem):
         R, A = super().evaluate(X, lam, tangent=tangent)
         if not tangent or self.support.alpha == 0:
             return R, A
-        n = self.nu
-        rows, cols, vals = [], [], []
+        A.C = A.C.copy()  # the support row dh/du (border row 2) gains the neighbours' coupling
         for node, g in self.support.extra:
             idx = self.rod.index[node * 3 + np.arange(3)]
             for c in range(3):
                 if idx[c] >= 0 and g[c] != 0:
-                    rows.append(n + 2), cols.append(idx[c]), vals.append(g[c])
-        extra = sp.csr_matrix((vals, (rows, cols)), shape=A.shape)
-        return R, (A + extra).tocsr()
+                    A.C[2, idx[c]] += g[c]
+        return R, A
 
 
 class AlphaModel(BendModel):
@@ -81,7 +78,7 @@ class AlphaModel(BendModel):
         S = self.geometry.span
         disc = Discretisation(self.vertices(0.5), 3, intorder=2)
         scaled = ScaledRod(E_t=1.0, E_s=E_s * S**2 / E_b, E_e=E_e * S**2 / E_b)
-        rod = RodSystem(disc, scaled, model=PLANAR, fixed=(1, 2))
+        rod = RodSystem(disc, scaled, model=PLANAR, fixed=(1, 2), banded=True)
         support = AlphaCircle((-self.support_rho, 0.5), self.support_rho, self.alpha)
         system = AlphaSystem(rod, self, support, d_max / S)
         support.system = system
