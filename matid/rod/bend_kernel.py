@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from matid.rod.bandsolve import band_lu, band_lu_solve, cholesky, cholesky_solve
-from matid.rod.kernel import _planar_point
+from matid.rod.kernel import _at_point, _element_matrix, _planar_point, _scatter
 
 
 @njit(cache=True)
@@ -86,22 +86,12 @@ def evaluate(
         dh = 1.0 / k if e < k else -1.0 / (ne - k)
         for qp in range(nq):
             w = dx[e, qp]
-            for kk in range(2):
-                for c in range(nf):
-                    t = 0.0
-                    for i in range(nloc):
-                        t += T[e, qp, kk, i] * U[gdofs[e, i * nf + c]]
-                    z[kk * nf + c] = t
+            _at_point(T, e, qp, gdofs, U, nf, z)
             _planar_point(
                 z, lam, props[0, e, qp], props[2, e, qp], props[3, e, qp], lam * mu[e, qp], B, f, kref,
                 g, H, su, CJ, su, False
             )  # fmt: skip
-            for i in range(nloc):
-                b0, b1 = w * T[e, qp, 0, i], w * T[e, qp, 1, i]
-                for c in range(nf):
-                    pos = bpos[gdofs[e, i * nf + c]]
-                    if pos >= 0:
-                        R[pos] += b0 * g[c] + b1 * g[nf + c]
+            _scatter(T, e, qp, gdofs, bpos, nf, w, g, R)
             if not tangent:
                 continue
             for a in range(2 * nf):  # dg/dh = -H[:, u'] u'/h (+ g_u/h)
@@ -111,23 +101,8 @@ def evaluate(
                 dg[a] = t / h[e]
             for a in range(nf):
                 dg[a] += g[a] / h[e]
-            for i in range(nloc):
-                b0, b1 = w * dh * T[e, qp, 0, i], w * dh * T[e, qp, 1, i]
-                for c in range(nf):
-                    pos = bpos[gdofs[e, i * nf + c]]
-                    if pos >= 0:
-                        dR[pos] += b0 * dg[c] + b1 * dg[nf + c]
-            for kk in range(2):  # K_(i,c)(j,d) += w B_(kk,i) H_ab B_(l,j), a = kk nf + c, b = l nf + d
-                for c in range(nf):
-                    for l in range(2):  # noqa: E741 - the index of the formula
-                        for d in range(nf):
-                            hv = H[kk * nf + c, l * nf + d]
-                            if hv == 0.0:
-                                continue
-                            for i in range(nloc):
-                                wh = w * T[e, qp, kk, i] * hv
-                                for j in range(nloc):
-                                    Kl[i * nf + c, j * nf + d] += wh * T[e, qp, l, j]
+            _scatter(T, e, qp, gdofs, bpos, nf, w * dh, dg, dR)
+            _element_matrix(T, e, qp, nf, w, H, Kl)
         if tangent:
             m = nloc * nf
             for a in range(m):

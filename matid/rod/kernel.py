@@ -198,6 +198,47 @@ def _max_abs(x):
 
 
 @njit(cache=True)
+def _at_point(T, e, qp, gdofs, U, nf, out):
+    """out = (u, u') at quadrature point qp of element e: the basis tables T applied to U."""
+    nloc = T.shape[3]
+    for k in range(2):
+        for c in range(nf):
+            t = 0.0
+            for i in range(nloc):
+                t += T[e, qp, k, i] * U[gdofs[e, i * nf + c]]
+            out[k * nf + c] = t
+
+
+@njit(cache=True)
+def _scatter(T, e, qp, gdofs, bpos, nf, w, g, R):
+    """R += w [phi_i, phi_i'] . g at the dofs in band order (fixed dofs skipped)."""
+    nloc = T.shape[3]
+    for i in range(nloc):
+        b0, b1 = w * T[e, qp, 0, i], w * T[e, qp, 1, i]
+        for c in range(nf):
+            pos = bpos[gdofs[e, i * nf + c]]
+            if pos >= 0:
+                R[pos] += b0 * g[c] + b1 * g[nf + c]
+
+
+@njit(cache=True)
+def _element_matrix(T, e, qp, nf, w, H, Kl):
+    """Kl_(i,c)(j,d) += w B_(k,i) H_ab B_(l,j), a = k nf + c, b = l nf + d (zero entries of H skipped)."""
+    nloc = T.shape[3]
+    for k in range(2):
+        for c in range(nf):
+            for l in range(2):  # noqa: E741 - the index of the formula
+                for d in range(nf):
+                    h = H[k * nf + c, l * nf + d]
+                    if h == 0.0:  # most of the planar H (10 of 36 entries are not zero)
+                        continue
+                    for i in range(nloc):
+                        wh = w * T[e, qp, k, i] * h
+                        for j in range(nloc):
+                            Kl[i * nf + c, j * nf + d] += wh * T[e, qp, l, j]
+
+
+@njit(cache=True)
 def _assemble(
     U, lam, model, T, dx, gdofs, bpos, u, props, mu, B, f, kref, A, Q, M, point, magnets, c_u, stress,
     use_stress, su_all, CJ_all, R, S, work
@@ -214,12 +255,7 @@ def _assemble(
         Kl[:] = 0.0
         for qp in range(nq):
             w = dx[e, qp]
-            for k in range(2):
-                for c in range(nf):
-                    t = 0.0
-                    for i in range(nloc):
-                        t += T[e, qp, k, i] * U[gdofs[e, i * nf + c]]
-                    z[k * nf + c] = t
+            _at_point(T, e, qp, gdofs, U, nf, z)
             if model == PLANAR:
                 _planar_point(
                     z, lam, props[0, e, qp], props[2, e, qp], props[3, e, qp], lam * mu[e, qp], B, f,
@@ -232,23 +268,8 @@ def _assemble(
                     z, lam, C, mu[e, qp], M, f, kref, A, Q, g, H, su_all[e, qp], CJ_all[e, qp],
                     stress[e, qp], use_stress, Qq, gF, F, sk, G
                 )  # fmt: skip
-            for i in range(nloc):
-                b0, b1 = w * T[e, qp, 0, i], w * T[e, qp, 1, i]
-                for c in range(nf):
-                    pos = bpos[gdofs[e, i * nf + c]]
-                    if pos >= 0:
-                        R[pos] += b0 * g[c] + b1 * g[nf + c]
-            for k in range(2):  # K_(i,c)(j,d) += w B_(k,i) H_ab B_(l,j), a = k nf + c, b = l nf + d
-                for c in range(nf):
-                    for kk in range(2):
-                        for d in range(nf):
-                            h = H[k * nf + c, kk * nf + d]
-                            if h == 0.0:  # most of the planar H (10 of 36 entries are not zero)
-                                continue
-                            for i in range(nloc):
-                                wh = w * T[e, qp, k, i] * h
-                                for j in range(nloc):
-                                    Kl[i * nf + c, j * nf + d] += wh * T[e, qp, kk, j]
+            _scatter(T, e, qp, gdofs, bpos, nf, w, g, R)
+            _element_matrix(T, e, qp, nf, w, H, Kl)
         m = nloc * nf
         for a in range(m):
             pa = bpos[gdofs[e, a]]
@@ -300,12 +321,7 @@ def _mixed_update(dU, alpha, T, gdofs, su_all, CJ_all, stress, use_stress):
     dz = np.empty(2 * nf)
     for e in range(ne):
         for qp in range(nq):
-            for k in range(2):
-                for c in range(nf):
-                    t = 0.0
-                    for i in range(nloc):
-                        t += T[e, qp, k, i] * dU[gdofs[e, i * nf + c]]
-                    dz[k * nf + c] = t
+            _at_point(T, e, qp, gdofs, dU, nf, dz)
             for m in range(ns):
                 target = su_all[e, qp, m]
                 for v in range(2 * nf):
