@@ -111,3 +111,13 @@ def test_unsupported_systems_stay_on_the_numpy_path():
     no_moment = replace(ROD, tip_moment=(0.0, 0.0, 0.0))
     assert not compiled.supported(RodSystem(disc, no_moment, model=FULL, banded=True))  # magnets
     assert not compiled.supported(RodSystem(disc, replace(no_moment, magnets=()), model=FULL))  # CSR
+
+
+def test_kernel_cached_looks_where_numba_looks(tmp_path, monkeypatch):
+    """With NUMBA_CACHE_DIR set numba reads only there: an empty one means a compile is coming."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    assert not compiled.kernel_cached()
+    index = tmp_path / "some" / "subpath" / "kernel.newton-318.py311.nbi"
+    index.parent.mkdir(parents=True)
+    index.write_bytes(b"")
+    assert compiled.kernel_cached()

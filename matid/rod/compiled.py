@@ -26,6 +26,16 @@ PLANAR, FULL = 0, 1
 CONVERGED, NOT_FINITE_R, NOT_FINITE_DX, DIVERGING, STAGNATION, MAX_ITER, SINGULAR = range(7)
 
 
+def kernel_cached() -> bool:
+    """Whether numba's cache seems to hold the compiled kernel (in-tree ``__pycache__`` or
+    ``NUMBA_CACHE_DIR``); False means the first compiled solve compiles it (~20 s, once)."""
+    from pathlib import Path
+
+    if os.environ.get("NUMBA_CACHE_DIR"):  # numba then looks there first, and only there
+        return any(Path(os.environ["NUMBA_CACHE_DIR"]).rglob("kernel.newton-*.nbi"))
+    return any((Path(__file__).resolve().parent / "__pycache__").glob("kernel.newton-*.nbi"))
+
+
 class KernelFactor:
     """The last tangent's banded factors (Cholesky, or LU when it is not positive definite),
     solving in free-dof numbering as :class:`matid.rod.fem.BandFactor` does."""
