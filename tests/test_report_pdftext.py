@@ -82,6 +82,16 @@ def test_page_text_other_cases_fall_back_to_text_draw(monkeypatch):
     assert calls == []  # none of them took the one-line path
 
 
+def test_without_the_private_apis_every_line_goes_through_text_draw(monkeypatch):
+    """matplotlib < 3.11 lacks FontPath/LoadFlags/FT2Font._layout: SUPPORTED is False there and
+    PageText must never reach draw_line (it would fail on the missing APIs)."""
+    calls = []
+    monkeypatch.setattr(pdftext, "SUPPORTED", False)
+    monkeypatch.setattr(pdftext, "draw_line", lambda *a: calls.append(a) or False)
+    assert _pages(add_text) == _pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
+    assert calls == []
+
+
 @pytest.mark.parametrize("make", [make_result, bend_result])
 def test_report_pdf_is_the_same_with_matplotlib_text(monkeypatch, make):
     result = dataclasses.replace(make(), started="2024-11-26T10:00:00+01:00")  # a fixed CreationDate

@@ -27,9 +27,19 @@ import matplotlib as mpl
 from matplotlib import colors as mcolors
 from matplotlib.backends.backend_mixed import MixedModeRenderer
 from matplotlib.backends.backend_pdf import Op, RendererPdf, _fill, pdfRepr
-from matplotlib.font_manager import FontPath, fontManager, get_font
-from matplotlib.ft2font import LoadFlags
+from matplotlib.font_manager import fontManager, get_font
 from matplotlib.text import Text
+
+try:  # matplotlib >= 3.11; older versions draw every line with Text.draw (same pages, slower)
+    from matplotlib.font_manager import FontPath
+    from matplotlib.ft2font import FT2Font, LoadFlags
+
+    SUPPORTED = all(
+        hasattr(owner, name)
+        for owner, name in ((FT2Font, "_layout"), (Text, "get_fontfeatures"), (Text, "get_language"))
+    )
+except ImportError:
+    SUPPORTED = False
 
 #: Per PDF file: (font file, face, char, glyph) -> (subset, code), and (font file, face, subset) -> name.
 _TRACKED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -67,7 +77,8 @@ class PageText(Text):
 
     def _plain(self, renderer) -> bool:
         return (
-            isinstance(_pdf(renderer), RendererPdf)
+            SUPPORTED
+            and isinstance(_pdf(renderer), RendererPdf)
             and not mpl.rcParams["pdf.use14corefonts"]
             and "\n" not in self.get_text()
             and self.get_rotation() == 0
