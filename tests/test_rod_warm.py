@@ -40,3 +40,31 @@ def test_stress_recovery_is_exact_for_linear_stresses():
     t = fine_mesh.s_quad
     assert recovered.shape == fine_mesh.s_quad.shape + (2,)
     assert np.allclose(recovered, np.stack([2.0 - 3.0 * t, 0.5 + t], axis=-1), rtol=0, atol=1e-14)
+
+
+def test_a_segment_edited_in_place_is_solved_again():
+    """The last scene's preparation is remembered between solves; editing a segment's overrides
+    dict in place (the one mutable part of a frozen scene) must not return the old answer."""
+    from matid.rod.scenes import Loads, Rod, Scene, SegmentSpec
+    from matid.rod.solve import solve_cantilever
+
+    seg = SegmentSpec(0.0, 0.05, {"E_b": 1e-4})
+    scene = Scene(
+        "cantilever",
+        Rod(0.1, 1e-4, 1e-4, 10.0, 10.0, segments=(seg,)),
+        Loads(tip_force=(1e-3, 0, 0)),
+        elements=8,
+    )
+    stiff = solve_cantilever(scene).position[-1]
+    seg.overrides["E_b"] = 1e-5
+    soft = solve_cantilever(scene).position[-1]
+    fresh = solve_cantilever(
+        Scene(
+            "cantilever",
+            Rod(0.1, 1e-4, 1e-4, 10.0, 10.0, segments=(SegmentSpec(0.0, 0.05, {"E_b": 1e-5}),)),
+            Loads(tip_force=(1e-3, 0, 0)),
+            elements=8,
+        )
+    ).position[-1]
+    assert soft[0] > 2 * stiff[0]
+    np.testing.assert_allclose(soft, fresh, rtol=1e-12)

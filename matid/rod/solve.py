@@ -279,27 +279,37 @@ _PREPARED: list = [None]
 _PLANE: list = [None]
 
 
+def _same(last, scene: Scene) -> bool:
+    """The remembered scene is this one, unchanged: scenes are frozen, but a segment's
+    ``overrides`` is a dict that could be edited in place between two solves."""
+    return last is not None and last[0] is scene and last[1] == _overrides(scene)
+
+
+def _overrides(scene: Scene) -> tuple:
+    return tuple(tuple(sorted(seg.overrides.items())) for seg in scene.rod.segments)
+
+
 def scene_plane(scene: Scene) -> tuple[float, float, float] | None:
-    """:func:`matid.rod.scenes.plane_of`, remembered for the last scene asked (scenes are frozen)."""
+    """:func:`matid.rod.scenes.plane_of`, remembered for the last scene asked (see :func:`_same`)."""
     last = _PLANE[0]
-    if last is None or last[0] is not scene:
-        last = _PLANE[0] = (scene, plane_of(scene))
-    return last[1]
+    if not _same(last, scene):
+        last = _PLANE[0] = (scene, _overrides(scene), plane_of(scene))
+    return last[2]
 
 
 def _prepare(scene: Scene, model: str) -> tuple[str, np.ndarray | None, ScaledRod, tuple[float, ...]]:
     """(model, plane direction, scaled rod, mesh breaks) of a scene; the last one is remembered
     (scenes are frozen), so the meshes of one error estimate compute them once."""
     last = _PREPARED[0]
-    if last is not None and last[0] is scene and last[1] == model:
-        return last[2]
+    if _same(last, scene) and last[2] == model:
+        return last[3]
     plane = scene_plane(scene) if model in ("auto", PLANAR) else None
     if model == PLANAR and plane is None:
         raise ValueError("the scene is not planar: use model='full' or 'auto'")
     chosen = PLANAR if plane is not None else FULL
     e_a = None if chosen == FULL else np.asarray(plane)
     prepared = (chosen, e_a, scaled_rod(scene, e_a), breaks(scene))
-    _PREPARED[0] = (scene, model, prepared)
+    _PREPARED[0] = (scene, _overrides(scene), model, prepared)
     return prepared
 
 
