@@ -121,3 +121,20 @@ def test_kernel_cached_looks_where_numba_looks(tmp_path, monkeypatch):
     index.parent.mkdir(parents=True)
     index.write_bytes(b"")
     assert compiled.kernel_cached()
+
+
+def test_a_kernel_that_does_not_import_falls_back_to_numpy(monkeypatch):
+    """A broken numba, or no writable cache (numba raises at import: 'cannot cache function'),
+    gives one RuntimeWarning and the numpy path's answer, never a failed solve."""
+    import sys
+
+    scene = S.magnetic(6.4, 120.0)
+    monkeypatch.setattr(compiled, "ENABLED", False)
+    expected = solve_cantilever(scene, elements=8).position
+    monkeypatch.setattr(compiled, "ENABLED", True)
+    monkeypatch.setattr(compiled, "_AVAILABLE", [None])
+    monkeypatch.setitem(sys.modules, "matid.rod.kernel", None)  # importing it raises ImportError
+    with pytest.warns(RuntimeWarning, match="compiled rod kernel is unavailable"):
+        got = solve_cantilever(scene, elements=8).position
+    np.testing.assert_array_equal(got, expected)
+    assert compiled.supported(system(PLANAR)) is False

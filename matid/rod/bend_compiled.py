@@ -144,9 +144,9 @@ def for_bend(rod, model, unit: dict) -> CompiledBend | None:
     """The compiled rod of a bend system, or None: the kernel does not serve its rod, or does not
     pay yet in this process (:data:`WARMUP`)."""
     loads = (rod.rod.tip_force, rod.rod.tip_moment)
-    if rod.model != "planar" or not compiled.supported(rod) or rod.magnet_nodes or any(map(any, loads)):
+    if rod.model != "planar" or not compiled.serves(rod) or rod.magnet_nodes or any(map(any, loads)):
         return None  # the kernel assembles the planar rod without point loads
     eager = os.environ.get("MATID_JIT") == "1" or _numba_loaded()
     if not eager and _numpy_evaluations < WARMUP:
         return None
-    return CompiledBend(rod, model, unit)
+    return CompiledBend(rod, model, unit) if compiled.available() else None

@@ -10,8 +10,10 @@ the first solve that uses it).
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import os
+import warnings
 
 import numpy as np
 
@@ -62,8 +64,37 @@ class KernelFactor:
         return out
 
 
+_AVAILABLE: list = [None]  # None: not tried yet; then True, or False after a warning
+
+
+def available() -> bool:
+    """Whether the kernels import (numba, and a place for its cache). Tried once per process:
+    a broken numba, or a read-only installation with no writable cache ("cannot cache function
+    ... no locator available"), gives one RuntimeWarning and the numpy path (same answers)."""
+    if _AVAILABLE[0] is None:
+        try:
+            for name in ("matid.rod.kernel", "matid.rod.bend_kernel"):
+                importlib.import_module(name)
+            _AVAILABLE[0] = True
+        except (ImportError, RuntimeError, OSError) as exc:
+            _AVAILABLE[0] = False
+            warnings.warn(
+                f"matid: the compiled rod kernel is unavailable ({type(exc).__name__}: {exc}); solving on "
+                "the numpy path (same answers, slower). NUMBA_CACHE_DIR=<a writable folder> gives numba "
+                "a cache; MATID_JIT=0 silences this",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+    return _AVAILABLE[0]
+
+
 def supported(system) -> bool:
-    """Whether the kernel computes exactly what ``system.evaluate`` does."""
+    """Whether the kernel computes exactly what ``system.evaluate`` does, and imports."""
+    return serves(system) and available()
+
+
+def serves(system) -> bool:
+    """Whether the kernel computes exactly what ``system.evaluate`` does (numba not imported)."""
     if not (ENABLED and system.banded and system.analytic):
         return False
     if system.model == "planar":
