@@ -145,3 +145,11 @@ def test_monospaced_layout_is_raqms():
                     (i.ft_object, i.char, i.glyph_index, i.x, i.y, i.prev_kern) for i in theirs
                 ], text
     assert taken == 12 * 151  # every random text and the ligature candidates; none of the other four
+
+
+def test_repr_cache_is_bounded(monkeypatch):
+    """The TJ-array cache is emptied at its bound and the bytes do not change."""
+    monkeypatch.setattr(pdftext, "_REPR_MAX", 3)
+    monkeypatch.setattr(pdftext, "_REPR", {})
+    assert _pages(add_text) == _pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
+    assert len(pdftext._REPR) <= 3

@@ -183,8 +183,10 @@ def _emit(renderer: RendererPdf, gc, x: float, y: float, items, fontsize: float)
     out(Op.grestore)
 
 
-#: pdfRepr of the kerns and glyph strings met so far (a table row repeats a few of them).
+#: pdfRepr of the kerns and glyph strings met so far (a table row repeats a few of them);
+#: emptied when it reaches _REPR_MAX entries, so a long batch process does not grow it without end.
 _REPR: dict[object, bytes] = {}
+_REPR_MAX = 50_000
 
 
 class _Array:
@@ -200,6 +202,8 @@ class _Array:
         for value in self.values:
             key = (type(value), value)  # (float, 0.0) would also find -0.0: zero kerns are never written
             if key not in _REPR:
+                if len(_REPR) >= _REPR_MAX:
+                    _REPR.clear()
                 _REPR[key] = pdfRepr(value)
             parts.append(_REPR[key])
         parts.append(b"]")
