@@ -185,15 +185,18 @@ def test_the_host_s_frozen_objects_stay_frozen_when_the_child_starts(case, monke
 
 
 @linux
+@pytest.mark.parametrize("pidfd", [True, False], ids=["pidfd", "no-pidfd"])
 @pytest.mark.parametrize("host", ["ignores", "reaps"])
-def test_a_host_that_ignores_or_reaps_sigchld(case, monkeypatch, host):
-    """The host's handling of SIGCHLD reaps the child before the job does; the job does not
-    signal a pid that may by then be another process's."""
+def test_a_host_that_ignores_or_reaps_sigchld(case, monkeypatch, host, pidfd):
+    """The host's handling of SIGCHLD reaps the child before the job does; with a pidfd, the job
+    does not signal a pid that may by then be another process's."""
     import gc
     import signal
 
     result, want = case
     monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    if not pidfd:  # a kernel before 5.3
+        monkeypatch.setattr(imagejob, "_pidfd", lambda pid: -1)
     forks, real_fork = [], os.fork
     monkeypatch.setattr(os, "fork", lambda: forks.append(pid := real_fork()) or pid)
     kills, real_kill = [], os.kill
@@ -220,15 +223,26 @@ def test_a_host_that_ignores_or_reaps_sigchld(case, monkeypatch, host):
         signal.signal(signal.SIGCHLD, old)
     assert got == want
     assert len(forks) == 1 and forks[0] > 0
-    assert forks[0] not in kills
+    if pidfd:
+        assert forks[0] not in kills
     if host == "reaps":
         assert reaped == forks
 
 
 @linux
-def test_close_stops_a_child_that_is_still_rendering(monkeypatch):
+@pytest.mark.parametrize("pidfd", [True, False], ids=["pidfd", "no-pidfd"])
+def test_close_stops_a_child_that_is_still_rendering(monkeypatch, pidfd):
+    import signal
     import time
 
+    if not pidfd:
+        monkeypatch.setattr(imagejob, "_pidfd", lambda pid: -1)
+    sent = []
+    for module, name in [(os, "kill"), (signal, "pidfd_send_signal")]:
+        real = getattr(module, name)
+        monkeypatch.setattr(
+            module, name, lambda to, sig, real=real, name=name: sent.append(name) or real(to, sig)
+        )
     report = build_report(_result(bend_result), "SI")
     monkeypatch.setattr(imagejob, "_sent", lambda key, task: time.sleep(120))  # in the child
     fds = _fds()
@@ -237,4 +251,5 @@ def test_close_stops_a_child_that_is_still_rendering(monkeypatch):
     assert job._pid
     job.close()
     assert time.monotonic() - started < 60
+    assert sent == ["pidfd_send_signal" if pidfd else "kill"]
     assert _fds() == fds
