@@ -110,3 +110,146 @@ def test_the_parent_renders_figures_the_child_has_not_begun(case, monkeypatch):
     )
     assert render_report(result) == want
     assert here  # the parent did not only wait
+
+
+def _fds() -> int:
+    return len(os.listdir("/proc/self/fd"))
+
+
+def _host_freeze() -> list:
+    """Freeze every object, as a host that forks workers might; returns one of them."""
+    import gc
+
+    host = ["the host's"]
+    gc.collect()
+    gc.freeze()
+    return host
+
+
+def _frozen(obj) -> bool:
+    import gc
+
+    return not any(o is obj for o in gc.get_objects())  # the frozen generation is not listed
+
+
+linux = pytest.mark.skipif(not os.path.isdir("/proc/self/fd"), reason="counts /proc/self/fd")
+
+
+@linux
+@pytest.mark.parametrize("host_frozen", [False, True], ids=["gc", "host-frozen-gc"])
+def test_a_fork_that_fails_leaves_the_report_to_this_process(case, monkeypatch, host_frozen):
+    import errno
+    import gc
+
+    result, want = case
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    tried = []
+
+    def fails():
+        tried.append(1)
+        raise BlockingIOError(errno.EAGAIN, "Resource temporarily unavailable")  # a process limit
+
+    host = _host_freeze() if host_frozen else None
+    monkeypatch.setattr(os, "fork", fails)
+    try:
+        frozen, fds = gc.get_freeze_count(), _fds()
+        assert render_report(result) == want
+        assert tried == [1]
+        if host_frozen:
+            assert _frozen(host)  # the count itself drops by the frozen objects freed meanwhile
+        else:
+            assert gc.get_freeze_count() == frozen == 0
+        assert _fds() == fds  # the pipe's ends closed
+    finally:
+        gc.unfreeze()
+
+
+@linux
+def test_the_host_s_frozen_objects_stay_frozen_when_the_child_starts(case, monkeypatch):
+    import gc
+
+    result, want = case
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    host = _host_freeze()
+    forks, real_fork = [], os.fork
+    monkeypatch.setattr(os, "fork", lambda: forks.append(1) or real_fork())
+    try:
+        fds = _fds()
+        assert _frozen(host)
+        assert render_report(result) == want
+        assert forks == [1]
+        assert _frozen(host)
+        assert _fds() == fds
+    finally:
+        gc.unfreeze()
+
+
+@linux
+@pytest.mark.parametrize("pidfd", [True, False], ids=["pidfd", "no-pidfd"])
+@pytest.mark.parametrize("host", ["ignores", "reaps"])
+def test_a_host_that_ignores_or_reaps_sigchld(case, monkeypatch, host, pidfd):
+    """The host's handling of SIGCHLD reaps the child before the job does; with a pidfd, the job
+    does not signal a pid that may by then be another process's."""
+    import gc
+    import signal
+
+    result, want = case
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    if not pidfd:  # a kernel before 5.3
+        monkeypatch.setattr(imagejob, "_pidfd", lambda pid: -1)
+    forks, real_fork = [], os.fork
+    monkeypatch.setattr(os, "fork", lambda: forks.append(pid := real_fork()) or pid)
+    kills, real_kill = [], os.kill
+    monkeypatch.setattr(os, "kill", lambda pid, sig: kills.append(pid) or real_kill(pid, sig))
+    reaped = []
+
+    def reap(signum, frame):
+        while True:
+            try:
+                pid, _ = os.waitpid(-1, os.WNOHANG)
+            except ChildProcessError:
+                return
+            if not pid:
+                return
+            reaped.append(pid)
+
+    old = signal.signal(signal.SIGCHLD, signal.SIG_IGN if host == "ignores" else reap)
+    try:
+        frozen, fds = gc.get_freeze_count(), _fds()
+        got = render_report(result)
+        assert gc.get_freeze_count() == frozen
+        assert _fds() == fds
+    finally:
+        signal.signal(signal.SIGCHLD, old)
+    assert got == want
+    assert len(forks) == 1 and forks[0] > 0
+    if pidfd:
+        assert forks[0] not in kills
+    if host == "reaps":
+        assert reaped == forks
+
+
+@linux
+@pytest.mark.parametrize("pidfd", [True, False], ids=["pidfd", "no-pidfd"])
+def test_close_stops_a_child_that_is_still_rendering(monkeypatch, pidfd):
+    import signal
+    import time
+
+    if not pidfd:
+        monkeypatch.setattr(imagejob, "_pidfd", lambda pid: -1)
+    sent = []
+    for module, name in [(os, "kill"), (signal, "pidfd_send_signal")]:
+        real = getattr(module, name)
+        monkeypatch.setattr(
+            module, name, lambda to, sig, real=real, name=name: sent.append(name) or real(to, sig)
+        )
+    report = build_report(_result(bend_result), "SI")
+    monkeypatch.setattr(imagejob, "_sent", lambda key, task: time.sleep(120))  # in the child
+    fds = _fds()
+    started = time.monotonic()
+    job = imagejob.ImageJob(report, fork=True)
+    assert job._pid
+    job.close()
+    assert time.monotonic() - started < 60
+    assert sent == ["pidfd_send_signal" if pidfd else "kill"]
+    assert _fds() == fds

@@ -15,8 +15,9 @@ Where the pixels turn out not to fit the place kept for them (a drawing that cou
 drawn, whose page shows the reason instead, or a size other than predicted), the PDF is
 drawn again from the start with every figure known (:class:`Relayout`). Outside Linux,
 with more than one thread, inside a worker process of a batch run (whose siblings keep the
-cores busy) or on one core, no child is started and each figure is rendered when first asked
-for, in this process.
+cores busy), on one core or where the fork fails (a process limit), no child runs and each
+figure is rendered when first asked for, in this process. The child is reaped whether or not
+the host ignores or handles SIGCHLD (which reaps it first).
 """
 
 from __future__ import annotations
@@ -94,6 +95,7 @@ class ImageJob:
         self._pid, self._reader = 0, None
         self._order = list(self._tasks)  # the order the child renders in
         self._claims: mmap.mmap | None = None
+        self._pidfd = -1  # the child's, where the kernel has pidfds
         if (_can_fork() if fork is None else fork) and self._tasks:
             self._start()
 
@@ -159,15 +161,32 @@ class ImageJob:
         return self._collect(placeholder)
 
     def close(self) -> None:
-        """Stop the child if it is still rendering (nothing more is wanted) and reap it."""
-        if self._pid:
-            try:
-                os.kill(self._pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+        """Stop the child if it is still rendering (nothing more is wanted) and reap it. The host
+        may reap it first (SIGCHLD ignored or handled): its pid is then signalled only through
+        a pidfd, which cannot name another process that has since taken the same pid."""
+        if not self._pid:
+            return
+        pid, pidfd = self._pid, self._pidfd
+        self._pid, self._pidfd = 0, -1
+        try:
+            with self._arrived:
+                sending = self._open  # the pipe has not reached its end: the child is alive
+            if sending:
+                _kill(pid, pidfd)
             self._reader.join()  # type: ignore[union-attr]
-            os.waitpid(self._pid, 0)
-            self._pid = 0
+            try:
+                if pidfd >= 0:
+                    os.waitid(os.P_PIDFD, pidfd, os.WEXITED)
+                else:
+                    os.waitpid(pid, 0)
+            except ChildProcessError:
+                pass  # reaped by the host already
+        finally:
+            if pidfd >= 0:
+                os.close(pidfd)
+            if self._claims is not None:
+                self._claims.close()
+                self._claims = None
 
     def _collect(self, get: Callable[[Key], Image]) -> Images:
         plots: dict[str, Image] = {}
@@ -182,10 +201,28 @@ class ImageJob:
     # -- the child --------------------------------------------------------------------------
 
     def _start(self) -> None:
-        self._claims = mmap.mmap(-1, len(self._order))  # shared with the child: 0 free, 1 child's, 2 ours
-        read, write = os.pipe()
-        gc.freeze()  # the collector would otherwise touch, and so copy, every object in the child
-        pid = os.fork()
+        """Fork the child; where that fails (a process or file limit), leave every figure to this process."""
+        claims = mmap.mmap(-1, len(self._order))  # shared with the child: 0 free, 1 child's, 2 ours
+        try:
+            read, write = os.pipe()
+        except OSError:
+            claims.close()
+            return
+        # the collector would otherwise touch, and so copy, every object in the child; objects the
+        # host froze itself stay frozen (unfreeze cannot tell them from ours: then freeze nothing)
+        freeze = gc.get_freeze_count() == 0
+        if freeze:
+            gc.freeze()
+        try:
+            pid = os.fork()
+        except OSError:
+            if freeze:
+                gc.unfreeze()
+            os.close(read)
+            os.close(write)
+            claims.close()
+            return
+        self._claims = claims
         if pid == 0:  # the child: render, send, leave without running the parent's exit handlers
             code = 1
             try:
@@ -201,9 +238,10 @@ class ImageJob:
                 code = 0
             finally:
                 os._exit(code)
-        gc.unfreeze()
+        if freeze:
+            gc.unfreeze()
         os.close(write)
-        self._pid, self._open = pid, True
+        self._pid, self._open, self._pidfd = pid, True, _pidfd(pid)
         # read as the figures come, so that the child never waits on a full pipe
         self._reader = threading.Thread(target=self._drain, args=(os.fdopen(read, "rb"),), daemon=True)
         self._reader.start()
@@ -260,6 +298,25 @@ def _drawing_task(drawing: Drawing) -> _Task:
     return _Task(
         lambda: drawing_image(drawing), Image(b"", 0, 0, drawing.alt, drawing.caption, drawing.title)
     )
+
+
+def _pidfd(pid: int) -> int:
+    """A pidfd for the child just forked (-1 without pidfds, or if it has already left)."""
+    try:
+        return os.pidfd_open(pid)
+    except (AttributeError, OSError):
+        return -1
+
+
+def _kill(pid: int, pidfd: int) -> None:
+    """SIGKILL the child, through its pidfd where there is one; nothing if it has gone."""
+    try:
+        if pidfd >= 0:
+            signal.pidfd_send_signal(pidfd, signal.SIGKILL)
+        elif os.waitpid(pid, os.WNOHANG) == (0, 0):  # still ours and not yet exited
+            os.kill(pid, signal.SIGKILL)
+    except (ProcessLookupError, ChildProcessError):
+        pass
 
 
 def _can_fork() -> bool:
