@@ -27,8 +27,9 @@ def test_cowper_coefficient_limits():
 
 def test_patch_beam_reduces_to_point_loads():
     sec = vs3d.Section()
-    assert vs3d.bend_stiffness_patch(sec, half_length=1e-9) == pytest.approx(vs3d.bend_stiffness_point(sec),
-                                                                             rel=1e-5)
+    assert vs3d.bend_stiffness_patch(sec, half_length=1e-9) == pytest.approx(
+        vs3d.bend_stiffness_point(sec), rel=1e-5
+    )
     assert vs3d.bend_stiffness_patch(sec) > vs3d.bend_stiffness_point(sec)  # spread loads: smaller moments
 
 
@@ -39,8 +40,9 @@ def test_vectorised_stiffness_equals_scikit_fem_assembly():
     _, mesh = vs3d.tube_mesh(grid)
     mine = vs3d.stiffness_matrix(Basis(mesh, ElementHex2(), intorder=5), *sec.lame).toarray()
     ref = asm(linear_elasticity(*sec.lame), Basis(mesh, ElementVector(ElementHex2()), intorder=5)).toarray()
-    np.testing.assert_allclose(np.linalg.eigvalsh(mine), np.linalg.eigvalsh(ref), rtol=1e-9,
-                               atol=1e-9 * np.abs(ref).max())
+    np.testing.assert_allclose(
+        np.linalg.eigvalsh(mine), np.linalg.eigvalsh(ref), rtol=1e-9, atol=1e-9 * np.abs(ref).max()
+    )
 
 
 def test_richardson_recovers_limit_and_order():

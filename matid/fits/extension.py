@@ -174,10 +174,7 @@ def _profile_point(
     """
     eps = np.concatenate([run.eps[run.used] / s for run, s in zip(runs, sigma, strict=True)])
     g = np.concatenate(
-        [
-            run.history.force(0.0, 1.0 / tau, 1.0)[run.used] / s
-            for run, s in zip(runs, sigma, strict=True)
-        ]
+        [run.history.force(0.0, 1.0 / tau, 1.0)[run.used] / s for run, s in zip(runs, sigma, strict=True)]
     )
     y = np.concatenate([run.force[run.used] / s for run, s in zip(runs, sigma, strict=True)])
     known = {"k1": fixed.get("k1"), "eta": fixed.get("eta")}
