@@ -1,6 +1,7 @@
 """Identification: one module per test kind, plus the statistics they share.
 
 - :mod:`matid.fits.extension`: standard linear solid on extension runs -> E_e (model in :mod:`matid.fits.sls`)
+  (parts: ``extension_runs``, ``extension_lsq``, ``extension_stats``, ``extension_checks``)
 - :mod:`matid.fits.prony`: n-term Prony solid, chosen against the SLS by BIC
 - :mod:`matid.fits.linear`: lines with tare offsets, linear range, sign (shared by the next two)
 - :mod:`matid.fits.bending`: E_b from magnetic bending

@@ -1,0 +1,178 @@
+"""The joint SLS least squares of :mod:`matid.fits.extension`: starts, minimisation, slack rows.
+
+Parameters are ``x = log(k / k_ref)`` for k in (k1, k2, eta). Starts come from variable
+projection: for fixed tau = eta / k2 the model ``F = k1 eps + eta g(t; tau)`` is linear in
+(k1, eta), so a grid of tau over the observed window is solved by non-negative least
+squares and the best local minima seed lmfit. The fit is then refitted with slack rows
+left out and with each run weighted by its own residual noise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+import lmfit
+import numpy as np
+from scipy import optimize
+
+from matid.errors import FitError
+from matid.fits.extension_runs import SLACK, _near_zero, _Run
+
+_PARAM_NAMES = {"k1": "sls_k1", "k2": "sls_k2", "eta": "sls_eta"}
+
+# --------------------------------------------------------------------------- starts
+
+
+def _tau_grid(runs: Sequence[_Run], fixed: Mapping[str, float], n: int = 33) -> np.ndarray:
+    """Relaxation times to try: log-spaced over the observed window, wider by 10x each side."""
+    if "k2" in fixed and "eta" in fixed:
+        return np.array([fixed["eta"] / fixed["k2"]])
+    low = min(run.dt for run in runs) / 10.0
+    high = max(run.duration for run in runs) * 10.0
+    return np.geomspace(low, high, n)
+
+
+def _profile_point(
+    runs: Sequence[_Run], sigma: np.ndarray, tau: float, fixed: Mapping[str, float]
+) -> tuple[float, float, float]:
+    """For fixed tau, F = k1 eps + eta g(t; tau) is linear: solve (k1, eta) >= 0 by NNLS.
+
+    Returns (cost, k1, eta); fixed k1, eta (or eta = k2 tau for fixed k2) are held.
+    """
+    eps = np.concatenate([run.eps[run.used] / s for run, s in zip(runs, sigma, strict=True)])
+    g = np.concatenate(
+        [run.history.force(0.0, 1.0 / tau, 1.0)[run.used] / s for run, s in zip(runs, sigma, strict=True)]
+    )
+    y = np.concatenate([run.force[run.used] / s for run, s in zip(runs, sigma, strict=True)])
+    known = {"k1": fixed.get("k1"), "eta": fixed.get("eta")}
+    if "k2" in fixed:
+        known["eta"] = fixed["k2"] * tau
+    columns = {"k1": eps, "eta": g}
+    free = [name for name in columns if known[name] is None]
+    rhs = y - sum(known[name] * columns[name] for name in columns if known[name] is not None)
+    if free:
+        coef, cost = optimize.nnls(np.column_stack([columns[name] for name in free]), rhs)
+        known.update(zip(free, coef, strict=True))
+    else:
+        cost = float(np.linalg.norm(rhs))
+    return float(cost) ** 2, float(known["k1"]), float(known["eta"])
+
+
+def _starts(
+    runs: Sequence[_Run], sigma: np.ndarray, fixed: Mapping[str, float], n_starts: int = 3
+) -> list[dict[str, float]]:
+    """Starting points (k1, k2, eta) at the best local minima of the tau profile, best first."""
+    taus = _tau_grid(runs, fixed)
+    points = [_profile_point(runs, sigma, tau, fixed) for tau in taus]
+    cost = np.array([p[0] for p in points])
+    padded = np.r_[np.inf, cost, np.inf]
+    minima = np.flatnonzero((cost <= padded[:-2]) & (cost <= padded[2:]))
+    minima = minima[np.argsort(cost[minima])][:n_starts]
+    scale = max(np.ptp(run.force) / np.ptp(run.eps) for run in runs)  # a stiffness [N]
+    starts = []
+    for i in minima:
+        _, k1, eta = points[i]
+        k1 = k1 if k1 > 0 else 1e-3 * scale
+        eta = eta if eta > 0 else 1e-3 * scale * taus[i]
+        starts.append({"k1": float(k1), "k2": float(eta / taus[i]), "eta": float(eta)})
+    return starts
+
+
+# --------------------------------------------------------------------------- least squares
+
+#: Log-parameters may move this far (natural log) from their start: a factor of ~1e8.
+_LOG_BOUND = 18.0
+_ORDER = ("k1", "k2", "eta")
+
+
+def _params(start: Mapping[str, float], ref: Mapping[str, float], fixed: Mapping[str, float]):
+    """lmfit parameters x = log(k / k_ref): positive and of order one whatever the SI scale."""
+    params = lmfit.Parameters()
+    for name in _ORDER:
+        value = math.log(fixed.get(name, start[name]) / ref[name])
+        params.add(name, value=value, vary=name not in fixed, min=-_LOG_BOUND, max=_LOG_BOUND)
+    return params
+
+
+def _values(params: lmfit.Parameters, ref: Mapping[str, float]) -> dict[str, float]:
+    return {name: ref[name] * math.exp(params[name].value) for name in _ORDER}
+
+
+def _models(runs: Sequence[_Run], k: Mapping[str, float]) -> list[np.ndarray]:
+    return [run.history.force(k["k1"], k["k2"], k["eta"]) for run in runs]  # = sls_force(run.t, run.eps, ...)
+
+
+def _residual(params, runs, sigma, ref) -> np.ndarray:
+    """Weighted residuals (F_model - F) / sigma_run over all runs."""
+    models = _models(runs, _values(params, ref))
+    return np.concatenate(
+        [(f - run.force)[run.used] / s for f, run, s in zip(models, runs, sigma, strict=True)]
+    )
+
+
+def _minimise(runs, sigma, starts, ref, fixed) -> tuple[lmfit.Minimizer, lmfit.minimizer.MinimizerResult]:
+    """Least squares from each start; the lowest chi-square wins."""
+    best = None
+    for start in starts:
+        minimizer = lmfit.Minimizer(
+            _residual, _params(start, ref, fixed), fcn_args=(runs, sigma, ref), nan_policy="raise"
+        )
+        try:
+            result = minimizer.minimize(method="leastsq")
+        except ValueError as exc:  # NaN in the residuals
+            raise FitError(f"the SLS model could not be evaluated: {exc}") from exc
+        if best is None or result.chisqr < best[1].chisqr:
+            best = (minimizer, result)
+    return best
+
+
+def _run_noise(result, runs: Sequence[_Run], sigma: np.ndarray) -> np.ndarray:
+    """Noise of each run from its own residuals, each run taking its share of the dof."""
+    n = np.array([int(run.used.sum()) for run in runs])
+    share = 1.0 - result.nvarys / n.sum()
+    pieces = np.split(result.residual, np.cumsum(n)[:-1])
+    return np.array(
+        [s * math.sqrt(np.sum(r**2) / (m * share)) for r, s, m in zip(pieces, sigma, n, strict=True)]
+    )
+
+
+def _solve(runs: Sequence[_Run], fixed: Mapping[str, float], reweight: int = 2):
+    """Joint fit: starts from the tau profile, then refits with each run's residual noise."""
+    sigma = np.array([run.noise for run in runs])
+    starts = _starts(runs, sigma, fixed)
+    if not starts:
+        raise FitError("no starting point: the relaxation-time profile has no minimum")
+    ref = starts[0]
+    minimizer, result = _minimise(runs, sigma, starts, ref, fixed)
+    for _ in range(3):  # slack rows bend the fit; leave them out and look again
+        slack = _slack(runs, _values(result.params, ref))
+        if all(np.array_equal(a.used, b.used) for a, b in zip(runs, slack, strict=True)):
+            break
+        runs = slack
+        minimizer, result = _minimise(runs, sigma, [_values(result.params, ref)], ref, fixed)
+    for _ in range(reweight):
+        sigma = _run_noise(result, runs, sigma)
+        if not np.all(sigma > 0):
+            break  # an exact fit: keep the weights
+        minimizer, result = _minimise(runs, sigma, [_values(result.params, ref)], ref, fixed)
+    if not result.success or not np.all(np.isfinite(result.residual)):
+        raise FitError(f"the SLS least-squares fit did not converge: {result.message}")
+    return runs, minimizer, result, ref, sigma
+
+
+def _slack(runs: Sequence[_Run], k: Mapping[str, float]) -> list[_Run]:
+    """Runs with their slack rows left out: a strip carries no compression, so where the
+    model force is below -3 noise while the measured force stays within 3 noise plus 2 %
+    of the run's peak of zero (or below), the strip is slack and the SLS does not apply.
+    Rows near zero force after loading start out left out (:func:`_run`): a fit through
+    them would not predict the compression that gives them away."""
+    out = []
+    for run, f in zip(runs, _models(runs, k), strict=True):
+        slack = run.window & (f < -3.0 * run.noise) & _near_zero(run.force, run.noise)
+        left = {key: v for key, v in run.left_out.items() if key != SLACK}
+        if slack.any():
+            left[SLACK] = int(slack.sum())
+        out.append(replace(run, used=run.window & ~slack, left_out=left))
+    return out

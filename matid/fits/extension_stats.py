@@ -1,0 +1,148 @@
+"""Uncertainty of the joint SLS fit (:mod:`matid.fits.extension`): covariance, standard
+errors, correlations, 95 % intervals and lack of fit.
+
+Standard errors are taken in the log-parameters and carried to SI by the delta method,
+``se(k) = k se(log k)``, then replaced by the AR(1) sandwich of :mod:`matid.fits.stats`
+(dense records have correlated residuals). k1 gets a t-interval; k2 and eta, which act
+through ``exp(-t k2 / eta)``, a t-interval of log k or, when identifiable, the profile
+likelihood.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+
+import lmfit
+import numpy as np
+from scipy import stats as sstats
+
+from matid.fits import stats
+from matid.fits.extension_lsq import _ORDER, _PARAM_NAMES, _minimise, _residual, _values
+
+# --------------------------------------------------------------------------- uncertainty
+
+
+def _covariance_fit(runs, sigma, minimizer, result, ref, fixed):
+    """The fit whose covariance gives the standard errors.
+
+    A singular covariance means a flat direction (tau far below the sampling interval or
+    far beyond the runs): k2 is then held where it is, so k1 and eta get errors
+    conditional on it and k2 gets none (and is reported as not identifiable).
+    """
+    if result.errorbars or "k2" in fixed or result.nvarys < 2:
+        return minimizer, result
+    k = _values(result.params, ref)
+    return _minimise(runs, sigma, [k], ref, {**fixed, "k2": k["k2"]})
+
+
+def _stderr(result, ref: Mapping[str, float]) -> dict[str, float | None]:
+    """Standard errors in SI by the delta method: se(k) = k se(log k)."""
+    k = _values(result.params, ref)
+    out: dict[str, float | None] = {}
+    for name in _ORDER:
+        se_log = result.params[name].stderr if result.params[name].vary else None
+        out[name] = None if se_log is None or not np.isfinite(se_log) else k[name] * se_log
+    return out
+
+
+def _sandwich(result, runs, sigma, ref, se):
+    """Standard errors from the AR(1) sandwich covariance of :mod:`matid.fits.stats`.
+
+    Dense extension records have correlated residuals (and a misfit looks the same):
+    the i.i.d. errors of lmfit then shrink with the sampling rate, not with the
+    information. The Jacobian of the weighted residuals in the log-parameters is taken
+    by central differences. Returns (se, covariance); the covariance is None (and se
+    unchanged) when a parameter has no error.
+    """
+    names = [n for n in _ORDER if result.params[n].vary]
+    if not names or any(se[n] is None for n in names):
+        return se, None
+    h = 1e-6
+    columns = []
+    for name in names:
+        up, down = result.params.copy(), result.params.copy()
+        up[name].value += h
+        down[name].value -= h
+        columns.append((_residual(up, runs, sigma, ref) - _residual(down, runs, sigma, ref)) / (2 * h))
+    try:
+        cov = stats.ar1_covariance(
+            np.column_stack(columns), result.residual, [int(r.used.sum()) for r in runs]
+        )
+    except (ValueError, np.linalg.LinAlgError):
+        return se, None
+    k = _values(result.params, ref)
+    out = dict(se)
+    for name, se_log in zip(names, cov.stderr, strict=True):
+        out[name] = k[name] * float(se_log)
+    return out, cov
+
+
+def _correlation(result) -> dict[str, float]:
+    """Correlations of the fitted parameters, keyed "sls_a|sls_b" (equal to those of the logs
+    to first order, since k = k_ref exp(x) scales each axis only)."""
+    out = {}
+    for i, a in enumerate(_ORDER):
+        correl = result.params[a].correl or {}
+        for b in _ORDER[i + 1 :]:
+            if b in correl:
+                out[f"{_PARAM_NAMES[a]}|{_PARAM_NAMES[b]}"] = float(correl[b])
+    return out
+
+
+def _wald_log(value: float, se: float, tq: float) -> tuple[float, float]:
+    """value * exp(-+ t se/value): the Wald interval of log k, positive by construction."""
+    return value * math.exp(-tq * se / value), value * math.exp(tq * se / value)
+
+
+def _profile(minimizer, result, ref, names: Sequence[str]) -> dict[str, tuple[float, float]]:
+    """95 % profile-likelihood intervals (lmfit conf_interval, F-test = t on nfree dof)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ci = lmfit.conf_interval(minimizer, result, p_names=list(names), sigmas=[0.95])
+    except (lmfit.minimizer.MinimizerException, ValueError, RuntimeError):
+        return {}
+    out = {}
+    for name in names:
+        low, high = ci[name][0][1], ci[name][-1][1]
+        if np.isfinite(low) and np.isfinite(high):
+            out[name] = (ref[name] * math.exp(low), ref[name] * math.exp(high))
+    return out
+
+
+def _intervals(minimizer, result, ref, se, *, profile: bool, dof: float) -> dict[str, tuple]:
+    """95 % intervals: (low, high, method) per fitted parameter.
+
+    k1 enters F linearly: a t-interval. k2 and eta act through exp(-t k2/eta), so the
+    chi-square is not quadratic in them; when they are identifiable their interval is the
+    profile likelihood, else (or if profiling fails) the t-interval of log k.
+    """
+    k = _values(result.params, ref)
+    tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
+    out = {}
+    for name in _ORDER:
+        if se[name] is not None:
+            if name == "k1":
+                out[name] = (k[name] - tq * se[name], k[name] + tq * se[name], "t")
+            else:
+                out[name] = (*_wald_log(k[name], se[name], tq), "t-log")
+    if profile:
+        names = [n for n in ("k2", "eta") if result.params[n].vary and se[n] is not None]
+        for name, (low, high) in _profile(minimizer, result, ref, names).items():
+            out[name] = (low, high, "profile")
+    return out
+
+
+_ADVICE = (
+    "Check the fit plots; a model with more arms (prony_*) or a window on the part the model "
+    "follows may describe the runs"
+)
+
+
+def _misfit(result, runs, cov) -> tuple[stats.LackOfFit, str | None]:
+    """Lack of fit of the SLS on the weighted residuals, and its warning (None if it fits)."""
+    lof = stats.lack_of_fit(result.residual, result.nvarys, segments=[int(r.used.sum()) for r in runs])
+    widening = float(np.max(cov.inflation)) if cov is not None else None
+    return lof, lof.warning("the standard linear solid", widening, _ADVICE)
