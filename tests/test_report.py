@@ -626,3 +626,17 @@ def test_table_columns_narrow_where_words_stay_whole():
         assert sum(w) <= max(available, 8 + 8 + 8)
 
     fits_when_it_can()
+
+
+def test_fit_blocks_number_their_warnings_once_below_the_parameters(full):
+    """A parameter's warning (stiffness.json) is listed once in its block, in full, and the block's
+    parameter table refers to it by number; the fit's own warnings come first."""
+    report = build_report(full[0], "SI")
+    blocks = [b for s in report.sections for b in s.blocks if b.parameters and b.parameters.rows]
+    bending = next(b for b in blocks if any(BENDING_WARNING in w for w in b.warnings))
+    assert len(bending.warnings) == len(set(bending.warnings))
+    assert list(bending.fit.warnings) == list(bending.warnings[: len(bending.fit.warnings)])
+    n = bending.warnings.index(BENDING_WARNING) + 1
+    row = next(r for r in bending.parameters.rows if r[0] == "E_b")
+    assert row[-1] == f"⚠ [{n}]"
+    assert all(BENDING_WARNING not in cell for r in bending.parameters.rows for cell in r)

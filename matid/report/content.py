@@ -267,11 +267,20 @@ def provenance_table(inputs: tuple[InputFile, ...]) -> Table:
     return Table(("file", "rows", "sha256", "path"), rows, (False, True, False, False))
 
 
-def _fit_parameters(fit: TestFit, doc: Mapping) -> Table:
+def _fit_parameters(fit: TestFit, doc: Mapping) -> tuple[Table, tuple[str, ...]]:
+    """The fit's parameter table and its numbered warnings: the fit's own, then each parameter's
+    (as stiffness.json gives them), once each; the table's warnings column refers to them by
+    number, so a long warning is read once, in full width, below the table."""
     items = doc["specimens"].get(fit.specimen, {})
     mine = {e.parameter: items[e.parameter] for e in fit.estimates if e.parameter in items}
-    rows = tuple(_param_row(name, item) for name, item in merged_names(mine))
-    return Table(FIT_COLUMNS, rows, FIT_NUMERIC)
+    listed = list(dict.fromkeys(fit.warnings))
+    for _, item in merged_names(mine):
+        listed += [w for w in item.get("warnings") or () if w not in listed]
+    rows = tuple(
+        _param_row(name, item, sorted({listed.index(w) + 1 for w in item.get("warnings") or ()}))
+        for name, item in merged_names(mine)
+    )
+    return Table(FIT_COLUMNS, rows, FIT_NUMERIC), tuple(listed)
 
 
 def _correlation(fit: TestFit) -> Table | None:
@@ -327,17 +336,18 @@ def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str, 
     if fit is not None:
         known = {(t.file, t.index) for t in tests}
         tests += [t for t in fit.tests if (t.file, t.index) not in known]
+    parameters, warnings = _fit_parameters(fit, doc) if fit is not None else (None, ())
     return Block(
         specimen=sid,
         anchor=anchor,
         messages=tuple(messages),
         fit=fit,
         plot=fit is not None and has_plot(fit),
-        parameters=None if fit is None else _fit_parameters(fit, doc),
+        parameters=parameters,
         correlation=None if fit is None else _correlation(fit),
         fe_notes=() if fit is None else fe_notes(fit),
         info=() if fit is None else _info(fit, units),
-        warnings=() if fit is None else tuple(fit.warnings),
+        warnings=warnings,
         tests=tuple(_test_view(t, result.inputs) for t in tests),
         drawings=drawings,
         extras=() if fit is None else (*extra_figures(fit), *problems),

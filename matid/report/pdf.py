@@ -131,6 +131,9 @@ def _block(flow: Flow, section: Section, block: Block, images: Images) -> None:
     if block.parameters and block.parameters.rows:
         flow.heading("Parameters", level=3)
         flow.table(block.parameters)
+    if block.warnings:
+        items = [f"[{n}] {w}" for n, w in enumerate(block.warnings, 1)]
+        flow.box("Warnings of this fit", items, (AMBER, AMBER_EDGE))
     for note in block.fe_notes:
         flow.paragraph(note, size=7.5, color="#5f6368")
         flow.space(0.08)
@@ -141,8 +144,6 @@ def _block(flow: Flow, section: Section, block: Block, images: Images) -> None:
         _drawing(flow, image)
     if block.info:
         _info(flow, block.info)
-    if block.warnings:
-        flow.box("Warnings of this fit", list(block.warnings), (AMBER, AMBER_EDGE))
     for extra in block.extras:
         flow.heading(extra.title, level=3)
         if extra.png:
