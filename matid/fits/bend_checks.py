@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 from scipy import stats
 
-from matid.fits.shear_torsion import local_compliance, reference_kGA, young_modulus
+from matid.fits.shear_torsion import local_compliance, reference_kGA, value_range, young_modulus
 from matid.results import Estimate
 from matid.study import Specimen
 
@@ -118,7 +118,8 @@ def assess(
         f"about {1e3 * local[0]:.2g}-{1e3 * local[1]:.2g} mm/N predicted from the wall and E) that is "
         f"{local[0] / (S_best / (4 * lo)):.2g}-{local[1] / (S_best / (4 * hi)):.2g} times "
         "the shear compliance "
-        f"S/(4 E_s) at span {1e3 * S_best:g} mm (k G A {lo:.3g}-{hi:.3g} N from {source}), so a rod fit to "
+        f"S/(4 E_s) at span {1e3 * S_best:g} mm (k G A {value_range(lo, hi, '.3g')} N from {source}), "
+        "so a rod fit to "
         f"nose travel returns E_s at {worst:.2f}-{best:.2f} of its value"
     )
     instead = (

@@ -113,6 +113,12 @@ def with_E_s_torsion(fit: TestFit, specimen: Specimen) -> TestFit:
     return replace(fit, estimates=(*fit.estimates, e_s_torsion(E_t, specimen)))
 
 
+def value_range(lo: float, hi: float, spec: str = "g") -> str:
+    """'lo-hi' in format ``spec``, or one value when both print the same (a given Poisson ratio)."""
+    a, b = format(lo, spec), format(hi, spec)
+    return a if a == b else f"{a}-{b}"
+
+
 def reference_kGA(known: Mapping[str, Estimate], specimen: Specimen) -> tuple[float, float, str] | None:
     """(low, high, source) of k G A from torsion or extension (module docstring); None without either."""
     est = known.get("E_s_torsion")
@@ -126,7 +132,7 @@ def reference_kGA(known: Mapping[str, Estimate], specimen: Specimen) -> tuple[fl
         hutchinson_k(nu, a, b) * E_e.value / (2 * (1 + nu)) for nu in np.linspace(*nu_range(specimen), 11)
     ]
     lo, hi = nu_range(specimen)
-    return min(values), max(values), f"E_e = {E_e.value:.4g} N with nu {lo:g}-{hi:g} (isotropic wall)"
+    return min(values), max(values), f"E_e = {E_e.value:.4g} N with nu {value_range(lo, hi)} (isotropic wall)"
 
 
 def young_modulus(known: Mapping[str, Estimate], specimen: Specimen) -> float | None:
