@@ -52,7 +52,7 @@ def test_short_spans_with_centreline_qualify_long_spans_do_not():
     # 8 mm is marginal (5.1 %): the rod's form error against a tube is 1 % of the compliance or more
     # (benchmarks/README.md: two 3D continua of this tube, 0.4-0.9 % and 1.3-2.2 %), amplified 1/share
     assert centre[6].ok and not any(centre[s].ok for s in (10, 15, 20, 30))
-    assert centre[8].rel_sd < 1.1 * 0.05 < centre[10].rel_sd
+    assert not centre[8].ok and 0.05 < centre[8].rel_sd < 0.055 < centre[10].rel_sd  # marginal, 5.1 %
     shares = [centre[s].share for s in sorted(centre)]
     assert shares == sorted(shares, reverse=True)  # shear matters less as the span grows
     # Timoshenko share with Hutchinson k G A at 8 mm: 0.0736 / (0.0736 + 0.1632)

@@ -318,6 +318,7 @@ def test_files_hold_the_ground_truth(request, variant):
             rod = forward.bend_force(d[:n], E_b=p["E_b"], E_s=p["E_s"], E_e=p["E_e"],
                                      outer_diameter=outer, **geometry)  # fmt: skip
             assert np.all(model[1:n] < 0.9 * rod[1:n])  # a real tube's contacts: softer than the rod
+            assert np.all(force[1:n] < 0.9 * rod[1:n])  # and so is the file written from it
             assert np.all(np.diff(d[:n]) > 0) and np.all(np.diff(d[n - 1 :]) < 0)
             assert np.mean(force[n:] / model[n:] - 1.0) < -0.02  # hysteresis: unloading is lower
             ratio = _residual_ratio(force[:n], model[:n], 0.003 * np.max(model))

@@ -60,7 +60,14 @@ def test_a_child_that_dies_leaves_the_rest_to_the_parent(case, monkeypatch):
         return real_sent(key, task)
 
     monkeypatch.setattr(imagejob, "_sent", dies_after_one)
+    started, here = [], []
+    real_start, real_here = imagejob.ImageJob._start, imagejob.ImageJob._render_here
+    monkeypatch.setattr(imagejob.ImageJob, "_start", lambda self: started.append(1) or real_start(self))
+    monkeypatch.setattr(
+        imagejob.ImageJob, "_render_here", lambda self, key: here.append(key) or real_here(self, key)
+    )
     assert render_report(result) == want
+    assert started == [1] and here  # a child was forked, and the parent drew what it left
 
 
 def test_a_figure_of_another_size_makes_the_pdf_drawn_again(case, monkeypatch):
@@ -108,8 +115,11 @@ def test_the_parent_renders_figures_the_child_has_not_begun(case, monkeypatch):
     monkeypatch.setattr(
         imagejob.ImageJob, "_render_here", lambda self, key: here.append(key) or real_here(self, key)
     )
+    started = []
+    real_start = imagejob.ImageJob._start
+    monkeypatch.setattr(imagejob.ImageJob, "_start", lambda self: started.append(1) or real_start(self))
     assert render_report(result) == want
-    assert here  # the parent did not only wait
+    assert started == [1] and here  # a child was forked, and the parent did not only wait
 
 
 def _fds() -> int:

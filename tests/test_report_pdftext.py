@@ -56,10 +56,25 @@ def _pages(draw) -> bytes:
     return buffer.getvalue()
 
 
-def test_page_text_writes_the_bytes_of_text_draw():
+def _spy(monkeypatch) -> list[bool]:
+    """What draw_line returned each time: True where the one-line path drew the text itself."""
+    drawn, real = [], pdftext.draw_line
+
+    def spy(*args):
+        drawn.append(bool(real(*args)))
+        return drawn[-1]
+
+    monkeypatch.setattr(pdftext, "draw_line", spy)
+    return drawn
+
+
+@pytest.mark.skipif(not pdftext.SUPPORTED, reason="matplotlib < 3.11: every line goes through Text.draw")
+def test_page_text_writes_the_bytes_of_text_draw(monkeypatch):
+    drawn = _spy(monkeypatch)
     fast = _pages(add_text)
     slow = _pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
     assert fast == slow
+    assert drawn and all(drawn)  # the fast path drew every line: the equality is not Text.draw's own
 
 
 def test_page_text_other_cases_fall_back_to_text_draw(monkeypatch):
@@ -95,7 +110,9 @@ def test_without_the_private_apis_every_line_goes_through_text_draw(monkeypatch)
 @pytest.mark.parametrize("make", [make_result, bend_result])
 def test_report_pdf_is_the_same_with_matplotlib_text(monkeypatch, make):
     result = dataclasses.replace(make(), started="2024-11-26T10:00:00+01:00")  # a fixed CreationDate
+    drawn = _spy(monkeypatch)
     fast = render_report(result)["report.pdf"]
+    assert any(drawn) or not pdftext.SUPPORTED  # the fast path drew lines of the report
     monkeypatch.setattr(pdftext.PageText, "_plain", lambda self, renderer: False)
     slow = render_report(result)["report.pdf"]
     assert fast == slow

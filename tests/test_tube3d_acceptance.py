@@ -86,6 +86,8 @@ def test_centreline_gives_E_s_within_3_percent(path):
         assert abs(error) <= 0.03 or poor, where
     elif not path.name.endswith("_bench.json"):
         assert abs(error) <= 0.03 and not poor, where
+    else:  # our own continuum: its own eps (1.3-2.2 %) over the share gives +3.7 to +6.3 % here
+        assert 0.0 < error <= 0.07 and not poor, where
 
 
 @pytest.mark.parametrize("path", FILES, ids=[p.name for p in FILES])
