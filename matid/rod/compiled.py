@@ -232,7 +232,7 @@ def _assemble(system, X: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray
     kernel._assemble(
         system.expand(X), float(lam), model, T, dx, gdofs, bpos, u, *rest,
         np.zeros(shape + (ns,)), False, np.zeros(shape + (ns,)), np.zeros(shape + (ns, nv)), R, S,
-        kernel.scratch(system.disc.nf, T.shape[3]),
+        kernel.scratch(system.disc.nf, T.shape[3]), True,
     )  # fmt: skip
     return R, S
 

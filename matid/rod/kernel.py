@@ -241,9 +241,11 @@ def _element_matrix(T, e, qp, nf, w, H, Kl):
 @njit(cache=True)
 def _assemble(
     U, lam, model, T, dx, gdofs, bpos, u, props, mu, B, f, kref, A, Q, M, point, magnets, c_u, stress,
-    use_stress, su_all, CJ_all, R, S, work
+    use_stress, su_all, CJ_all, R, S, work, tangent
 ):  # fmt: skip
-    """Residual R (band order) and the lower band S of the tangent at U; ``work`` from :func:`scratch`."""
+    """Residual R (band order) and, when ``tangent``, the lower band S of the tangent at U
+    (else S is left unassembled: the load derivative needs residuals only); ``work`` from
+    :func:`scratch`."""
     ne, nq = dx.shape
     nloc = T.shape[3]
     nf = gdofs.shape[1] // nloc
@@ -269,7 +271,10 @@ def _assemble(
                     stress[e, qp], use_stress, Qq, gF, F, sk, G
                 )  # fmt: skip
             _scatter(T, e, qp, gdofs, bpos, nf, w, g, R)
-            _element_matrix(T, e, qp, nf, w, H, Kl)
+            if tangent:
+                _element_matrix(T, e, qp, nf, w, H, Kl)
+        if not tangent:
+            continue
         m = nloc * nf
         for a in range(m):
             pa = bpos[gdofs[e, a]]
@@ -370,7 +375,8 @@ def newton(
     if max_iter == 0:
         for level in (1.0, 0.0):
             _assemble(U, level, model, T, dx, gdofs, bpos, u, props, mu, B, f, kref, A, Q, M, point,
-                      magnets, c_u, stress, use_stress[0] != 0, su_all, CJ_all, R, S, work)  # fmt: skip
+                      magnets, c_u, stress, use_stress[0] != 0, su_all, CJ_all, R, S, work,
+                      False)  # fmt: skip
             if level == 1.0:
                 load[:] = R
         load -= R
@@ -378,7 +384,7 @@ def newton(
     for it in range(1, max_iter + 1):
         _assemble(
             U, lam, model, T, dx, gdofs, bpos, u, props, mu, B, f, kref, A, Q, M, point, magnets, c_u,
-            stress, use_stress[0] != 0, su_all, CJ_all, R, S, work
+            stress, use_stress[0] != 0, su_all, CJ_all, R, S, work, True
         )  # fmt: skip
         if _max_abs(R) < 0.0:
             return x0, NOT_FINITE_R, it, size, sizes[0], L, abd, ipvt, -1
