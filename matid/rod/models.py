@@ -250,8 +250,7 @@ class RodSystem:
         """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
         cached = self.__dict__.get("_roundoff")
         if cached is None or cached[0] is not self.props:
-            stiff = max(float(np.max(v)) for v in self.props.values())
-            cached = self._roundoff = (self.props, 1e-15 * max(stiff, 1.0))
+            cached = self._roundoff = (self.props, _roundoff_floor(self.props))
         return cached[1]
 
     # -- point terms (tip loads, lumped magnets) --------------------------------
@@ -415,16 +414,21 @@ class RodSystem:
 def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
     """(stiffnesses, magnetisation, round-off floor) of the rod at the mesh's quadrature points,
     remembered per mesh and rod (a cached mesh serves every solve of a scene); read-only arrays.
-    The floor is :attr:`RodSystem.roundoff`: eps times the stiffness spread."""
+    The floor is :func:`_roundoff_floor` (:attr:`RodSystem.roundoff`)."""
     cache = disc.__dict__.setdefault("_fields", {})
     hit = cache.get(rod)
     if hit is None or hit[0] is not disc.s_quad:  # a moved mesh shares the dict, not the points
         if len(cache) > 32:
             cache.clear()
         props = rod.stiffness_at(disc.s_quad)
-        stiff = max(float(np.max(v)) for v in props.values())
-        hit = cache[rod] = (disc.s_quad, props, rod.mu_at(disc.s_quad), 1e-15 * max(stiff, 1.0))
+        hit = cache[rod] = (disc.s_quad, props, rod.mu_at(disc.s_quad), _roundoff_floor(props))
     return hit[1], hit[2], hit[3]
+
+
+def _roundoff_floor(props: dict[str, np.ndarray]) -> float:
+    """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
+    stiff = max(float(np.max(v)) for v in props.values())
+    return 1e-15 * max(stiff, 1.0)
 
 
 def _moment_work(q: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
