@@ -302,17 +302,22 @@ class RodSystem:
         dofs = np.arange(Q.shape[0])[:, None] * nf + 3 + np.arange(4)[None, :]
         return R.ravel(), [(dofs, H)]
 
-    def compiled_newton(self, x0: np.ndarray, lam: float, **options):
-        """:func:`matid.rod.newton.newton` in one compiled call (:mod:`matid.rod.compiled`), or None
-        when this system is not one it serves."""
+    @property
+    def kernel_served(self) -> bool:
+        """Whether :mod:`matid.rod.compiled` serves this system (asked once per system)."""
         ok = self.__dict__.get("_compiled")
         if ok is None:
             ok = self._compiled = compiled.supported(self)
-        return compiled.newton(self, x0, lam, **options) if ok else None
+        return ok
+
+    def compiled_newton(self, x0: np.ndarray, lam: float, **options):
+        """:func:`matid.rod.newton.newton` in one compiled call (:mod:`matid.rod.compiled`), or None
+        when this system is not one it serves."""
+        return compiled.newton(self, x0, lam, **options) if self.kernel_served else None
 
     def load_derivative(self, X: np.ndarray) -> np.ndarray | None:
         """dR/dlam = R(X, 1) - R(X, 0) from the kernel, or None (then newton.tangent evaluates)."""
-        return compiled.load_derivative(self, X) if compiled.supported(self) else None
+        return compiled.load_derivative(self, X) if self.kernel_served else None
 
     # -- residual and tangent on the free dofs ---------------------------------
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):
