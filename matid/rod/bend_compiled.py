@@ -24,7 +24,9 @@ class CompiledBend:
 
     def __init__(self, rod, model, unit: dict):
         disc = rod.disc
-        _, T, dx, gdofs, bpos, _, u, props, mu, B, f, kref, *_ = compiled._arguments(rod)
+        mesh, loads = compiled._mesh_arrays(disc), compiled._load_arrays(rod)
+        T, dx, gdofs, bpos, u = (mesh[k] for k in ("T", "dx", "gdofs", "bpos", "u"))
+        props, mu, B, f, kref = (loads[k] for k in ("props", "mu", "B", "f", "kref"))
         model.vertices(0.5)  # the fractions of uniform elements on each side of the support
         inner, outer = model._fractions
         self.order, self.position, self.u = disc.band_order, disc.band_position, u

@@ -89,15 +89,6 @@ class BendSystem:
         x0, z0, _ = self._vertex(U, 0)
         return [self.support.gap(xs, zs), self.nose(lam).gap(x0, z0)]
 
-    def contacts(self, U: np.ndarray, lam: float):
-        """[(gap, dofs, grad, hess, normal)] for the support and the nose, each at its vertex."""
-        nodes = U.reshape(-1, 3)
-        out = []
-        for circle, vertex in ((self.support, self.k), (self.nose(lam), 0)):
-            g, grad, hess = circle.vertex_gap(nodes, vertex)
-            out.append((g, vertex * 3 + np.arange(3), grad, hess, grad[:2]))
-        return out
-
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
         n = self.nu
         u, mult, sigma = X[:n], X[n : n + 2], float(X[-1])

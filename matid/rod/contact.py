@@ -45,14 +45,6 @@ class Circle:
         self.centre = (float(centre[0]), float(centre[1]))
         self.radius = float(radius)
 
-    def vertex_gap(self, U: np.ndarray, vertex: int) -> tuple[float, np.ndarray, np.ndarray]:
-        """Gap at a mesh vertex, g = |r_v - c| - rho, with dg/d(x_v, z_v, theta_v) and d2g."""
-        g, nx, nz, d = self.gap(float(U[vertex, 0]), float(U[vertex, 1]))
-        grad = np.array([nx, nz, 0.0])
-        hess = np.zeros((3, 3))
-        hess[:2, :2] = (np.eye(2) - np.outer(grad[:2], grad[:2])) / d
-        return g, grad, hess
-
     def gap(self, x: float, z: float) -> tuple[float, float, float, float]:
         """(g, n_x, n_z, |r - c|) at a point r = (x, z), in plain floats (the Newton hot path)."""
         dx, dz = x - self.centre[0], z - self.centre[1]

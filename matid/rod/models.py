@@ -250,8 +250,7 @@ class RodSystem:
         """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
         cached = self.__dict__.get("_roundoff")
         if cached is None or cached[0] is not self.props:
-            stiff = max(float(np.max(v)) for v in self.props.values())
-            cached = self._roundoff = (self.props, 1e-15 * max(stiff, 1.0))
+            cached = self._roundoff = (self.props, _roundoff_floor(self.props))
         return cached[1]
 
     # -- point terms (tip loads, lumped magnets) --------------------------------
@@ -303,17 +302,22 @@ class RodSystem:
         dofs = np.arange(Q.shape[0])[:, None] * nf + 3 + np.arange(4)[None, :]
         return R.ravel(), [(dofs, H)]
 
-    def compiled_newton(self, x0: np.ndarray, lam: float, **options):
-        """:func:`matid.rod.newton.newton` in one compiled call (:mod:`matid.rod.compiled`), or None
-        when this system is not one it serves."""
+    @property
+    def kernel_served(self) -> bool:
+        """Whether :mod:`matid.rod.compiled` serves this system (asked once per system)."""
         ok = self.__dict__.get("_compiled")
         if ok is None:
             ok = self._compiled = compiled.supported(self)
-        return compiled.newton(self, x0, lam, **options) if ok else None
+        return ok
+
+    def compiled_newton(self, x0: np.ndarray, lam: float, **options):
+        """:func:`matid.rod.newton.newton` in one compiled call (:mod:`matid.rod.compiled`), or None
+        when this system is not one it serves."""
+        return compiled.newton(self, x0, lam, **options) if self.kernel_served else None
 
     def load_derivative(self, X: np.ndarray) -> np.ndarray | None:
         """dR/dlam = R(X, 1) - R(X, 0) from the kernel, or None (then newton.tangent evaluates)."""
-        return compiled.load_derivative(self, X) if compiled.supported(self) else None
+        return compiled.load_derivative(self, X) if self.kernel_served else None
 
     # -- residual and tangent on the free dofs ---------------------------------
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):
@@ -415,16 +419,21 @@ class RodSystem:
 def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
     """(stiffnesses, magnetisation, round-off floor) of the rod at the mesh's quadrature points,
     remembered per mesh and rod (a cached mesh serves every solve of a scene); read-only arrays.
-    The floor is :attr:`RodSystem.roundoff`: eps times the stiffness spread."""
+    The floor is :func:`_roundoff_floor` (:attr:`RodSystem.roundoff`)."""
     cache = disc.__dict__.setdefault("_fields", {})
     hit = cache.get(rod)
     if hit is None or hit[0] is not disc.s_quad:  # a moved mesh shares the dict, not the points
         if len(cache) > 32:
             cache.clear()
         props = rod.stiffness_at(disc.s_quad)
-        stiff = max(float(np.max(v)) for v in props.values())
-        hit = cache[rod] = (disc.s_quad, props, rod.mu_at(disc.s_quad), 1e-15 * max(stiff, 1.0))
+        hit = cache[rod] = (disc.s_quad, props, rod.mu_at(disc.s_quad), _roundoff_floor(props))
     return hit[1], hit[2], hit[3]
+
+
+def _roundoff_floor(props: dict[str, np.ndarray]) -> float:
+    """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
+    stiff = max(float(np.max(v)) for v in props.values())
+    return 1e-15 * max(stiff, 1.0)
 
 
 def _moment_work(q: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -9,7 +9,6 @@ Positions and directors come back in the lab frame and in metres.
 from __future__ import annotations
 
 import functools
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -266,13 +265,9 @@ class Equilibrium:
 
     def tip(self) -> np.ndarray:
         """(tip position / L, tip d3): the Solution's last row (to round-off), without building it."""
-        u = self.U[self.disc.vertices.size - 1]  # the last vertex (vertex dofs come first)
-        if self.model == PLANAR:  # d3 = cos(theta) e3 + sin(theta) e_a, see _frames
-            a0, a1 = float(self.e_a[0]), float(self.e_a[1])
-            c, s = math.cos(u[2]), math.sin(u[2])
-            return np.array([u[0] * a0, u[0] * a1, u[1], s * a0, s * a1, c])
-        q = u[3:] / math.sqrt(float(u[3:] @ u[3:]))
-        return np.array([u[0], u[1], u[2], *(float(r[2]) for r in kin.directors(q))])
+        n = self.disc.vertices.size  # the last vertex (vertex dofs come first)
+        position, _, d3 = _frames(self.model, self.U[n - 1 : n], self.e_a, 1.0)
+        return np.concatenate([position[0], d3[0]])
 
 
 _PREPARED: list = [None]
