@@ -218,8 +218,8 @@ def bend_force_nose(d: np.ndarray, *, inner_diameter: float, E: float, **kwargs)
 def bend_centreline(d: np.ndarray, **kwargs) -> tuple[np.ndarray, np.ndarray]:
     """(centreline deflection, force) at increasing nose deflections ``d`` (same keywords as
     :func:`bend_force`): the mid-span centreline relative to the sections over the supports
-    (:func:`matid.fits.shear.centreline_deflection`), as a side camera measures it."""
-    from matid.fits.shear import centreline_deflection
+    (:func:`matid.fits.bend_centreline.centreline_deflection`), as a side camera measures it."""
+    from matid.fits.bend_centreline import centreline_deflection
     from matid.rod.bend import BendGeometry, BendModel
 
     stiff = {k: kwargs.pop(k) for k in ("E_b", "E_s", "E_e")}
