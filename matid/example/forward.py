@@ -22,6 +22,8 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
+from matid.fits.shear_torsion import CONTACT_N, CONTACT_REF
+
 
 def sls_force(
     t: np.ndarray,
@@ -171,9 +173,9 @@ def bend_force(
 
 
 #: The 3D continuum tube's local contact travel (benchmarks/README.md, "The 3D tube"):
-#: u = CONTACT_C (F / N)^CONTACT_N at E 50 MPa, R_m 1 mm, t 0.4 mm, 2 mm rollers (spans 6-12 mm).
-CONTACT_C, CONTACT_N = 0.154e-3, 0.82
-CONTACT_REF = {"E": 50e6, "R_m": 1.0e-3, "t": 0.4e-3}
+#: u = CONTACT_C (F / N)^CONTACT_N on the tube CONTACT_REF (E 50 MPa, R_m 1 mm, t 0.4 mm),
+#: 2 mm rollers (spans 6-12 mm); CONTACT_N and CONTACT_REF are the fits' (shear_torsion).
+CONTACT_C = 0.154e-3
 
 
 def contact_travel(force, *, outer_diameter: float, inner_diameter: float, E: float) -> np.ndarray:
@@ -216,8 +218,8 @@ def bend_force_nose(d: np.ndarray, *, inner_diameter: float, E: float, **kwargs)
 def bend_centreline(d: np.ndarray, **kwargs) -> tuple[np.ndarray, np.ndarray]:
     """(centreline deflection, force) at increasing nose deflections ``d`` (same keywords as
     :func:`bend_force`): the mid-span centreline relative to the sections over the supports
-    (:func:`matid.fits.shear.centreline_deflection`), as a side camera measures it."""
-    from matid.fits.shear import centreline_deflection
+    (:func:`matid.fits.bend_centreline.centreline_deflection`), as a side camera measures it."""
+    from matid.fits.bend_centreline import centreline_deflection
     from matid.rod.bend import BendGeometry, BendModel
 
     stiff = {k: kwargs.pop(k) for k in ("E_b", "E_s", "E_e")}

@@ -13,7 +13,7 @@ The local compliance falls with load (u_local ~ F^0.82 on the continuum tube), a
 predicted band is calibrated at forces up to ``CALIBRATED_FORCE`` (d/S <= 1 % on the
 reference tube). For tests loaded beyond that, at equal F/(E t^2) (dimensional
 analysis at fixed shape), the low end of the band is lowered by
-(F_max / F_cal)^(``LOAD_EXPONENT`` - 1), so that the most favourable case stays
+(F_max / F_cal)^(``CONTACT_N`` - 1), so that the most favourable case stays
 favourable at high load.
 
 With the predicted ranges of c_loc and k G A: if even the most favourable
@@ -35,7 +35,15 @@ from dataclasses import dataclass, field
 
 from scipy import stats
 
-from matid.fits.shear_torsion import local_compliance, reference_kGA, value_range, young_modulus
+from matid.fits.shear_torsion import (
+    CONTACT_N,
+    CONTACT_REF,
+    local_compliance,
+    reference_kGA,
+    section,
+    value_range,
+    young_modulus,
+)
 from matid.results import Estimate
 from matid.study import Specimen
 
@@ -46,10 +54,9 @@ CONSISTENCY_P = 0.01
 #: Model-form compliance uncertainty of the rod against a continuum: floor + slope * d_max/S.
 MODEL_FORM_FLOOR = 0.01
 MODEL_FORM_SLOPE = 0.2
-#: Highest force [N] in the calibration of the local-compliance band (reference tube: E 50 MPa,
-#: wall 0.4 mm), and the load exponent of the local travel, u_local ~ F^n (benchmarks/README.md).
+#: Highest force [N] in the calibration of the local-compliance band, on the reference tube
+#: (:data:`matid.fits.shear_torsion.CONTACT_REF`; benchmarks/README.md).
 CALIBRATED_FORCE = 0.2
-LOAD_EXPONENT = 0.82
 #: Relative sd floor of a per-span estimate (discretisation, model form) for the chi^2.
 SPAN_SD_FLOOR = 0.003
 
@@ -136,9 +143,9 @@ def assess(
 
 def load_factor(max_force: float, specimen: Specimen, E: float) -> float:
     """(F_max / F_cal)^(n - 1) beyond the calibrated force F_cal (scaled by E t^2), else 1."""
-    t = 0.5 * (specimen.outer_diameter - specimen.inner_diameter)
-    F_cal = CALIBRATED_FORCE * (E / 50e6) * (t / 0.4e-3) ** 2
-    return min(1.0, (max_force / F_cal) ** (LOAD_EXPONENT - 1.0))
+    a, b, _, _ = section(specimen)
+    F_cal = CALIBRATED_FORCE * (E / CONTACT_REF["E"]) * ((a - b) / CONTACT_REF["t"]) ** 2
+    return min(1.0, (max_force / F_cal) ** (CONTACT_N - 1.0))
 
 
 def model_form_variance(data, E_b: float, info: Mapping, E_s_fit: float, delta: float | None) -> dict:

@@ -44,7 +44,7 @@ from matid.errors import FitError
 from matid.fits import prony
 from matid.fits.extension_checks import _k1_warnings, _unidentifiable
 from matid.fits.extension_lsq import _models, _solve, _values
-from matid.fits.extension_runs import SLACK, _Run, _run, _unique, difference_noise  # noqa: F401  (SLACK, difference_noise: public here too)
+from matid.fits.extension_runs import _Run, _run, _unique
 from matid.fits.extension_stats import _correlation, _covariance_fit, _intervals, _misfit, _sandwich, _stderr
 from matid.fits.sls import sls_force, sls_ramp  # noqa: F401  (sls_force, sls_ramp: public here too)
 from matid.results import Estimate, Series, TestFit

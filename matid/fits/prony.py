@@ -81,19 +81,16 @@ def prony_force(t, eps, k0: float, ks: Sequence[float], taus: Sequence[float]) -
 Arms = dict[tuple[int, float], np.ndarray]
 
 
-def _basis(data: Sequence[Data], taus, arms: Arms | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _basis(data: Sequence[Data], taus, arms: Arms) -> tuple[np.ndarray, np.ndarray]:
     """Weighted design [eps, arm(tau_1), ...] and weighted force over the used rows.
 
-    With ``arms``, an arm already computed for the same run and tau is reused: a
+    An arm already computed for the same run and tau is reused from ``arms``: a
     finite-difference Jacobian moves one tau at a time, so most of its arms repeat.
     """
     cols, rhs = [], []
     for i, d in enumerate(data):
         block = [d.eps]
         for tau in taus:
-            if arms is None:
-                block.append(arm(d.t, d.eps, tau))
-                continue
             key = (i, float(tau))
             if key not in arms:
                 arms[key] = d.history.force(0.0, 1.0, tau)  # = arm(d.t, d.eps, tau)
@@ -103,7 +100,7 @@ def _basis(data: Sequence[Data], taus, arms: Arms | None = None) -> tuple[np.nda
     return np.vstack(cols), np.concatenate(rhs)
 
 
-def _inner(data, log_taus, arms: Arms | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _inner(data, log_taus, arms: Arms) -> tuple[np.ndarray, np.ndarray]:
     """NNLS stiffnesses for these taus and the weighted residuals."""
     design, rhs = _basis(data, np.exp(log_taus), arms)
     scale = np.maximum(np.linalg.norm(design, axis=0), 1e-300)

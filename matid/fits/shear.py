@@ -44,7 +44,6 @@ import numpy as np
 from scipy import stats
 
 from matid.errors import DataError, FitError
-from matid.fits.bend_centreline import centreline_deflection  # noqa: F401 - public here too
 from matid.fits.bend_checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
 from matid.fits.bend_problem import Problem, least_squares
 from matid.fits.bend_window import Cut, check_plausible, cut

@@ -43,6 +43,11 @@ from matid.study import Specimen
 NU_RANGE = (0.3, 0.5)
 #: Range of the local-compliance factor kappa (module docstring).
 KAPPA_RANGE = (0.95, 1.65)
+#: The continuum tube of ``reference/tube3d`` that calibrates kappa and the contact law
+#: (benchmarks/README.md, "The 3D tube"), and the load exponent of its local contact travel,
+#: u_local ~ F^CONTACT_N.
+CONTACT_REF = {"E": 50e6, "R_m": 1.0e-3, "t": 0.4e-3}
+CONTACT_N = 0.82
 
 
 def hutchinson_k(nu: float, a: float, b: float = 0.0) -> float:

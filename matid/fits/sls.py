@@ -33,26 +33,12 @@ def sls_force(t: np.ndarray, eps: np.ndarray, k1: float, k2: float, eta: float) 
 
     ``f2_i = a_i f2_{i-1} + eta r_i (1 - a_i)`` with ``a_i = exp(-dt_i k2 / eta)``, f2_0 = 0.
     """
-    t = np.asarray(t, dtype=float)
-    eps = np.asarray(eps, dtype=float)
-    if t.ndim != 1 or t.shape != eps.shape:
-        raise ValueError("t and eps must be 1-d arrays of the same length")
-    if not (k2 > 0 and eta > 0):
-        raise ValueError(f"k2 and eta must be positive, got k2={k2}, eta={eta}")
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        raise ValueError("t must be strictly increasing")
-    tau = eta / k2
-    b = -eta * np.diff(eps) / dt * np.expm1(-dt / tau)  # eta r_i (1 - a_i)
-    f2 = np.zeros_like(t)
-    f2[1:] = _decaying_sum((t[1:] - t[0]) / tau, b)
-    return k1 * eps + f2
+    return History(t, eps).force(k1, k2, eta)
 
 
 class History:
     """A strain history linear between samples, checked and differenced once, for the many
-    :func:`sls_force` evaluations of a fit: ``History(t, eps).force(k1, k2, eta)`` evaluates the
-    same expressions, so it gives the same bits."""
+    :func:`sls_force` evaluations of a fit (``sls_force`` is ``History(t, eps).force``)."""
 
     __slots__ = ("t", "eps", "dt", "deps", "elapsed")
 
