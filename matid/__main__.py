@@ -1,8 +1,6 @@
 """``python -m matid``: the same as the ``matid`` command."""
 
-import sys
-
-from matid.cli import main
+from matid.cli import run
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -24,11 +24,13 @@ the fits load only for the commands that need them).
 from __future__ import annotations
 
 import argparse
+import contextlib
+import gc
 import importlib
 import sys
 import time
 import traceback
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -51,6 +53,19 @@ _KIND_PARAMETER = {
     "torsion": "E_t",
     "three_point_bend": "E_s",
 }
+
+
+def run() -> None:
+    """The console script ``matid``: :func:`main`, then exit with its code.
+
+    Before exiting, every object is moved out of the cyclic collector's reach
+    (``gc.freeze``): the interpreter's exit otherwise sweeps the objects of every loaded
+    module, 0.3-0.4 s after ``matid demo`` (measured). Nothing is lost: the outputs are
+    written and closed by then, and the exit returns the memory anyway.
+    """
+    code = main()
+    gc.freeze()
+    sys.exit(code)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -227,6 +242,38 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
 
     0 if every fit was done (and, with ``strict``, nothing warned); else 1.
     """
+    with settled_imports("matid.pipeline"):
+        return _fit_and_write(source, out, units=units, quiet=quiet, strict=strict)
+
+
+@contextlib.contextmanager
+def settled_imports(*modules: str) -> Iterator[None]:
+    """Import ``modules`` without the cyclic collector, then keep it off what they made.
+
+    The fitting and report stack (scipy, lmfit, matplotlib, pint: ~180 000 objects) lives as
+    long as the process, yet each full collection walks all of it: in ``matid demo`` that
+    was 0.19 s during the imports and 0.37 s in five full collections after them (measured
+    with gc.callbacks). ``gc.freeze`` moves what exists to a generation the collector skips;
+    on the way out ``gc.unfreeze`` hands it back, since :func:`main` may run inside a
+    longer-lived process (tests, notebooks). Garbage made inside the block is collected as
+    usual.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        for module in modules:
+            importlib.import_module(module)
+    finally:
+        if enabled:
+            gc.enable()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
+
+
+def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool) -> int:
     from matid import pipeline
     from matid.study import load_study
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import gc
 import io
 import json
 import os
@@ -381,3 +382,38 @@ def test_e_s_reports_error_against_run_time(demo_run):
     assert all(level["runtime_s"] > 0 for level in levels)
     html = (demo_run[3] / "report.html").read_text(encoding="utf-8")
     assert html.count("Error against run time") >= 2  # one figure per specimen
+
+
+def test_console_script_is_run_which_exits_with_mains_code(monkeypatch):
+    from importlib import metadata
+
+    import matid.cli as cli
+
+    (script,) = [e for e in metadata.entry_points(group="console_scripts") if e.name == "matid"]
+    assert script.value == "matid.cli:run"
+    monkeypatch.setattr(cli, "main", lambda: 3)
+    try:
+        with pytest.raises(SystemExit) as exc:
+            cli.run()
+        assert exc.value.code == 3
+        assert gc.get_freeze_count() > 0  # the exit's sweep skips what is frozen
+    finally:
+        gc.unfreeze()
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_settled_imports_restores_the_collector(enabled):
+    from matid.cli import settled_imports
+
+    was = gc.isenabled()
+    (gc.enable if enabled else gc.disable)()
+    try:
+        with settled_imports("json", "matid.units"):
+            assert "matid.units" in sys.modules
+            assert gc.get_freeze_count() > 0 and gc.isenabled() == enabled
+        assert gc.get_freeze_count() == 0 and gc.isenabled() == enabled
+        with pytest.raises(ModuleNotFoundError), settled_imports("matid.no_such_module"):
+            pass
+        assert gc.get_freeze_count() == 0 and gc.isenabled() == enabled
+    finally:
+        (gc.enable if was else gc.disable)()
