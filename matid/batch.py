@@ -146,9 +146,9 @@ def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyO
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     # forkserver: workers start clean (no inherited threads, e.g. a progress bar's),
-    # forked from a server that has imported the pipeline once.
+    # forked from a server that has imported the pipeline and the report once.
     context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(["matid.pipeline"])  # imported once, in the fork server
+    context.set_forkserver_preload(["matid.pipeline", "matid.report"])  # imported once, in the server
     outcomes: dict[int, StudyOutcome] = {}
     with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
         futures = {pool.submit(fit_one, *task): i for i, task in enumerate(tasks)}

@@ -242,8 +242,15 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
 
     0 if every fit was done (and, with ``strict``, nothing warned); else 1.
     """
-    with settled_imports("matid.pipeline"):
-        return _fit_and_write(source, out, units=units, quiet=quiet, strict=strict)
+    from matid.render_worker import RenderWorker
+
+    worker = RenderWorker.start()  # imports the report's stack beside the fits' imports
+    try:
+        with settled_imports("matid.pipeline"):
+            return _fit_and_write(source, out, units=units, quiet=quiet, strict=strict, worker=worker)
+    finally:
+        if worker is not None:
+            worker.close()
 
 
 @contextlib.contextmanager
@@ -273,7 +280,7 @@ def settled_imports(*modules: str) -> Iterator[None]:
         gc.unfreeze()
 
 
-def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool) -> int:
+def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool, worker) -> int:
     from matid import pipeline
     from matid.study import load_study
 
@@ -289,7 +296,8 @@ def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: 
     study = load_study(source)
     result = pipeline.run_study(study, progress=progress)
     progress(f"rendering the report and tables into {out}")
-    paths = pipeline.write_outputs(result, out, units=units)
+    report = worker.render(pipeline.render_report, result, units=units) if worker is not None else None
+    paths = pipeline.write_outputs(result, out, units=units, report=report)
     progress("done")
     for failure in result.failures:
         print(

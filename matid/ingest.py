@@ -45,6 +45,7 @@ from matid.ingest_columns import (  # noqa: F401 - KNOWN, REQUIRED, canonical re
 from matid.ingest_detect import Layout, decode, detect, lines_of, number, preamble, split
 from matid.study import TEST_COLUMNS, Study, Test, bounded_text
 from matid.units import DIMENSIONS, UnitError, si_factor
+from matid.views import PicklesViews
 
 MIN_ROWS = 3
 #: Largest file read: a bigger one is not a bench test (and /dev/zero never ends).
@@ -52,7 +53,7 @@ MAX_BYTES = 100 * 2**20
 
 
 @dataclass(frozen=True, eq=False)
-class Table:
+class Table(PicklesViews):
     """The columns of one CSV file, in SI, keyed by canonical name."""
 
     path: Path

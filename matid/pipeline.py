@@ -40,7 +40,7 @@ from matid.fits.shear_torsion import with_E_s_torsion
 from matid.fits.torsion import fit_torsion
 from matid.ingest import Measurement, load_measurements
 from matid.publish import publish
-from matid.report import render_report
+from matid.render_worker import render_report
 from matid.results import (
     Estimate,
     Failure,
@@ -220,19 +220,35 @@ def _fit_kind(
     return fit
 
 
-def render_outputs(result: StudyResult, *, units: str = "SI") -> dict[str, bytes | str]:
-    """Every output file of docs/contract.md section 4, rendered in memory: name -> content."""
-    files: dict[str, bytes | str] = dict(render_report(result, units=units))
-    files["stiffness.csv"] = stiffness_csv(result, units)
-    files["stiffness.json"] = json.dumps(stiffness_json(result, units), indent=2) + "\n"
-    files["stiffness.xlsx"] = stiffness_xlsx(result, units)  # docs/contract.md section 7
-    return files
+def render_outputs(
+    result: StudyResult, *, units: str = "SI", report: Callable[[], Mapping[str, bytes]] | None = None
+) -> dict[str, bytes | str]:
+    """Every output file of docs/contract.md section 4, rendered in memory: name -> content.
+
+    ``report`` gives report.html and report.pdf rendered elsewhere (the CLI's
+    :class:`matid.render_worker.RenderWorker`, busy while the tables are made here);
+    without it they are rendered here by :func:`render_report`.
+    """
+    tables: dict[str, bytes | str] = {
+        "stiffness.csv": stiffness_csv(result, units),
+        "stiffness.json": json.dumps(stiffness_json(result, units), indent=2) + "\n",
+        "stiffness.xlsx": stiffness_xlsx(result, units),  # docs/contract.md section 7
+    }
+    rendered = report() if report is not None else render_report(result, units=units)
+    return {**rendered, **tables}
 
 
-def write_outputs(result: StudyResult, out: Path, *, units: str = "SI") -> list[Path]:
+def write_outputs(
+    result: StudyResult,
+    out: Path,
+    *,
+    units: str = "SI",
+    report: Callable[[], Mapping[str, bytes]] | None = None,
+) -> list[Path]:
     """Render everything first, then publish the files as the folder ``out`` whole; returns the paths.
 
     The old contents of ``out`` stay whole until the new folder replaces them in
     one step (:func:`matid.publish.publish`); a write error raises OutputError.
+    ``report``: see :func:`render_outputs`.
     """
-    return publish(render_outputs(result, units=units), Path(out))
+    return publish(render_outputs(result, units=units, report=report), Path(out))

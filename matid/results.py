@@ -24,6 +24,7 @@ import numpy as np
 from matid import __version__
 from matid.study import Study, Test
 from matid.units import from_si
+from matid.views import PicklesViews
 
 #: Quantity kind of every reported parameter (for unit conversion).
 PARAMETER_KINDS: dict[str, str] = {
@@ -124,7 +125,7 @@ class Failure:
 
 
 @dataclass(frozen=True)
-class InputFile:
+class InputFile(PicklesViews):
     path: Path
     sha256: str
     metadata: Mapping[str, str] = field(default_factory=dict, hash=False)

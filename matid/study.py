@@ -22,6 +22,7 @@ from matid import study_keys as keys
 from matid.errors import DataError
 from matid.study_keys import MAX_TEXT, TEST_COLUMNS, bounded_text, nearest  # noqa: F401 - re-exported
 from matid.units import PHYSICAL_BOUND, PLAUSIBLE_BARE, UnitError, to_si
+from matid.views import PicklesViews
 
 #: Per test kind: the toml keys it needs and their quantity kinds; optional keys.
 TEST_KINDS: dict[str, dict[str, str]] = {
@@ -96,7 +97,7 @@ class Specimen:
 
 
 @dataclass(frozen=True)
-class Test:
+class Test(PicklesViews):
     """One lab test: a CSV file of one kind on one specimen, with its set-up in SI."""
 
     __test__ = False  # not a pytest class
