@@ -136,7 +136,10 @@ def _extra() -> None:
     for seed in range(6):
         for phi in (0.0, 0.95):
             rng = np.random.default_rng(seed)
-            cases[f"coverage seed {seed} phi {phi}"] = (_ramps(rng, k, [10 * tau, tau, 0.1 * tau], 0.003, phi), {})
+            cases[f"coverage seed {seed} phi {phi}"] = (
+                _ramps(rng, k, [10 * tau, tau, 0.1 * tau], 0.003, phi),
+                {},
+            )
     rng = np.random.default_rng(40)
     cases["exact"] = (_ramps(rng, k, [10 * tau, tau, 0.1 * tau], 0.0), {})
     cases["nearly exact"] = (_ramps(rng, k, [10 * tau, tau, 0.1 * tau], 1e-7), {})
@@ -167,7 +170,9 @@ def dump(out: str) -> None:
     _CONTEXT["key"], _CONTEXT["n"] = "demo", 0
     pipeline.run_study(load_study(ROOT / "matid" / "example" / "study.toml"))
     _extra()
-    code = pytest.main(["-q", "-x", "-p", "no:cacheprovider", *[str(ROOT / t) for t in TESTS]], plugins=[_Keys()])
+    code = pytest.main(
+        ["-q", "-x", "-p", "no:cacheprovider", *[str(ROOT / t) for t in TESTS]], plugins=[_Keys()]
+    )
     Path(out).write_text(json.dumps(RECORDS, indent=1, sort_keys=True, default=_plain))
     print(f"{len(RECORDS)} fits recorded to {out}; pytest exit {code}")
 

@@ -150,7 +150,9 @@ def _models(runs: Sequence[_Run], k: Mapping[str, float]) -> list[np.ndarray]:
 def _residual(x: np.ndarray, runs, sigma, ref) -> np.ndarray:
     """Weighted residuals (F_model - F) / sigma_run over all runs; FitError on NaN."""
     models = _models(runs, _values(np.asarray(x), ref))
-    out = np.concatenate([(f - run.force)[run.used] / s for f, run, s in zip(models, runs, sigma, strict=True)])
+    out = np.concatenate(
+        [(f - run.force)[run.used] / s for f, run, s in zip(models, runs, sigma, strict=True)]
+    )
     if np.isnan(np.sum(out)):
         raise FitError("the SLS model could not be evaluated: NaN in the residuals")
     return out
@@ -190,7 +192,8 @@ def _least_squares(x0: np.ndarray, free: Sequence[str], runs, sigma, ref) -> Lsq
     residual = fun(u)
     if cov is not None:
         grad = np.cos(u) * (2.0 * _LOG_BOUND) / 2.0
-        cov = cov * np.outer(grad, grad) * (float(np.dot(residual, residual)) / max(1, residual.size - len(index)))
+        redchi = float(np.dot(residual, residual)) / max(1, residual.size - len(index))
+        cov = cov * np.outer(grad, grad) * redchi
     return LsqFit(x, tuple(free), residual, cov, ier in (1, 2, 3, 4), message)
 
 

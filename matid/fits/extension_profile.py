@@ -37,9 +37,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, special
+from scipy import optimize
 
 from matid.fits.extension_lsq import _LOG_BOUND, _ORDER, LsqFit, _least_squares, _residual
+from matid.fits.stats import f_cdf
 
 #: Central-difference step of the Jacobian in the log-parameters.
 _STEP = 1e-6
@@ -90,7 +91,7 @@ def f_compare(best: LsqFit, trial: LsqFit) -> float:
     """lmfit's F-test: probability that holding one parameter fits worse by chance."""
     nfix = best.nvarys - trial.nvarys
     dchi = trial.chisqr / best.chisqr - 1.0
-    return float(special.fdtr(nfix, best.nfree, max(dchi * best.nfree / nfix, 0.0)))
+    return f_cdf(dchi * best.nfree / nfix, nfix, best.nfree)
 
 
 class _Profile:
@@ -132,7 +133,9 @@ class _Profile:
         if _LEVEL > top:
             return direction * math.inf
         low, high = sorted([limit, self.best.at(self.name)])
-        sol = optimize.root_scalar(lambda v: self.prob(v) - _LEVEL, method="toms748", bracket=(low, high), rtol=0.5e-4)
+        sol = optimize.root_scalar(
+            lambda v: self.prob(v) - _LEVEL, method="toms748", bracket=(low, high), rtol=0.5e-4
+        )
         return sol.root if sol.converged else math.nan
 
 

@@ -14,7 +14,6 @@ import math
 from collections.abc import Mapping
 
 import numpy as np
-from scipy import special
 
 from matid.errors import FitError
 from matid.fits import stats
@@ -96,7 +95,9 @@ def _profile(result, unc, runs, sigma, ref, names) -> dict[str, tuple[float, flo
         limits = profile_limits(result, unc, names, runs, sigma, ref)
     except (FitError, ValueError, RuntimeError):
         return {}
-    return {name: (ref[name] * math.exp(low), ref[name] * math.exp(high)) for name, (low, high) in limits.items()}
+    return {
+        name: (ref[name] * math.exp(low), ref[name] * math.exp(high)) for name, (low, high) in limits.items()
+    }
 
 
 def _intervals(result, unc, runs, sigma, ref, se, *, profile: bool, dof: float) -> dict[str, tuple]:
@@ -107,7 +108,7 @@ def _intervals(result, unc, runs, sigma, ref, se, *, profile: bool, dof: float) 
     profile likelihood, else (or if profiling fails) the t-interval of log k.
     """
     k = _values(result, ref)
-    tq = float(special.stdtrit(max(dof, 1.0), 0.975))  # = scipy.stats.t.ppf(0.975, dof)
+    tq = stats.t_ppf(0.975, max(dof, 1.0))
     out = {}
     for name in _ORDER:
         if se[name] is not None:
