@@ -33,8 +33,6 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-from scipy import stats
-
 from matid.fits.shear_torsion import (
     CONTACT_N,
     CONTACT_REF,
@@ -44,6 +42,7 @@ from matid.fits.shear_torsion import (
     value_range,
     young_modulus,
 )
+from matid.fits.stats import chi2_sf
 from matid.results import Estimate
 from matid.study import Specimen
 
@@ -180,7 +179,7 @@ def consistency(per_span: Sequence[tuple[float, float, float]], joint: float) ->
     for _, value, sd in per_span:
         chi2 += (math.log(value / joint) / max(sd, SPAN_SD_FLOOR)) ** 2
     dof = len(per_span) - 1
-    p = float(stats.chi2.sf(chi2, dof))
+    p = chi2_sf(chi2, dof)
     info = {"chi2": chi2, "dof": dof, "p": p}
     if p >= CONSISTENCY_P:
         return info, None

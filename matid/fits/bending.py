@@ -18,10 +18,9 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import stats as sstats
 
 from matid.errors import DataError, FitError
-from matid.fits import linear
+from matid.fits import linear, stats
 from matid.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
@@ -90,7 +89,7 @@ def _per_length(records, lengths) -> tuple[dict[str, dict[str, float]], float | 
     w = 1.0 / se**2
     mean = np.sum(w * slopes) / np.sum(w)
     chi2 = float(np.sum(w * (slopes - mean) ** 2))
-    return out, float(sstats.chi2.sf(chi2, slopes.size - 1))
+    return out, stats.chi2_sf(chi2, slopes.size - 1)
 
 
 def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFit:

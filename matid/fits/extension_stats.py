@@ -11,80 +11,73 @@ likelihood.
 from __future__ import annotations
 
 import math
-import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 
-import lmfit
 import numpy as np
-from scipy import stats as sstats
 
+from matid.errors import FitError
 from matid.fits import stats
-from matid.fits.extension_lsq import _ORDER, _PARAM_NAMES, _minimise, _residual, _values
+from matid.fits.extension_lsq import _ORDER, _PARAM_NAMES, LsqFit, _minimise, _values
+from matid.fits.extension_profile import Uncertainty, jacobian, profile_limits, uncertainty
 
 # --------------------------------------------------------------------------- uncertainty
 
 
-def _covariance_fit(runs, sigma, minimizer, result, ref, fixed):
-    """The fit whose covariance gives the standard errors.
+def _covariance_fit(runs, sigma, result: LsqFit, ref, fixed) -> tuple[LsqFit, Uncertainty]:
+    """The fit whose covariance gives the standard errors, and that covariance.
 
     A singular covariance means a flat direction (tau far below the sampling interval or
     far beyond the runs): k2 is then held where it is, so k1 and eta get errors
     conditional on it and k2 gets none (and is reported as not identifiable).
     """
-    if result.errorbars or "k2" in fixed or result.nvarys < 2:
-        return minimizer, result
-    k = _values(result.params, ref)
-    return _minimise(runs, sigma, [k], ref, {**fixed, "k2": k["k2"]})
+    unc = uncertainty(result)
+    if unc.errorbars or "k2" in fixed or result.nvarys < 2:
+        return result, unc
+    k = _values(result, ref)
+    held = _minimise(runs, sigma, [k], ref, {**fixed, "k2": k["k2"]})
+    return held, uncertainty(held)
 
 
-def _stderr(result, ref: Mapping[str, float]) -> dict[str, float | None]:
+def _stderr(result: LsqFit, unc: Uncertainty, ref: Mapping[str, float]) -> dict[str, float | None]:
     """Standard errors in SI by the delta method: se(k) = k se(log k)."""
-    k = _values(result.params, ref)
+    k = _values(result, ref)
     out: dict[str, float | None] = {}
     for name in _ORDER:
-        se_log = result.params[name].stderr if result.params[name].vary else None
+        se_log = unc.stderr.get(name)
         out[name] = None if se_log is None or not np.isfinite(se_log) else k[name] * se_log
     return out
 
 
-def _sandwich(result, runs, sigma, ref, se):
+def _sandwich(result: LsqFit, runs, sigma, ref, se):
     """Standard errors from the AR(1) sandwich covariance of :mod:`matid.fits.stats`.
 
     Dense extension records have correlated residuals (and a misfit looks the same):
-    the i.i.d. errors of lmfit then shrink with the sampling rate, not with the
-    information. The Jacobian of the weighted residuals in the log-parameters is taken
-    by central differences. Returns (se, covariance); the covariance is None (and se
-    unchanged) when a parameter has no error.
+    the i.i.d. errors then shrink with the sampling rate, not with the information. The
+    Jacobian of the weighted residuals in the log-parameters is the central-difference
+    one of :func:`matid.fits.extension_profile.jacobian`. Returns (se, covariance); the
+    covariance is None (and se unchanged) when a parameter has no error.
     """
-    names = [n for n in _ORDER if result.params[n].vary]
+    names = list(result.free)
     if not names or any(se[n] is None for n in names):
         return se, None
-    h = 1e-6
-    columns = []
-    for name in names:
-        up, down = result.params.copy(), result.params.copy()
-        up[name].value += h
-        down[name].value -= h
-        columns.append((_residual(up, runs, sigma, ref) - _residual(down, runs, sigma, ref)) / (2 * h))
     try:
-        cov = stats.ar1_covariance(
-            np.column_stack(columns), result.residual, [int(r.used.sum()) for r in runs]
-        )
+        jac = jacobian(result, runs, sigma, ref)
+        cov = stats.ar1_covariance(jac, result.residual, [int(r.used.sum()) for r in runs])
     except (ValueError, np.linalg.LinAlgError):
         return se, None
-    k = _values(result.params, ref)
+    k = _values(result, ref)
     out = dict(se)
     for name, se_log in zip(names, cov.stderr, strict=True):
         out[name] = k[name] * float(se_log)
     return out, cov
 
 
-def _correlation(result) -> dict[str, float]:
+def _correlation(unc: Uncertainty) -> dict[str, float]:
     """Correlations of the fitted parameters, keyed "sls_a|sls_b" (equal to those of the logs
     to first order, since k = k_ref exp(x) scales each axis only)."""
     out = {}
     for i, a in enumerate(_ORDER):
-        correl = result.params[a].correl or {}
+        correl = unc.correl.get(a, {})
         for b in _ORDER[i + 1 :]:
             if b in correl:
                 out[f"{_PARAM_NAMES[a]}|{_PARAM_NAMES[b]}"] = float(correl[b])
@@ -96,31 +89,26 @@ def _wald_log(value: float, se: float, tq: float) -> tuple[float, float]:
     return value * math.exp(-tq * se / value), value * math.exp(tq * se / value)
 
 
-def _profile(minimizer, result, ref, names: Sequence[str]) -> dict[str, tuple[float, float]]:
-    """95 % profile-likelihood intervals (lmfit conf_interval, F-test = t on nfree dof)."""
+def _profile(result, unc, runs, sigma, ref, names) -> dict[str, tuple[float, float]]:
+    """95 % profile-likelihood intervals (:mod:`matid.fits.extension_profile`) in SI."""
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ci = lmfit.conf_interval(minimizer, result, p_names=list(names), sigmas=[0.95])
-    except (lmfit.minimizer.MinimizerException, ValueError, RuntimeError):
+        limits = profile_limits(result, unc, names, runs, sigma, ref)
+    except (FitError, ValueError, RuntimeError):
         return {}
-    out = {}
-    for name in names:
-        low, high = ci[name][0][1], ci[name][-1][1]
-        if np.isfinite(low) and np.isfinite(high):
-            out[name] = (ref[name] * math.exp(low), ref[name] * math.exp(high))
-    return out
+    return {
+        name: (ref[name] * math.exp(low), ref[name] * math.exp(high)) for name, (low, high) in limits.items()
+    }
 
 
-def _intervals(minimizer, result, ref, se, *, profile: bool, dof: float) -> dict[str, tuple]:
+def _intervals(result, unc, runs, sigma, ref, se, *, profile: bool, dof: float) -> dict[str, tuple]:
     """95 % intervals: (low, high, method) per fitted parameter.
 
     k1 enters F linearly: a t-interval. k2 and eta act through exp(-t k2/eta), so the
     chi-square is not quadratic in them; when they are identifiable their interval is the
     profile likelihood, else (or if profiling fails) the t-interval of log k.
     """
-    k = _values(result.params, ref)
-    tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
+    k = _values(result, ref)
+    tq = stats.t_ppf(0.975, max(dof, 1.0))
     out = {}
     for name in _ORDER:
         if se[name] is not None:
@@ -129,8 +117,8 @@ def _intervals(minimizer, result, ref, se, *, profile: bool, dof: float) -> dict
             else:
                 out[name] = (*_wald_log(k[name], se[name], tq), "t-log")
     if profile:
-        names = [n for n in ("k2", "eta") if result.params[n].vary and se[n] is not None]
-        for name, (low, high) in _profile(minimizer, result, ref, names).items():
+        names = [n for n in ("k2", "eta") if n in result.free and se[n] is not None]
+        for name, (low, high) in _profile(result, unc, runs, sigma, ref, names).items():
             out[name] = (low, high, "profile")
     return out
 

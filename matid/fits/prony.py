@@ -37,7 +37,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import optimize
-from scipy import stats as sstats
 
 from matid.fits import stats
 from matid.fits.sls import History, sls_force
@@ -289,7 +288,7 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
 def _estimate(name: str, value: float, se: float | None, dof: float, n: int, warnings_=()) -> Estimate:
     ci = None
     if se is not None and math.isfinite(se) and value > 0:
-        tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
+        tq = stats.t_ppf(0.975, max(dof, 1.0))
         ci = (value * math.exp(-tq * se / value), value * math.exp(tq * se / value))
     se = se if se is not None and math.isfinite(se) else None
     return Estimate(name, value, se, ci, n, "prony", tuple(warnings_), {"ci_method": "t-log" if ci else None})
