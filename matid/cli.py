@@ -257,10 +257,10 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
 def settled_imports(*modules: str) -> Iterator[None]:
     """Import ``modules`` without the cyclic collector, then keep it off what they made.
 
-    The fitting and report stack (scipy, lmfit, matplotlib, pint: ~180 000 objects) lives as
-    long as the process, yet each full collection walks all of it: in ``matid demo`` that
-    was 0.19 s during the imports and 0.37 s in five full collections after them (measured
-    with gc.callbacks). ``gc.freeze`` moves what exists to a generation the collector skips;
+    A numerical stack (the fits' scipy, pint and scikit-fem: ~130 000 objects; the report's
+    matplotlib another ~100 000) lives as long as the process, yet each full collection walks
+    all of it: in ``matid demo`` with both in one process that was 0.19 s during the imports
+    and 0.37 s in five full collections after them (measured with gc.callbacks). ``gc.freeze`` moves what exists to a generation the collector skips;
     on the way out ``gc.unfreeze`` hands it back, since :func:`main` may run inside a
     longer-lived process (tests, notebooks). Garbage made inside the block is collected as
     usual.
