@@ -197,7 +197,12 @@ class Progress:
         if not quiet and getattr(self.stream, "isatty", lambda: False)():
             from tqdm import tqdm
 
-            self.bar = tqdm(total=total, unit="study", file=self.stream, desc="fitting studies")
+            class Bar(tqdm):
+                # tqdm's monitor thread outlives the bar (tqdm 4.70); a live thread keeps any later
+                # report of this process in one process (matid.render_worker.can_fork)
+                monitor_interval = 0
+
+            self.bar = Bar(total=total, unit="study", file=self.stream, desc="fitting studies")
 
     def __call__(self, outcome: StudyOutcome) -> None:
         self.count += 1

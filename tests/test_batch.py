@@ -6,6 +6,7 @@ import contextlib
 import csv
 import io
 import statistics
+import threading
 from pathlib import Path
 
 import openpyxl
@@ -164,6 +165,7 @@ class _Terminal(io.StringIO):
 
 
 def test_progress_bar_on_a_terminal_and_lines_otherwise():
+    threads = threading.active_count()
     tty, pipe = _Terminal(), io.StringIO()
     for stream in (tty, pipe):
         progress = Progress(2, stream=stream)
@@ -178,3 +180,4 @@ def test_progress_bar_on_a_terminal_and_lines_otherwise():
     quiet = io.StringIO()
     Progress(1, quiet=True, stream=quiet)(StudyOutcome("x", "lot_x", 0))
     assert quiet.getvalue() == ""
+    assert threading.active_count() == threads  # no tqdm monitor left behind

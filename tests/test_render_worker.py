@@ -6,6 +6,7 @@ import dataclasses
 import os
 import pickle
 import signal
+import threading
 import time
 
 import pytest
@@ -14,6 +15,13 @@ from test_report import bend_result, make_result
 from matid.render_worker import RenderWorker, can_fork, render_report
 
 pytestmark = pytest.mark.skipif(not can_fork(), reason="needs fork, two cores and one thread")
+
+
+def start() -> RenderWorker:
+    worker = RenderWorker.start()
+    # None here means a thread outlived an earlier test (e.g. tqdm's monitor, matid.batch)
+    assert worker is not None, f"no worker: threads {threading.enumerate()}"
+    return worker
 
 
 def where(result, *, units):
@@ -26,25 +34,25 @@ def crash(result, *, units):
 
 
 def test_the_worker_renders_in_its_own_process_what_the_renderer_returns():
-    with RenderWorker.start() as worker:
+    with start() as worker:
         files = worker.render(where, {"fits": [1.5, 2.5]}, units="cgs")()
     assert int(files["pid"]) != os.getpid()
     assert pickle.loads(files["echo"]) == ({"fits": [1.5, 2.5]}, "cgs")
 
 
 def test_a_renderer_that_does_not_pickle_renders_here():
-    with RenderWorker.start() as worker:
+    with start() as worker:
         files = worker.render(lambda result, *, units: where(result, units=units), "r", units="SI")()
     assert int(files["pid"]) == os.getpid()
 
 
 def test_a_renderer_that_raises_in_the_worker_raises_here():
-    with RenderWorker.start() as worker, pytest.raises(ZeroDivisionError, match="crashed on r"):
+    with start() as worker, pytest.raises(ZeroDivisionError, match="crashed on r"):
         worker.render(crash, "r", units="SI")()
 
 
 def test_a_dead_worker_means_rendering_here():
-    with RenderWorker.start() as worker:
+    with start() as worker:
         os.kill(worker._pid, signal.SIGKILL)
         time.sleep(0.05)
         files = worker.render(where, "r", units="SI")()
@@ -52,7 +60,7 @@ def test_a_dead_worker_means_rendering_here():
 
 
 def test_an_unused_worker_is_killed_and_reaped_at_once():
-    worker = RenderWorker.start()
+    worker = start()
     pid = worker._pid
     started = time.perf_counter()
     worker.close()
@@ -62,7 +70,7 @@ def test_an_unused_worker_is_killed_and_reaped_at_once():
 
 
 def test_one_report_per_worker():
-    with RenderWorker.start() as worker:
+    with start() as worker:
         worker.render(where, "r", units="SI")()
         with pytest.raises(RuntimeError, match="one report"):
             worker.render(where, "r", units="SI")
@@ -82,6 +90,6 @@ def test_a_study_result_renders_the_same_after_the_trip_to_the_worker(make):
     assert back.study.tests[0].params == result.study.tests[0].params
     with pytest.raises(TypeError):
         back.study.tests[0].params["x"] = 1.0  # still a read-only view
-    with RenderWorker.start() as worker:
+    with start() as worker:
         there = worker.render(render_report, result, units="cgs")()
     assert there == render_report(result, units="cgs")
