@@ -118,23 +118,6 @@ def test_report_pdf_is_the_same_with_matplotlib_text(monkeypatch, make):
     assert fast == slow
 
 
-def test_figures_go_in_as_the_pixels_imread_gives(monkeypatch):
-    """The PNGs are placed as 8-bit RGBA: the PDF holds the bytes it held with imread's floats."""
-    import matplotlib.image
-
-    from matid.report import layout
-
-    result = dataclasses.replace(bend_result(), started="2024-11-26T10:00:00+01:00")
-    fast = render_report(result)["report.pdf"]
-
-    def with_imread(ax, png):
-        ax.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"), interpolation="none")
-        ax.set_axis_off()
-
-    monkeypatch.setattr(layout, "_show", with_imread)
-    assert render_report(result)["report.pdf"] == fast
-
-
 def test_monospaced_layout_is_raqms():
     """Table rows in DejaVu Sans Mono are laid out without raqm: the same glyphs, positions and kerns."""
     import random

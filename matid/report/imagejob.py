@@ -33,11 +33,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import matplotlib
+import numpy as np
 from matplotlib.figure import Figure
 
 from matid.report.content import KINDS, Report
 from matid.report.figures import DPI, FIT_SIZE, Drawing
-from matid.report.images import Image, Images, drawing_image, fit_image
+from matid.report.images import Image, Images, drawing_image, fit_image, rgba_pixels
 
 Key = tuple[str, int]  # block anchor, 0 for the fit plot or 1 + the index of a drawing
 
@@ -61,6 +62,10 @@ class Pending:
         if not image.png or (image.width, image.height) != (self.width, self.height):
             raise Relayout(f"figure {self.key}: {image.error or 'not the size predicted'}")
         return image.png
+
+    def pixels(self) -> np.ndarray:
+        """The PNG's pixels as 8-bit RGBA; Relayout as :meth:`result`."""
+        return rgba_pixels(self.result())
 
 
 def pixels(size: tuple[float, float], dpi: float = DPI) -> tuple[int, int]:

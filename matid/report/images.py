@@ -7,7 +7,11 @@ while the PDF embeds the same pixels unresampled.
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass
+
+import numpy as np
+import PIL.Image
 
 from matid.report.content import KINDS, Block, Report
 from matid.report.figures import (
@@ -74,3 +78,10 @@ def drawing_image(drawing: Drawing) -> Image:
         return Image(b"", 0, 0, drawing.alt, drawing.caption, drawing.title, f"{type(exc).__name__}: {exc}")
     width, height = png_size(png)
     return Image(png, width, height, drawing.alt, drawing.caption, drawing.title)
+
+
+def rgba_pixels(png: bytes) -> np.ndarray:
+    """The PNG's pixels as 8-bit RGBA, as the PDF embeds them (imread would make floats of them,
+    which the PDF turns back into the same bytes)."""
+    with PIL.Image.open(io.BytesIO(png)) as image:
+        return np.asarray(image.convert("RGBA"))
