@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import io
+import weakref
 from datetime import datetime
 
 import pytest
@@ -153,3 +154,30 @@ def test_repr_cache_is_bounded(monkeypatch):
     monkeypatch.setattr(pdftext, "_REPR", {})
     assert _pages(add_text) == _pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
     assert len(pdftext._REPR) <= 3
+
+
+@pytest.mark.skipif(not pdftext.SUPPORTED, reason="matplotlib < 3.11: every line goes through Text.draw")
+def test_repeated_lines_are_laid_out_once_per_file_and_write_the_same_bytes(monkeypatch):
+    """A line drawn again (another page, place, colour) reuses its raqm layout, per font and size."""
+    monkeypatch.setattr(pdftext, "_SHAPED", weakref.WeakKeyDictionary())
+    shaped = []
+
+    def pages(draw) -> bytes:
+        buffer = io.BytesIO()
+        with PdfPages(buffer, metadata={"CreationDate": datetime(2024, 1, 1)}) as pdf:
+            for page in range(3):
+                fig = Figure(figsize=(8.27, 11.69))
+                y = 0.95
+                for size in (7.5, 8.5, 7.5):
+                    for weight in ("normal", "bold"):
+                        for text in STRINGS[:4]:
+                            style = {"family": SANS, "size": size, "weight": weight, "color": "kr"[page % 2]}
+                            draw(fig, 0.05 + 0.01 * page, y, text, va="bottom", parse_math=False, **style)
+                            y -= 0.02
+                pdf.savefig(fig)
+            shaped.extend(len(cache) for cache in pdftext._SHAPED.values())
+        return buffer.getvalue()
+
+    fast = pages(add_text)
+    assert shaped == [2 * 2 * 4]  # (size, weight, text): each laid out once in the file
+    assert fast == pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))

@@ -113,9 +113,7 @@ def draw_line(renderer: RendererPdf, gc, x: float, bottom: float, s: str, prop, 
     min_ascent, min_descent = extent
     font = renderer._get_font_ttf(prop)  # sized to prop
     size = prop.get_size_in_points()
-    items = _monospaced(font, s, size) or list(
-        font._layout(s, LoadFlags.NO_HINTING, features=None, language=None)
-    )
+    items = _monospaced(font, s, size) or _shaped(renderer, font, s, size)
     y_min, y_max = 32000, -32000  # FT2Font.set_text's empty box, in 1/64 point
     for item in items:
         low, high = _glyph_ybox(item.ft_object, item.glyph_index, size)
@@ -181,6 +179,20 @@ def _emit(renderer: RendererPdf, gc, x: float, y: float, items, fontsize: float)
     flush()
     out(Op.end_text)
     out(Op.grestore)
+
+
+#: Per PDF file: (font, size, text) -> raqm's items (half the report's lines in a proportional
+#: font repeat one drawn before: a header, the footer of every page, a table's header row).
+_SHAPED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _shaped(renderer: RendererPdf, font, s: str, size: float) -> list:
+    """raqm's layout of ``s`` in ``font`` at ``size`` points, laid out once per PDF file."""
+    shaped = _SHAPED.setdefault(renderer.file, {})
+    key = (font, size, s)  # the font object itself: the items refer to it (and its fallbacks)
+    if key not in shaped:
+        shaped[key] = list(font._layout(s, LoadFlags.NO_HINTING, features=None, language=None))
+    return shaped[key]
 
 
 #: pdfRepr of the kerns and glyph strings met so far (a table row repeats a few of them);
