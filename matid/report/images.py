@@ -8,17 +8,19 @@ while the PDF embeds the same pixels unresampled.
 from __future__ import annotations
 
 import io
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import PIL.Image
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
 from matid.report.content import KINDS, Block, Report
 from matid.report.figures import (
+    DRAWING_MARGINS,
     Drawing,
     axis_unit,
     caption,
-    drawing_png,
     fit_figure,
     png_bytes,
     png_size,
@@ -34,6 +36,8 @@ class Image:
     caption: str
     title: str = ""
     error: str = ""  # why the figure could not be drawn
+    #: the PNG's pixels as 8-bit RGBA, kept from drawing it (when asked for: the PDF's figures)
+    pixels: np.ndarray | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -58,26 +62,43 @@ def render_images(report: Report) -> Images:
     return Images(plots, drawings)
 
 
-def fit_image(block: Block, units: str, title: str, *, png: bool = True) -> Image:
-    """The fit plot of ``block``; with ``png=False`` only its texts (no pixels, size 0 x 0)."""
+def fit_image(block: Block, units: str, title: str, *, png: bool = True, pixels: bool = False) -> Image:
+    """The fit plot of ``block``; with ``png=False`` only its texts (no pixels, size 0 x 0); with
+    ``pixels`` also the PNG's pixels (:attr:`Image.pixels`)."""
     fit = block.fit
     assert fit is not None
-    data = png_bytes(fit_figure(fit, units)) if png else b""
+    data, rgba = _png(fit_figure(fit, units), pixels) if png else (b"", None)
     width, height = png_size(data) if png else (0, 0)
     names = ", ".join(s.label for s in fit.series)
     y_label, x_label = axis_unit(fit.y_label, units).label, axis_unit(fit.x_label, units).label
     text = caption(fit, units)
     alt = f"{title} of specimen {fit.specimen}: {y_label} against {x_label} for {names}. {text}"
-    return Image(data, width, height, alt, text, f"{title}, specimen {fit.specimen}")
+    return Image(data, width, height, alt, text, f"{title}, specimen {fit.specimen}", pixels=rgba)
 
 
-def drawing_image(drawing: Drawing) -> Image:
+def drawing_image(drawing: Drawing, *, pixels: bool = False) -> Image:
+    """A drawing as PNG (:func:`matid.report.figures.drawing_png`), with ``pixels`` also its pixels."""
     try:
-        png = drawing_png(drawing)
+        width, height = drawing.size
+        left, bottom, right, top = DRAWING_MARGINS
+        fig = Figure(figsize=drawing.size)
+        drawing.draw(fig, (left / width, bottom / height, 1 - right / width, 1 - top / height))
+        png, rgba = _png(fig, pixels)
     except Exception as exc:  # a figure that cannot be drawn must not sink the report
         return Image(b"", 0, 0, drawing.alt, drawing.caption, drawing.title, f"{type(exc).__name__}: {exc}")
     width, height = png_size(png)
-    return Image(png, width, height, drawing.alt, drawing.caption, drawing.title)
+    return Image(png, width, height, drawing.alt, drawing.caption, drawing.title, pixels=rgba)
+
+
+def _png(fig: Figure, pixels: bool) -> tuple[bytes, np.ndarray | None]:
+    """The figure as PNG (:func:`~matid.report.figures.png_bytes`) and, if asked, the pixels it
+    holds: Agg's buffer, left on the figure's canvas by the drawing (the decoded PNG, not decoded)."""
+    canvas = FigureCanvasAgg(fig) if pixels else None  # the canvas savefig would make and drop
+    png = png_bytes(fig)
+    if canvas is None:
+        return png, None
+    rgba = np.asarray(canvas.buffer_rgba())
+    return png, (rgba if rgba.shape[1::-1] == png_size(png) else rgba_pixels(png))
 
 
 def rgba_pixels(png: bytes) -> np.ndarray:
