@@ -9,7 +9,8 @@ and the dpi alone) and needs the pixels only when it saves that figure's page; r
 wait for them it renders figures the child has not begun, from the end of the list. The HTML
 page then takes the same PNGs: each figure is still rendered once (twice at most when both
 sides claim it at the same instant), and the bytes are those
-:func:`matid.report.images.render_images` gives.
+:func:`matid.report.images.render_images` gives. The pixels each figure was drawn with go to
+the PDF through shared memory laid out at the predicted sizes (no PNG is decoded for it).
 
 Where the pixels turn out not to fit the place kept for them (a drawing that could not be
 drawn, whose page shows the reason instead, or a size other than predicted), the PDF is
