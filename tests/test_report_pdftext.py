@@ -181,3 +181,11 @@ def test_repeated_lines_are_laid_out_once_per_file_and_write_the_same_bytes(monk
     fast = pages(add_text)
     assert shaped == [2 * 2 * 4]  # (size, weight, text): each laid out once in the file
     assert fast == pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
+
+
+def test_texts_copied_by_style_write_the_bytes_of_text_draw():
+    """add_text with a ``styles`` cache copies one text per style: the pages do not change."""
+    styles: dict = {}
+    fast = _pages(lambda fig, x, y, text, **style: add_text(fig, x, y, text, styles=styles, **style))
+    assert 0 < len(styles) <= 2 * 3 * 2 * 2  # family, size, weight, colour: one text made for each
+    assert fast == _pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))

@@ -14,6 +14,7 @@ import textwrap
 from functools import lru_cache
 
 import numpy as np
+from matplotlib import cbook
 from matplotlib.artist import Artist
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure, _stale_figure_callback
@@ -44,6 +45,7 @@ class Flow:
         self.pdf, self.footer = pdf, footer
         self.fig: Figure | None = None
         self._pending: list[Picture] = []  # figures of this page waiting for their pixels
+        self._styles: dict = {}  # the texts to copy (see add_text), under the rcParams of this Flow
         self.page = 0
         self.y = 0.0  # inches from the bottom of the page to the next free line
 
@@ -70,6 +72,7 @@ class Flow:
             size=7,
             color="#777777",
             family=SANS,
+            styles=self._styles,
         )
 
     def need(self, height: float) -> None:
@@ -93,7 +96,16 @@ class Flow:
 
     def _text(self, x: float, y: float, text: str, **style) -> None:
         style.setdefault("family", SANS)
-        add_text(self.fig, x / PAGE[0], y / PAGE[1], text, va="bottom", parse_math=False, **style)
+        add_text(
+            self.fig,
+            x / PAGE[0],
+            y / PAGE[1],
+            text,
+            va="bottom",
+            parse_math=False,
+            styles=self._styles,
+            **style,
+        )
 
     # -- text -------------------------------------------------------------------------------
 
@@ -292,15 +304,35 @@ class Picture(Artist):
 # -- layout helpers ---------------------------------------------------------------------------
 
 
-def add_text(fig: Figure, x: float, y: float, text: str, **style) -> PageText:
+def add_text(fig: Figure, x: float, y: float, text: str, *, styles: dict | None = None, **style) -> PageText:
     """``fig.text(x, y, text, **style)`` as a :class:`~matid.report.pdftext.PageText` (same place,
-    same bytes in the PDF, a fraction of the drawing time)."""
-    artist = PageText(x=x, y=y, text=text, transform=fig.transSubfigure, **style)
+    same bytes in the PDF, a fraction of the drawing time); ``styles``: texts made so far, by
+    style, to copy (made under the same rcParams, which fill in what a style leaves out)."""
+    artist = PageText(**style) if styles is None else _styled(styles, style)
+    artist._x, artist._y, artist._text = x, y, "" if text is None else str(text)
+    artist.set_transform(fig.transSubfigure)
     artist.set_figure(fig)
     artist.stale_callback = _stale_figure_callback
     fig.texts.append(artist)
     artist._remove_method = fig.texts.remove
     fig.stale = True
+    return artist
+
+
+def _styled(styles: dict, style: dict) -> PageText:
+    """A new PageText in ``style``: a copy of the one ``styles`` holds for it (Text.__init__
+    checks and sets each property, a tenth of the PDF's time for a report's lines), with its own
+    callbacks; the font properties, never changed after, are shared."""
+    try:
+        key = tuple(style.items())
+        template = styles.get(key)
+    except TypeError:  # an unhashable value: made as asked
+        return PageText(**style)
+    if template is None:
+        template = styles[key] = PageText(**style)
+    artist = PageText.__new__(PageText)
+    artist.__dict__.update(template.__dict__)
+    artist._callbacks = cbook.CallbackRegistry(signals=["pchanged"])
     return artist
 
 
