@@ -10,9 +10,10 @@ For one line, unrotated and aligned at its bottom left, the extent only sets the
 same floating-point expression matplotlib evaluates. :class:`PageText` gets the extent from the
 one raqm layout it draws with (the control boxes of its glyphs, cached per glyph and size) and
 writes the operators of ``RendererPdf.draw_text`` itself (one write per line), the font-subset
-lookups and raqm's layout of each distinct line cached per PDF file. Any other case (another renderer, several lines, rotation, other alignment, a path
-effect, a box, a link, the PDF core fonts) goes through ``Text.draw`` unchanged;
-tests/test_report.py compares pages drawn both ways byte for byte.
+lookups and raqm's layout of each distinct line cached per PDF file. Any other case (another
+renderer, several lines, rotation, other alignment, a path effect, a box, a link, the PDF core
+fonts) goes through ``Text.draw`` unchanged; tests/test_report_pdftext.py compares pages drawn
+both ways byte for byte.
 """
 
 from __future__ import annotations
