@@ -6,6 +6,7 @@ import dataclasses
 import io
 from datetime import datetime
 
+import matplotlib
 import matplotlib.image
 import numpy as np
 import PIL.Image
@@ -13,10 +14,11 @@ import pytest
 from matplotlib.backends.backend_pdf import PdfPages
 from test_report import bend_result, make_result
 
-from matid.report import layout, render_report
+from matid.report import imagejob, layout, render_report
+from matid.report import pdf as pdf_module
 from matid.report.figures import DPI, png_size
 from matid.report.imagejob import Pending
-from matid.report.images import rgba_pixels
+from matid.report.images import pdf_image, rgba_pixels
 
 pytestmark = pytest.mark.filterwarnings("ignore:Glyph .* missing from font")
 
@@ -99,3 +101,71 @@ def test_rgba_pixels_are_the_png_as_8_bit_rgba():
         if want.ndim == 2:
             want = np.stack([want] * 3, axis=-1)
         np.testing.assert_array_equal(pixels[..., : want.shape[-1]], want)
+
+
+class _Prepared:
+    """Stands in for a Pending whose child prepared the PDF image stream of its pixels."""
+
+    def __init__(self, rgba: np.ndarray) -> None:
+        self.rgba, self.asked = rgba, 0
+
+    def stream(self):
+        self.asked += 1
+        return pdf_image(self.rgba)
+
+
+def _image_pages(compression: int, prepare: bool) -> tuple[bytes, list[_Prepared]]:
+    """A page of PNGs (noise, a few colours, with transparency), their streams prepared or not."""
+    few = np.zeros((40, 60, 4), np.uint8)
+    few[..., 3], few[10:30, 20:40, :3] = 255, (200, 30, 90)
+    buffer = io.BytesIO()
+    prepared = []
+    pngs = [_png(300, 200, 1, "RGB"), _png(120, 80, 2, "RGBA"), PIL.Image.fromarray(few)]
+    with matplotlib.rc_context({"pdf.compression": compression}):
+        with PdfPages(buffer, metadata={"CreationDate": datetime(2024, 1, 1)}) as pdf:
+            flow = layout.Flow(pdf, footer="prepared")
+            if prepare:
+                pdf_module._prepared_images(pdf, flow)
+            flow.new_page()
+            for png in pngs:
+                if isinstance(png, PIL.Image.Image):
+                    out = io.BytesIO()
+                    png.save(out, format="png")
+                    png = out.getvalue()
+                flow.image(png, max_height=2.0)
+                picture = flow.fig.artists[-1]
+                if prepare:
+                    prepared.append(_Prepared(picture.rgba))
+                    flow.sources[id(picture.rgba)] = (picture.rgba, prepared[-1])
+            flow.close()
+    return buffer.getvalue(), prepared
+
+
+@pytest.mark.parametrize("compression", [6, 0])
+def test_prepared_image_streams_are_the_bytes_the_pdf_writes(compression):
+    plain, _ = _image_pages(compression, prepare=False)
+    fast, prepared = _image_pages(compression, prepare=True)
+    assert [p.asked for p in prepared] == [1, 1, 1]
+    assert [pdf_image(p.rgba) is None for p in prepared] == [False, True, False]  # transparency: a mask
+    assert fast == plain
+
+
+def test_the_report_uses_the_streams_the_child_prepared(monkeypatch):
+    """The child draws every figure (the parent steals none) and the PDF, asking for the streams
+    once the child is done, takes each one prepared: the same bytes as drawn in one process."""
+    result = dataclasses.replace(bend_result(), started="2024-11-26T10:00:00+01:00")
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: False)
+    want = render_report(result)
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    monkeypatch.setattr(imagejob.ImageJob, "_steal", lambda self, key: None)
+    used = []
+    real = imagejob.ImageJob.stream
+
+    def stream(self, key):
+        self._reader.join()  # the child has sent all it will send
+        used.append(real(self, key))
+        return used[-1]
+
+    monkeypatch.setattr(imagejob.ImageJob, "stream", stream)
+    assert render_report(result) == want
+    assert used and all(stream is not None for stream in used)

@@ -39,7 +39,7 @@ from matplotlib.figure import Figure
 
 from matid.report.content import KINDS, Report
 from matid.report.figures import DPI, FIT_SIZE, Drawing
-from matid.report.images import Image, Images, drawing_image, fit_image, rgba_pixels
+from matid.report.images import Image, Images, drawing_image, fit_image, pdf_image, rgba_pixels
 
 Key = tuple[str, int]  # block anchor, 0 for the fit plot or 1 + the index of a drawing
 
@@ -63,6 +63,10 @@ class Pending:
         if not image.png or (image.width, image.height) != (self.width, self.height):
             raise Relayout(f"figure {self.key}: {image.error or 'not the size predicted'}")
         return image.png
+
+    def stream(self) -> tuple | None:
+        """The PDF image stream of the pixels, if the child prepared it (see ImageJob.stream)."""
+        return self.job.stream(self.key)
 
     def pixels(self) -> np.ndarray:
         """The PNG's pixels as 8-bit RGBA; Relayout as :meth:`result`."""
@@ -95,6 +99,7 @@ class ImageJob:
                     self._tasks[(block.anchor, i)] = _drawing_task(drawing)
                     self._sizes[(block.anchor, i)] = drawing.size
         self._done: dict[Key, Image] = {}
+        self._streams: dict[Key, tuple] = {}  # the PDF image streams the child prepared (pdf_image)
         self._pixels: dict[Key, np.ndarray] = {}  # of the figures rendered, until the PDF takes them
         self._rc = matplotlib.rcParams.copy()  # the settings the figures are rendered with
         self._frames: dict[Key, tuple[bool, object]] = {}  # sent by the child, not yet taken
@@ -141,6 +146,11 @@ class ImageJob:
         offset, height, width = self._slots[key]
         data = np.frombuffer(self._canvas, np.uint8, height * width * 4, offset)  # type: ignore[arg-type]
         return data.reshape(height, width, 4)
+
+    def stream(self, key: Key) -> tuple | None:
+        """The PDF image stream of the figure's pixels if the child has sent it
+        (:func:`~matid.report.images.pdf_image`; handed out once)."""
+        return self._streams.pop(key, None)
 
     def _render_here(self, key: Key) -> None:
         with matplotlib.rc_context(self._rc):  # rendered as the child would, not in the PDF's settings
@@ -266,11 +276,20 @@ class ImageJob:
                 gc.disable()  # a short life: the parent's garbage is not worth copying pages for
                 os.close(read)
                 with os.fdopen(write, "wb") as out:
+                    placed = []
                     for i, (key, task) in enumerate(self._tasks.items()):
                         if self._claims[i]:  # the parent took it
                             continue
                         self._claims[i] = 1
-                        pickle.dump(self._place(*_sent(key, task)), out, protocol=pickle.HIGHEST_PROTOCOL)
+                        sent = self._place(*_sent(key, task))
+                        pickle.dump(sent, out, protocol=pickle.HIGHEST_PROTOCOL)
+                        out.flush()
+                        if sent[1] and sent[2][4]:  # type: ignore[index]
+                            placed.append(key)
+                    # then, while the parent draws its last pages, the PDF's encoding of them
+                    for key in placed:
+                        stream = (key, _STREAM, pdf_image(self._shared(key)))
+                        pickle.dump(stream, out, protocol=pickle.HIGHEST_PROTOCOL)
                         out.flush()
                 code = 0
             finally:
@@ -299,6 +318,10 @@ class ImageJob:
             with pipe:
                 while True:
                     key, ok, payload = pickle.load(pipe)
+                    if ok == _STREAM:
+                        if payload is not None:
+                            self._streams[key] = payload
+                        continue
                     with self._arrived:
                         self._frames[key] = (ok, payload)
                         self._arrived.notify_all()
@@ -315,6 +338,9 @@ class ImageJob:
             while key not in self._frames and self._open:
                 self._arrived.wait()
             return self._frames.pop(key, None)
+
+
+_STREAM = "stream"  # what the child sends after the figures: the PDF image streams of its pixels
 
 
 def _sent(key: Key, task) -> tuple[Key, bool, object]:

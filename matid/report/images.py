@@ -10,9 +10,11 @@ from __future__ import annotations
 import io
 from dataclasses import dataclass, field
 
+import matplotlib as mpl
 import numpy as np
 import PIL.Image
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.backends.backend_pdf import PdfFile
 from matplotlib.figure import Figure
 
 from matid.report.content import KINDS, Block, Report
@@ -106,3 +108,37 @@ def rgba_pixels(png: bytes) -> np.ndarray:
     which the PDF turns back into the same bytes)."""
     with PIL.Image.open(io.BytesIO(png)) as image:
         return np.asarray(image.convert("RGBA"))
+
+
+def pdf_image(rgba: np.ndarray) -> tuple | None:
+    """What matplotlib's PDF writer writes for an opaque image of these pixels (``PdfFile._writeImg``,
+    whose work depends on the pixels and ``pdf.compression`` alone): (pdf.compression, stream
+    dictionary, PNG parameters, data); None for pixels with transparency (written with a mask)."""
+    rgb, alpha = PdfFile._unpack(None, rgba)
+    if alpha is not None:
+        return None
+    capture = _Capture()
+    PdfFile._writeImg(capture, rgb, None)  # type: ignore[arg-type]
+    return mpl.rcParams["pdf.compression"], capture.extra, capture.png, b"".join(capture.data)
+
+
+class _Capture:
+    """Stands in for the PdfFile in ``PdfFile._writeImg``: keeps the stream it would write."""
+
+    _writePng = PdfFile._writePng  # noqa: N815 -- the name _writeImg calls
+
+    def __init__(self) -> None:
+        self.extra, self.png, self.data = None, None, []
+        self.currentstream = self
+
+    def reserveObject(self, name: str) -> None:  # noqa: N802 -- PdfFile's names
+        return None
+
+    def beginStream(self, id, len, extra=None, png=None) -> None:  # noqa: N802, A002
+        self.extra, self.png = extra, png
+
+    def write(self, data: bytes) -> None:
+        self.data.append(data)
+
+    def endStream(self) -> None:  # noqa: N802
+        pass

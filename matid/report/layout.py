@@ -45,6 +45,8 @@ class Flow:
         self.pdf, self.footer = pdf, footer
         self.fig: Figure | None = None
         self._pending: list[Picture] = []  # figures of this page waiting for their pixels
+        #: id of a figure's pixels -> (the pixels, their Pending), for the PDF's image streams (pdf.py)
+        self.sources: dict[int, tuple[np.ndarray, Pending]] = {}
         self._styles: dict = {}  # the texts to copy (see add_text), under the rcParams of this Flow
         self.page = 0
         self.y = 0.0  # inches from the bottom of the page to the next free line
@@ -90,6 +92,7 @@ class Flow:
         if self.fig is not None:
             for picture in self._pending:  # the pixels of the page's figures, waited for now
                 picture.fetch()
+                self.sources[id(picture.rgba)] = (picture.rgba, picture.png)
             self._pending.clear()
             self.pdf.savefig(self.fig)
             self.fig = None
