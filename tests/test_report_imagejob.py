@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from test_report import bend_result, make_result
 
-from matid.report import imagejob, layout, render_report
+from matid.report import imagejob, images, render_report
 from matid.report.content import build_report
 from matid.report.figures import FIT_SIZE, drawing_png, fit_figure, png_bytes, png_size
 from matid.report.html import render_html
@@ -280,7 +280,7 @@ def test_the_pdf_takes_the_pixels_the_figures_were_drawn_with(case, monkeypatch)
         return rgba_pixels(png)
 
     monkeypatch.setattr(imagejob, "rgba_pixels", counted)
-    monkeypatch.setattr(layout, "rgba_pixels", counted)
+    monkeypatch.setattr(images, "rgba_pixels", counted)
     monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
     assert render_report(result) == want
     assert decoded == given

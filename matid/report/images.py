@@ -2,20 +2,24 @@
 
 Drawing a figure costs more than placing it: the fit plots and the bend drawings are
 rendered here once, at :data:`~matid.report.figures.DPI`, and the HTML inlines the PNG
-while the PDF embeds the same pixels unresampled.
+while the PDF embeds the same pixels unresampled (:class:`Picture`, from the pixels the figure
+was drawn with where they were kept; :func:`pdf_image`, the PDF's encoding of them).
 """
 
 from __future__ import annotations
 
 import io
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import matplotlib as mpl
 import numpy as np
 import PIL.Image
+from matplotlib.artist import Artist
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.backends.backend_pdf import PdfFile
 from matplotlib.figure import Figure
+from matplotlib.transforms import Affine2D, Bbox, TransformedBbox
 
 from matid.report.content import KINDS, Block, Report
 from matid.report.figures import (
@@ -27,6 +31,9 @@ from matid.report.figures import (
     png_bytes,
     png_size,
 )
+
+if TYPE_CHECKING:
+    from matid.report.imagejob import Pending
 
 
 @dataclass(frozen=True)
@@ -108,6 +115,41 @@ def rgba_pixels(png: bytes) -> np.ndarray:
     which the PDF turns back into the same bytes)."""
     with PIL.Image.open(io.BytesIO(png)) as image:
         return np.asarray(image.convert("RGBA"))
+
+
+class Picture(Artist):
+    """A PNG filling ``rect`` (left, bottom, width, height in figure fractions), unresampled: the
+    PDF holds the PNG's own 8-bit RGBA pixels, scaled by the viewer. It writes what an Axes
+    showing the PNG with ``imshow(interpolation="none")``, axis off, wrote: the image clipped to
+    its box, without building an Axes (tests/test_report_pdfimage.py compares the two).
+    Only for renderers that scale images themselves (``option_scale_image``), as the PDF's does."""
+
+    def __init__(self, rect: tuple[float, float, float, float], png: bytes | Pending) -> None:
+        super().__init__()
+        self.rect, self.png = rect, png
+        self.rgba: np.ndarray | None = None
+
+    def fetch(self) -> None:
+        """The pixels, decoded now (for a Pending PNG: waited for; Relayout if it cannot be shown)."""
+        if self.rgba is None:
+            self.rgba = rgba_pixels(self.png) if isinstance(self.png, bytes) else self.png.pixels()
+
+    def draw(self, renderer) -> None:
+        if not self.get_visible():
+            return
+        if not renderer.option_scale_image():
+            raise TypeError(f"{type(renderer).__name__} does not scale images: draw the PNG with imshow")
+        self.fetch()
+        box = TransformedBbox(Bbox.from_bounds(*self.rect), self.get_figure(root=False).transSubfigure)
+        gc = renderer.new_gc()
+        gc.set_clip_rectangle(box)
+        gc.set_alpha(1.0)
+        x, y, width, height = box.bounds
+        # the unit square the PDF maps an image onto, flipped: its first row on top
+        flip = Affine2D(np.array([[width, 0.0, 0.0], [0.0, -height, height], [0.0, 0.0, 1.0]]))
+        renderer.draw_image(gc, x, y, self.rgba, flip)
+        gc.restore()
+        self.stale = False
 
 
 def pdf_image(rgba: np.ndarray) -> tuple | None:

@@ -15,19 +15,17 @@ from functools import lru_cache
 
 import numpy as np
 from matplotlib import cbook
-from matplotlib.artist import Artist
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure, _stale_figure_callback
 from matplotlib.font_manager import FontProperties
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 from matplotlib.textpath import TextToPath
-from matplotlib.transforms import Affine2D, Bbox, TransformedBbox
 
 from matid.report.content import Table
 from matid.report.figures import DPI, png_size
 from matid.report.imagejob import Pending
-from matid.report.images import rgba_pixels
+from matid.report.images import Picture
 from matid.report.pdftext import PageText
 
 PAGE = (8.27, 11.69)  # A4 portrait, inches
@@ -267,41 +265,6 @@ class Flow:
         else:
             picture.fetch()
         self.y -= height
-
-
-class Picture(Artist):
-    """A PNG filling ``rect`` (left, bottom, width, height in figure fractions), unresampled: the
-    PDF holds the PNG's own 8-bit RGBA pixels, scaled by the viewer. It writes what an Axes
-    showing the PNG with ``imshow(interpolation="none")``, axis off, wrote: the image clipped to
-    its box, without building an Axes (tests/test_report_pdfimage.py compares the two).
-    Only for renderers that scale images themselves (``option_scale_image``), as the PDF's does."""
-
-    def __init__(self, rect: tuple[float, float, float, float], png: bytes | Pending) -> None:
-        super().__init__()
-        self.rect, self.png = rect, png
-        self.rgba: np.ndarray | None = None
-
-    def fetch(self) -> None:
-        """The pixels, decoded now (for a Pending PNG: waited for; Relayout if it cannot be shown)."""
-        if self.rgba is None:
-            self.rgba = self.png.pixels() if isinstance(self.png, Pending) else rgba_pixels(self.png)
-
-    def draw(self, renderer) -> None:
-        if not self.get_visible():
-            return
-        if not renderer.option_scale_image():
-            raise TypeError(f"{type(renderer).__name__} does not scale images: draw the PNG with imshow")
-        self.fetch()
-        box = TransformedBbox(Bbox.from_bounds(*self.rect), self.get_figure(root=False).transSubfigure)
-        gc = renderer.new_gc()
-        gc.set_clip_rectangle(box)
-        gc.set_alpha(1.0)
-        x, y, width, height = box.bounds
-        # the unit square the PDF maps an image onto, flipped: its first row on top
-        flip = Affine2D(np.array([[width, 0.0, 0.0], [0.0, -height, height], [0.0, 0.0, 1.0]]))
-        renderer.draw_image(gc, x, y, self.rgba, flip)
-        gc.restore()
-        self.stale = False
 
 
 # -- layout helpers ---------------------------------------------------------------------------
