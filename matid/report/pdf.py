@@ -3,7 +3,8 @@
 A title page (header, summary table, warnings), then one part per test-kind section (the
 same plots as the HTML report and the same tables) and the provenance.
 Pages are laid out by :class:`matid.report.layout.Flow`. Figures are the PNGs rendered once
-for both documents (:mod:`matid.report.images`); fonts are embedded (Type 3 with a ToUnicode
+for both documents (:mod:`matid.report.images`; their image streams encoded by the process
+that drew them where it could, :func:`_prepared_images`); fonts are embedded (Type 3 with a ToUnicode
 map), so the text can be searched and extracted.
 """
 
@@ -56,8 +57,8 @@ def _prepared_images(pdf: PdfPages, flow: Flow) -> None:
     """Let the PDF write the image streams the image job's child prepared for its figures
     (:func:`matid.report.images.pdf_image`, the bytes ``PdfFile._writeImg`` writes) instead of
     encoding their pixels again when it closes; the other images as ``PdfFile.writeImages`` does."""
-    file = pdf._ensure_file()
-    if not all(hasattr(file, name) for name in ("_images", "_unpack", "_writeImg", "writeImages")):
+    file = pdf._ensure_file() if hasattr(pdf, "_ensure_file") else None
+    if file is None or not all(hasattr(file, n) for n in ("_images", "_unpack", "_writeImg", "writeImages")):
         return  # another matplotlib: it writes every image itself
 
     def write_images() -> None:
