@@ -158,8 +158,8 @@ def test_repr_cache_is_bounded(monkeypatch):
 
 @pytest.mark.skipif(not pdftext.SUPPORTED, reason="matplotlib < 3.11: every line goes through Text.draw")
 def test_repeated_lines_are_laid_out_once_per_file_and_write_the_same_bytes(monkeypatch):
-    """A line drawn again (another page, place, colour) reuses its raqm layout, per font and size."""
-    monkeypatch.setattr(pdftext, "_SHAPED", weakref.WeakKeyDictionary())
+    """A line drawn again (another page, place, colour) reuses its layout and operators, per font and size."""
+    monkeypatch.setattr(pdftext, "_LINES", weakref.WeakKeyDictionary())
     shaped = []
 
     def pages(draw) -> bytes:
@@ -175,7 +175,7 @@ def test_repeated_lines_are_laid_out_once_per_file_and_write_the_same_bytes(monk
                             draw(fig, 0.05 + 0.01 * page, y, text, va="bottom", parse_math=False, **style)
                             y -= 0.02
                 pdf.savefig(fig)
-            shaped.extend(len(cache) for cache in pdftext._SHAPED.values())
+            shaped.extend(len(cache) for cache in pdftext._LINES.values())
         return buffer.getvalue()
 
     fast = pages(add_text)

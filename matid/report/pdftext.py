@@ -10,7 +10,7 @@ For one line, unrotated and aligned at its bottom left, the extent only sets the
 same floating-point expression matplotlib evaluates. :class:`PageText` gets the extent from the
 one raqm layout it draws with (the control boxes of its glyphs, cached per glyph and size) and
 writes the operators of ``RendererPdf.draw_text`` itself (one write per line), the font-subset
-lookups and raqm's layout of each distinct line cached per PDF file. Any other case (another
+lookups and each distinct line's layout and operators cached per PDF file. Any other case (another
 renderer, several lines, rotation, other alignment, a path effect, a box, a link, the PDF core
 fonts) goes through ``Text.draw`` unchanged; tests/test_report_pdftext.py compares pages drawn
 both ways byte for byte.
@@ -113,7 +113,37 @@ def draw_line(renderer: RendererPdf, gc, x: float, bottom: float, s: str, prop, 
     min_ascent, min_descent = extent
     font = renderer._get_font_ttf(prop)  # sized to prop
     size = prop.get_size_in_points()
-    items = _monospaced(font, s, size) or _shaped(renderer, font, s, size)
+    fonttype = mpl.rcParams["pdf.fonttype"]
+    drawn = _LINES.setdefault(renderer.file, {})
+    key = (font, size, fonttype, s)  # the font object itself: the items refer to it (and its fallbacks)
+    if key not in drawn:
+        items = _monospaced(font, s, size) or list(
+            font._layout(s, LoadFlags.NO_HINTING, features=None, language=None)
+        )
+        drawn[key] = (*_ybox(items, size), _body(renderer, items, size, fonttype))
+    y_min, y_max, body = drawn[key]
+    h, d = (y_max - y_min) / 64, -y_min / 64
+    # Text._get_layout for one line with linespacing "normal", then the bottom alignment
+    a = max(h - d, min_ascent)
+    d = max(d, min_descent)
+    top = 0.0
+    top -= a
+    y = bottom + (top - (top - d))
+    renderer.check_gc(gc, gc._rgb)
+    renderer.file.write(_GSAVE + _fill([*_UNROTATED, pdfRepr(x), pdfRepr(y), _CM]) + b"\n" + body)
+    return True
+
+
+#: Per PDF file: (font, size, pdf.fonttype, text) -> the line's box (bottom, top in 1/64 point)
+#: and its text operators after the position; a third of the report's lines repeat one drawn
+#: before (a header, the footer of every page, a table's header row).
+_LINES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _ybox(items, size: float) -> tuple[int, int]:
+    """Bottom and top of the glyphs' control boxes, as ``FT2Font.set_text`` unites them."""
+    if not items:
+        return 0, 0
     y_min, y_max = 32000, -32000  # FT2Font.set_text's empty box, in 1/64 point
     boxes, boxes_ft = {}, None
     for item in items:
@@ -127,27 +157,16 @@ def draw_line(renderer: RendererPdf, gc, x: float, bottom: float, s: str, prop, 
             y_min = box[0]
         if box[1] > y_max:
             y_max = box[1]
-    if not items:
-        y_min = y_max = 0
-    h, d = (y_max - y_min) / 64, -y_min / 64
-    # Text._get_layout for one line with linespacing "normal", then the bottom alignment
-    a = max(h - d, min_ascent)
-    d = max(d, min_descent)
-    top = 0.0
-    top -= a
-    _emit(renderer, gc, x, bottom + (top - (top - d)), items, size)
-    return True
+    return y_min, y_max
 
 
-def _emit(renderer: RendererPdf, gc, x: float, y: float, items, fontsize: float) -> None:
-    """The text operators of ``RendererPdf.draw_text`` (TrueType/Type 3 branch, angle 0): each
-    ``PdfFile.output`` call's line (``_fill`` of the pdfRepr of its operands, then a newline),
-    written to the page's stream at once."""
-    renderer.check_gc(gc, gc._rgb)
+def _body(renderer: RendererPdf, items, fontsize: float, fonttype: int) -> bytes:
+    """The text operators of ``RendererPdf.draw_text`` (TrueType/Type 3 branch, angle 0) after
+    the position: each ``PdfFile.output`` call's line (``_fill`` of the pdfRepr of its operands,
+    then a newline). The glyphs are tracked for the file's font subsets here."""
     file = renderer.file
-    fonttype = mpl.rcParams["pdf.fonttype"]
     tracked = _TRACKED.setdefault(file, {})
-    lines = [_GSAVE, _fill([*_UNROTATED, pdfRepr(x), pdfRepr(y), _CM]) + b"\n", _BEGIN]
+    lines = [_BEGIN]
     values: list = []  # the TJ array: glyph strings and the kerns between them
     codes: list[int] = []  # glyph codes of the string not yet in it
 
@@ -194,10 +213,10 @@ def _emit(renderer: RendererPdf, gc, x: float, y: float, items, fontsize: float)
             lines.append(_RISE0)
     flush()
     lines.append(_END)
-    file.write(b"".join(lines))
+    return b"".join(lines)
 
 
-#: The operators and constant operands _emit writes, as PdfFile.output writes them.
+#: The operators and constant operands draw_line writes, as PdfFile.output writes them.
 _GSAVE, _BEGIN = Op.gsave.value + b"\n", Op.begin_text.value + b"\n"
 _END = Op.end_text.value + b"\n" + Op.grestore.value + b"\n"
 _CM, _TF, _TD, _TS, _TJ = (
@@ -206,20 +225,6 @@ _CM, _TF, _TD, _TS, _TJ = (
 _UNROTATED = [pdfRepr(v) for v in (math.cos(0.0), math.sin(0.0), -math.sin(0.0), math.cos(0.0))]
 _ZERO = pdfRepr(0 - 0)  # the y of RendererPdf._setup_textpos: 0 - 0
 _RISE0 = _fill([pdfRepr(0), _TS]) + b"\n"
-
-
-#: Per PDF file: (font, size, text) -> raqm's items (half the report's lines in a proportional
-#: font repeat one drawn before: a header, the footer of every page, a table's header row).
-_SHAPED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _shaped(renderer: RendererPdf, font, s: str, size: float) -> list:
-    """raqm's layout of ``s`` in ``font`` at ``size`` points, laid out once per PDF file."""
-    shaped = _SHAPED.setdefault(renderer.file, {})
-    key = (font, size, s)  # the font object itself: the items refer to it (and its fallbacks)
-    if key not in shaped:
-        shaped[key] = list(font._layout(s, LoadFlags.NO_HINTING, features=None, language=None))
-    return shaped[key]
 
 
 #: pdfRepr of the kerns and glyph strings met so far (a table row repeats a few of them);
