@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import io
+import itertools
 import weakref
 from datetime import datetime
 
@@ -168,18 +169,18 @@ def test_repeated_lines_are_laid_out_once_per_file_and_write_the_same_bytes(monk
             for page in range(3):
                 fig = Figure(figsize=(8.27, 11.69))
                 y = 0.95
-                for size in (7.5, 8.5, 7.5):
-                    for weight in ("normal", "bold"):
-                        for text in STRINGS[:4]:
-                            style = {"family": SANS, "size": size, "weight": weight, "color": "kr"[page % 2]}
-                            draw(fig, 0.05 + 0.01 * page, y, text, va="bottom", parse_math=False, **style)
-                            y -= 0.02
+                styles = itertools.product((SANS, MONO), (7.5, 8.5, 7.5), ("normal", "bold"))
+                for family, size, weight in styles:
+                    for text in STRINGS[:4]:
+                        style = {"family": family, "size": size, "weight": weight, "color": "kr"[page % 2]}
+                        draw(fig, 0.05 + 0.01 * page, y, text, va="bottom", parse_math=False, **style)
+                        y -= 0.01
                 pdf.savefig(fig)
             shaped.extend(len(cache) for cache in pdftext._LINES.values())
         return buffer.getvalue()
 
     fast = pages(add_text)
-    assert shaped == [2 * 2 * 4]  # (size, weight, text): each laid out once in the file
+    assert shaped == [2 * 2 * 2 * 4]  # (family, size, weight, text): each laid out once in the file
     assert fast == pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
 
 
