@@ -5,14 +5,15 @@ from __future__ import annotations
 import dataclasses
 import os
 
+import numpy as np
 import pytest
 from test_report import bend_result, make_result
 
-from matid.report import imagejob, render_report
+from matid.report import imagejob, images, render_report
 from matid.report.content import build_report
 from matid.report.figures import FIT_SIZE, drawing_png, fit_figure, png_bytes, png_size
 from matid.report.html import render_html
-from matid.report.images import render_images
+from matid.report.images import drawing_image, fit_image, render_images, rgba_pixels
 from matid.report.pdf import render_pdf
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
@@ -263,3 +264,41 @@ def test_close_stops_a_child_that_is_still_rendering(monkeypatch, pidfd):
     assert time.monotonic() - started < 60
     assert sent == ["pidfd_send_signal" if pidfd else "kill"]
     assert _fds() == fds
+
+
+def test_the_pdf_takes_the_pixels_the_figures_were_drawn_with(case, monkeypatch):
+    """With the child, no figure's PNG is decoded for the PDF (only the PNGs a fit hands in,
+    ``info["figures"]``): the pixels come from drawing the figure, through the shared canvas
+    from the child, and the bytes are the sequential ones."""
+    result, want = case
+    report = build_report(result, "SI")
+    given = [e.png for s in report.sections for b in s.blocks for e in b.extras if e.png]
+    decoded = []
+
+    def counted(png):
+        decoded.append(png)
+        return rgba_pixels(png)
+
+    monkeypatch.setattr(imagejob, "rgba_pixels", counted)
+    monkeypatch.setattr(images, "rgba_pixels", counted)
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: True)
+    assert render_report(result) == want
+    assert decoded == given
+    monkeypatch.setattr(imagejob, "_can_fork", lambda: False)  # figures given to the PDF as PNG
+    assert render_report(result) == want
+    assert len(decoded) > 2 * len(given)
+
+
+def test_kept_pixels_are_the_decoded_png():
+    report = build_report(_result(bend_result), "SI")
+    blocks = [b for s in report.sections for b in s.blocks]
+    drawings = [d for b in blocks for d in b.drawings]
+    assert drawings
+    for drawing in drawings:
+        image = drawing_image(drawing, pixels=True)
+        assert image.png == drawing_png(drawing) and drawing_image(drawing).pixels is None
+        np.testing.assert_array_equal(image.pixels, rgba_pixels(image.png))
+    block = next(b for b in blocks if b.plot)
+    image = fit_image(block, "SI", "Three-point bend", pixels=True)
+    assert image.png == fit_image(block, "SI", "Three-point bend").png
+    np.testing.assert_array_equal(image.pixels, rgba_pixels(image.png))

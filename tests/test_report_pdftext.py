@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import io
+import itertools
+import weakref
 from datetime import datetime
 
 import pytest
@@ -118,23 +120,6 @@ def test_report_pdf_is_the_same_with_matplotlib_text(monkeypatch, make):
     assert fast == slow
 
 
-def test_figures_go_in_as_the_pixels_imread_gives(monkeypatch):
-    """The PNGs are placed as 8-bit RGBA: the PDF holds the bytes it held with imread's floats."""
-    import matplotlib.image
-
-    from matid.report import layout
-
-    result = dataclasses.replace(bend_result(), started="2024-11-26T10:00:00+01:00")
-    fast = render_report(result)["report.pdf"]
-
-    def with_imread(ax, png):
-        ax.imshow(matplotlib.image.imread(io.BytesIO(png), format="png"), interpolation="none")
-        ax.set_axis_off()
-
-    monkeypatch.setattr(layout, "_show", with_imread)
-    assert render_report(result)["report.pdf"] == fast
-
-
 def test_monospaced_layout_is_raqms():
     """Table rows in DejaVu Sans Mono are laid out without raqm: the same glyphs, positions and kerns."""
     import random
@@ -170,3 +155,38 @@ def test_repr_cache_is_bounded(monkeypatch):
     monkeypatch.setattr(pdftext, "_REPR", {})
     assert _pages(add_text) == _pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
     assert len(pdftext._REPR) <= 3
+
+
+@pytest.mark.skipif(not pdftext.SUPPORTED, reason="matplotlib < 3.11: every line goes through Text.draw")
+def test_repeated_lines_are_laid_out_once_per_file_and_write_the_same_bytes(monkeypatch):
+    """A line drawn again (another page, place, colour) reuses its layout and operators, per font and size."""
+    monkeypatch.setattr(pdftext, "_LINES", weakref.WeakKeyDictionary())
+    shaped = []
+
+    def pages(draw) -> bytes:
+        buffer = io.BytesIO()
+        with PdfPages(buffer, metadata={"CreationDate": datetime(2024, 1, 1)}) as pdf:
+            for page in range(3):
+                fig = Figure(figsize=(8.27, 11.69))
+                y = 0.95
+                styles = itertools.product((SANS, MONO), (7.5, 8.5, 7.5), ("normal", "bold"))
+                for family, size, weight in styles:
+                    for text in STRINGS[:4]:
+                        style = {"family": family, "size": size, "weight": weight, "color": "kr"[page % 2]}
+                        draw(fig, 0.05 + 0.01 * page, y, text, va="bottom", parse_math=False, **style)
+                        y -= 0.01
+                pdf.savefig(fig)
+            shaped.extend(len(cache) for cache in pdftext._LINES.values())
+        return buffer.getvalue()
+
+    fast = pages(add_text)
+    assert shaped == [2 * 2 * 2 * 4]  # (family, size, weight, text): each laid out once in the file
+    assert fast == pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))
+
+
+def test_texts_copied_by_style_write_the_bytes_of_text_draw():
+    """add_text with a ``styles`` cache copies one text per style: the pages do not change."""
+    styles: dict = {}
+    fast = _pages(lambda fig, x, y, text, **style: add_text(fig, x, y, text, styles=styles, **style))
+    assert 0 < len(styles) <= 2 * 3 * 2 * 2  # family, size, weight, colour: one text made for each
+    assert fast == _pages(lambda fig, x, y, text, **style: fig.text(x, y, text, **style))

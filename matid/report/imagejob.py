@@ -9,7 +9,8 @@ and the dpi alone) and needs the pixels only when it saves that figure's page; r
 wait for them it renders figures the child has not begun, from the end of the list. The HTML
 page then takes the same PNGs: each figure is still rendered once (twice at most when both
 sides claim it at the same instant), and the bytes are those
-:func:`matid.report.images.render_images` gives.
+:func:`matid.report.images.render_images` gives. The pixels each figure was drawn with go to
+the PDF through shared memory laid out at the predicted sizes (no PNG is decoded for it).
 
 Where the pixels turn out not to fit the place kept for them (a drawing that could not be
 drawn, whose page shows the reason instead, or a size other than predicted), the PDF is
@@ -33,11 +34,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import matplotlib
+import numpy as np
 from matplotlib.figure import Figure
 
 from matid.report.content import KINDS, Report
 from matid.report.figures import DPI, FIT_SIZE, Drawing
-from matid.report.images import Image, Images, drawing_image, fit_image
+from matid.report.images import Image, Images, drawing_image, fit_image, pdf_image, rgba_pixels
 
 Key = tuple[str, int]  # block anchor, 0 for the fit plot or 1 + the index of a drawing
 
@@ -61,6 +63,15 @@ class Pending:
         if not image.png or (image.width, image.height) != (self.width, self.height):
             raise Relayout(f"figure {self.key}: {image.error or 'not the size predicted'}")
         return image.png
+
+    def stream(self) -> tuple | None:
+        """The PDF image stream of the pixels, if the child prepared it (see ImageJob.stream)."""
+        return self.job.stream(self.key)
+
+    def pixels(self) -> np.ndarray:
+        """The PNG's pixels as 8-bit RGBA; Relayout as :meth:`result`."""
+        self.result()
+        return self.job.pixels(self.key)
 
 
 def pixels(size: tuple[float, float], dpi: float = DPI) -> tuple[int, int]:
@@ -88,6 +99,8 @@ class ImageJob:
                     self._tasks[(block.anchor, i)] = _drawing_task(drawing)
                     self._sizes[(block.anchor, i)] = drawing.size
         self._done: dict[Key, Image] = {}
+        self._streams: dict[Key, tuple] = {}  # the PDF image streams the child prepared (pdf_image)
+        self._pixels: dict[Key, np.ndarray] = {}  # of the figures rendered, until the PDF takes them
         self._rc = matplotlib.rcParams.copy()  # the settings the figures are rendered with
         self._frames: dict[Key, tuple[bool, object]] = {}  # sent by the child, not yet taken
         self._arrived = threading.Condition()
@@ -95,6 +108,8 @@ class ImageJob:
         self._pid, self._reader = 0, None
         self._order = list(self._tasks)  # the order the child renders in
         self._claims: mmap.mmap | None = None
+        self._canvas: mmap.mmap | None = None  # the child's pixels, shared (see _slots)
+        self._slots: dict[Key, tuple[int, int, int]] = {}  # key -> offset, height, width in _canvas
         self._pidfd = -1  # the child's, where the kernel has pidfds
         if (_can_fork() if fork is None else fork) and self._tasks:
             self._start()
@@ -109,7 +124,10 @@ class ImageJob:
             sent = self._take(key)
             meta = self._tasks[key].meta  # type: ignore[attr-defined]
             if sent is not None and sent[0]:
-                png, width, height = sent[1]  # type: ignore[misc]
+                png, width, height, rgba, shared = sent[1]  # type: ignore[misc]
+                rgba = self._shared(key) if shared else rgba
+                if rgba is not None:
+                    self._pixels[key] = rgba
                 self._done[key] = replace(meta, png=png, width=width, height=height)
             elif sent is not None and key[1] > 0:  # a drawing that could not be drawn: shown as such
                 self._done[key] = replace(meta, png=b"", width=0, height=0, error=sent[1])
@@ -117,9 +135,29 @@ class ImageJob:
                 self._render_here(key)
         return self._done[key]
 
+    def pixels(self, key: Key) -> np.ndarray:
+        """The pixels of the figure of ``key`` as 8-bit RGBA: those it was drawn with (handed out
+        once: the PDF keeps them), else decoded from its PNG."""
+        pixels = self._pixels.pop(key, None)
+        return rgba_pixels(self.image(key).png) if pixels is None else pixels
+
+    def _shared(self, key: Key) -> np.ndarray:
+        """The pixels the child left in the shared canvas for ``key`` (a view, not a copy)."""
+        offset, height, width = self._slots[key]
+        data = np.frombuffer(self._canvas, np.uint8, height * width * 4, offset)  # type: ignore[arg-type]
+        return data.reshape(height, width, 4)
+
+    def stream(self, key: Key) -> tuple | None:
+        """The PDF image stream of the figure's pixels if the child has sent it
+        (:func:`~matid.report.images.pdf_image`; handed out once)."""
+        return self._streams.pop(key, None)
+
     def _render_here(self, key: Key) -> None:
         with matplotlib.rc_context(self._rc):  # rendered as the child would, not in the PDF's settings
-            self._done[key] = self._tasks[key]()
+            image = self._tasks[key]()
+        if image.pixels is not None:
+            self._pixels[key] = image.pixels
+        self._done[key] = replace(image, pixels=None)
 
     def _steal(self, key: Key) -> None:
         """Rather than wait for ``key``: render it here if the child has not begun it, else render
@@ -187,6 +225,7 @@ class ImageJob:
             if self._claims is not None:
                 self._claims.close()
                 self._claims = None
+            self._canvas = None  # unmapped when the last view of it (the PDF's pixels) goes
 
     def _collect(self, get: Callable[[Key], Image]) -> Images:
         plots: dict[str, Image] = {}
@@ -203,6 +242,14 @@ class ImageJob:
     def _start(self) -> None:
         """Fork the child; where that fails (a process or file limit), leave every figure to this process."""
         claims = mmap.mmap(-1, len(self._order))  # shared with the child: 0 free, 1 child's, 2 ours
+        # the figures' pixels, at the sizes predicted: sent through the pipe they would keep the
+        # child waiting for this process's reader thread (which needs the GIL the PDF holds)
+        offset = 0
+        for key in self._order:
+            width, height = pixels(self._sizes[key])
+            self._slots[key] = (offset, height, width)
+            offset += width * height * 4
+        canvas = mmap.mmap(-1, max(offset, 1))  # pages are only taken as the child writes them
         try:
             read, write = os.pipe()
         except OSError:
@@ -222,18 +269,27 @@ class ImageJob:
             os.close(write)
             claims.close()
             return
-        self._claims = claims
+        self._claims, self._canvas = claims, canvas
         if pid == 0:  # the child: render, send, leave without running the parent's exit handlers
             code = 1
             try:
                 gc.disable()  # a short life: the parent's garbage is not worth copying pages for
                 os.close(read)
                 with os.fdopen(write, "wb") as out:
+                    placed = []
                     for i, (key, task) in enumerate(self._tasks.items()):
                         if self._claims[i]:  # the parent took it
                             continue
                         self._claims[i] = 1
-                        pickle.dump(_sent(key, task), out, protocol=pickle.HIGHEST_PROTOCOL)
+                        sent = self._place(*_sent(key, task))
+                        pickle.dump(sent, out, protocol=pickle.HIGHEST_PROTOCOL)
+                        out.flush()
+                        if sent[1] and sent[2][4]:  # type: ignore[index]
+                            placed.append(key)
+                    # then, while the parent draws its last pages, the PDF's encoding of them
+                    for key in placed:
+                        stream = (key, _STREAM, pdf_image(self._shared(key)))
+                        pickle.dump(stream, out, protocol=pickle.HIGHEST_PROTOCOL)
                         out.flush()
                 code = 0
             finally:
@@ -246,11 +302,26 @@ class ImageJob:
         self._reader = threading.Thread(target=self._drain, args=(os.fdopen(read, "rb"),), daemon=True)
         self._reader.start()
 
+    def _place(self, key: Key, ok: bool, payload: object) -> tuple[Key, bool, object]:
+        """In the child: a figure's pixels put in the shared canvas if they have the size kept
+        for them (else sent with the PNG)."""
+        if ok:
+            png, width, height, rgba = payload  # type: ignore[misc]
+            if rgba is not None and rgba.shape == self._slots[key][1:] + (4,):
+                self._shared(key)[:] = rgba
+                return key, ok, (png, width, height, None, True)
+            return key, ok, (png, width, height, rgba, False)
+        return key, ok, payload
+
     def _drain(self, pipe) -> None:
         try:
             with pipe:
                 while True:
                     key, ok, payload = pickle.load(pipe)
+                    if ok == _STREAM:
+                        if payload is not None:
+                            self._streams[key] = payload
+                        continue
                     with self._arrived:
                         self._frames[key] = (ok, payload)
                         self._arrived.notify_all()
@@ -269,6 +340,9 @@ class ImageJob:
             return self._frames.pop(key, None)
 
 
+_STREAM = "stream"  # what the child sends after the figures: the PDF image streams of its pixels
+
+
 def _sent(key: Key, task) -> tuple[Key, bool, object]:
     try:
         image = task()
@@ -276,7 +350,7 @@ def _sent(key: Key, task) -> tuple[Key, bool, object]:
         return key, False, f"{type(exc).__name__}: {exc}"
     if not image.png:
         return key, False, image.error
-    return key, True, (image.png, image.width, image.height)
+    return key, True, (image.png, image.width, image.height, image.pixels)
 
 
 class _Task:
@@ -291,12 +365,13 @@ class _Task:
 
 def _fit_task(block, units: str, title: str) -> _Task:
     image = fit_image(block, units, title, png=False)
-    return _Task(lambda: fit_image(block, units, title), image)
+    return _Task(lambda: fit_image(block, units, title, pixels=True), image)
 
 
 def _drawing_task(drawing: Drawing) -> _Task:
     return _Task(
-        lambda: drawing_image(drawing), Image(b"", 0, 0, drawing.alt, drawing.caption, drawing.title)
+        lambda: drawing_image(drawing, pixels=True),
+        Image(b"", 0, 0, drawing.alt, drawing.caption, drawing.title),
     )
 
 

@@ -10,12 +10,11 @@ Positions are in inches from the bottom left of the page.
 
 from __future__ import annotations
 
-import io
 import textwrap
 from functools import lru_cache
 
 import numpy as np
-import PIL.Image
+from matplotlib import cbook
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure, _stale_figure_callback
 from matplotlib.font_manager import FontProperties
@@ -26,6 +25,7 @@ from matplotlib.textpath import TextToPath
 from matid.report.content import Table
 from matid.report.figures import DPI, png_size
 from matid.report.imagejob import Pending
+from matid.report.images import Picture
 from matid.report.pdftext import PageText
 
 PAGE = (8.27, 11.69)  # A4 portrait, inches
@@ -42,7 +42,10 @@ class Flow:
     def __init__(self, pdf: PdfPages, *, footer: str) -> None:
         self.pdf, self.footer = pdf, footer
         self.fig: Figure | None = None
-        self._pending: list[tuple[object, Pending]] = []  # axes of this page waiting for a PNG
+        self._pending: list[Picture] = []  # figures of this page waiting for their pixels
+        #: id of a figure's pixels -> (the pixels, their Pending), for the PDF's image streams (pdf.py)
+        self.sources: dict[int, tuple[np.ndarray, Pending]] = {}
+        self._styles: dict = {}  # the texts to copy (see add_text), under the rcParams of this Flow
         self.page = 0
         self.y = 0.0  # inches from the bottom of the page to the next free line
 
@@ -69,6 +72,7 @@ class Flow:
             size=7,
             color="#777777",
             family=SANS,
+            styles=self._styles,
         )
 
     def need(self, height: float) -> None:
@@ -84,15 +88,25 @@ class Flow:
 
     def _finish(self) -> None:
         if self.fig is not None:
-            for ax, png in self._pending:  # the pixels of the page's figures, waited for now
-                _show(ax, png.result())
+            for picture in self._pending:  # the pixels of the page's figures, waited for now
+                picture.fetch()
+                self.sources[id(picture.rgba)] = (picture.rgba, picture.png)
             self._pending.clear()
             self.pdf.savefig(self.fig)
             self.fig = None
 
     def _text(self, x: float, y: float, text: str, **style) -> None:
         style.setdefault("family", SANS)
-        add_text(self.fig, x / PAGE[0], y / PAGE[1], text, va="bottom", parse_math=False, **style)
+        add_text(
+            self.fig,
+            x / PAGE[0],
+            y / PAGE[1],
+            text,
+            va="bottom",
+            parse_math=False,
+            styles=self._styles,
+            **style,
+        )
 
     # -- text -------------------------------------------------------------------------------
 
@@ -242,36 +256,49 @@ class Flow:
             width, height = width * max_height / height, max_height
         self.need(height)
         left = MARGIN_X + (self.width - width) / 2
-        ax = self.fig.add_axes(
-            (left / PAGE[0], (self.y - height) / PAGE[1], width / PAGE[0], height / PAGE[1])
+        picture = Picture(
+            (left / PAGE[0], (self.y - height) / PAGE[1], width / PAGE[0], height / PAGE[1]), png
         )
+        self.fig.add_artist(picture)
         if isinstance(png, Pending):
-            self._pending.append((ax, png))
+            self._pending.append(picture)
         else:
-            _show(ax, png)
+            picture.fetch()
         self.y -= height
-
-
-def _show(ax, png: bytes) -> None:
-    # unresampled: the PDF holds the PNG's own pixels, scaled by the viewer
-    # as 8-bit RGBA (imread would make floats of it, which the PDF turns back into the same bytes)
-    with PIL.Image.open(io.BytesIO(png)) as image:
-        ax.imshow(np.asarray(image.convert("RGBA")), interpolation="none")
-    ax.set_axis_off()
 
 
 # -- layout helpers ---------------------------------------------------------------------------
 
 
-def add_text(fig: Figure, x: float, y: float, text: str, **style) -> PageText:
+def add_text(fig: Figure, x: float, y: float, text: str, *, styles: dict | None = None, **style) -> PageText:
     """``fig.text(x, y, text, **style)`` as a :class:`~matid.report.pdftext.PageText` (same place,
-    same bytes in the PDF, a fraction of the drawing time)."""
-    artist = PageText(x=x, y=y, text=text, transform=fig.transSubfigure, **style)
+    same bytes in the PDF, a fraction of the drawing time); ``styles``: texts made so far, by
+    style, to copy (made under the same rcParams, which fill in what a style leaves out)."""
+    artist = PageText(**style) if styles is None else _styled(styles, style)
+    artist._x, artist._y, artist._text = x, y, "" if text is None else str(text)
+    artist.set_transform(fig.transSubfigure)
     artist.set_figure(fig)
     artist.stale_callback = _stale_figure_callback
     fig.texts.append(artist)
     artist._remove_method = fig.texts.remove
     fig.stale = True
+    return artist
+
+
+def _styled(styles: dict, style: dict) -> PageText:
+    """A new PageText in ``style``: a copy of the one ``styles`` holds for it (Text.__init__
+    checks and sets each property, a tenth of the PDF's time for a report's lines), with its own
+    callbacks; the font properties, never changed after, are shared."""
+    try:
+        key = tuple(style.items())
+        template = styles.get(key)
+    except TypeError:  # an unhashable value: made as asked
+        return PageText(**style)
+    if template is None:
+        template = styles[key] = PageText(**style)
+    artist = PageText.__new__(PageText)
+    artist.__dict__.update(template.__dict__)
+    artist._callbacks = cbook.CallbackRegistry(signals=["pchanged"])
     return artist
 
 

@@ -3,7 +3,8 @@
 A title page (header, summary table, warnings), then one part per test-kind section (the
 same plots as the HTML report and the same tables) and the provenance.
 Pages are laid out by :class:`matid.report.layout.Flow`. Figures are the PNGs rendered once
-for both documents (:mod:`matid.report.images`); fonts are embedded (Type 3 with a ToUnicode
+for both documents (:mod:`matid.report.images`; their image streams encoded by the process
+that drew them where it could, :func:`_prepared_images`); fonts are embedded (Type 3 with a ToUnicode
 map), so the text can be searched and extracted.
 """
 
@@ -43,12 +44,42 @@ def render_pdf(report: Report, images: Images | None = None) -> bytes:
         metadata["CreationDate"] = when.astimezone(UTC) if when.tzinfo else when
     with matplotlib.rc_context(RC), PdfPages(buffer, metadata=metadata) as pdf:
         flow = Flow(pdf, footer=f"{report.study} · matid {report.matid_version}")
+        _prepared_images(pdf, flow)
         _title_page(flow, report)
         for section in report.sections:
             _section(flow, section, images)
         _provenance(flow, report)
         flow.close()
     return buffer.getvalue()
+
+
+def _prepared_images(pdf: PdfPages, flow: Flow) -> None:
+    """Let the PDF write the image streams the image job's child prepared for its figures
+    (:func:`matid.report.images.pdf_image`, the bytes ``PdfFile._writeImg`` writes) instead of
+    encoding their pixels again when it closes; the other images as ``PdfFile.writeImages`` does."""
+    file = pdf._ensure_file() if hasattr(pdf, "_ensure_file") else None
+    if file is None or not all(hasattr(file, n) for n in ("_images", "_unpack", "_writeImg", "writeImages")):
+        return  # another matplotlib: it writes every image itself
+
+    def write_images() -> None:
+        compression = matplotlib.rcParams["pdf.compression"]
+        for img, _name, ob in file._images.values():
+            source = flow.sources.get(id(img))
+            prepared = source[1].stream() if source is not None and source[0] is img else None
+            if prepared is not None and prepared[0] == compression:
+                _, extra, png, data = prepared
+                file.beginStream(ob.id, file.reserveObject("length of image stream"), extra, png=png)
+                file.currentstream.write(data)
+                file.endStream()
+                continue
+            data, adata = file._unpack(img)  # PdfFile.writeImages
+            smask = None
+            if adata is not None:
+                smask = file.reserveObject("smask")
+                file._writeImg(adata, smask.id)
+            file._writeImg(data, ob.id, smask)
+
+    file.writeImages = write_images
 
 
 # -- pages --------------------------------------------------------------------------------------

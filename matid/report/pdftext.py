@@ -9,15 +9,15 @@ For one line, unrotated and aligned at its bottom left, the extent only sets the
 ``bottom + max(descent, the font's typographic descent)``, the ascent entering through the
 same floating-point expression matplotlib evaluates. :class:`PageText` gets the extent from the
 one raqm layout it draws with (the control boxes of its glyphs, cached per glyph and size) and
-writes the operators of ``RendererPdf.draw_text`` itself, the font-subset lookups cached per
-PDF file. Any other case (another renderer, several lines, rotation, other alignment, a path
-effect, a box, a link, the PDF core fonts) goes through ``Text.draw`` unchanged;
-tests/test_report.py compares pages drawn both ways byte for byte.
+writes the operators of ``RendererPdf.draw_text`` itself (one write per line), the font-subset
+lookups and each distinct line's layout and operators cached per PDF file. Any other case (another
+renderer, several lines, rotation, other alignment, a path effect, a box, a link, the PDF core
+fonts) goes through ``Text.draw`` unchanged; tests/test_report_pdftext.py compares pages drawn
+both ways byte for byte.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 import unicodedata
 import weakref
@@ -113,74 +113,118 @@ def draw_line(renderer: RendererPdf, gc, x: float, bottom: float, s: str, prop, 
     min_ascent, min_descent = extent
     font = renderer._get_font_ttf(prop)  # sized to prop
     size = prop.get_size_in_points()
-    items = _monospaced(font, s, size) or list(
-        font._layout(s, LoadFlags.NO_HINTING, features=None, language=None)
-    )
-    y_min, y_max = 32000, -32000  # FT2Font.set_text's empty box, in 1/64 point
-    for item in items:
-        low, high = _glyph_ybox(item.ft_object, item.glyph_index, size)
-        y_min, y_max = min(y_min, low), max(y_max, high)
-    if not items:
-        y_min = y_max = 0
+    fonttype = mpl.rcParams["pdf.fonttype"]
+    drawn = _LINES.setdefault(renderer.file, {})
+    key = (font, size, fonttype, s)  # the font object itself: the items refer to it (and its fallbacks)
+    if key not in drawn:
+        items = _monospaced(font, s, size) or list(
+            font._layout(s, LoadFlags.NO_HINTING, features=None, language=None)
+        )
+        drawn[key] = (*_ybox(items, size), _body(renderer, items, size, fonttype))
+    y_min, y_max, body = drawn[key]
     h, d = (y_max - y_min) / 64, -y_min / 64
     # Text._get_layout for one line with linespacing "normal", then the bottom alignment
     a = max(h - d, min_ascent)
     d = max(d, min_descent)
     top = 0.0
     top -= a
-    _emit(renderer, gc, x, bottom + (top - (top - d)), items, size)
+    y = bottom + (top - (top - d))
+    renderer.check_gc(gc, gc._rgb)
+    renderer.file.write(_GSAVE + _fill([*_UNROTATED, pdfRepr(x), pdfRepr(y), _CM]) + b"\n" + body)
     return True
 
 
-def _emit(renderer: RendererPdf, gc, x: float, y: float, items, fontsize: float) -> None:
-    """The text operators of ``RendererPdf.draw_text`` (TrueType/Type 3 branch, angle 0)."""
-    renderer.check_gc(gc, gc._rgb)
-    out = renderer.file.output
-    fonttype = mpl.rcParams["pdf.fonttype"]
-    tracked = _TRACKED.setdefault(renderer.file, {})
-    chunk: list = []
+#: Per PDF file: (font, size, pdf.fonttype, text) -> the line's box (bottom, top in 1/64 point)
+#: and its text operators after the position; a third of the report's lines repeat one drawn
+#: before (a header, the footer of every page, a table's header row).
+_LINES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
-    def flush() -> None:
-        if chunk:
-            values = [
-                (-1000 * next(group) / fontsize)
-                if kind is float
-                else renderer._encode_glyphs(group, fonttype)
-                for kind, group in itertools.groupby(chunk, type)
-            ]
-            out(_Array(values), Op.showkern)
-            chunk.clear()
 
-    out(Op.gsave)
-    out(math.cos(0.0), math.sin(0.0), -math.sin(0.0), math.cos(0.0), x, y, Op.concat_matrix)
-    previous, start_x = None, 0
-    out(Op.begin_text)
+def _ybox(items, size: float) -> tuple[int, int]:
+    """Bottom and top of the glyphs' control boxes, as ``FT2Font.set_text`` unites them."""
+    if not items:
+        return 0, 0
+    y_min, y_max = 32000, -32000  # FT2Font.set_text's empty box, in 1/64 point
+    boxes, boxes_ft = {}, None
     for item in items:
         ft = item.ft_object
-        key = (ft.fname, ft.face_index, item.char, item.glyph_index)
-        if key not in tracked:
-            tracked[key] = renderer.file._character_tracker.track_glyph(ft, item.char, item.glyph_index)
-        subset, charcode = tracked[key]
-        if (ft, subset) != previous:
+        if ft is not boxes_ft:
+            boxes, boxes_ft = _GLYPH_YBOX.setdefault((ft.fname, ft.face_index, size), {}), ft
+        box = boxes.get(item.glyph_index)
+        if box is None:
+            box = boxes[item.glyph_index] = _glyph_ybox(ft, item.glyph_index)
+        if box[0] < y_min:
+            y_min = box[0]
+        if box[1] > y_max:
+            y_max = box[1]
+    return y_min, y_max
+
+
+def _body(renderer: RendererPdf, items, fontsize: float, fonttype: int) -> bytes:
+    """The text operators of ``RendererPdf.draw_text`` (TrueType/Type 3 branch, angle 0) after
+    the position: each ``PdfFile.output`` call's line (``_fill`` of the pdfRepr of its operands,
+    then a newline). The glyphs are tracked for the file's font subsets here."""
+    file = renderer.file
+    tracked = _TRACKED.setdefault(file, {})
+    lines = [_BEGIN]
+    values: list = []  # the TJ array: glyph strings and the kerns between them
+    codes: list[int] = []  # glyph codes of the string not yet in it
+
+    def flush() -> None:
+        if codes:
+            values.append(renderer._encode_glyphs(codes, fonttype))
+            codes.clear()
+        if values:
+            lines.append(_fill([_Array(values).pdfRepr(), _TJ]) + b"\n")
+            values.clear()
+
+    previous, start_x = None, 0
+    names: dict = {}  # font object -> (file name, face index)
+    for item in items:
+        ft = item.ft_object
+        name = names.get(ft)
+        if name is None:
+            name = names[ft] = (ft.fname, ft.face_index)
+        key = (*name, item.char, item.glyph_index)
+        found = tracked.get(key)
+        if found is None:
+            found = tracked[key] = file._character_tracker.track_glyph(ft, item.char, item.glyph_index)
+        subset, charcode = found
+        if previous is None or previous[0] is not ft or previous[1] != subset:
             flush()
-            name_key = (ft.fname, ft.face_index, subset)
-            if name_key not in tracked:
-                tracked[name_key] = renderer.file.fontName(FontPath(ft.fname, ft.face_index), subset)
-            out(tracked[name_key], fontsize, Op.selectfont)
-            renderer._setup_textpos(item.x, 0, 0, start_x, 0, 0)
+            select = (*name, subset, fontsize)
+            if select not in tracked:
+                font_name = file.fontName(FontPath(*name), subset)
+                tracked[select] = _fill([pdfRepr(font_name), pdfRepr(fontsize), _TF]) + b"\n"
+            lines.append(tracked[select])
+            lines.append(_fill([pdfRepr(item.x - start_x), _ZERO, _TD]) + b"\n")
             previous, start_x = (ft, subset), item.x
         if item.y:
             flush()
-            out(item.y, Op.textrise)
+            lines.append(_fill([pdfRepr(item.y), _TS]) + b"\n")
         if item.prev_kern:
-            chunk.append(item.prev_kern)
-        chunk.append(charcode)
+            if codes:
+                values.append(renderer._encode_glyphs(codes, fonttype))
+                codes.clear()
+            values.append(-1000 * item.prev_kern / fontsize)
+        codes.append(charcode)
         if item.y:
             flush()
-            out(0, Op.textrise)
+            lines.append(_RISE0)
     flush()
-    out(Op.end_text)
-    out(Op.grestore)
+    lines.append(_END)
+    return b"".join(lines)
+
+
+#: The operators and constant operands draw_line writes, as PdfFile.output writes them.
+_GSAVE, _BEGIN = Op.gsave.value + b"\n", Op.begin_text.value + b"\n"
+_END = Op.end_text.value + b"\n" + Op.grestore.value + b"\n"
+_CM, _TF, _TD, _TS, _TJ = (
+    op.value for op in (Op.concat_matrix, Op.selectfont, Op.textpos, Op.textrise, Op.showkern)
+)
+_UNROTATED = [pdfRepr(v) for v in (math.cos(0.0), math.sin(0.0), -math.sin(0.0), math.cos(0.0))]
+_ZERO = pdfRepr(0 - 0)  # the y of RendererPdf._setup_textpos: 0 - 0
+_RISE0 = _fill([pdfRepr(0), _TS]) + b"\n"
 
 
 #: pdfRepr of the kerns and glyph strings met so far (a table row repeats a few of them);
@@ -255,17 +299,16 @@ def _monospaced(font, s: str, size: float) -> list[_Item] | None:
     ]
 
 
-_GLYPH_YBOX: dict[tuple, tuple[int, int]] = {}
+#: (font file, face, size) -> glyph -> bottom and top of its control box
+_GLYPH_YBOX: dict[tuple, dict[int, tuple[int, int]]] = {}
 _FONT_EXTENT: dict[tuple, tuple[float, float] | None] = {}
 
 
-def _glyph_ybox(ft, glyph: int, size: float) -> tuple[int, int]:
-    """Bottom and top of a glyph's control box in 1/64 point, as ``FT2Font.set_text`` unites them."""
-    key = (ft.fname, ft.face_index, glyph, size)
-    if key not in _GLYPH_YBOX:
-        box = ft.load_glyph(glyph, flags=LoadFlags.NO_HINTING).bbox
-        _GLYPH_YBOX[key] = (box[1], box[3])
-    return _GLYPH_YBOX[key]
+def _glyph_ybox(ft, glyph: int) -> tuple[int, int]:
+    """Bottom and top of a glyph's control box in 1/64 point at the font's size, as
+    ``FT2Font.set_text`` unites them."""
+    box = ft.load_glyph(glyph, flags=LoadFlags.NO_HINTING).bbox
+    return box[1], box[3]
 
 
 def _font_extent(prop, dpi: float) -> tuple[float, float] | None:
