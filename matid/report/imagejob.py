@@ -28,7 +28,6 @@ import mmap
 import os
 import pickle
 import signal
-import sys
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -37,6 +36,7 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
+from matid.render_worker import can_fork as _can_fork
 from matid.report.content import KINDS, Report
 from matid.report.figures import DPI, FIT_SIZE, Drawing
 from matid.report.images import Image, Images, drawing_image, fit_image, pdf_image, rgba_pixels
@@ -392,16 +392,3 @@ def _kill(pid: int, pidfd: int) -> None:
             os.kill(pid, signal.SIGKILL)
     except (ProcessLookupError, ChildProcessError):
         pass
-
-
-def _can_fork() -> bool:
-    import multiprocessing
-
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    return (
-        sys.platform.startswith("linux")  # macOS: fork after system frameworks are loaded is unsafe
-        and cores > 1
-        and threading.active_count() == 1
-        and multiprocessing.parent_process() is None
-        and os.environ.get("MATID_REPORT_FORK", "1") != "0"
-    )

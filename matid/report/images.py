@@ -155,12 +155,16 @@ class Picture(Artist):
 def pdf_image(rgba: np.ndarray) -> tuple | None:
     """What matplotlib's PDF writer writes for an opaque image of these pixels (``PdfFile._writeImg``,
     whose work depends on the pixels and ``pdf.compression`` alone): (pdf.compression, stream
-    dictionary, PNG parameters, data); None for pixels with transparency (written with a mask)."""
-    rgb, alpha = PdfFile._unpack(None, rgba)
-    if alpha is not None:
+    dictionary, PNG parameters, data); None for pixels with transparency (written with a mask),
+    or where this matplotlib's private writer takes other arguments (the PDF then encodes them)."""
+    try:
+        rgb, alpha = PdfFile._unpack(None, rgba)
+        if alpha is not None:
+            return None
+        capture = _Capture()
+        PdfFile._writeImg(capture, rgb, None)  # type: ignore[arg-type]
+    except (AttributeError, TypeError, ValueError):  # another matplotlib's internals
         return None
-    capture = _Capture()
-    PdfFile._writeImg(capture, rgb, None)  # type: ignore[arg-type]
     return mpl.rcParams["pdf.compression"], capture.extra, capture.png, b"".join(capture.data)
 
 
