@@ -11,12 +11,12 @@ import sys
 import numpy as np
 import pytest
 from scipy import optimize, signal, stats
+from test_viscoelastic import TAU, ramps
 
 from matid.fits import stats as mstats
 from matid.fits.extension_lsq import _residual, _solve
 from matid.fits.extension_profile import jacobian, profile_limits, uncertainty
 from matid.fits.extension_runs import _run, _unique
-from tests.test_viscoelastic import TAU, ramps
 
 X = [-1.0, -1e-12, 0.0, 1e-8, 0.01, 0.3, 1.0, 2.5, 7.0, 30.0, 300.0, np.inf, np.nan]
 DOF = [0.0, 0.5, 1.0, 2.0, 3.7, 10.0, 123.0, 1e5, np.inf]
