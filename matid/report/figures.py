@@ -126,11 +126,16 @@ DRAWING_MARGINS = (0.85, 0.5, 0.15, 0.12)
 
 def drawing_png(drawing: Drawing) -> bytes:
     """The drawing as PNG, at its size and the report's dpi."""
+    return png_bytes(drawing_figure(drawing))
+
+
+def drawing_figure(drawing: Drawing) -> Figure:
+    """The drawing drawn on a figure of its size, inside the report's margins."""
     width, height = drawing.size
     left, bottom, right, top = DRAWING_MARGINS
     fig = Figure(figsize=drawing.size)
     drawing.draw(fig, (left / width, bottom / height, 1 - right / width, 1 - top / height))
-    return png_bytes(fig)
+    return fig
 
 
 def style_axes(*axes) -> None:

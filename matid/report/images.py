@@ -23,10 +23,10 @@ from matplotlib.transforms import Affine2D, Bbox, TransformedBbox
 
 from matid.report.content import KINDS, Block, Report
 from matid.report.figures import (
-    DRAWING_MARGINS,
     Drawing,
     axis_unit,
     caption,
+    drawing_figure,
     fit_figure,
     png_bytes,
     png_size,
@@ -88,11 +88,7 @@ def fit_image(block: Block, units: str, title: str, *, png: bool = True, pixels:
 def drawing_image(drawing: Drawing, *, pixels: bool = False) -> Image:
     """A drawing as PNG (:func:`matid.report.figures.drawing_png`), with ``pixels`` also its pixels."""
     try:
-        width, height = drawing.size
-        left, bottom, right, top = DRAWING_MARGINS
-        fig = Figure(figsize=drawing.size)
-        drawing.draw(fig, (left / width, bottom / height, 1 - right / width, 1 - top / height))
-        png, rgba = _png(fig, pixels)
+        png, rgba = _png(drawing_figure(drawing), pixels)
     except Exception as exc:  # a figure that cannot be drawn must not sink the report
         return Image(b"", 0, 0, drawing.alt, drawing.caption, drawing.title, f"{type(exc).__name__}: {exc}")
     width, height = png_size(png)
