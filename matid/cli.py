@@ -263,7 +263,9 @@ def settled_imports(*modules: str) -> Iterator[None]:
     and 0.37 s in five full collections after them (measured with gc.callbacks). ``gc.freeze`` moves what exists to a generation the collector skips;
     on the way out ``gc.unfreeze`` hands it back, since :func:`main` may run inside a
     longer-lived process (tests, notebooks). Garbage made inside the block is collected as
-    usual.
+    usual. Where objects are frozen already (by the host, or an outer block) nothing is frozen
+    or unfrozen: ``gc.unfreeze`` cannot tell them from ours (the rule of
+    :mod:`matid.report.imagejob`).
     """
     enabled = gc.isenabled()
     gc.disable()
@@ -273,11 +275,14 @@ def settled_imports(*modules: str) -> Iterator[None]:
     finally:
         if enabled:
             gc.enable()
-    gc.freeze()
+    freeze = gc.get_freeze_count() == 0
+    if freeze:
+        gc.freeze()
     try:
         yield
     finally:
-        gc.unfreeze()
+        if freeze:
+            gc.unfreeze()
 
 
 def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool, worker) -> int:

@@ -417,3 +417,20 @@ def test_settled_imports_restores_the_collector(enabled):
         assert gc.get_freeze_count() == 0 and gc.isenabled() == enabled
     finally:
         (gc.enable if was else gc.disable)()
+
+
+def test_settled_imports_leaves_what_others_froze_frozen():
+    # a host that froze its objects itself (a pre-fork server, an outer settled_imports, the
+    # console script): gc.unfreeze cannot tell its objects from ours, so nothing is unfrozen
+    from matid.cli import settled_imports
+
+    gc.freeze()
+    try:
+        frozen = gc.get_freeze_count()
+        with settled_imports("json"):
+            with settled_imports("csv"):
+                pass
+            assert gc.get_freeze_count() >= frozen
+        assert gc.get_freeze_count() >= frozen
+    finally:
+        gc.unfreeze()
