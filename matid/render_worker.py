@@ -62,9 +62,10 @@ class RenderWorker:
         """The worker, or None where :func:`can_fork` says no or the fork fails."""
         if not can_fork():
             return None
+        for stream in (sys.stdout, sys.stderr):  # what they hold is not written twice
+            if stream is not None:  # None: Python started without it (`matid demo >&-`)
+                stream.flush()
         down, up = os.pipe(), os.pipe()
-        sys.stdout.flush()
-        sys.stderr.flush()
         try:
             pid = os.fork()
         except OSError:  # a process limit

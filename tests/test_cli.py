@@ -434,3 +434,11 @@ def test_settled_imports_leaves_what_others_froze_frozen():
         assert gc.get_freeze_count() >= frozen
     finally:
         gc.unfreeze()
+
+
+def test_demo_runs_without_a_stdout(tmp_path, monkeypatch):
+    # Python sets sys.stdout to None when it starts with the descriptor closed (`matid demo >&-`,
+    # some daemons): print writes nothing, and the report's worker must still start
+    monkeypatch.setattr(sys, "stdout", None)
+    assert main(["demo", "--quiet", "--out", str(tmp_path / "out")]) == 0
+    assert (tmp_path / "out" / "report.pdf").is_file()
