@@ -14,7 +14,7 @@ from scipy import optimize, signal, stats
 from test_viscoelastic import TAU, ramps
 
 from matid.fits import stats as mstats
-from matid.fits.extension_lsq import _residual, _solve
+from matid.fits.extension_lsq import _LOG_BOUND, _ORDER, _least_squares, _residual, _solve
 from matid.fits.extension_profile import jacobian, profile_limits, uncertainty
 from matid.fits.extension_runs import _run, _unique
 
@@ -103,3 +103,31 @@ def test_profile_limits_are_where_the_f_test_reaches_95_percent(sls_fit):
             sol = optimize.least_squares(fun, result.x[others], method="trf", xtol=1e-14, ftol=1e-14)
             ratio = 2 * sol.cost / result.chisqr - 1.0
             assert ratio == pytest.approx(target, rel=1e-3), (name, value)
+
+
+@pytest.mark.parametrize("budget", [5, 40, None])
+def test_least_squares_keeps_lmfits_evaluation_budget_and_messages(sls_fit, budget):
+    """lmfit's leastsq (the fit this replaces) evaluated the residuals at most max_nfev =
+    2000 (nvarys + 1) times, then stopped the fit as failed, with its own messages."""
+    lmfit = pytest.importorskip("lmfit")
+    runs, _, ref, sigma = sls_fit
+    x0 = np.array([0.3, -0.4, 0.5])  # away from the optimum: more than 5 evaluations
+
+    calls = []
+
+    def residual(params):
+        x = np.array([params[name].value for name in _ORDER])
+        calls.append(x)
+        return _residual(x, runs, sigma, ref)
+
+    params = lmfit.Parameters()
+    for name, value in zip(_ORDER, x0, strict=True):
+        params.add(name, value=value, min=-_LOG_BOUND, max=_LOG_BOUND)
+    theirs = lmfit.Minimizer(residual, params, nan_policy="raise").minimize(method="leastsq", max_nfev=budget)
+    ours = _least_squares(x0, _ORDER, runs, sigma, ref, **({} if budget is None else {"budget": budget}))
+    assert (ours.success, ours.message) == (theirs.success, theirs.message)
+    assert (ours.covar is None) == (theirs.covar is None)
+    if theirs.success:
+        np.testing.assert_array_equal(ours.x, [theirs.params[name].value for name in _ORDER])
+    else:  # stopped where it was about to evaluate: lmfit reads that point from freed memory
+        assert theirs.aborted and len(calls) == budget + 3

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from matid.fits.extension_lsq import _LOG_BOUND, _ORDER, LsqFit, _least_squares, _residual
+from matid.fits.extension_lsq import _LOG_BOUND, _ORDER, LsqFit, _least_squares, _residual, max_nfev
 from matid.fits.stats import f_cdf
 
 #: Central-difference step of the Jacobian in the log-parameters.
@@ -107,7 +107,8 @@ class _Profile:
         if value not in self.cache:
             x0 = self.best.x.copy()
             x0[self.index] = value
-            trial = _least_squares(x0, self.others, *self.args)
+            # lmfit refits with the fit's own Minimizer, whose budget is that of the fit
+            trial = _least_squares(x0, self.others, *self.args, budget=max_nfev(self.best.nvarys))
             self.cache[value] = f_compare(self.best, trial)
         return self.cache[value]
 
