@@ -4,6 +4,7 @@ and the import of matid.pipeline kept free of lmfit, scipy.stats and pandas."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -131,3 +132,26 @@ def test_least_squares_keeps_lmfits_evaluation_budget_and_messages(sls_fit, budg
         np.testing.assert_array_equal(ours.x, [theirs.params[name].value for name in _ORDER])
     else:  # stopped where it was about to evaluate: lmfit reads that point from freed memory
         assert theirs.aborted and len(calls) == budget + 3
+
+
+@pytest.mark.parametrize("offset", [5e-7, 3e-6])
+def test_jacobian_at_a_bound_is_lmfits(sls_fit, offset):
+    """The sandwich's Jacobian was taken on lmfit Parameters bounded at +-18, which clip a
+    step past the bound: a log-parameter that ends within a step of it (k1 -> 0) keeps those
+    numbers."""
+    lmfit = pytest.importorskip("lmfit")
+    runs, result, ref, sigma = sls_fit
+    x = result.x.copy()
+    x[0] = -_LOG_BOUND + offset
+    fit = dataclasses.replace(result, x=x)
+    params = lmfit.Parameters()
+    for name, value in zip(_ORDER, x, strict=True):
+        params.add(name, value=value, min=-_LOG_BOUND, max=_LOG_BOUND)
+    columns = []
+    for name in fit.free:  # as matid did with lmfit (74c4d56, extension_stats._sandwich)
+        up, down = params.copy(), params.copy()
+        up[name].value += 1e-6
+        down[name].value -= 1e-6
+        at = [np.array([p[n].value for n in _ORDER]) for p in (up, down)]
+        columns.append((_residual(at[0], runs, sigma, ref) - _residual(at[1], runs, sigma, ref)) / 2e-6)
+    np.testing.assert_array_equal(jacobian(fit, runs, sigma, ref), np.column_stack(columns))

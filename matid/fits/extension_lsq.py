@@ -183,7 +183,9 @@ def max_nfev(nvarys: int) -> int:
     return _NFEV_PER_PARAMETER * (nvarys + 1)
 
 
-def _least_squares(x0: np.ndarray, free: Sequence[str], runs, sigma, ref, budget: int | None = None) -> LsqFit:
+def _least_squares(
+    x0: np.ndarray, free: Sequence[str], runs, sigma, ref, budget: int | None = None
+) -> LsqFit:
     """Levenberg-Marquardt (MINPACK lmdif) on the free log-parameters, the others held at x0.
 
     lmdif runs on u with x = _external(u), which keeps x within +-_LOG_BOUND; the
