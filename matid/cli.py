@@ -258,12 +258,14 @@ def settled_imports(*modules: str) -> Iterator[None]:
     """Import ``modules`` without the cyclic collector, then keep it off what they made.
 
     A numerical stack (the fits' scipy, pint and scikit-fem: ~130 000 objects; the report's
-    matplotlib another ~100 000) lives as long as the process, yet each full collection walks
-    all of it: in ``matid demo`` with both in one process that was 0.19 s during the imports
-    and 0.37 s in five full collections after them (measured with gc.callbacks). ``gc.freeze`` moves what exists to a generation the collector skips;
-    on the way out ``gc.unfreeze`` hands it back, since :func:`main` may run inside a
-    longer-lived process (tests, notebooks). Garbage made inside the block is collected as
-    usual.
+    matplotlib another ~100 000) lives as long as the process, yet each full collection
+    walks all of it: in ``matid demo`` with both in one process that was 0.19 s during the
+    imports and 0.37 s in five full collections after them (measured with gc.callbacks).
+    ``gc.freeze`` moves what exists to a generation the collector skips; on the way out
+    ``gc.unfreeze`` hands it back, since :func:`main` may run inside a longer-lived process
+    (tests, notebooks). Garbage made inside the block is collected as usual. Where objects
+    are frozen already (by the host, or an outer block) nothing is frozen or unfrozen:
+    ``gc.unfreeze`` cannot tell them from ours (the rule of :mod:`matid.report.imagejob`).
     """
     enabled = gc.isenabled()
     gc.disable()
@@ -273,11 +275,14 @@ def settled_imports(*modules: str) -> Iterator[None]:
     finally:
         if enabled:
             gc.enable()
-    gc.freeze()
+    freeze = gc.get_freeze_count() == 0
+    if freeze:
+        gc.freeze()
     try:
         yield
     finally:
-        gc.unfreeze()
+        if freeze:
+            gc.unfreeze()
 
 
 def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool, worker) -> int:

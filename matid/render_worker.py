@@ -55,15 +55,17 @@ class RenderWorker:
     def __init__(self, pid: int, to_child: int, from_child: int) -> None:
         self._pid, self._to, self._from = pid, to_child, from_child
         self._used = False
+        self._answered = False  # the reply to its job was read
 
     @classmethod
     def start(cls) -> RenderWorker | None:
         """The worker, or None where :func:`can_fork` says no or the fork fails."""
         if not can_fork():
             return None
+        for stream in (sys.stdout, sys.stderr):  # what they hold is not written twice
+            if stream is not None:  # None: Python started without it (`matid demo >&-`)
+                stream.flush()
         down, up = os.pipe(), os.pipe()
-        sys.stdout.flush()
-        sys.stderr.flush()
         try:
             pid = os.fork()
         except OSError:  # a process limit
@@ -98,6 +100,7 @@ class RenderWorker:
                 status, files = pickle.loads(_receive(self._from))
             except (EOFError, OSError, pickle.UnpicklingError):
                 status, files = "died", None
+            self._answered = True
             if status != "ok":  # rendered again here: the same error, raised where it is handled
                 return renderer(result, units=units)
             return files
@@ -105,13 +108,14 @@ class RenderWorker:
         return take
 
     def close(self) -> None:
-        """Close the pipes and reap the child (killed first if it never got a job)."""
+        """Close the pipes and reap the child, killed first unless its reply was read: a child
+        without a job, or rendering one whose files nobody will take (the caller failed)."""
         for fd in (self._to, self._from):
             try:
                 os.close(fd)
             except OSError:
                 pass
-        if not self._used:
+        if not self._answered:
             try:
                 os.kill(self._pid, signal.SIGKILL)
             except ProcessLookupError:

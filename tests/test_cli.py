@@ -417,3 +417,28 @@ def test_settled_imports_restores_the_collector(enabled):
         assert gc.get_freeze_count() == 0 and gc.isenabled() == enabled
     finally:
         (gc.enable if was else gc.disable)()
+
+
+def test_settled_imports_leaves_what_others_froze_frozen():
+    # a host that froze its objects itself (a pre-fork server, an outer settled_imports, the
+    # console script): gc.unfreeze cannot tell its objects from ours, so nothing is unfrozen
+    from matid.cli import settled_imports
+
+    gc.freeze()
+    try:
+        frozen = gc.get_freeze_count()
+        with settled_imports("json"):
+            with settled_imports("csv"):
+                pass
+            assert gc.get_freeze_count() >= frozen
+        assert gc.get_freeze_count() >= frozen
+    finally:
+        gc.unfreeze()
+
+
+def test_demo_runs_without_a_stdout(tmp_path, monkeypatch):
+    # Python sets sys.stdout to None when it starts with the descriptor closed (`matid demo >&-`,
+    # some daemons): print writes nothing, and the report's worker must still start
+    monkeypatch.setattr(sys, "stdout", None)
+    assert main(["demo", "--quiet", "--out", str(tmp_path / "out")]) == 0
+    assert (tmp_path / "out" / "report.pdf").is_file()

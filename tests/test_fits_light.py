@@ -4,6 +4,7 @@ and the import of matid.pipeline kept free of lmfit, scipy.stats and pandas."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -14,7 +15,7 @@ from scipy import optimize, signal, stats
 from test_viscoelastic import TAU, ramps
 
 from matid.fits import stats as mstats
-from matid.fits.extension_lsq import _residual, _solve
+from matid.fits.extension_lsq import _LOG_BOUND, _ORDER, _least_squares, _residual, _solve
 from matid.fits.extension_profile import jacobian, profile_limits, uncertainty
 from matid.fits.extension_runs import _run, _unique
 
@@ -103,3 +104,54 @@ def test_profile_limits_are_where_the_f_test_reaches_95_percent(sls_fit):
             sol = optimize.least_squares(fun, result.x[others], method="trf", xtol=1e-14, ftol=1e-14)
             ratio = 2 * sol.cost / result.chisqr - 1.0
             assert ratio == pytest.approx(target, rel=1e-3), (name, value)
+
+
+@pytest.mark.parametrize("budget", [5, 40, None])
+def test_least_squares_keeps_lmfits_evaluation_budget_and_messages(sls_fit, budget):
+    """lmfit's leastsq (the fit this replaces) evaluated the residuals at most max_nfev =
+    2000 (nvarys + 1) times, then stopped the fit as failed, with its own messages."""
+    lmfit = pytest.importorskip("lmfit")
+    runs, _, ref, sigma = sls_fit
+    x0 = np.array([0.3, -0.4, 0.5])  # away from the optimum: more than 5 evaluations
+
+    calls = []
+
+    def residual(params):
+        x = np.array([params[name].value for name in _ORDER])
+        calls.append(x)
+        return _residual(x, runs, sigma, ref)
+
+    params = lmfit.Parameters()
+    for name, value in zip(_ORDER, x0, strict=True):
+        params.add(name, value=value, min=-_LOG_BOUND, max=_LOG_BOUND)
+    theirs = lmfit.Minimizer(residual, params, nan_policy="raise").minimize(method="leastsq", max_nfev=budget)
+    ours = _least_squares(x0, _ORDER, runs, sigma, ref, **({} if budget is None else {"budget": budget}))
+    assert (ours.success, ours.message) == (theirs.success, theirs.message)
+    assert (ours.covar is None) == (theirs.covar is None)
+    if theirs.success:
+        np.testing.assert_array_equal(ours.x, [theirs.params[name].value for name in _ORDER])
+    else:  # stopped where it was about to evaluate: lmfit reads that point from freed memory
+        assert theirs.aborted and len(calls) == budget + 3
+
+
+@pytest.mark.parametrize("offset", [5e-7, 3e-6])
+def test_jacobian_at_a_bound_is_lmfits(sls_fit, offset):
+    """The sandwich's Jacobian was taken on lmfit Parameters bounded at +-18, which clip a
+    step past the bound: a log-parameter that ends within a step of it (k1 -> 0) keeps those
+    numbers."""
+    lmfit = pytest.importorskip("lmfit")
+    runs, result, ref, sigma = sls_fit
+    x = result.x.copy()
+    x[0] = -_LOG_BOUND + offset
+    fit = dataclasses.replace(result, x=x)
+    params = lmfit.Parameters()
+    for name, value in zip(_ORDER, x, strict=True):
+        params.add(name, value=value, min=-_LOG_BOUND, max=_LOG_BOUND)
+    columns = []
+    for name in fit.free:  # as matid did with lmfit (74c4d56, extension_stats._sandwich)
+        up, down = params.copy(), params.copy()
+        up[name].value += 1e-6
+        down[name].value -= 1e-6
+        at = [np.array([p[n].value for n in _ORDER]) for p in (up, down)]
+        columns.append((_residual(at[0], runs, sigma, ref) - _residual(at[1], runs, sigma, ref)) / 2e-6)
+    np.testing.assert_array_equal(jacobian(fit, runs, sigma, ref), np.column_stack(columns))

@@ -93,3 +93,20 @@ def test_a_study_result_renders_the_same_after_the_trip_to_the_worker(make):
     with start() as worker:
         there = worker.render(render_report, result, units="cgs")()
     assert there == render_report(result, units="cgs")
+
+
+def slow(result, *, units):
+    time.sleep(30)
+    return {"late": b""}
+
+
+def test_a_job_whose_files_are_never_taken_is_not_waited_for():
+    # the caller failed between render() and taking the files (e.g. making the tables)
+    worker = start()
+    worker.render(slow, "r", units="SI")
+    pid = worker._pid
+    started = time.perf_counter()
+    worker.close()
+    assert time.perf_counter() - started < 5  # killed, not waited for through its render
+    with pytest.raises(ChildProcessError):
+        os.waitpid(pid, os.WNOHANG)  # reaped: no zombie left

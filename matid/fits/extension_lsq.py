@@ -97,6 +97,8 @@ _ORDER = ("k1", "k2", "eta")
 #: MINPACK lmdif settings (lmfit's leastsq): tolerances on the cost and on x, the squared
 #: relative forward-difference step, and the initial step bound.
 _LMDIF = {"ftol": 1.5e-8, "xtol": 1.5e-8, "gtol": 0.0, "epsfcn": 1e-10, "factor": 100}
+#: lmfit's leastsq evaluates the residuals at most 2000 (n_free + 1) times (its max_nfev).
+_NFEV_PER_PARAMETER = 2000
 
 
 @dataclass(frozen=True)
@@ -168,33 +170,78 @@ def _internal(x: np.ndarray) -> np.ndarray:
     return np.where(np.abs(u) < 1e-15, 0.0, u)
 
 
-def _least_squares(x0: np.ndarray, free: Sequence[str], runs, sigma, ref) -> LsqFit:
+class _Abort(Exception):
+    """lmfit's AbortFitException: the evaluation budget is spent; ``u`` is the point asked for."""
+
+    def __init__(self, u: np.ndarray) -> None:
+        super().__init__("too many function evaluations")
+        self.u = u
+
+
+def max_nfev(nvarys: int) -> int:
+    """lmfit's budget of residual evaluations for a leastsq fit of ``nvarys`` parameters."""
+    return _NFEV_PER_PARAMETER * (nvarys + 1)
+
+
+def _least_squares(
+    x0: np.ndarray, free: Sequence[str], runs, sigma, ref, budget: int | None = None
+) -> LsqFit:
     """Levenberg-Marquardt (MINPACK lmdif) on the free log-parameters, the others held at x0.
 
     lmdif runs on u with x = _external(u), which keeps x within +-_LOG_BOUND; the
     covariance of x is lmdif's (R^T R)^-1 in u times (dx/du)^2, scaled by chi2 / nfree.
+    As lmfit, the fit stops after ``budget`` evaluations (default :func:`max_nfev`; lmdif's
+    own maxfev is twice that) at the point it was about to evaluate, without covariance.
     """
     index = [_ORDER.index(name) for name in free]
+    budget = max_nfev(len(index)) if budget is None else budget
+    calls = 0  # lmfit's nfev + 2: scipy's shape check and lmdif's first call are not counted
 
-    def fun(u: np.ndarray) -> np.ndarray:
+    def evaluate(u: np.ndarray) -> np.ndarray:
         x = x0.copy()
         x[index] = _external(u)
         return _residual(x, runs, sigma, ref)
 
+    def fun(u: np.ndarray) -> np.ndarray:
+        nonlocal calls
+        calls += 1
+        if calls - 2 > budget:
+            raise _Abort(np.array(u, dtype=float))
+        return evaluate(u)
+
     if not index:
-        return LsqFit(x0, (), fun(np.zeros(0)), None, True, "nothing to vary")
-    with np.errstate(all="ignore"):
-        u, cov, _, message, ier = optimize.leastsq(
-            fun, _internal(x0[index]), full_output=True, maxfev=4000 * (len(index) + 1), **_LMDIF
-        )
+        return LsqFit(x0, (), evaluate(np.zeros(0)), None, True, "nothing to vary")
+    try:
+        with np.errstate(all="ignore"):
+            u, cov, _, _, ier = optimize.leastsq(
+                fun, _internal(x0[index]), full_output=True, maxfev=2 * budget, **_LMDIF
+            )
+    except _Abort as abort:
+        u, cov, ier = abort.u, None, -1
     x = x0.copy()
     x[index] = _external(u)
-    residual = fun(u)
+    residual = evaluate(u)
     if cov is not None:
         grad = np.cos(u) * (2.0 * _LOG_BOUND) / 2.0
         redchi = float(np.dot(residual, residual)) / max(1, residual.size - len(index))
         cov = cov * np.outer(grad, grad) * redchi
-    return LsqFit(x, tuple(free), residual, cov, ier in (1, 2, 3, 4), message)
+    return LsqFit(x, tuple(free), residual, cov, ier in (1, 2, 3, 4), _message(ier, cov is not None))
+
+
+def _message(ier: int, errorbars: bool) -> str:
+    """lmfit's MinimizerResult.message for lmdif's ``ier`` (-1: the budget was spent)."""
+    if ier in (1, 2, 3):
+        message = "Fit succeeded."
+    elif ier == 0:
+        message = (
+            "Invalid Input Parameters. I.e. more variables than data points given, "
+            "tolerance < 0.0, or no data provided."
+        )
+    elif ier == 4:
+        message = "One or more variable did not affect the fit."
+    else:  # 5 (lmdif's maxfev, past the budget: never reached), 6-8 and the budget's -1
+        message = "Tolerance seems to be too small."
+    return message if errorbars else f"{message} Could not estimate error-bars."
 
 
 def _minimise(runs, sigma, starts, ref, fixed) -> LsqFit:

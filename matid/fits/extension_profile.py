@@ -13,7 +13,7 @@ optimum (lmdif's own forward differences, carried from its internal variable to 
 It is singular (no standard errors, no correlations) when R has a zero on its diagonal
 (a parameter that does not move the residuals at all); the error bars count as valid
 only when every se_i is positive (so finite). The AR(1) sandwich uses a separate
-central-difference Jacobian (:func:`jacobian`, step 1e-6). Without valid error bars
+central-difference Jacobian (:func:`jacobian`, step 1e-6, clipped at the bounds). Without valid error bars
 :func:`matid.fits.extension_stats._covariance_fit` holds k2 and refits.
 
 Profile likelihood (lmfit ``conf_interval`` with ``sigmas=[0.95]``, the F-test
@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from matid.fits.extension_lsq import _LOG_BOUND, _ORDER, LsqFit, _least_squares, _residual
+from matid.fits.extension_lsq import _LOG_BOUND, _ORDER, LsqFit, _least_squares, _residual, max_nfev
 from matid.fits.stats import f_cdf
 
 #: Central-difference step of the Jacobian in the log-parameters.
@@ -61,12 +61,14 @@ class Uncertainty:
 
 
 def jacobian(fit: LsqFit, runs, sigma, ref) -> np.ndarray:
-    """d residual / d x for the free x, by central differences."""
+    """d residual / d x for the free x, by central differences; a step past +-18 stops at
+    the bound (as lmfit's bounded Parameter clipped the value it was given), over 2 steps."""
     columns = []
     for name in fit.free:
         step = np.zeros(len(_ORDER))
         step[_ORDER.index(name)] = _STEP
-        up, down = _residual(fit.x + step, runs, sigma, ref), _residual(fit.x - step, runs, sigma, ref)
+        up = _residual(np.clip(fit.x + step, -_LOG_BOUND, _LOG_BOUND), runs, sigma, ref)
+        down = _residual(np.clip(fit.x - step, -_LOG_BOUND, _LOG_BOUND), runs, sigma, ref)
         columns.append((up - down) / (2 * _STEP))
     return np.column_stack(columns)
 
@@ -107,7 +109,8 @@ class _Profile:
         if value not in self.cache:
             x0 = self.best.x.copy()
             x0[self.index] = value
-            trial = _least_squares(x0, self.others, *self.args)
+            # lmfit refits with the fit's own Minimizer, whose budget is that of the fit
+            trial = _least_squares(x0, self.others, *self.args, budget=max_nfev(self.best.nvarys))
             self.cache[value] = f_compare(self.best, trial)
         return self.cache[value]
 
