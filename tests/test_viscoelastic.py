@@ -305,3 +305,25 @@ def test_window_on_extension_rows():
     assert fit.estimate("E_e").value == pytest.approx(K1, rel=0.005)
     assert np.array_equal(fit.series[2].used, eps <= 0.04)
     assert fit.info["left_out"] == {"torn.csv": {"outside the window": int(np.sum(eps > 0.04))}}
+
+
+def test_no_interval_rather_than_an_overflow_when_tau_is_far_beyond_the_run():
+    # tau = eta/k2 = 17 s against one 1.1 s ramp with AR(1) noise: k2 and eta are not identifiable,
+    # their standard errors are hundreds of times their values, and exp(t se/value) of the
+    # t-log interval overflowed (OverflowError, exit 3 in matid fit; found by the session's review)
+    from matid.fits.extension_stats import _wald_log
+    from matid.fits.stats import ar1_noise
+
+    assert _wald_log(1.0, 400.0, 2.0) is None
+    assert _wald_log(2.0, 0.1, 2.0) == pytest.approx((2.0 * np.exp(-0.1), 2.0 * np.exp(0.1)), rel=1e-15)
+    rng = np.random.default_rng(219233270)
+    k, duration = (90.398, 5.5953, 95.938), 1.1064
+    t = np.linspace(0.0, duration, 400)
+    force = sls_ramp(t, 0.05 / duration, *k)
+    force = force + 0.0012320 * force.max() * ar1_noise(rng, t.size, 0.5)
+    fit = fit_extension([measurement("r0.csv", t, 0.05 * t / duration, force)], specimen="T1")
+    by = {e.parameter: e for e in fit.estimates}
+    for name in ("sls_k2", "sls_eta"):
+        assert by[name].ci95 is None
+        assert any("not identifiable" in w for w in by[name].warnings)
+    assert np.isfinite(by["E_e"].value) and by["E_e"].warnings
