@@ -311,11 +311,14 @@ def test_no_interval_rather_than_an_overflow_when_tau_is_far_beyond_the_run():
     # tau = eta/k2 = 17 s against one 1.1 s ramp with AR(1) noise: k2 and eta are not identifiable,
     # their standard errors are hundreds of times their values, and exp(t se/value) of the
     # t-log interval overflowed (OverflowError, exit 3 in matid fit; found by the session's review)
-    from matid.fits.extension_stats import _wald_log
-    from matid.fits.stats import ar1_noise
+    from matid.fits import prony
+    from matid.fits.stats import ar1_noise, wald_log_interval
 
-    assert _wald_log(1.0, 400.0, 2.0) is None
-    assert _wald_log(2.0, 0.1, 2.0) == pytest.approx((2.0 * np.exp(-0.1), 2.0 * np.exp(0.1)), rel=1e-15)
+    assert wald_log_interval(1.0, 400.0, 2.0) is None
+    assert prony._estimate("prony_k1", 1.0, 400.0, 10.0, 100).ci95 is None  # the same interval
+    assert wald_log_interval(2.0, 0.1, 2.0) == pytest.approx(
+        (2.0 * np.exp(-0.1), 2.0 * np.exp(0.1)), rel=1e-15
+    )
     rng = np.random.default_rng(219233270)
     k, duration = (90.398, 5.5953, 95.938), 1.1064
     t = np.linspace(0.0, duration, 400)

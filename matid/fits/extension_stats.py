@@ -11,7 +11,6 @@ likelihood.
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Mapping
 
 import numpy as np
@@ -85,22 +84,6 @@ def _correlation(unc: Uncertainty) -> dict[str, float]:
     return out
 
 
-def _wald_log(value: float, se: float, tq: float) -> tuple[float, float] | None:
-    """value * exp(-+ t se/value): the Wald interval of log k, positive by construction.
-
-    None where exp(t se/value) overflows a float (se > ~300 value: the interval spans more than
-    600 decades): no interval is given, rather than one that is not a number.
-    """
-    spread = tq * se / value
-    if not spread < _EXP_MAX:
-        return None
-    return value * math.exp(-spread), value * math.exp(spread)
-
-
-#: Largest argument of math.exp that stays finite (log of the largest float, 709.78...).
-_EXP_MAX = math.log(sys.float_info.max)
-
-
 def _profile(result, unc, runs, sigma, ref, names) -> dict[str, tuple[float, float]]:
     """95 % profile-likelihood intervals (:mod:`matid.fits.extension_profile`) in SI."""
     try:
@@ -127,7 +110,7 @@ def _intervals(result, unc, runs, sigma, ref, se, *, profile: bool, dof: float) 
             if name == "k1":
                 out[name] = (k[name] - tq * se[name], k[name] + tq * se[name], "t")
             else:
-                wald = _wald_log(k[name], se[name], tq)
+                wald = stats.wald_log_interval(k[name], se[name], tq)
                 if wald is not None:
                     out[name] = (*wald, "t-log")
     if profile:

@@ -289,7 +289,7 @@ def _estimate(name: str, value: float, se: float | None, dof: float, n: int, war
     ci = None
     if se is not None and math.isfinite(se) and value > 0:
         tq = stats.t_ppf(0.975, max(dof, 1.0))
-        ci = (value * math.exp(-tq * se / value), value * math.exp(tq * se / value))
+        ci = stats.wald_log_interval(value, se, tq)
     se = se if se is not None and math.isfinite(se) else None
     return Estimate(name, value, se, ci, n, "prony", tuple(warnings_), {"ci_method": "t-log" if ci else None})
 

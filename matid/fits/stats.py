@@ -52,6 +52,7 @@ recording order, not sorted by x: correlation lives along time.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -375,3 +376,19 @@ def ar1_noise(rng: np.random.Generator, n: int, phi: float) -> np.ndarray:
     for i in range(1, n):
         out[i] = phi * out[i - 1] + innovations[i]
     return out
+
+
+#: Largest argument of math.exp that stays finite (log of the largest float, 709.78...).
+_EXP_MAX = math.log(sys.float_info.max)
+
+
+def wald_log_interval(value: float, se: float, tq: float) -> tuple[float, float] | None:
+    """value * exp(-+ tq se/value): the Wald interval of log k, positive by construction.
+
+    None where exp(tq se/value) overflows a float (se > ~300 value: the interval would span
+    more than 600 decades): no interval rather than one that is not a number.
+    """
+    spread = tq * se / value
+    if not spread < _EXP_MAX:
+        return None
+    return value * math.exp(-spread), value * math.exp(spread)
