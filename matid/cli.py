@@ -24,13 +24,12 @@ the fits load only for the commands that need them).
 from __future__ import annotations
 
 import argparse
-import contextlib
 import gc
 import importlib
 import sys
 import time
 import traceback
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -40,6 +39,7 @@ from matid.cli_options import _add_strict, _add_units, _common, _positive_int
 from matid.cli_rod import _register_design, _register_solve
 from matid.cli_rod import solve_summary as solve_summary  # re-exported: its home before the split
 from matid.errors import DataError, MatidError
+from matid.processes import settled_imports
 
 if TYPE_CHECKING:
     from matid.results import Failure, StudyResult
@@ -251,38 +251,6 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
     finally:
         if worker is not None:
             worker.close()
-
-
-@contextlib.contextmanager
-def settled_imports(*modules: str) -> Iterator[None]:
-    """Import ``modules`` without the cyclic collector, then keep it off what they made.
-
-    A numerical stack (the fits' scipy, pint and scikit-fem: ~130 000 objects; the report's
-    matplotlib another ~100 000) lives as long as the process, yet each full collection
-    walks all of it: in ``matid demo`` with both in one process that was 0.19 s during the
-    imports and 0.37 s in five full collections after them (measured with gc.callbacks).
-    ``gc.freeze`` moves what exists to a generation the collector skips; on the way out
-    ``gc.unfreeze`` hands it back, since :func:`main` may run inside a longer-lived process
-    (tests, notebooks). Garbage made inside the block is collected as usual. Where objects
-    are frozen already (by the host, or an outer block) nothing is frozen or unfrozen:
-    ``gc.unfreeze`` cannot tell them from ours (the rule of :mod:`matid.report.imagejob`).
-    """
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        for module in modules:
-            importlib.import_module(module)
-    finally:
-        if enabled:
-            gc.enable()
-    freeze = gc.get_freeze_count() == 0
-    if freeze:
-        gc.freeze()
-    try:
-        yield
-    finally:
-        if freeze:
-            gc.unfreeze()
 
 
 def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool, worker) -> int:

@@ -21,8 +21,9 @@ import pickle
 import signal
 import struct
 import sys
-import threading
 from collections.abc import Callable, Mapping
+
+from matid.processes import can_fork, settled_imports
 
 _HEADER = struct.Struct(">Q")  # the length of the pickle that follows
 
@@ -32,21 +33,6 @@ def render_report(result, *, units: str = "SI") -> dict[str, bytes]:
     from matid import report
 
     return report.render_report(result, units=units)
-
-
-def can_fork() -> bool:
-    """Whether a second process may help: Linux, two cores or more, one thread, not a
-    multiprocessing worker (a batch run keeps the cores busy), ``MATID_REPORT_FORK`` not 0."""
-    import multiprocessing
-
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    return (
-        sys.platform.startswith("linux")  # macOS: fork after system frameworks are loaded is unsafe
-        and cores > 1
-        and threading.active_count() == 1
-        and multiprocessing.parent_process() is None
-        and os.environ.get("MATID_REPORT_FORK", "1") != "0"
-    )
 
 
 class RenderWorker:
@@ -136,8 +122,6 @@ def _serve(inbox: int, outbox: int) -> None:
     """The child: import the report's stack, render the one job that comes, exit."""
     code = 0
     try:
-        from matid.cli import settled_imports
-
         with settled_imports("matid.report"):
             renderer, result, units = pickle.loads(_receive(inbox))
             try:

@@ -36,7 +36,8 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
-from matid.render_worker import can_fork as _can_fork
+from matid.processes import can_fork as _can_fork
+from matid.processes import frozen_collector
 from matid.report.content import KINDS, Report
 from matid.report.figures import DPI, FIT_SIZE, Drawing
 from matid.report.images import Image, Images, drawing_image, fit_image, pdf_image, rgba_pixels
@@ -255,52 +256,49 @@ class ImageJob:
         except OSError:
             claims.close()
             return
-        # the collector would otherwise touch, and so copy, every object in the child; objects the
-        # host froze itself stay frozen (unfreeze cannot tell them from ours: then freeze nothing)
-        freeze = gc.get_freeze_count() == 0
-        if freeze:
-            gc.freeze()
+        self._claims, self._canvas = claims, canvas
         try:
-            pid = os.fork()
+            with frozen_collector():  # else the collector touches, and so copies, every object in the child
+                pid = os.fork()
+                if pid == 0:
+                    self._serve(read, write)  # never returns
         except OSError:
-            if freeze:
-                gc.unfreeze()
             os.close(read)
             os.close(write)
             claims.close()
+            self._claims = self._canvas = None
             return
-        self._claims, self._canvas = claims, canvas
-        if pid == 0:  # the child: render, send, leave without running the parent's exit handlers
-            code = 1
-            try:
-                gc.disable()  # a short life: the parent's garbage is not worth copying pages for
-                os.close(read)
-                with os.fdopen(write, "wb") as out:
-                    placed = []
-                    for i, (key, task) in enumerate(self._tasks.items()):
-                        if self._claims[i]:  # the parent took it
-                            continue
-                        self._claims[i] = 1
-                        sent = self._place(*_sent(key, task))
-                        pickle.dump(sent, out, protocol=pickle.HIGHEST_PROTOCOL)
-                        out.flush()
-                        if sent[1] and sent[2][4]:  # type: ignore[index]
-                            placed.append(key)
-                    # then, while the parent draws its last pages, the PDF's encoding of them
-                    for key in placed:
-                        stream = (key, _STREAM, pdf_image(self._shared(key)))
-                        pickle.dump(stream, out, protocol=pickle.HIGHEST_PROTOCOL)
-                        out.flush()
-                code = 0
-            finally:
-                os._exit(code)
-        if freeze:
-            gc.unfreeze()
         os.close(write)
         self._pid, self._open, self._pidfd = pid, True, _pidfd(pid)
         # read as the figures come, so that the child never waits on a full pipe
         self._reader = threading.Thread(target=self._drain, args=(os.fdopen(read, "rb"),), daemon=True)
         self._reader.start()
+
+    def _serve(self, read: int, write: int) -> None:
+        """In the child: render, send, leave without running the parent's exit handlers."""
+        code = 1
+        try:
+            gc.disable()  # a short life: the parent's garbage is not worth copying pages for
+            os.close(read)
+            with os.fdopen(write, "wb") as out:
+                placed = []
+                for i, (key, task) in enumerate(self._tasks.items()):
+                    if self._claims[i]:  # the parent took it
+                        continue
+                    self._claims[i] = 1
+                    sent = self._place(*_sent(key, task))
+                    pickle.dump(sent, out, protocol=pickle.HIGHEST_PROTOCOL)
+                    out.flush()
+                    if sent[1] and sent[2][4]:  # type: ignore[index]
+                        placed.append(key)
+                # then, while the parent draws its last pages, the PDF's encoding of them
+                for key in placed:
+                    stream = (key, _STREAM, pdf_image(self._shared(key)))
+                    pickle.dump(stream, out, protocol=pickle.HIGHEST_PROTOCOL)
+                    out.flush()
+            code = 0
+        finally:
+            os._exit(code)
 
     def _place(self, key: Key, ok: bool, payload: object) -> tuple[Key, bool, object]:
         """In the child: a figure's pixels put in the shared canvas if they have the size kept
