@@ -8,26 +8,17 @@ import pytest
 
 pytest.importorskip("numba")
 
+import test_rod_derivatives as derivatives  # noqa: E402 - its rod (tests/ is on the path)
+
 from matid.bench import scenes as S  # noqa: E402
 from matid.bench.peers import precurved_3d  # noqa: E402
 from matid.rod import compiled, kernel  # noqa: E402
 from matid.rod.fem import Discretisation  # noqa: E402
-from matid.rod.models import FULL, PLANAR, RodSystem, ScaledRod, Segment  # noqa: E402
+from matid.rod.models import FULL, PLANAR, RodSystem  # noqa: E402
 from matid.rod.solve import solve_cantilever  # noqa: E402
 
-ROD = ScaledRod(
-    E_t=0.7,
-    E_s=3e3,
-    E_e=2e4,
-    segments=(Segment(0.6, 0.8, 5.0, 4.0, 1e5, 2e5),),
-    kappa_ref=(0.4, -1.3, 0.2),
-    mu=((0.2, 1.0, 2.5),),
-    B=(0.3, -0.5, 0.8),
-    f=(0.7, -0.2, 1.1),
-    tip_force=(0.5, 1.5, -0.5),
-    tip_moment=(0.0, 0.9, 0.0),
-    magnets=((1.0, 0.8), (0.4, -0.3)),
-)
+#: the derivative tests' rod, with a dead tip moment and a second magnet (both planar-only here)
+ROD = replace(derivatives.ROD, tip_moment=(0.0, 0.9, 0.0), magnets=((1.0, 0.8), (0.4, -0.3)))
 
 
 @pytest.fixture(autouse=True)

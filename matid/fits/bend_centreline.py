@@ -47,7 +47,7 @@ class Centreline:
     """
 
     def __init__(self, model: BendModel):
-        system = model.system(1.0, 1.0, 1.0, 1.0)  # geometry only
+        system = model.geometry_system()
         system.at(0.25)
         s1 = system.rod.disc.s_dof.copy()
         system.at(0.5)

@@ -182,6 +182,14 @@ class BendModel:
             runtime_s=time.perf_counter() - t0,
         )
 
+    def geometry_system(self) -> BendSystem:
+        """A system of this model for its geometry only (meshes, dof numbering), built once per
+        model; its mesh is wherever the last caller moved it (:meth:`BendSystem.at`)."""
+        system = self.__dict__.get("_geometry_system")
+        if system is None:
+            system = self._geometry_system = self.system(1.0, 1.0, 1.0, 1.0)
+        return system
+
     def half_state(self, path: BendPath, index: int = -1) -> tuple[np.ndarray, ...]:
         """(s, x, z, theta) of the half model at one path state, SI, sorted by s from mid-span."""
         return self.half_state_of(path.states[index])
@@ -189,9 +197,7 @@ class BendModel:
     def half_state_of(self, X: np.ndarray) -> tuple[np.ndarray, ...]:
         """(s, x, z, theta) of the half model at a state X (see :meth:`half_state`)."""
         S = self.geometry.span
-        system = self.__dict__.get("_shape_system")
-        if system is None:  # geometry only: built once per model
-            system = self._shape_system = self.system(1.0, 1.0, 1.0, 1.0)
+        system = self.geometry_system()
         system.at(X[-1])
         order = np.argsort(system.rod.disc.s_dof)
         x, z, theta = system.rod.expand(X[: system.nu]).reshape(-1, 3)[order].T

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from matid.rod.bandsolve import band_lu, band_lu_solve, cholesky, cholesky_solve
-from matid.rod.kernel import _at_point, _element_matrix, _planar_point, _scatter
+from matid.rod.kernel import _add_element, _at_point, _element_matrix, _planar_point, _scatter
 
 
 @njit(cache=True)
@@ -104,15 +104,7 @@ def evaluate(
             _scatter(T, e, qp, gdofs, bpos, nf, w * dh, dg, dR)
             _element_matrix(T, e, qp, nf, w, H, Kl)
         if tangent:
-            m = nloc * nf
-            for a in range(m):
-                pa = bpos[gdofs[e, a]]
-                if pa < 0:
-                    continue
-                for b in range(m):
-                    pb = bpos[gdofs[e, b]]
-                    if pb >= 0 and abs(pa - pb) <= u:
-                        ab[u + pa - pb, pb] += Kl[a, b]
+            _add_element(Kl, e, gdofs, bpos, u, ab, True)
     for j in range(order.size):
         R_free[order[j]] = R[j]
         dR_free[order[j]] = dR[j]

@@ -208,9 +208,14 @@ class Discretisation:
         return int(index)
 
     def set_free(self, free: np.ndarray) -> None:
-        """Which dofs are free: the band pattern now, the CSR pattern when first used."""
-        self.free = np.asarray(free, dtype=bool)
-        self._fixed = None  # which clamp set this is, when a RodSystem set it (models.RodSystem)
+        """Which dofs are free: the band pattern now, the CSR pattern when first used.
+
+        The same set again keeps the patterns (a cached mesh shared by the systems of a scene)."""
+        free = np.asarray(free, dtype=bool)
+        current = self.__dict__.get("free")
+        if current is not None and free is not current and free.tobytes() == current.tobytes():
+            return
+        self.free = free
         index = np.full(self.n, -1)
         nfree = int(self.free.sum())
         index[self.free] = np.arange(nfree)

@@ -239,6 +239,25 @@ def _element_matrix(T, e, qp, nf, w, H, Kl):
 
 
 @njit(cache=True)
+def _add_element(Kl, e, gdofs, bpos, u, S, full):
+    """S += the element tangent Kl of element e at its dofs' band positions (fixed dofs skipped):
+    the lower band by rows, ``S[i, j - i + u] = K[i, j]`` (j <= i), or with ``full`` LAPACK's
+    full band, ``S[u + i - j, j] = K[i, j]`` (:class:`matid.rod.fem.Banded`)."""
+    m = Kl.shape[0]
+    for a in range(m):
+        pa = bpos[gdofs[e, a]]
+        if pa < 0:
+            continue
+        for b in range(m):
+            pb = bpos[gdofs[e, b]]
+            if full:
+                if pb >= 0 and abs(pa - pb) <= u:
+                    S[u + pa - pb, pb] += Kl[a, b]
+            elif 0 <= pb <= pa:
+                S[pa, pb - pa + u] += Kl[a, b]
+
+
+@njit(cache=True)
 def _assemble(
     U, lam, model, T, dx, gdofs, bpos, u, props, mu, B, f, kref, A, Q, M, point, magnets, c_u, stress,
     use_stress, su_all, CJ_all, R, S, work, tangent
@@ -273,17 +292,8 @@ def _assemble(
             _scatter(T, e, qp, gdofs, bpos, nf, w, g, R)
             if tangent:
                 _element_matrix(T, e, qp, nf, w, H, Kl)
-        if not tangent:
-            continue
-        m = nloc * nf
-        for a in range(m):
-            pa = bpos[gdofs[e, a]]
-            if pa < 0:
-                continue
-            for b in range(m):
-                pb = bpos[gdofs[e, b]]
-                if 0 <= pb <= pa:
-                    S[pa, pb - pa + u] += Kl[a, b]
+        if tangent:
+            _add_element(Kl, e, gdofs, bpos, u, S, False)
     _point_terms(U, lam, model, bpos, u, B, point, magnets, c_u, R, S)
 
 

@@ -117,12 +117,9 @@ class RodSystem:
         self.props, self.mu, roundoff = _fields(self.disc, self.rod)
         self._roundoff = (self.props, roundoff)
         nf = self.disc.nf
-        fixed = tuple(range(nf)) if self.fixed is None else tuple(self.fixed)
-        if self.disc.__dict__.get("_fixed") != fixed:  # a shared (cached) mesh keeps its patterns
-            free = np.ones(self.disc.n, dtype=bool)
-            free[list(fixed)] = False
-            self.disc.set_free(free)
-            self.disc._fixed = fixed
+        free = np.ones(self.disc.n, dtype=bool)
+        free[list(range(nf)) if self.fixed is None else list(self.fixed)] = False
+        self.disc.set_free(free)  # a shared (cached) mesh keeps its patterns when the set is the same
         self.index = self.disc._index  # free dof number of each dof, -1 where fixed
         self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
         magnets = [(s_m, m) for s_m, m in self.rod.magnets]
