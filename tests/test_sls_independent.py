@@ -74,7 +74,9 @@ def write_testxpert(path: Path, t, elongation_m, force_n) -> None:
     path.write_bytes(("\r\n".join(lines) + "\r\n").encode("cp1252"))
 
 
-def make_study(folder: Path, *, seed: int, tare: float = 0.0, toe: float = 0.0, tau: float = TAU) -> Path:
+def make_study(
+    folder: Path, *, seed: int, tare: float = 0.0, toe: float = 0.0, tau: float = TAU, phi: float = 0.8
+) -> Path:
     """Two ramp-and-hold runs of one tube; ``tare`` [N] adds to every force, ``toe`` [m] of
     crosshead travel comes before the strip is taut (force 0 there, strain from its end)."""
     rng = np.random.default_rng(seed)
@@ -88,7 +90,7 @@ def make_study(folder: Path, *, seed: int, tare: float = 0.0, toe: float = 0.0, 
             t = np.concatenate([np.arange(n_toe) * DT, t + n_toe * DT])
             elongation = np.concatenate([np.arange(n_toe) * DT * rate * GAUGE, elongation + toe])
             force = np.concatenate([np.zeros(n_toe), force])
-        force = force + tare + ar1(rng, t.size, 0.8, 0.004)
+        force = force + tare + ar1(rng, t.size, phi, 0.004)
         name = f"zug_r{i}.TXT"
         write_testxpert(folder / name, t, elongation, force)
         tests.append(
@@ -176,3 +178,16 @@ def test_every_warning_of_a_bad_record_reaches_every_output(tmp_path, capsys, ba
         assert any(warning in w for w in doc["warnings"]), warning
         assert warning in stdout, warning
         assert " ".join(warning.split()) in flat, warning
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known defect, reported (prony.choose): on a true SLS with AR(1) noise (seed 149, as 199 "
+    "of 100-299) BIC prefers a 2-arm Prony model whose fast arm (tau 3.3 ms) is 30x below the "
+    "0.1 s sampling interval; its covariance is singular, so E_e becomes prony_k0 with no "
+    "standard error and no interval, warned that 'the SLS does not describe these runs'",
+)
+def test_e_e_of_a_true_sls_keeps_its_interval(tmp_path):
+    (ext,) = run_study(load_study(make_study(tmp_path / "study", seed=149))).fits
+    e_e = ext.estimate("E_e")
+    assert e_e.ci95 is not None and e_e.ci95[0] <= K1 <= e_e.ci95[1], (e_e.method, e_e.value, e_e.ci95)
