@@ -75,7 +75,14 @@ def write_testxpert(path: Path, t, elongation_m, force_n) -> None:
 
 
 def make_study(
-    folder: Path, *, seed: int, tare: float = 0.0, toe: float = 0.0, tau: float = TAU, phi: float = 0.8
+    folder: Path,
+    *,
+    seed: int,
+    tare: float = 0.0,
+    toe: float = 0.0,
+    tau: float = TAU,
+    phi: float = 0.8,
+    quantum: float = 0.0,
 ) -> Path:
     """Two ramp-and-hold runs of one tube; ``tare`` [N] adds to every force, ``toe`` [m] of
     crosshead travel comes before the strip is taut (force 0 there, strain from its end)."""
@@ -91,6 +98,8 @@ def make_study(
             elongation = np.concatenate([np.arange(n_toe) * DT * rate * GAUGE, elongation + toe])
             force = np.concatenate([np.zeros(n_toe), force])
         force = force + tare + ar1(rng, t.size, phi, 0.004)
+        if quantum:  # a load cell's resolution
+            force = np.round(force / quantum) * quantum
         name = f"zug_r{i}.TXT"
         write_testxpert(folder / name, t, elongation, force)
         tests.append(
@@ -191,3 +200,15 @@ def test_e_e_of_a_true_sls_keeps_its_interval(tmp_path):
     (ext,) = run_study(load_study(make_study(tmp_path / "study", seed=149))).fits
     e_e = ext.estimate("E_e")
     assert e_e.ci95 is not None and e_e.ci95[0] <= K1 <= e_e.ci95[1], (e_e.method, e_e.value, e_e.ci95)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known defect, reported (extension_runs.difference_noise, a copy of stats.difference_noise "
+    "without its fallback): force resolved to 0.02 N with 4 mN noise makes the MAD of the second "
+    "differences 0, so each run's noise is 1e-9 x its peak force and info reduced_chi2 (shown in the "
+    "report) is 9.2e12 for an exact SLS",
+)
+def test_a_quantised_record_has_a_finite_reduced_chi2(tmp_path):
+    (ext,) = run_study(load_study(make_study(tmp_path / "study", seed=5, phi=0.0, quantum=0.02))).fits
+    assert ext.info["reduced_chi2"] < 100, ext.info["reduced_chi2"]
