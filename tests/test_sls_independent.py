@@ -202,13 +202,9 @@ def test_e_e_of_a_true_sls_keeps_its_interval(tmp_path):
     assert e_e.ci95 is not None and e_e.ci95[0] <= K1 <= e_e.ci95[1], (e_e.method, e_e.value, e_e.ci95)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known defect, reported (extension_runs.difference_noise, a copy of stats.difference_noise "
-    "without its fallback): force resolved to 0.02 N with 4 mN noise makes the MAD of the second "
-    "differences 0, so each run's noise is 1e-9 x its peak force and info reduced_chi2 (shown in the "
-    "report) is 9.2e12 for an exact SLS",
-)
 def test_a_quantised_record_has_a_finite_reduced_chi2(tmp_path):
+    """Force resolved to 0.02 N with 4 mN noise: most second differences are 0, so the MAD
+    noise is 0; the run noise must then come from the rms of the second differences
+    (:func:`matid.fits.stats.difference_noise`), not 1e-9 x the peak force (reduced chi2 9.2e12)."""
     (ext,) = run_study(load_study(make_study(tmp_path / "study", seed=5, phi=0.0, quantum=0.02))).fits
     assert ext.info["reduced_chi2"] < 100, ext.info["reduced_chi2"]
