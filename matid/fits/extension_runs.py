@@ -1,14 +1,14 @@
 """Extension runs in SI for the SLS fit (:mod:`matid.fits.extension`): reading, noise, slack rows.
 
 Each run keeps its time, strain and force, a model-free noise level (second differences,
-:func:`difference_noise`), and the rows whose residuals enter the fit: inside the test's
-window and not slack (a strip near zero force after loading carries no compression).
+:func:`matid.fits.stats.difference_noise`), and the rows whose residuals enter the fit:
+inside the test's window and not slack (a strip near zero force after loading carries no
+compression).
 """
 
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from matid.errors import DataError, FitError
+from matid.fits import stats
 from matid.fits.sls import History
 
 if TYPE_CHECKING:
@@ -51,15 +52,6 @@ class _Run:
     @property
     def dt(self) -> float:
         return float(np.median(np.diff(self.t)))
-
-
-def difference_noise(y: np.ndarray) -> float:
-    """Model-free noise level: ``1.4826 MAD(second differences) / sqrt(6)``.
-
-    Second differences remove a smooth signal; MAD ignores kinks (ramp ends).
-    """
-    d2 = np.diff(np.asarray(y, dtype=float), 2)
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
 
 
 def _unique(runs: list[_Run]) -> list[_Run]:
@@ -98,7 +90,7 @@ def _run(m: Measurement) -> _Run:
         raise FitError(f"{name}: strain or force does not change; nothing to fit")
     r = np.abs(np.diff(eps) / np.diff(t))
     rate = float(np.median(r[r > 0.1 * r.max()]))
-    noise = difference_noise(force) or 1e-9 * float(np.max(np.abs(force)))
+    noise = stats.difference_noise(force) or 1e-9 * float(np.max(np.abs(force)))
     used = np.asarray(m.in_window(), dtype=bool)
     if used.sum() < 5:
         raise DataError(f"only {int(used.sum())} rows inside the window; a fit needs 5", file=table.path)

@@ -108,7 +108,7 @@ def _intervals(result, unc, runs, sigma, ref, se, *, profile: bool, dof: float) 
     for name in _ORDER:
         if se[name] is not None:
             if name == "k1":
-                out[name] = (k[name] - tq * se[name], k[name] + tq * se[name], "t")
+                out[name] = (*stats.interval(k[name], se[name], dof), "t")
             else:
                 wald = stats.wald_log_interval(k[name], se[name], tq)
                 if wald is not None:
