@@ -189,17 +189,17 @@ def test_every_warning_of_a_bad_record_reaches_every_output(tmp_path, capsys, ba
         assert " ".join(warning.split()) in flat, warning
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known defect, reported (prony.choose): on a true SLS with AR(1) noise (seed 149, as 199 "
-    "of 100-299) BIC prefers a 2-arm Prony model whose fast arm (tau 3.3 ms) is 30x below the "
-    "0.1 s sampling interval; its covariance is singular, so E_e becomes prony_k0 with no "
-    "standard error and no interval, warned that 'the SLS does not describe these runs'",
-)
 def test_e_e_of_a_true_sls_keeps_its_interval(tmp_path):
+    # seed 149: BIC preferred a 2-arm Prony model whose fast arm (tau 3.3 ms) lies 30x below the
+    # 0.1 s sampling interval; its covariance is singular, so E_e became prony_k0 with no standard
+    # error and no interval, warned that "the SLS does not describe these runs". A model the data
+    # do not determine is no longer preferred (prony.choose). That the intervals cover the truth
+    # is tested over 40 records above.
     (ext,) = run_study(load_study(make_study(tmp_path / "study", seed=149))).fits
     e_e = ext.estimate("E_e")
-    assert e_e.ci95 is not None and e_e.ci95[0] <= K1 <= e_e.ci95[1], (e_e.method, e_e.value, e_e.ci95)
+    assert e_e.method == "sls" and e_e.stderr is not None and e_e.ci95 is not None
+    assert ext.info["model_choice"]["arms_preferred"] == 1
+    assert not any("does not describe these runs" in w for w in e_e.warnings)
 
 
 def test_a_quantised_record_has_a_finite_reduced_chi2(tmp_path):

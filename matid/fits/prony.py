@@ -162,6 +162,11 @@ class PronyFit:
             out[f"prony_tau{i}"] = tau
         return out
 
+    @property
+    def determined(self) -> bool:
+        """Whether the data determine every parameter: a covariance with finite standard errors."""
+        return self.covariance is not None and bool(np.all(np.isfinite(self.covariance.stderr)))
+
     def stderr(self) -> dict[str, float | None]:
         """Standard errors by the delta method, se(p) = p se(log p); None when singular."""
         names = ["prony_k0"] + [f"prony_k{i}" for i in range(1, self.n_terms + 1)]
@@ -275,9 +280,11 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
     # the SLS's own would count a misfit as correlated noise), else noise wander buys arms
     cov = fits[max(fits)].covariance
     n_eff = cov.n_eff if cov is not None else float(fits[1].n)
+    # a model the data do not determine (an arm far faster than the sampling: singular
+    # covariance) is no evidence against the SLS, and would leave E_e without an interval
     best = 1
     for n in sorted(fits)[1:]:
-        if fits[best].bic_at(n_eff) - fits[n].bic_at(n_eff) > BIC_MARGIN:
+        if fits[n].determined and fits[best].bic_at(n_eff) - fits[n].bic_at(n_eff) > BIC_MARGIN:
             best = n
     return Choice(fits, best, n_eff)
 
