@@ -165,7 +165,10 @@ class PronyFit:
     @property
     def determined(self) -> bool:
         """Whether the data determine every parameter: a covariance with finite standard errors."""
-        return self.covariance is not None and bool(np.all(np.isfinite(self.covariance.stderr)))
+        if self.covariance is None:
+            return False
+        variance = np.diag(self.covariance.cov)
+        return bool(np.all(np.isfinite(variance) & (variance >= 0.0)))
 
     def stderr(self) -> dict[str, float | None]:
         """Standard errors by the delta method, se(p) = p se(log p); None when singular."""
