@@ -31,11 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from matid import study
 from matid.example.forward import bend_force
-from matid.fits import shear
-from matid.ingest import Measurement, Table
-from matid.results import Estimate
+from matid.fits.shear import fit as shear
+from matid.io import study
+from matid.io.ingest.read import Measurement, Table
+from matid.io.results import Estimate
 from matid.rod import bend
 
 E_B, E_S, E_E = 6.5e-5, 21.0, 120.0  # demo tube T1
@@ -126,8 +126,8 @@ def es_fit(repeat: int, counter: Counter) -> dict:
 
 
 def demo(counter: Counter) -> dict:
-    from matid import pipeline
-    from matid.cli import demo_study_path
+    from matid.app import pipeline
+    from matid.app.cli import demo_study_path
 
     out, original = {}, pipeline.FITTERS["three_point_bend"]
 

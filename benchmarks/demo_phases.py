@@ -27,15 +27,15 @@ def _children_cpu() -> float:
 
 
 def main() -> None:
-    import matid.cli as cli
+    import matid.app.cli as cli
 
-    clock = _lap("import matid.cli", START)
+    clock = _lap("import matid.app.cli", START)
     cli.build_parser(["demo"]).parse_args(["demo"])
     clock = _lap("build the parser", clock)
-    from matid import pipeline
-    from matid.study import load_study
+    from matid.app import pipeline
+    from matid.io.study import load_study
 
-    clock = _lap("import matid.pipeline", clock)
+    clock = _lap("import matid.app.pipeline", clock)
     fits: dict[str, list[float]] = {}
     for kind, fitter in list(pipeline.FITTERS.items()):
 
@@ -59,8 +59,8 @@ def main() -> None:
     render_report(result, units="SI")
     clock = _lap("report (HTML and PDF)", clock)
     print(f"  figures rendered beside it: cpu {_children_cpu() - children:6.3f} s")
-    from matid.results import stiffness_csv, stiffness_json
-    from matid.xlsx import stiffness_xlsx
+    from matid.io.results import stiffness_csv, stiffness_json
+    from matid.io.xlsx import stiffness_xlsx
 
     stiffness_csv(result, "SI"), stiffness_json(result, "SI"), stiffness_xlsx(result, "SI")
     _lap("tables (csv, json, xlsx)", clock)

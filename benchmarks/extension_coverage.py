@@ -20,10 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from matid import study
-from matid.fits.extension import fit_extension, sls_ramp
+from matid.fits.extension.fit import fit_extension
 from matid.fits.stats import ar1_noise
-from matid.ingest import Measurement, Table
+from matid.io import study
+from matid.io.ingest.read import Measurement, Table
+from matid.physics.sls import sls_ramp
 
 K1, K2, ETA = 50.0, 30.0, 300.0
 TAU = ETA / K2

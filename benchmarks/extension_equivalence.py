@@ -7,8 +7,8 @@ Run from the repository root of each checkout::
     PYTHONPATH=<new checkout> python benchmarks/extension_equivalence.py dump new.json
     python benchmarks/extension_equivalence.py compare old.json new.json
 
-``dump`` records every :func:`matid.fits.extension.fit_extension` call of (a) the demo
-study (matid/example through :func:`matid.pipeline.run_study`), (b) the tests that build
+``dump`` records every :func:`matid.fits.extension.fit.fit_extension` call of (a) the demo
+study (matid/example through :func:`matid.app.pipeline.run_study`), (b) the tests that build
 extension data (run through pytest with the fit wrapped; hypothesis is derandomised by the
 "ci" profile) and (c) extra cases: the coverage benchmark's i.i.d. and AR(1) ramps, exact
 (noise-free) data, each parameter fixed in turn. Per call it keeps every estimate (value,
@@ -81,7 +81,7 @@ def _record(fit) -> dict:
 
 def _install() -> None:
     """Wrap fit_extension before anything imports it by name."""
-    from matid.fits import extension
+    from matid.fits.extension import fit as extension
 
     original = extension.fit_extension
 
@@ -107,8 +107,8 @@ class _Keys:
 
 
 def _measurements(runs):
-    from matid import study
-    from matid.ingest import Measurement, Table
+    from matid.io import study
+    from matid.io.ingest.read import Measurement, Table
 
     out = []
     for i, (t, eps, force) in enumerate(runs):
@@ -119,8 +119,8 @@ def _measurements(runs):
 
 
 def _ramps(rng, k, durations, noise, phi=0.0):
-    from matid.fits.extension import sls_ramp
     from matid.fits.stats import ar1_noise
+    from matid.physics.sls import sls_ramp
 
     out = []
     for duration in durations:
@@ -132,7 +132,7 @@ def _ramps(rng, k, durations, noise, phi=0.0):
 
 
 def _extra() -> None:
-    from matid.fits import extension
+    from matid.fits.extension import fit as extension
 
     k = (50.0, 30.0, 300.0)
     tau = k[2] / k[1]
@@ -168,8 +168,8 @@ def dump(out: str) -> None:
     _install()
     import pytest
 
-    from matid import pipeline
-    from matid.study import load_study
+    from matid.app import pipeline
+    from matid.io.study import load_study
 
     _CONTEXT["key"], _CONTEXT["n"] = "demo", 0
     pipeline.run_study(load_study(ROOT / "matid" / "example" / "study.toml"))

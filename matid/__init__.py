@@ -23,7 +23,7 @@ _API = {"fit", "load_study", "FitResult"}
 
 def __getattr__(name: str):
     if name in _API:
-        from matid import api
+        from matid.app import api
 
         return getattr(api, name)
     raise AttributeError(f"module 'matid' has no attribute {name!r}")

@@ -1,6 +1,6 @@
 """``python -m matid``: the same as the ``matid`` command."""
 
-from matid.cli import run
+from matid.app.cli import run
 
 if __name__ == "__main__":
     run()

@@ -8,7 +8,7 @@ scene case is an example scene with mutated keys and values.
 Each case runs in this process (no interpreter start-up) under a wall-clock
 alarm. Most cases stop after the input stage (load_study + load_measurements, or
 load_scene), which is where nearly every mutation is caught; a drawn few (FULL_SHARE)
-run the whole ``matid fit`` / ``matid solve`` through ``matid.cli.main`` into an output
+run the whole ``matid fit`` / ``matid solve`` through ``matid.app.cli.main`` into an output
 folder that holds an older report, which must come out old-whole or new-whole.
 
 Allowed outcomes: exit 0, 1 or 2 with a message; never 3 (an uncaught exception),
@@ -39,7 +39,8 @@ from pathlib import Path
 
 from hypothesis import strategies as st
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests import ROOT
+
 DEMO = ROOT / "matid" / "example"
 SCENES = sorted((ROOT / "examples" / "scenes").glob("*.toml"))
 #: One in this many cases whose input is accepted runs the whole command (fits, report, publish);
@@ -461,7 +462,7 @@ def folder_state(out: Path, old: dict[str, bytes]) -> str:
 
 
 def run_cli(argv: list[str], limit: float) -> tuple[int | str, str]:
-    from matid.cli import main
+    from matid.app.cli import main
 
     err = io.StringIO()
     try:
@@ -478,10 +479,10 @@ LIMIT = float(os.environ.get("MATID_FUZZ_LIMIT", "120"))
 
 def run_study_case(case, work: Path, *, limit: float = LIMIT) -> Outcome:
     """Write the case's study into ``work`` and run it (input stage, or the whole ``matid fit``)."""
+    from matid.app.pipeline import fixed_estimates
     from matid.errors import DataError, MatidError
-    from matid.ingest import load_measurements
-    from matid.pipeline import fixed_estimates
-    from matid.study import load_study
+    from matid.io.ingest.read import load_measurements
+    from matid.io.study import load_study
 
     kind, toml, files, labels, full = case
     study = work / "study"
@@ -555,7 +556,7 @@ WRITER = textwrap.dedent(
     """
     import sys
     from pathlib import Path
-    from matid.publish import publish
+    from matid.io.publish import publish
     out, n = Path(sys.argv[1]), 0
     while True:
         tag = b"AB"[n % 2 : n % 2 + 1]

@@ -19,15 +19,15 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-import fuzzkit
 import pytest
 from hypothesis import given
 
-from matid.cli import main
-from matid.pipeline import run_study
-from matid.publish import claim_output
-from matid.results import stiffness_csv, stiffness_json
-from matid.study import load_study
+from matid.app.cli import main
+from matid.app.pipeline import run_study
+from matid.io.publish import claim_output
+from matid.io.results import stiffness_csv, stiffness_json
+from matid.io.study import load_study
+from tests import fuzzkit
 
 WORK = Path(tempfile.mkdtemp(prefix="matid-fuzz-"))
 #: benchmarks/fuzz.py sets this to count every outcome of a long run instead of stopping at the first bad one.

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests import ROOT
+
 PROBE = (
     "import matid.units as u; "
     "print(u.ureg('N.m').to('mN*m').magnitude, float(u.ureg('3 Secs').to('s').magnitude))"

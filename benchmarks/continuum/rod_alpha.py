@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from matid.physics.contact import Circle
 from matid.rod.bend import BendModel, BendSystem
-from matid.rod.contact import Circle
 from matid.rod.fem import Discretisation
 from matid.rod.models import PLANAR, RodSystem, ScaledRod
 

@@ -22,7 +22,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-from matid.fits.shear_torsion import CONTACT_N, CONTACT_REF
+from matid.fits.shear.torsion import CONTACT_N, CONTACT_REF
 
 
 def sls_force(
@@ -185,7 +185,7 @@ def contact_travel(force, *, outer_diameter: float, inner_diameter: float, E: fl
     compliance 0.23 mm/N at 0.1 N, falling with load), carried to another tube by
     dimensional analysis at fixed shape (u depends on F/E only, so ``F -> F E_ref/E``)
     and by the wall scaling ``R_m^1.5 / t^2.5`` of
-    :func:`matid.fits.shear_torsion.local_compliance`. Good for tubes near the
+    :func:`matid.fits.shear.torsion.local_compliance`. Good for tubes near the
     reference wall (t/R_m ~ 0.4); it is what makes synthetic nose travel look like
     a real tube's, not a correction.
     """
@@ -218,8 +218,8 @@ def bend_force_nose(d: np.ndarray, *, inner_diameter: float, E: float, **kwargs)
 def bend_centreline(d: np.ndarray, **kwargs) -> tuple[np.ndarray, np.ndarray]:
     """(centreline deflection, force) at increasing nose deflections ``d`` (same keywords as
     :func:`bend_force`): the mid-span centreline relative to the sections over the supports
-    (:func:`matid.fits.bend_centreline.centreline_deflection`), as a side camera measures it."""
-    from matid.fits.bend_centreline import centreline_deflection
+    (:func:`matid.fits.shear.centreline.centreline_deflection`), as a side camera measures it."""
+    from matid.fits.shear.centreline import centreline_deflection
     from matid.rod.bend import BendGeometry, BendModel
 
     stiff = {k: kwargs.pop(k) for k in ("E_b", "E_s", "E_e")}

@@ -21,11 +21,11 @@ import numpy as np
 
 from matid.errors import DataError, FitError
 from matid.fits import linear, stats
-from matid.results import Estimate, Series, TestFit
+from matid.io.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
-    from matid.ingest import Measurement, Table
-    from matid.study import Test
+    from matid.io.ingest.read import Measurement, Table
+    from matid.io.study import Test
 
 #: p-value below which per-length bending slopes are said to disagree.
 SLOPES_ALPHA = 0.01

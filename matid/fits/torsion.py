@@ -19,10 +19,10 @@ import numpy as np
 
 from matid.errors import DataError, FitError
 from matid.fits import linear
-from matid.results import Estimate, Series, TestFit
+from matid.io.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
-    from matid.ingest import Measurement
+    from matid.io.ingest.read import Measurement
 
 #: Below this share of a file's rows in the linear range, the estimate carries a warning.
 MIN_LINEAR_SHARE = 0.5

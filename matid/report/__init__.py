@@ -1,7 +1,7 @@
 """The report: presents a StudyResult as HTML and PDF, and computes nothing.
 
 ``render_report(result, units="SI")`` returns ``{"report.html": bytes, "report.pdf": bytes}``;
-the caller writes them (atomically, see :func:`matid.results.atomic_write`). Content is built
+the caller writes them (atomically, see :func:`matid.io.results.atomic_write`). Content is built
 once (:mod:`matid.report.content`), its figures rendered once to PNG
 (:mod:`matid.report.images`; by a second process while the PDF is drawn,
 :mod:`matid.report.imagejob`), then drawn by :mod:`matid.report.html` (jinja2 template,
@@ -13,11 +13,11 @@ hook for extra figures of a fit, ``TestFit.info["figures"]``, is described in
 
 from __future__ import annotations
 
+from matid.io.results import StudyResult
 from matid.report.content import build_report
 from matid.report.html import render_html
 from matid.report.imagejob import ImageJob, Relayout
 from matid.report.pdf import render_pdf
-from matid.results import StudyResult
 from matid.units import UNIT_SYSTEMS
 
 __all__ = ["render_report"]

@@ -33,6 +33,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Polygon
 from matplotlib.ticker import NullFormatter
 
+from matid.io.results import TestFit
 from matid.report.figures import (
     COLOURS,
     DRAWING_MARGINS,
@@ -43,7 +44,6 @@ from matid.report.figures import (
     quiet_legend,
     style_axes,
 )
-from matid.results import TestFit
 
 MM = 1e3
 TUBE, CYLINDER, CYLINDER_EDGE, BAND = "#0072B2", "#d9dce1", "#555555", "#8a94a6"

@@ -1,7 +1,7 @@
 """What the report shows, as plain strings and tables, shared by the HTML and PDF renderers.
 
 The report computes nothing: every number comes from the :class:`StudyResult`, and the
-stiffness values go through :func:`matid.results.stiffness_json` so that the report and
+stiffness values go through :func:`matid.io.results.stiffness_json` so that the report and
 ``stiffness.json`` / ``stiffness.csv`` agree digit for digit. This module only formats.
 """
 
@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from matid import __version__
+from matid.io.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
+from matid.io.study import OPTIONAL_KEYS, TEST_KINDS, Test
 from matid.report.bend import bend_drawings
 from matid.report.figures import Drawing, ExtraFigure, axis_unit, extra_figures, has_plot
 from matid.report.holds import hold_drawings
@@ -30,8 +32,6 @@ from matid.report.summary import (
     notes_of,
     value_cells,
 )
-from matid.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
-from matid.study import OPTIONAL_KEYS, TEST_KINDS, Test
 
 #: Section titles and the parameters each test kind gives, in report order.
 KINDS: dict[str, tuple[str, tuple[str, ...]]] = {

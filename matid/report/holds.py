@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from matid.io.results import TestFit
 from matid.report.figures import (
     COLOURS,
     EXCLUDED,
@@ -26,7 +27,6 @@ from matid.report.figures import (
     quiet_legend,
     style_axes,
 )
-from matid.results import TestFit
 
 TITLE = "Force against time"
 

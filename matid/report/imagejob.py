@@ -36,8 +36,8 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
-from matid.processes import can_fork as _can_fork
-from matid.processes import frozen_collector
+from matid.app.processes import can_fork as _can_fork
+from matid.app.processes import frozen_collector
 from matid.report.content import KINDS, Report
 from matid.report.figures import DPI, FIT_SIZE, Drawing
 from matid.report.images import Image, Images, drawing_image, fit_image, pdf_image, rgba_pixels

@@ -14,9 +14,9 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from matid.moduli import MODULUS_OF, agreement, modulus
+from matid.io.results import StudyResult
+from matid.physics.moduli import MODULUS_OF, agreement, modulus
 from matid.report.quantities import DISPLAY, fmt
-from matid.results import StudyResult
 
 SUMMARY_COLUMNS = (
     "specimen",

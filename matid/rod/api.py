@@ -18,7 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from matid.errors import DataError
-from matid.rod import kinematics as kin
+from matid.physics import kinematics as kin
 from matid.rod.accuracy import refine
 from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath

@@ -1,7 +1,7 @@
 """The three-point-bend scene: deflection-controlled path, nose force, sensitivities.
 
 Scaled by the span S and E_b: lengths /S, forces /(E_b/S^2). Unknowns are the
-free planar dofs of the half rod (:mod:`matid.rod.contact`), the two contact
+free planar dofs of the half rod (:mod:`matid.physics.contact`), the two contact
 multipliers and sigma, the arc length of the support vertex; the system is
 
     [K - sum lam_c d2g_c   -G^T   dR/dsigma] [du    ]   = -[R - G^T lam]
@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from matid.errors import ConvergenceError, SlipOffError
+from matid.physics.contact import Circle
 from matid.rod.bend_system import BendSystem
-from matid.rod.contact import Circle
 from matid.rod.fem import Discretisation
 from matid.rod.models import PLANAR, RodSystem, ScaledRod
 from matid.rod.newton import NewtonFailure, NewtonInfo, follow, newton

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from matid.physics.contact import Circle
 from matid.rod import bend_compiled
 from matid.rod.bordered import Bordered
-from matid.rod.contact import Circle
 from matid.rod.models import RodSystem
 from matid.rod.newton import NewtonFailure
 

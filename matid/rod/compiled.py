@@ -17,8 +17,8 @@ import warnings
 
 import numpy as np
 
-from matid.rod import full
-from matid.rod import kinematics as kin
+from matid.physics import full
+from matid.physics import kinematics as kin
 
 _NO_LOAD = np.zeros(0)
 _A, _Q = np.ascontiguousarray(full.A, dtype=float), np.ascontiguousarray(full.Q, dtype=float)

@@ -2,7 +2,7 @@
 
 The total energy is  E(U) = sum_e sum_q dx_eq  w(u_eq, u'_eq)  plus point terms.
 With the pointwise gradient g = dw/d(u, u') and Hessian H (from
-:mod:`matid.rod.jet`) and the basis tables phi, phi' of scikit-fem,
+:mod:`matid.physics.jet`) and the basis tables phi, phi' of scikit-fem,
 
     R_(i,c) = sum_q dx [g_c phi_i + g_c' phi_i']
     K_(i,c)(j,d) = sum_q dx [phi_i, phi_i'] H_(c,d) [phi_j, phi_j']^T

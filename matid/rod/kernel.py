@@ -9,8 +9,8 @@ quadrature points. Per point, with z = (u, u') and the element tables [phi, phi'
     R_(i,c)      += dx [g_c phi_i + g_(nf+c) phi_i']
     K_(i,c)(j,d) += dx sum_(k,l) B_k,i H_(k nf + c)(l nf + d) B_l,j,   B = [phi, phi']
 
-with g, H the closed forms of :func:`matid.rod.planar.derivatives` and
-:func:`matid.rod.full.derivatives` (tests compare them with the jets). Band storage
+with g, H the closed forms of :func:`matid.physics.planar.derivatives` and
+:func:`matid.physics.full.derivatives` (tests compare them with the jets). Band storage
 is by rows, ``S[i, t] = K[i, i - u + t]`` for t = 0..u (the lower triangle: the
 tangent is symmetric). As in :meth:`matid.rod.fem.Banded.factor`, each tangent is
 factorised by Cholesky, whose success is the stability test, and by banded LU with
@@ -64,7 +64,7 @@ def _planar_point(z, lam, Eb, Es, Ee, mu, B, f, kref, g, H, su, CJ, stress, use_
 
 @njit(cache=True)
 def _full_point(z, lam, C, mu, M, f, kref, A, Q, g, H, su, CJ, stress, use_stress, Qq, gF, F, s, G):
-    """Normalised full model at one point: z = (r, q, r', q'); see :mod:`matid.rod.full`.
+    """Normalised full model at one point: z = (r, q, r', q'); see :mod:`matid.physics.full`.
 
     Qq (3, 3, 4), gF (7, 14), F (7), s (7) and G (14) are scratch. Loop bounds are read off
     the arrays, not literals, so that LLVM does not unroll them: that keeps the first

@@ -27,10 +27,11 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from matid.rod import compiled, full, planar
-from matid.rod import kinematics as kin
+from matid.physics import full, planar
+from matid.physics import kinematics as kin
+from matid.physics.jet import Jet
+from matid.rod import compiled
 from matid.rod.fem import Discretisation
-from matid.rod.jet import Jet
 
 PLANAR, FULL = "planar", "full"
 FIELDS = {PLANAR: ("x", "z", "theta"), FULL: ("x", "y", "z", "q0", "q1", "q2", "q3")}

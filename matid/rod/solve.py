@@ -2,7 +2,7 @@
 
 Cantilever scenes run the planar model (x, z, theta) when :func:`plane_of`
 finds a plane holding every load, the full model (r, q) otherwise; the
-three-point bend is planar by construction (:mod:`matid.rod.contact`).
+three-point bend is planar by construction (:mod:`matid.physics.contact`).
 Positions and directors come back in the lab frame and in metres.
 """
 
@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from matid.rod import kinematics as kin
+from matid.physics import kinematics as kin
 from matid.rod.fem import Discretisation, graded_vertices
 from matid.rod.models import FULL, PLANAR, RodSystem, ScaledRod, Segment
 from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follow, newton

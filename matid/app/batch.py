@@ -1,0 +1,220 @@
+"""Many studies in one run: ``matid fit A B C --out DIR [--jobs N | --scheduler ADDRESS]``.
+
+docs/contract.md section 8. Each study is fitted by :func:`fit_one`, a task with
+plain arguments and a plain result that never raises, so it runs the same in this
+process, in a local process pool (``--jobs``) or on a Dask cluster
+(``--scheduler``). Each writes ``DIR/<study folder name>/`` through
+:func:`matid.app.pipeline.write_outputs`; then :func:`run_batch` writes
+``DIR/summary.csv``, ``DIR/summary.xlsx`` and the comparison page
+``DIR/summary.html`` (:mod:`matid.app.compare`). One failed study does not stop the
+others; the exit code of the batch is the worst of the studies' (0 < 1 < 2 < 3).
+
+On a Dask cluster the workers read the study folders and write into DIR by the
+same paths as this process: the cluster must share that file system.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from matid.errors import DataError, MatidError
+
+#: Columns of summary.csv and of the sheet ``summary``: the study folder name, then stiffness.csv's.
+SUMMARY_FIRST = "study"
+STUDY_COLUMNS = ["study", "source", "exit_code", "error", "warnings", "runtime_s"]
+
+
+@dataclass(frozen=True)
+class StudyOutcome:
+    """What one study's task hands back (picklable, plain data)."""
+
+    source: str  # the path as given
+    name: str  # the study folder name: DIR/<name>/
+    code: int  # exit code of this study alone (docs/contract.md section 5)
+    rows: list[dict] = field(default_factory=list)  # stiffness table rows, as stiffness.csv
+    warnings: list[str] = field(default_factory=list)
+    error: str = ""  # why the study stopped (code 2, 3, or a MatidError)
+    failures: list[str] = field(default_factory=list)  # fits that could not be done (code 1)
+    paths: list[str] = field(default_factory=list)
+    runtime_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    outcomes: list[StudyOutcome]  # in the order the studies were given
+    paths: list[Path]  # the summary files
+
+    @property
+    def code(self) -> int:
+        """The worst exit code of the studies."""
+        return max((o.code for o in self.outcomes), default=0)
+
+
+def study_folder_name(source: str | Path) -> str:
+    """The name of the output folder of a study: its folder's name (the toml's folder for a toml path)."""
+    path = Path(source).resolve()
+    return path.parent.name if path.suffix.lower() == ".toml" else path.name
+
+
+def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> StudyOutcome:
+    """Load, fit and write one study into ``out``; never raises: errors become the outcome's code."""
+    from matid.app.pipeline import run_study, write_outputs
+    from matid.io.results import table_rows
+    from matid.io.study import load_study
+
+    clock = time.perf_counter()
+    name = study_folder_name(source)
+    try:
+        result = run_study(load_study(source))
+        paths = write_outputs(result, Path(out), units=units)
+    except DataError as exc:
+        return StudyOutcome(source, name, 2, error=str(exc), runtime_s=time.perf_counter() - clock)
+    except MatidError as exc:
+        return StudyOutcome(source, name, 1, error=str(exc), runtime_s=time.perf_counter() - clock)
+    except Exception as exc:  # a bug: say so, keep the traceback for --debug
+        error = f"internal error: {type(exc).__name__}: {exc}\n{traceback.format_exc()}"
+        return StudyOutcome(source, name, 3, error=error, runtime_s=time.perf_counter() - clock)
+    warnings = result.warnings()
+    code = 0 if result.ok and not (strict and warnings) else 1
+    return StudyOutcome(
+        source,
+        name,
+        code,
+        rows=table_rows(result, units),
+        warnings=warnings,
+        failures=[f"{f.specimen} {f.kind}: {f.reason}" for f in result.failures],
+        paths=[str(p) for p in paths],
+        runtime_s=time.perf_counter() - clock,
+    )
+
+
+def run_batch(
+    sources: Sequence[str | Path],
+    out: str | Path,
+    *,
+    units: str = "SI",
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    strict: bool = False,
+    on_done: Callable[[StudyOutcome], None] | None = None,
+) -> BatchResult:
+    """Fit every study into ``out/<folder name>/`` and write the summary files; see the module docstring.
+
+    ``jobs`` local processes (default: the number of cores; 1 runs in this process),
+    or the Dask scheduler at ``scheduler``. ``on_done`` is called once per finished
+    study, in completion order (for progress). Two studies with the same folder name
+    would write into the same place: a DataError before anything runs.
+    """
+    out = Path(out)
+    names = [study_folder_name(s) for s in sources]
+    for name in names:
+        if names.count(name) > 1:
+            same = [str(s) for s, n in zip(sources, names, strict=True) if n == name]
+            raise DataError(f"studies {', '.join(same)} share the folder name {name!r}; rename one", file=out)
+    tasks = [(str(s), str(out / n), units, strict) for s, n in zip(sources, names, strict=True)]
+    done = on_done or (lambda _: None)
+    if scheduler:
+        outcomes = _run_dask(tasks, scheduler, done)
+    elif (jobs or os.cpu_count() or 1) == 1 or len(tasks) == 1:
+        outcomes = []
+        for task in tasks:
+            outcomes.append(fit_one(*task))
+            done(outcomes[-1])
+    else:
+        outcomes = _run_processes(tasks, min(jobs or os.cpu_count() or 1, len(tasks)), done)
+    from matid.app.compare import write_summary
+
+    return BatchResult(outcomes, write_summary(outcomes, out))
+
+
+def _crashed(task: tuple, exc: BaseException) -> StudyOutcome:
+    """The outcome of a task whose worker died or could not be reached (code 3: not the study's fault)."""
+    return StudyOutcome(
+        task[0], study_folder_name(task[0]), 3, error=f"worker failed: {type(exc).__name__}: {exc}"
+    )
+
+
+def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyOutcome]:
+    """Each task in a process of a local pool; results in the order of ``tasks``."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    # forkserver: workers start clean (no inherited threads, e.g. a progress bar's),
+    # forked from a server that has imported the pipeline and the report once.
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(["matid.app.pipeline", "matid.report"])  # imported once, in the server
+    outcomes: dict[int, StudyOutcome] = {}
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+        futures = {pool.submit(fit_one, *task): i for i, task in enumerate(tasks)}
+        for future in as_completed(futures):
+            i = futures[future]
+            try:
+                outcomes[i] = future.result()
+            except Exception as exc:  # the worker process died (e.g. killed for memory)
+                outcomes[i] = _crashed(tasks[i], exc)
+            done(outcomes[i])
+    return [outcomes[i] for i in range(len(tasks))]
+
+
+def _run_dask(tasks: list[tuple], address: str, done: Callable) -> list[StudyOutcome]:
+    """Each task on the Dask cluster at ``address``; results in the order of ``tasks``."""
+    try:
+        from distributed import Client, as_completed
+    except ImportError as exc:
+        raise MatidError("--scheduler needs dask.distributed: pip install 'matid[dask]'") from exc
+    try:
+        client = Client(address, timeout="10s", set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        raise MatidError(f"cannot reach the Dask scheduler at {address}: {exc}") from exc
+    outcomes: dict[int, StudyOutcome] = {}
+    with client:
+        futures = [client.submit(fit_one, *task, pure=False) for task in tasks]
+        index = {f.key: i for i, f in enumerate(futures)}
+        for future in as_completed(futures, loop=client.loop):  # this client, not a global default
+            i = index[future.key]
+            try:
+                outcomes[i] = future.result()
+            except Exception as exc:  # worker lost, or the task could not be unpickled there
+                outcomes[i] = _crashed(tasks[i], exc)
+            done(outcomes[i])
+    return [outcomes[i] for i in range(len(tasks))]
+
+
+class Progress:
+    """Progress of a batch on stderr: a tqdm bar on a terminal, else one timestamped line per study."""
+
+    def __init__(self, total: int, *, quiet: bool = False, stream=None) -> None:
+        self.stream = stream or sys.stderr
+        self.total, self.count, self.quiet = total, 0, quiet
+        self.clock = time.perf_counter()
+        self.bar = None
+        if not quiet and getattr(self.stream, "isatty", lambda: False)():
+            from tqdm import tqdm
+
+            class Bar(tqdm):
+                # tqdm's monitor thread outlives the bar (tqdm 4.70); a live thread keeps any later
+                # report of this process in one process (matid.app.render_worker.can_fork)
+                monitor_interval = 0
+
+            self.bar = Bar(total=total, unit="study", file=self.stream, desc="fitting studies")
+
+    def __call__(self, outcome: StudyOutcome) -> None:
+        self.count += 1
+        status = "done" if outcome.code == 0 else f"exit {outcome.code}"
+        if self.bar is not None:
+            self.bar.set_postfix_str(f"{outcome.name}: {status}", refresh=False)
+            self.bar.update(1)
+        elif not self.quiet:
+            elapsed = time.perf_counter() - self.clock
+            print(f"[{elapsed:6.1f} s] {self.count}/{self.total} {outcome.name}: {status} "
+                  f"({outcome.runtime_s:.1f} s)", file=self.stream, flush=True)  # fmt: skip
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()

@@ -1,0 +1,342 @@
+"""The ``matid`` command line: ``matid fit | demo | solve | design | bench``.
+
+Each subcommand is registered by its own ``_register_<name>(subparsers)`` and
+runs in a ``_cmd_<name>(args) -> int`` function: ``fit`` and ``demo`` here,
+``solve`` and ``design`` in :mod:`matid.app.solve_cli`, ``bench`` in
+:mod:`matid.bench.cli`; the options they share are in :mod:`matid.app.options`.
+:func:`main` maps errors to exit codes (docs/contract.md section 5):
+
+- 0: all fits done (solve: the scene converged);
+- 1: some fits failed (the rest written, reasons printed), a warning under
+  ``--strict``, or another MatidError (solve: no convergence, nothing written);
+- 2: the input cannot be used (DataError; also argparse usage errors);
+- 3: an unexpected error (a bug): a short message, the traceback with ``--debug``.
+
+Progress goes to stderr (unless ``--quiet``); the summary of the stiffnesses,
+the warnings and the output paths go to stdout.
+
+Imports are lazy: this module needs only the standard library to build the
+parser, and each command imports the numerical stack it uses when it runs
+(``import matid.app.cli`` stays well under a second; the bench, the rod solver and
+the fits load only for the commands that need them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import importlib
+import sys
+import time
+import traceback
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from matid import __version__
+from matid.app.options import UNITS_METAVAR as UNITS_METAVAR  # re-exported: tests/test_cli.py
+from matid.app.options import _add_strict, _add_units, _common, _positive_int
+from matid.app.processes import settled_imports
+from matid.app.solve_cli import _register_design, _register_solve
+from matid.app.solve_cli import solve_summary as solve_summary  # re-exported: its home before the split
+from matid.errors import DataError, MatidError
+
+if TYPE_CHECKING:
+    from matid.io.results import Failure, StudyResult
+
+#: Parameters left out of the console summary (sls_k1 is E_e); the files hold them all.
+_SUMMARY_SKIP = {"sls_k1"}
+#: The parameter each test kind is for, to name what a failure costs.
+_KIND_PARAMETER = {
+    "extension": "E_e",
+    "magnetic_bending": "E_b",
+    "torsion": "E_t",
+    "three_point_bend": "E_s",
+}
+
+
+def run() -> None:
+    """The console script ``matid``: :func:`main`, then exit with its code.
+
+    Before exiting, every object is moved out of the cyclic collector's reach
+    (``gc.freeze``): the interpreter's exit otherwise sweeps the objects of every loaded
+    module, 0.3-0.4 s after ``matid demo`` (measured). Nothing is lost: the outputs are
+    written and closed by then, and the exit returns the memory anyway.
+    """
+    code = main()
+    gc.freeze()
+    sys.exit(code)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``matid`` with ``argv`` (default: the process arguments); returns the exit code."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, usage errors
+        return exc.code if isinstance(exc.code, int) else 2
+    if not hasattr(args, "command"):
+        parser.print_help(sys.stderr)
+        return 2
+    return _guarded(args)
+
+
+#: Subcommands defined in other modules: name -> (module, its register function, one-line help).
+#: The module is imported only when its command is the one run (or asked for help).
+LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
+    "bench": ("matid.bench.cli", "register", "measure accuracy, cost and robustness of the rod solver"),
+}
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``matid`` parser; with ``argv``, only the command named there loads its module."""
+    parser = argparse.ArgumentParser(
+        prog="matid",
+        description="Stiffness identification of catheter tubes for Cosserat rod models. "
+        "Inputs and outputs are specified in docs/contract.md.",
+    )
+    parser.add_argument("--version", action="version", version=f"matid {__version__}")
+    subparsers = parser.add_subparsers(title="commands", metavar="COMMAND")
+    _register_fit(subparsers)
+    _register_demo(subparsers)
+    _register_solve(subparsers)
+    _register_design(subparsers)
+    command = next((a for a in argv if not a.startswith("-")), None) if argv is not None else None
+    for name, (module, register, help_text) in LAZY_COMMANDS.items():
+        if argv is None or command == name:
+            getattr(importlib.import_module(module), register)(subparsers)
+        else:  # listed in --help; never selected, since its name in argv loads the real one
+            subparsers.add_parser(name, help=help_text, add_help=False)
+    return parser
+
+
+def _register_fit(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "fit",
+        parents=[_common()],
+        help="fit one or more studies and write the reports and stiffness tables",
+        description="Fit every specimen of a study; write report.html, report.pdf, stiffness.csv, "
+        "stiffness.json and stiffness.xlsx into --out (docs/contract.md sections 4 and 7). "
+        "With several studies, each goes into --out/<study folder name>/, and --out gets "
+        "summary.csv, summary.xlsx and the comparison page summary.html (section 8).",
+    )
+    parser.add_argument("paths", nargs="+", metavar="STUDY", help="study folder or its study.toml")
+    parser.add_argument(
+        "--out",
+        metavar="DIR",
+        type=Path,
+        help="output folder (default: reports/<study folder> for one study, reports/ for several)",
+    )
+    parser.add_argument(
+        "--jobs",
+        metavar="N",
+        type=_positive_int,
+        help="several studies: fit N at a time in local processes (default: the number of cores)",
+    )
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="several studies: run them on the Dask cluster at ADDRESS, e.g. tcp://host:8786 "
+        "(needs matid[dask]; the workers must see the study folders and --out by the same paths)",
+    )
+    _add_units(parser)
+    _add_strict(parser)
+    parser.set_defaults(command=_cmd_fit)
+
+
+def _cmd_fit(args: argparse.Namespace) -> int:
+    if len(args.paths) > 1:
+        return fit_many(args)
+    from matid.io.study import resolve_study_path
+
+    source = resolve_study_path(args.paths[0])
+    out = args.out or Path("reports") / source.resolve().parent.name
+    if args.scheduler and not args.quiet:
+        print("matid: one study: fitted here, not on the --scheduler", file=sys.stderr)
+    return fit_and_write(source, out, units=args.units, quiet=args.quiet, strict=args.strict)
+
+
+def fit_many(args: argparse.Namespace) -> int:
+    """``matid fit A B C``: each study into --out/<folder>/, then the summary; exit code the worst."""
+    from matid.app.batch import Progress, run_batch
+
+    out = args.out or Path("reports")
+    progress = Progress(len(args.paths), quiet=args.quiet)
+    try:
+        batch = run_batch(
+            args.paths, out, units=args.units, jobs=args.jobs, scheduler=args.scheduler,
+            strict=args.strict, on_done=progress,
+        )  # fmt: skip
+    finally:
+        progress.close()
+    for o in batch.outcomes:
+        if o.error:
+            error = o.error if args.debug else o.error.split("\n")[0]
+            print(f"matid: {o.name}: error: {error}", file=sys.stderr)
+        for failure in o.failures:
+            print(f"matid: {o.name}: fit failed: {failure}", file=sys.stderr)
+    print(batch_summary(batch))
+    print("outputs:")
+    for o in batch.outcomes:
+        if o.paths:
+            print(f"  {Path(o.paths[0]).parent}/")
+    for path in batch.paths:
+        print(f"  {path}")
+    return batch.code
+
+
+def batch_summary(batch) -> str:
+    """Per study: exit code and counts; per parameter: mean ± sd across specimens; then the warnings."""
+    from matid.app.compare import statistics_by_parameter, summary_rows
+
+    lines = [
+        f"{o.name}: exit {o.code}, {len(o.rows)} values, {len(o.warnings)} warnings" for o in batch.outcomes
+    ]
+    for s in statistics_by_parameter(summary_rows(batch.outcomes)):
+        sd = "" if s["sd"] is None else f" ± {s['sd']:.2g}"
+        lines.append(f"{s['parameter']}: {s['mean']:.5g}{sd} {s['unit']} (mean ± sd of {s['n']} specimens)")
+    lines += _warning_lines([f"{o.name}: {w}" for o in batch.outcomes for w in o.warnings])
+    return "\n".join(lines)
+
+
+def _warning_lines(warnings: Sequence[str]) -> list[str]:
+    """The warnings block printed at the end of a run (docs/contract.md section 7)."""
+    if not warnings:
+        return ["warnings: none"]
+    return [f"warnings ({len(warnings)}):"] + [f"  - {w}" for w in warnings]
+
+
+def _register_demo(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "demo",
+        parents=[_common()],
+        help="fit the embedded synthetic demo study",
+        description="Fit the synthetic demo study shipped with matid (matid.example).",
+    )
+    parser.add_argument(
+        "--out", metavar="DIR", type=Path, default=Path("reports/demo"),
+        help="output folder (default reports/demo)",
+    )  # fmt: skip
+    _add_units(parser)
+    _add_strict(parser)
+    parser.set_defaults(command=_cmd_demo)
+
+
+def demo_study_path() -> Path:
+    """study.toml of the embedded demo study (the package ``matid.example``)."""
+    from importlib import resources
+
+    path = resources.files("matid.example") / "study.toml"
+    if not isinstance(path, Path):
+        raise MatidError("the demo study is not installed as plain files; reinstall matid")
+    return path
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    return fit_and_write(demo_study_path(), args.out, units=args.units, quiet=args.quiet, strict=args.strict)
+
+
+def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool = False) -> int:
+    """Load, fit, write; print progress, failures, the summary and the warnings.
+
+    0 if every fit was done (and, with ``strict``, nothing warned); else 1.
+    """
+    from matid.app.render_worker import RenderWorker
+
+    worker = RenderWorker.start()  # imports the report's stack beside the fits' imports
+    try:
+        with settled_imports("matid.app.pipeline"):
+            return _fit_and_write(source, out, units=units, quiet=quiet, strict=strict, worker=worker)
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool, worker) -> int:
+    from matid.app import pipeline
+    from matid.io.study import load_study
+
+    clock = time.perf_counter()
+
+    def progress(message: str) -> None:
+        if not quiet:
+            print(f"[{time.perf_counter() - clock:6.1f} s] {message}", file=sys.stderr, flush=True)
+
+    from matid.io.publish import claim_output
+
+    claim = claim_output(out)  # noqa: F841 -- --out checked and locked before any fitting; freed on return
+    study = load_study(source)
+    result = pipeline.run_study(study, progress=progress)
+    progress(f"rendering the report and tables into {out}")
+    report = worker.render(pipeline.render_report, result, units=units) if worker is not None else None
+    paths = pipeline.write_outputs(result, out, units=units, report=report)
+    progress("done")
+    for failure in result.failures:
+        print(
+            f"matid: fit failed: {_what(failure)}: {failure.reason}",
+            file=sys.stderr,
+        )
+    print(summary(result, units=units))
+    print("\n".join(_warning_lines(fit_warnings(result))))
+    print("outputs:")
+    for path in paths:
+        print(f"  {path}")
+    return 0 if result.ok and not (strict and result.warnings()) else 1
+
+
+def fit_warnings(result: StudyResult) -> list[str]:
+    """The warnings of the fits done (failures and tests not fitted are listed in the summary)."""
+    import dataclasses
+
+    apart = set(dataclasses.replace(result, fits=()).warnings())
+    return [w for w in result.warnings() if w not in apart]
+
+
+def summary(result: StudyResult, *, units: str = "SI") -> str:
+    """A compact table of the stiffnesses (value ± stderr, unit), then what was not fitted."""
+    from matid.io.results import stiffness_json
+
+    doc = stiffness_json(result, units)
+    rows = [("specimen", "parameter", "value", "unit", "method")]
+    for sid, params in doc["specimens"].items():
+        for name, item in params.items():
+            if name in _SUMMARY_SKIP:
+                continue
+            value = f"{item['value']:.5g}"
+            if item["stderr"] is not None:
+                value += f" ± {item['stderr']:.2g}"
+            rows.append((sid, name, value, item["unit"], item["method"]))
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in rows]
+    lines += [f"{_what(f)}: could not be fitted: {f.reason}" for f in result.failures]
+    lines += [f"{_what(p)}: not yet fitted ({p.reason})" for p in result.pending]
+    return "\n".join(lines)
+
+
+def _what(failure: Failure) -> str:
+    parameter = _KIND_PARAMETER.get(failure.kind, failure.kind)
+    return f"{failure.specimen} {parameter} ({failure.kind.replace('_', ' ')})"
+
+
+def _guarded(args: argparse.Namespace) -> int:
+    """Run the command; map errors to exit codes and one-line messages."""
+    try:
+        return args.command(args)
+    except DataError as exc:
+        return _fail(args, exc, 2, str(exc))
+    except MatidError as exc:
+        return _fail(args, exc, 1, str(exc))
+    except KeyboardInterrupt:
+        print("matid: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        hint = "" if args.debug else " (rerun with --debug for the traceback)"
+        return _fail(args, exc, 3, f"internal error: {type(exc).__name__}: {exc}{hint}")
+
+
+def _fail(args: argparse.Namespace, exc: BaseException, code: int, message: str) -> int:
+    if args.debug:
+        traceback.print_exception(exc, file=sys.stderr)
+    print(f"matid: error: {message}", file=sys.stderr)
+    return code

@@ -1,0 +1,174 @@
+"""The summary of a batch: ``summary.csv``, ``summary.xlsx`` and the comparison page ``summary.html``.
+
+docs/contract.md section 8. The tables hold every specimen of every study, one
+row per parameter, the study folder name first. The page shows, per parameter,
+each specimen's value with its 95 % interval and the mean ± sd across specimens
+(sample standard deviation, n - 1; no sd from a single specimen), with the
+failed studies and every warning listed.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+import statistics
+from collections.abc import Sequence
+from pathlib import Path
+
+from matid.app.batch import STUDY_COLUMNS, SUMMARY_FIRST, StudyOutcome
+from matid.io.results import CSV_COLUMNS, PARAMETER_ORDER, atomic_write, csv_text
+
+SUMMARY_COLUMNS = [SUMMARY_FIRST, *CSV_COLUMNS]
+#: Parameters left out of the comparison: sls_k1 is E_e under another name.
+_COMPARE_SKIP = {"sls_k1"}
+
+
+def summary_rows(outcomes: Sequence[StudyOutcome]) -> list[dict[str, object]]:
+    """Every row of every study's stiffness table, the study folder name first."""
+    return [{SUMMARY_FIRST: o.name, **row} for o in outcomes for row in o.rows]
+
+
+def study_rows(outcomes: Sequence[StudyOutcome]) -> list[dict[str, object]]:
+    """One row per study: folder name, path given, exit code, error, number of warnings, run time."""
+    return [
+        {"study": o.name, "source": o.source, "exit_code": o.code, "error": o.error.split("\n")[0],
+         "warnings": len(o.warnings), "runtime_s": round(o.runtime_s, 2)}
+        for o in outcomes
+    ]  # fmt: skip
+
+
+def statistics_by_parameter(rows: Sequence[dict]) -> list[dict[str, object]]:
+    """Per parameter (in table order): unit, n specimens, mean, sd (None for n < 2), cv."""
+    out = []
+    for name in PARAMETER_ORDER:
+        if name in _COMPARE_SKIP:
+            continue
+        mine = [r for r in rows if r["parameter"] == name]
+        if not mine:
+            continue
+        values = [float(r["value"]) for r in mine]
+        mean = statistics.fmean(values)
+        sd = statistics.stdev(values) if len(values) > 1 else None
+        cv = None if sd is None or mean == 0 else abs(sd / mean)
+        out.append({"parameter": name, "unit": mine[0]["unit"], "n": len(values), "mean": mean, "sd": sd,
+                    "cv": cv, "rows": mine})  # fmt: skip
+    return out
+
+
+def write_summary(outcomes: Sequence[StudyOutcome], out: Path) -> list[Path]:
+    """Write summary.csv, summary.xlsx and summary.html into ``out`` (each atomically); returns the paths."""
+    from matid.io.xlsx import workbook
+
+    rows = summary_rows(outcomes)
+    files: dict[str, str | bytes] = {
+        "summary.csv": csv_text(rows, SUMMARY_COLUMNS),
+        "summary.xlsx": workbook(
+            {"summary": (SUMMARY_COLUMNS, rows), "studies": (STUDY_COLUMNS, study_rows(outcomes))}
+        ),
+        "summary.html": comparison_page(outcomes),
+    }
+    paths = []
+    for name, content in files.items():
+        atomic_write(out / name, content)
+        paths.append(out / name)
+    return paths
+
+
+def comparison_figure(stats: Sequence[dict]) -> bytes:
+    """PNG: one panel per parameter, each specimen's value with its 95 % interval, mean ± sd shaded."""
+    from matplotlib.figure import Figure
+
+    height = sum(0.9 + 0.28 * s["n"] for s in stats) or 1.0
+    fig = Figure(figsize=(7.5, height), layout="constrained")
+    axes = fig.subplots(max(len(stats), 1), 1, squeeze=False)[:, 0]
+    for ax, s in zip(axes, stats, strict=False):
+        labels = [f"{r['study']} / {r['specimen']}" for r in s["rows"]]
+        y = list(range(len(labels)))
+        values = [float(r["value"]) for r in s["rows"]]
+        low = [
+            v - (r["ci95_low"] if r["ci95_low"] is not None else v)
+            for v, r in zip(values, s["rows"], strict=True)
+        ]
+        high = [
+            (r["ci95_high"] if r["ci95_high"] is not None else v) - v
+            for v, r in zip(values, s["rows"], strict=True)
+        ]
+        if s["sd"] is not None:
+            ax.axvspan(
+                s["mean"] - s["sd"], s["mean"] + s["sd"], color="tab:blue", alpha=0.12, label="mean ± sd"
+            )
+        ax.axvline(s["mean"], color="tab:blue", lw=1, label="mean")
+        ax.errorbar(
+            values, y, xerr=[low, high], fmt="o", color="black", ms=4, capsize=3, label="value, 95 % interval"
+        )
+        ax.set_yticks(y, labels)
+        ax.invert_yaxis()
+        ax.set_xlabel(f"{s['parameter']} [{s['unit']}]")
+        ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4), useMathText=True)
+    if stats:
+        axes[0].legend(loc="lower left", bbox_to_anchor=(0, 1.02), ncols=3, frameon=False, fontsize="small")
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    return buffer.getvalue()
+
+
+def _num(x: object, digits: int = 4) -> str:
+    return "" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.{digits}g}"
+
+
+def _percent(x: float | None) -> str:
+    return "" if x is None else f"{100 * x:.2g} %"
+
+
+def comparison_page(outcomes: Sequence[StudyOutcome]) -> str:
+    """The self-contained HTML comparison page (figure inlined as PNG)."""
+    stats = statistics_by_parameter(summary_rows(outcomes))
+    esc = html.escape
+    stat_rows = "".join(
+        f"<tr><td>{s['parameter']}</td><td>{s['n']}</td><td>{_num(s['mean'])}</td><td>{_num(s['sd'], 2)}</td>"
+        f"<td>{_percent(s['cv'])}</td><td>{esc(s['unit'])}</td></tr>"
+        for s in stats
+    )
+    study_table = "".join(
+        f"<tr><td>{esc(r['study'])}</td><td>{r['exit_code']}</td><td>{r['warnings']}</td>"
+        f"<td>{r['runtime_s']:.1f} s</td><td>{esc(str(r['error']))}</td></tr>"
+        for r in study_rows(outcomes)
+    )
+    warnings = "".join(f"<li>{esc(o.name)}: {esc(w)}</li>" for o in outcomes for w in o.warnings)
+    figure = base64.b64encode(comparison_figure(stats)).decode() if stats else ""
+    return _PAGE.format(
+        n_studies=len(outcomes),
+        n_specimens=len({(r[SUMMARY_FIRST], r["specimen"]) for r in summary_rows(outcomes)}),
+        stats=stat_rows or "<tr><td colspan=6>no values</td></tr>",
+        studies=study_table,
+        figure=f'<img alt="values per specimen with 95 % intervals" src="data:image/png;base64,{figure}">'
+        if figure else "<p>No values to compare.</p>",
+        warnings=f"<ul>{warnings}</ul>" if warnings else "<p>No warnings.</p>",
+    )  # fmt: skip
+
+
+_PAGE = """<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>matid: comparison of studies</title>
+<style>
+body {{ font-family: sans-serif; max-width: 60em; margin: 1em auto; padding: 0 1em; }}
+table {{ border-collapse: collapse; margin: 0.5em 0 1.5em; }}
+td, th {{ border-bottom: 1px solid #ccc; padding: 0.2em 0.8em; text-align: left; }}
+td:nth-child(n+2) {{ font-variant-numeric: tabular-nums; }}
+img {{ max-width: 100%; }}
+</style></head><body>
+<h1>Comparison of {n_studies} studies, {n_specimens} specimens</h1>
+<h2>Mean ± standard deviation across specimens</h2>
+<table><thead><tr><th>parameter</th><th>specimens</th><th>mean</th><th>sd</th><th>cv</th><th>unit</th></tr></thead>
+<tbody>{stats}</tbody></table>
+<h2>Each specimen with its 95 % interval</h2>
+{figure}
+<h2>Studies</h2>
+<table><thead><tr><th>study</th><th>exit code</th><th>warnings</th><th>run time</th><th>error</th></tr>
+</thead>
+<tbody>{studies}</tbody></table>
+<h2>Warnings</h2>
+{warnings}
+</body></html>
+"""

@@ -1,0 +1,175 @@
+"""The rod commands of ``matid``: ``solve`` (forward solve of a scene) and ``design`` (experiment
+design for E_s).
+
+Registered by :func:`matid.app.cli.build_parser`; errors are mapped to exit codes by
+:func:`matid.app.cli.main`. Like :mod:`matid.app.cli`, this module needs only the standard library at
+import: the solver, pint and matplotlib load when a command runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+from pathlib import Path
+
+from matid.app.options import _common, _fraction, _positive_int
+from matid.errors import ConvergenceError, DataError, SlipOffError
+
+
+def _register_solve(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "solve",
+        parents=[_common()],
+        help="solve a rod scene (cantilever or three-point bend)",
+        description="Forward solve of a scene TOML; write solution.json and shape.png into --out.",
+    )
+    parser.add_argument(
+        "scene", metavar="SCENE.toml", type=Path, help="scene file (docs/contract.md section 6)"
+    )
+    parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder")
+    parser.add_argument(
+        "--elements",
+        metavar="N",
+        type=_positive_int,
+        help="number of elements (three-point bend: of the half model); overrides the scene",
+    )
+    parser.add_argument(
+        "--tolerance",
+        metavar="T",
+        type=_fraction,
+        help="relative discretisation error to reach when no element count is given: "
+        "the mesh is doubled until the Richardson estimate is below it "
+        "(default: the scene's, else 1e-6); overrides the scene's",
+    )
+    parser.add_argument(
+        "--model",
+        choices=("auto", "planar", "full"),
+        default="auto",
+        help="rod model (default auto: planar when every load lies in one plane)",
+    )
+    parser.set_defaults(command=_cmd_solve)
+
+
+def _cmd_solve(args: argparse.Namespace) -> int:
+    """Load, solve, write solution.json and shape.png whole (nothing at all when the solve fails)."""
+    import dataclasses
+    import json
+
+    from matid.io.results import atomic_write
+    from matid.rod.api import resolve_model, solve
+    from matid.rod.output import shape_png, solution_json
+    from matid.rod.scenes import load_scene
+
+    scene = load_scene(args.scene)
+    if args.tolerance is not None:
+        scene = dataclasses.replace(scene, tolerance=args.tolerance)
+    try:
+        resolve_model(scene, args.model)
+    except ValueError as exc:
+        raise DataError(f"--model {args.model}: {exc}", file=args.scene) from exc
+    try:
+        with _numpy_path_unless_asked():
+            sol = solve(scene, elements=args.elements, model=args.model)
+    except DataError as exc:  # scene content the solver cannot take: name the file
+        raise exc if exc.file else DataError(exc.detail, file=args.scene) from exc
+    except ConvergenceError as exc:
+        reached = _deflection_reached(scene, exc)
+        raise ConvergenceError(f"{args.scene}: no equilibrium: {exc}{reached}") from exc
+    doc = json.dumps(solution_json(sol), indent=1) + "\n"
+    png = shape_png(sol)
+    json_path, png_path = args.out / "solution.json", args.out / "shape.png"
+    atomic_write(json_path, doc)
+    atomic_write(png_path, png)
+    print(solve_summary(sol))
+    if not args.quiet:
+        print(f"outputs:\n  {json_path}\n  {png_path}")
+    return 0
+
+
+@contextlib.contextmanager
+def _numpy_path_unless_asked():
+    """One scene per process: loading numba and the kernel's cache (~1 s) costs more than it
+    saves, so ``matid solve`` runs the numpy path unless MATID_JIT is set (README)."""
+    if "MATID_JIT" in os.environ:
+        yield
+        return
+    from matid.rod import compiled
+
+    saved, compiled.ENABLED = compiled.ENABLED, False
+    try:
+        yield
+    finally:
+        compiled.ENABLED = saved
+
+
+def _deflection_reached(scene, exc: ConvergenceError) -> str:
+    """The bend's load factor is a fraction of the largest deflection: say which deflection that is."""
+    if scene.kind != "three_point_bend" or isinstance(exc, SlipOffError) or exc.load_factor is None:
+        return ""
+    return f" = nose deflection {exc.load_factor * max(scene.bend.deflections) * 1e3:.6g} mm"
+
+
+def solve_summary(sol) -> str:
+    """One line: model, elements, the tip position in mm (or the force at the largest deflection), cost."""
+    if sol.three_point_bend is not None:
+        d, F = sol.three_point_bend["deflection"][-1], sol.three_point_bend["force"][-1]
+        what = f"nose force {F:.6g} N at {d * 1e3:.6g} mm"
+    else:
+        x, y, z = (v * 1e3 for v in sol.tip["position"])
+        what = f"tip at ({x:.6g}, {y:.6g}, {z:.6g}) mm"
+    return (
+        f"{sol.scene.kind}: {sol.model} model, {sol.elements} {sol.element} elements: {what}; "
+        f"{sol.newton_iterations} Newton iterations, {sol.runtime_s:.3g} s"
+    )
+
+
+def _register_design(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "design",
+        parents=[_common()],
+        help="which spans and which bend measurement identify E_s to a given precision",
+        description="Experiment design for E_s (matid.fits.design): predicted precision of E_s per span for "
+        "centreline deflection and nose travel, from the tube's section, E_b and E_e or E_t.",
+    )
+    parser.add_argument("--outer-diameter", required=True, help='e.g. "2.4 mm"')
+    parser.add_argument("--inner-diameter", default="0 mm", help='e.g. "1.6 mm" (default solid)')
+    parser.add_argument("--E-b", dest="E_b", required=True, help='bending stiffness, e.g. "6.5e-5 N m^2"')
+    parser.add_argument("--E-e", dest="E_e", help='extension stiffness, e.g. "120 N"')
+    parser.add_argument("--E-t", dest="E_t", help='torsion stiffness, e.g. "4.4e-5 N m^2"')
+    parser.add_argument("--poisson-ratio", type=float, help="default: the range 0.3-0.5")
+    parser.add_argument("--precision", type=_fraction, default=0.05, help="relative sd wanted (default 0.05)")
+    parser.add_argument("--spans", default="6,8,10,15,20,30", help="spans in mm, comma-separated")
+    parser.set_defaults(command=_cmd_design)
+
+
+def _cmd_design(args: argparse.Namespace) -> int:
+    from matid.fits.design import design
+    from matid.fits.design import summary as design_summary
+    from matid.io.study import Specimen
+    from matid.units import UnitError, to_si
+
+    try:
+        values = {
+            "outer": to_si(args.outer_diameter, "length"),
+            "inner": to_si(args.inner_diameter, "length"),
+            "E_b": to_si(args.E_b, "bending_stiffness"),
+            "E_e": to_si(args.E_e, "force") if args.E_e else None,
+            "E_t": to_si(args.E_t, "bending_stiffness") if args.E_t else None,
+        }
+        spans = [1e-3 * float(s) for s in args.spans.split(",")]
+        specimen = Specimen("design", values["outer"], values["inner"], args.poisson_ratio)
+    except (UnitError, ValueError) as exc:
+        raise DataError(f"matid design: {exc}") from exc
+    if not (values["E_e"] or values["E_t"]):
+        raise DataError("matid design: give --E-e or --E-t (the shear reference k G A comes from them)")
+    options = design(
+        specimen,
+        E_b=values["E_b"],
+        E_e=values["E_e"],
+        E_t=values["E_t"],
+        precision=args.precision,
+        spans=spans,
+    )
+    print(design_summary(options, args.precision))
+    return 0

@@ -1,0 +1,1 @@
+"""The extension (viscoelastic) fits: SLS and Prony, runs, statistics."""

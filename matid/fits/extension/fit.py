@@ -1,0 +1,197 @@
+r"""Standard linear solid (extension test): responses and the joint fit (physics.md section 1).
+
+A spring k1 in parallel with a Maxwell arm (spring k2 in series with a dashpot eta),
+in force units against engineering strain eps, from rest::
+
+    F(t) = k1 eps(t) + f2(t),      f2' + (k2/eta) f2 = k2 eps'(t),      f2(0) = 0
+
+Relaxation time tau = eta / k2. For a strain history that is linear between samples
+(rate r_i on [t_{i-1}, t_i], dt_i = t_i - t_{i-1}) the update is exact::
+
+    a_i  = exp(-dt_i / tau)
+    f2_i = a_i f2_{i-1} + eta r_i (1 - a_i)
+
+and for a constant-rate ramp eps = r t::
+
+    F = k1 r t + eta r (1 - exp(-t / tau))
+
+The slope dF/deps tends to k1 once t >> tau, so the static extension stiffness is
+E_e = k1. k2 and eta are identifiable only when tau lies inside the observed time
+window of some run; otherwise the fit says so instead of printing a bare number.
+
+The fit (:func:`fit_extension`) is a joint weighted least-squares fit over all runs of
+one specimen in log-parameters ``log(k / k_start)`` (positive, well scaled). Starts come
+from variable projection: for fixed tau the model is linear in (k1, eta), so a grid of
+tau over the observed window is solved by non-negative least squares and the best
+local minima seed a Levenberg-Marquardt least squares.
+
+The parts: runs in SI (:mod:`matid.fits.extension.runs`), the least squares
+(:mod:`matid.fits.extension.lsq`), standard errors and intervals
+(:mod:`matid.fits.extension.stats`), identifiability and cautions
+(:mod:`matid.fits.extension.checks`); this module assembles the estimates.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from matid.errors import FitError
+from matid.fits.extension import prony
+from matid.fits.extension.checks import _k1_warnings, _unidentifiable
+from matid.fits.extension.lsq import _models, _solve, _values
+from matid.fits.extension.runs import _Run, _run, _unique
+from matid.fits.extension.stats import _correlation, _covariance_fit, _intervals, _misfit, _sandwich, _stderr
+from matid.io.results import Estimate, Series, TestFit
+
+if TYPE_CHECKING:
+    from matid.io.ingest.read import Measurement
+
+#: Names ``fixed`` may use, and the SLS parameter each one fixes.
+_FIXED_NAMES = {"E_e": "k1", "sls_k1": "k1", "sls_k2": "k2", "sls_eta": "eta"}
+
+
+# --------------------------------------------------------------------------- the fit
+
+
+def _fixed(fixed: Mapping[str, float]) -> dict[str, float]:
+    """``fixed`` by SLS name (k1, k2, eta), validated."""
+    out: dict[str, float] = {}
+    for key, value in fixed.items():
+        if key not in _FIXED_NAMES:
+            raise ValueError(f"fixed: unknown parameter {key!r} (one of {', '.join(_FIXED_NAMES)})")
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"fixed: {key} must be positive and finite, got {value}")
+        name = _FIXED_NAMES[key]
+        if name in out and not math.isclose(out[name], value, rel_tol=1e-12):
+            raise ValueError("fixed: E_e and sls_k1 are the same parameter but differ")
+        out[name] = float(value)
+    return out
+
+
+def _estimate(parameter, name, k, se, ci, n, fixed, warn=()) -> Estimate:
+    if name in fixed:
+        return Estimate(parameter, k[name], None, None, n, "fixed")
+    low, high, how = ci.get(name, (None, None, None))
+    return Estimate(
+        parameter,
+        k[name],
+        se[name],
+        None if low is None else (low, high),
+        n,
+        "sls",
+        tuple(warn),
+        {"ci_method": how},
+    )
+
+
+def _series(runs: Sequence[_Run], models: Sequence[np.ndarray]) -> tuple[Series, ...]:
+    return tuple(
+        Series(f"{run.name}, strain rate {run.rate:.3g} 1/s", run.eps, run.force, f, run.used)
+        for run, f in zip(runs, models, strict=True)
+    )
+
+
+def _info(runs, models, k, sigma, nfree: int) -> dict[str, object]:
+    """Fit summary. reduced_chi2 is measured against the model-free (second-difference)
+    noise, not the residual noise used as weights, so values well above 1 flag misfit.
+    ``plot_data["force_time"]`` holds, per run, time, measured and model force and the
+    rows used, for a force-against-time figure of ramp-hold and relaxation runs."""
+    chi2 = sum(
+        float(np.sum(((f - run.force)[run.used] / run.noise) ** 2))
+        for f, run in zip(models, runs, strict=True)
+    )
+    return {
+        "tau_s": k["eta"] / k["k2"],
+        "time_window_s": [min(run.dt for run in runs), max(run.duration for run in runs)],
+        "reduced_chi2": chi2 / nfree,
+        "noise_N": {run.name: float(s) for run, s in zip(runs, sigma, strict=True)},
+        "n_runs": len(runs),
+        "left_out": {run.name: dict(run.left_out) for run in runs if run.left_out},
+        "plot_data": {
+            "force_time": {
+                run.name: {"time_s": run.t, "force_N": run.force, "model_N": f, "used": run.used}
+                for run, f in zip(runs, models, strict=True)
+            }
+        },
+    }
+
+
+def _prony(runs, sigma, k, fixed_k):
+    """The Prony comparison: (choice or None, extra estimates, E_e warning, sls warning)."""
+    if fixed_k:
+        return None, (), None, None
+    data = [prony.Data(r.t, r.eps, r.force, r.used, float(s)) for r, s in zip(runs, sigma, strict=True)]
+    choice = prony.choose(data)
+    if choice is None or choice.best == 1:
+        return choice, (), None, None
+    longest = max(run.duration for run in runs)
+    estimates, e_e, sls = prony.preferred(choice, k["k1"], longest)
+    return choice, estimates, e_e, sls
+
+
+def fit_extension(
+    measurements: Sequence[Measurement], *, specimen: str, fixed: Mapping[str, float] = {}
+) -> TestFit:
+    """Joint SLS fit of all extension runs of one specimen: E_e = k1, k2, eta with 95 % intervals,
+    and beside it the Prony model BIC prefers (:mod:`matid.fits.extension.prony`).
+
+    Residuals of run j are weighted by 1/sigma_j, its own noise estimated from its
+    residuals; only rows inside the window and not slack enter (the model runs over
+    every row: it has a memory). Intervals are the AR(1) sandwich of
+    :mod:`matid.fits.stats`. ``fixed`` may hold any of E_e (= sls_k1), sls_k2, sls_eta.
+    """
+    fixed_k = _fixed(fixed)
+    if not measurements:
+        raise FitError(f"specimen {specimen}: no extension runs to fit")
+    if len(fixed_k) == 3:
+        raise FitError(f"specimen {specimen}: k1, k2 and eta are all fixed; nothing to fit")
+    runs = _unique([_run(m) for m in measurements])
+    runs, result, ref, sigma = _solve(runs, fixed_k)
+    result, unc = _covariance_fit(runs, sigma, result, ref, fixed_k)
+    k = _values(result, ref)
+    se, cov = _sandwich(result, runs, sigma, ref, _stderr(result, unc, ref))
+    corr = _correlation(unc)
+    reasons = _unidentifiable(k, se, corr, runs, fixed_k)
+    correlated = cov is not None and cov.rho > 0
+    dof = cov.dof if cov is not None else result.nfree
+    ci = _intervals(result, unc, runs, sigma, ref, se, profile=not reasons and not correlated, dof=dof)
+    n = int(result.ndata)
+    lof, misfit = _misfit(result, runs, cov)
+    choice, prony_estimates, prony_e_e, prony_sls = _prony(runs, sigma, k, fixed_k)
+    why = [f"k2 and eta are not identifiable from the rates given: {'; '.join(reasons)}"] if reasons else []
+    sls_warn = [w for w in (misfit, prony_sls) if w]
+    k1_warn = list(_k1_warnings(k, se, runs, bool(reasons))) if "k1" not in fixed_k else []
+    e_e = _estimate("E_e", "k1", k, se, ci, n, fixed_k, [*k1_warn, *sls_warn])
+    if prony_estimates:
+        k0 = prony_estimates[0]
+        e_e = replace(k0, parameter="E_e", warnings=(prony_e_e, *k0.warnings))
+    estimates = (
+        e_e,
+        _estimate("sls_k1", "k1", k, se, ci, n, fixed_k, [*k1_warn, *sls_warn]),
+        _estimate("sls_k2", "k2", k, se, ci, n, fixed_k, [*why, *sls_warn]),
+        _estimate("sls_eta", "eta", k, se, ci, n, fixed_k, [*why, *sls_warn]),
+        *prony_estimates,
+    )
+    models = _models(runs, k)
+    info = _info(runs, models, k, sigma, result.nfree)
+    info["lack_of_fit"] = lof.as_info()
+    info["n_effective"] = cov.n_eff if cov is not None else float(n)
+    info["interval_widening"] = float(np.max(cov.inflation)) if cov is not None else 1.0
+    if choice is not None:
+        info["model_choice"] = {"arms_preferred": choice.best, **choice.table()}
+    return TestFit(
+        kind="extension",
+        specimen=specimen,
+        tests=tuple(m.test for m in measurements),
+        estimates=estimates,
+        series=_series(runs, models),
+        x_label="strain [1]",
+        y_label="force [N]",
+        correlation=corr,
+        info=info,
+    )

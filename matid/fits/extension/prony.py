@@ -1,0 +1,337 @@
+r"""Generalised Maxwell (n-term Prony) solid for extension runs, chosen against the SLS.
+
+A spring k0 in parallel with n Maxwell arms (spring k_i in series with a dashpot of
+relaxation time tau_i), in force units against engineering strain eps, from rest::
+
+    F(t) = k0 eps(t) + sum_i f_i(t),     f_i' + f_i / tau_i = k_i eps'(t),    f_i(0) = 0
+
+so the relaxation modulus is the Prony series G(t) = k0 + sum_i k_i exp(-t / tau_i).
+n = 1 is the standard linear solid (k0 = sls_k1, k1 = sls_k2, tau1 = sls_eta / sls_k2).
+Each arm is the SLS arm of :func:`matid.physics.sls.sls_force` with unit stiffness,
+so for fixed taus the force is linear in (k0, k_1..k_n).
+
+Fit (:func:`fit_prony`): variable projection. The outer least squares moves log tau_i;
+the inner one solves (k0, k_i) >= 0 by NNLS on the rows used, each run weighted by its
+noise sigma_j. The covariance of (log k0, log k_i, log tau_i) is the AR(1) sandwich of
+:mod:`matid.fits.stats` on the numerical Jacobian.
+
+Choice (:func:`choose`): n = 1, 2, 3 by the Bayesian information criterion on the same
+weights, BIC_n = N' ln(RSS_n / N) + (2n + 1) ln N', with N' the effective number of
+independent residuals of the fit with the most arms (N' = N for uncorrelated residuals; correlated noise
+would otherwise buy arms); a model with more arms is preferred only when it lowers BIC by
+more than BIC_MARGIN (strong evidence, Kass & Raftery 1995). AIC = N' ln(RSS/N) +
+2 (2n + 1) is reported beside it.
+
+Reported parameter names: ``prony_k0`` (equilibrium stiffness, N), ``prony_k1`` ..
+``prony_k3`` (arm stiffnesses, N), ``prony_tau1`` .. ``prony_tau3`` (relaxation times, s),
+arms ordered by tau, fastest first.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+from matid.fits import stats
+from matid.io.results import Estimate
+from matid.physics.sls import History, sls_force
+
+#: Most arms tried.
+MAX_TERMS = 3
+#: BIC decrease a model with more arms needs to be preferred.
+BIC_MARGIN = 10.0
+
+
+@dataclass(frozen=True)
+class Data:
+    """One run for the fit: all rows (the history), the rows used, and the run's noise sd."""
+
+    t: np.ndarray
+    eps: np.ndarray
+    force: np.ndarray
+    used: np.ndarray
+    sigma: float
+
+    @functools.cached_property
+    def history(self) -> History:
+        return History(self.t, self.eps)
+
+
+def arm(t: np.ndarray, eps: np.ndarray, tau: float) -> np.ndarray:
+    """Force of a unit-stiffness Maxwell arm of relaxation time tau under the strain history."""
+    return sls_force(t, eps, 0.0, 1.0, tau)
+
+
+def prony_force(t, eps, k0: float, ks: Sequence[float], taus: Sequence[float]) -> np.ndarray:
+    """``F = k0 eps + sum_i f_i`` for the strain history ``(t, eps)`` (linear between samples)."""
+    out = k0 * np.asarray(eps, dtype=float)
+    for k, tau in zip(ks, taus, strict=True):
+        out = out + k * arm(t, eps, tau)
+    return out
+
+
+#: Arms already computed during one fit: (run index, tau) -> arm over all rows of that run.
+Arms = dict[tuple[int, float], np.ndarray]
+
+
+def _basis(data: Sequence[Data], taus, arms: Arms) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted design [eps, arm(tau_1), ...] and weighted force over the used rows.
+
+    An arm already computed for the same run and tau is reused from ``arms``: a
+    finite-difference Jacobian moves one tau at a time, so most of its arms repeat.
+    """
+    cols, rhs = [], []
+    for i, d in enumerate(data):
+        block = [d.eps]
+        for tau in taus:
+            key = (i, float(tau))
+            if key not in arms:
+                arms[key] = d.history.force(0.0, 1.0, tau)  # = arm(d.t, d.eps, tau)
+            block.append(arms[key])
+        cols.append(np.column_stack(block)[d.used] / d.sigma)
+        rhs.append(d.force[d.used] / d.sigma)
+    return np.vstack(cols), np.concatenate(rhs)
+
+
+def _inner(data, log_taus, arms: Arms) -> tuple[np.ndarray, np.ndarray]:
+    """NNLS stiffnesses for these taus and the weighted residuals."""
+    design, rhs = _basis(data, np.exp(log_taus), arms)
+    scale = np.maximum(np.linalg.norm(design, axis=0), 1e-300)
+    coef, _ = optimize.nnls(design / scale, rhs)
+    coef = coef / scale
+    return coef, design @ coef - rhs
+
+
+def _model_residual(data, x: np.ndarray, n_terms: int) -> np.ndarray:
+    """Weighted residuals for x = (log k0, log k_1..n, log tau_1..n)."""
+    k = np.exp(x[: n_terms + 1])
+    taus = np.exp(x[n_terms + 1 :])
+    out = []
+    for d in data:
+        f = prony_force(d.t, d.eps, k[0], k[1:], taus)
+        out.append((f - d.force)[d.used] / d.sigma)
+    return np.concatenate(out)
+
+
+@dataclass(frozen=True)
+class PronyFit:
+    """An n-arm fit: values, log-parameter covariance, RSS (weighted), BIC and AIC."""
+
+    n_terms: int
+    k0: float
+    ks: tuple[float, ...]
+    taus: tuple[float, ...]
+    residual: np.ndarray
+    n: int
+    covariance: stats.Covariance | None
+
+    @property
+    def rss(self) -> float:
+        return float(np.dot(self.residual, self.residual))
+
+    @property
+    def n_params(self) -> int:
+        return 2 * self.n_terms + 1
+
+    @property
+    def bic(self) -> float:
+        return self.bic_at(self.n)
+
+    @property
+    def aic(self) -> float:
+        return self.aic_at(self.n)
+
+    def bic_at(self, n_eff: float) -> float:
+        """BIC with the information of ``n_eff`` independent residuals."""
+        return n_eff * math.log(self.rss / self.n) + self.n_params * math.log(n_eff)
+
+    def aic_at(self, n_eff: float) -> float:
+        return n_eff * math.log(self.rss / self.n) + 2.0 * self.n_params
+
+    def values(self) -> dict[str, float]:
+        """Parameter name -> value, arms fastest first."""
+        out = {"prony_k0": self.k0}
+        for i, (k, tau) in enumerate(zip(self.ks, self.taus, strict=True), start=1):
+            out[f"prony_k{i}"] = k
+            out[f"prony_tau{i}"] = tau
+        return out
+
+    @property
+    def determined(self) -> bool:
+        """Whether the data determine every parameter: a covariance with finite standard errors."""
+        if self.covariance is None:
+            return False
+        variance = np.diag(self.covariance.cov)
+        return bool(np.all(np.isfinite(variance) & (variance >= 0.0)))
+
+    def stderr(self) -> dict[str, float | None]:
+        """Standard errors by the delta method, se(p) = p se(log p); None when singular."""
+        names = ["prony_k0"] + [f"prony_k{i}" for i in range(1, self.n_terms + 1)]
+        names += [f"prony_tau{i}" for i in range(1, self.n_terms + 1)]
+        values = self.values()
+        if self.covariance is None:
+            return dict.fromkeys(names)
+        se_log = self.covariance.stderr
+        return {name: values[name] * float(s) for name, s in zip(names, se_log, strict=True)}
+
+
+def _starts(data: Sequence[Data], n_terms: int) -> list[np.ndarray]:
+    """log tau starts spread over the observed window [min dt, max duration]."""
+    low = min(float(np.median(np.diff(d.t))) for d in data)
+    high = max(float(d.t[-1] - d.t[0]) for d in data)
+    starts = []
+    for shift in (0.0, 0.5, -0.5):
+        edges = np.linspace(math.log(low), math.log(high), n_terms + 2)[1:-1]
+        starts.append(edges + shift * (edges[1] - edges[0] if n_terms > 1 else 1.0))
+    return starts
+
+
+def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
+    """The n-arm fit with the least weighted RSS, or None when an arm vanishes (k_i = 0)."""
+    low = min(float(np.median(np.diff(d.t))) for d in data) / 100.0
+    high = max(float(d.t[-1] - d.t[0]) for d in data) * 100.0
+    bounds = (math.log(low), math.log(high))
+    best = None
+    arms: Arms = {}
+    for start in _starts(data, n_terms):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sol = optimize.least_squares(
+                lambda lt: _inner(data, np.sort(lt), arms)[1],
+                np.clip(start, *bounds),
+                bounds=bounds,
+                x_scale=1.0,
+                diff_step=1e-4,
+            )
+        if best is None or sol.cost < best.cost:
+            best = sol
+    log_taus = np.sort(best.x)
+    coef, resid = _inner(data, log_taus, arms)
+    if np.any(coef <= 0) or np.any(np.diff(log_taus) < 1e-3):
+        return None  # a vanished or duplicated arm: this n says nothing beyond n - 1
+    x = np.r_[np.log(coef), log_taus]
+    return PronyFit(
+        n_terms,
+        float(coef[0]),
+        tuple(float(k) for k in coef[1:]),
+        tuple(float(t) for t in np.exp(log_taus)),
+        resid,
+        resid.size,
+        _cov(data, x, n_terms),
+    )
+
+
+def _cov(data, x: np.ndarray, n_terms: int) -> stats.Covariance | None:
+    """AR(1) sandwich covariance of the log-parameters on a central-difference Jacobian."""
+    r0 = _model_residual(data, x, n_terms)
+    h = 1e-5
+    jac = np.column_stack(
+        [
+            (_model_residual(data, x + h * e, n_terms) - _model_residual(data, x - h * e, n_terms)) / (2 * h)
+            for e in np.eye(x.size)
+        ]
+    )
+    try:
+        return stats.ar1_covariance(jac, r0, [int(d.used.sum()) for d in data])
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The fits tried (n -> fit) and the number of arms preferred."""
+
+    fits: dict[int, PronyFit]
+    best: int
+    n_eff: float  # independent residuals the criteria count (see choose)
+
+    @property
+    def delta_bic(self) -> float:
+        """BIC of the SLS minus that of the preferred model (0 when the SLS is preferred)."""
+        return self.fits[1].bic_at(self.n_eff) - self.fits[self.best].bic_at(self.n_eff)
+
+    def table(self) -> dict[str, dict[str, float]]:
+        """n arms -> BIC, AIC and weighted RSS, for ``TestFit.info``."""
+        return {
+            f"{n} arm{'s' if n > 1 else ''}": {
+                "bic": f.bic_at(self.n_eff),
+                "aic": f.aic_at(self.n_eff),
+                "rss_weighted": f.rss,
+            }
+            for n, f in sorted(self.fits.items())
+        }
+
+
+def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
+    """Fit n = 1..max_terms arms; prefer more arms only when BIC drops by BIC_MARGIN per step."""
+    fits: dict[int, PronyFit] = {}
+    for n in range(1, max_terms + 1):
+        fit = fit_prony(data, n)
+        if fit is None:
+            break
+        fits[n] = fit
+    if 1 not in fits:
+        return None
+    # correlated residuals carry less information than their count: the criteria use the
+    # effective sample size of the richest fit (its residuals are the closest to the noise;
+    # the SLS's own would count a misfit as correlated noise), else noise wander buys arms
+    cov = fits[max(fits)].covariance
+    n_eff = cov.n_eff if cov is not None else float(fits[1].n)
+    # a model the data do not determine (an arm far faster than the sampling: singular
+    # covariance) is no evidence against the SLS, and would leave E_e without an interval
+    best = 1
+    for n in sorted(fits)[1:]:
+        if fits[n].determined and fits[best].bic_at(n_eff) - fits[n].bic_at(n_eff) > BIC_MARGIN:
+            best = n
+    return Choice(fits, best, n_eff)
+
+
+# --------------------------------------------------------------------------- reporting
+
+
+def _estimate(name: str, value: float, se: float | None, dof: float, n: int, warnings_=()) -> Estimate:
+    ci = None
+    if se is not None and math.isfinite(se) and value > 0:
+        tq = stats.t_ppf(0.975, max(dof, 1.0))
+        ci = stats.wald_log_interval(value, se, tq)
+    se = se if se is not None and math.isfinite(se) else None
+    return Estimate(name, value, se, ci, n, "prony", tuple(warnings_), {"ci_method": "t-log" if ci else None})
+
+
+def preferred(choice: Choice, sls_k1: float, longest_run: float) -> tuple[tuple[Estimate, ...], str, str]:
+    """Estimates of the preferred multi-arm model, the warning for E_e and the one for sls_*.
+
+    E_e becomes the equilibrium stiffness prony_k0 of the preferred model: the SLS k1 of
+    a solid with more arms mixes the slower arms into the "static" stiffness.
+    """
+    fit = choice.fits[choice.best]
+    values, se = fit.values(), fit.stderr()
+    dof = fit.covariance.dof if fit.covariance is not None else float(fit.n - fit.n_params)
+    slow = max(fit.taus)
+    k0_warn = ()
+    if slow > 5.0 * longest_run:
+        k0_warn = (
+            f"the slowest arm (tau = {slow:.3g} s) is longer than 5x the longest run ({longest_run:.3g} s): "
+            "prony_k0 includes whatever relaxes more slowly; add a longer hold to confirm it",
+        )
+    estimates = tuple(
+        _estimate(name, value, se[name], dof, fit.n, k0_warn if name == "prony_k0" else ())
+        for name, value in values.items()
+    )
+    arms = f"a {fit.n_terms}-arm Prony (generalised Maxwell) model"
+    e_e = (
+        f"the standard linear solid does not describe these runs: {arms} fits far better (BIC lower "
+        f"by {choice.delta_bic:.0f}); E_e is its equilibrium stiffness prony_k0 = {fit.k0:.4g} N, "
+        f"where the SLS would give {sls_k1:.4g} N; see the prony_* parameters"
+    )
+    sls = (
+        f"the standard linear solid does not describe these runs ({arms} is preferred, BIC lower by "
+        f"{choice.delta_bic:.0f}): the SLS parameters are not material constants here; see prony_*"
+    )
+    return estimates, e_e, sls

@@ -1,0 +1,450 @@
+"""E_s from the three-point bend: the rod solver inside a least-squares loop.
+
+For every loading-branch point i of every bend test of a specimen (span S_k),
+
+    r_i(E_s) = F_rod(d_i; E_b, E_s, E_e, S_k) - F_i,
+
+minimised over log E_s (and log E_b with ``fit_E_b``), E_b and E_e taken from
+the specimen's own fits or [[fixed]] entries (physics.md section 6). F_rod is
+the nose force of :class:`matid.rod.bend.BendModel`, followed along the
+measured deflections by continuation and warm-started from the previous
+iterate; its Jacobian dF/dE_s comes from the linearised equilibrium (one
+back-substitution per point), not from differences of solver output
+(:mod:`matid.fits.shear.problem`: the residuals, the Jacobian, and
+Levenberg-Marquardt; for centreline data the Jacobian at fixed centreline
+deflection, :mod:`matid.fits.shear.centreline`).
+
+The start is the classic Timoshenko estimate from the small-deflection
+compliance C = d/F:  C = S^3/(48 E_b) + S/(4 E_s).
+
+Uncertainty: the linearised standard error s^2 (J^T J)^-1 with s^2 the
+residual variance, plus the propagated uncertainty of the held stiffnesses,
+
+    var(E_s) = var_fit + (dE_s/dE_b)^2 var(E_b) + (dE_s/dE_e)^2 var(E_e),
+    dE_s/dp = -(J_s . J_p)/(J_s . J_s)   (first-order optimality),
+
+which dominates on long spans. The shear share of the compliance,
+(S/4E_s) / (S^3/48E_b + S/4E_s), says how identifiable E_s is: a 1 % error in
+E_b moves E_s by about (1 - share)/share %; below ``MIN_SHEAR_SHARE`` the
+estimate carries a warning instead of standing as a confident number.
+
+The discretisation error is estimated by solving again at half the elements at
+the fitted values (P2 converges at order 4 here, measured) and mapping the
+force difference into E_s; the mesh is doubled until that error is below a
+tenth of the statistical standard error.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from matid.errors import DataError, FitError
+from matid.fits.shear.checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
+from matid.fits.shear.problem import Problem, least_squares
+from matid.fits.shear.torsion import agreement
+from matid.fits.shear.window import Cut, check_plausible, cut
+from matid.fits.stats import Covariance, ar1_covariance, lack_of_fit, t_ppf
+from matid.io.ingest.read import Measurement
+from matid.io.results import Estimate, Series, TestFit
+from matid.io.study import Specimen
+from matid.rod.bend import BendGeometry, BendPath
+
+#: The FE error must stay below this fraction of the statistical standard error
+#: (or below FE_ERROR_FLOOR, for noise-free data whose standard error is zero).
+FE_ERROR_FRACTION = 0.1
+FE_ERROR_FLOOR = 1e-6
+START_ELEMENTS = 16
+MAX_ELEMENTS = 256
+ORDER = 4.0  # measured P2 order of the bend force (bench)
+
+
+@dataclass
+class BendData:
+    """One bend test: its geometry and the rows in the fit (loading branch, sorted by deflection).
+
+    ``d`` is the nose travel, or with ``centreline`` the mid-span centreline
+    deflection relative to the support sections (contract section 7,
+    ``deflection_at``), in both cases after the toe compensation ``cut.d0``.
+    """
+
+    measurement: Measurement
+    geometry: BendGeometry
+    d: np.ndarray  # rows in the fit, increasing
+    F: np.ndarray
+    loading: np.ndarray  # mask over all rows of the file: the rows in the fit
+    centreline: bool = False
+    cut: Cut | None = None
+
+
+def bend_data(m: Measurement, specimen: Specimen, E_b: float) -> BendData:
+    """The rows of one bend file that enter the fit (:mod:`matid.fits.shear.window`), checked."""
+    p = m.test.params
+    try:
+        geometry = BendGeometry(
+            p["span"], p["specimen_length"], p["support_radius"], p["nose_radius"], specimen.outer_diameter
+        )
+    except ValueError as exc:
+        raise DataError(str(exc), file=m.test.file) from exc
+    d, F = np.asarray(m.table["deflection"], float), np.asarray(m.table["force"], float)
+    window = m.in_window()
+    if not np.any(F[window] > 0):
+        check_plausible(d[window], F[window], span=geometry.span, E_b=E_b, file=m.test.file)
+    c = cut(d, F, window)
+    dl, Fl = d[c.used] - c.d0, F[c.used]
+    if dl.size < 3 or dl[-1] <= 0:
+        raise FitError(f"{m.test.file.name}: fewer than 3 loading points with positive deflection")
+    if np.any(dl < 0):
+        raise DataError("negative deflection on the loading branch", file=m.test.file, column="deflection")
+    check_plausible(dl, Fl, span=geometry.span, E_b=E_b, file=m.test.file)
+    centreline = getattr(m.test, "deflection_at", "nose") == "centreline"
+    return BendData(m, geometry, dl, Fl, c.used, centreline, c)
+
+
+def timoshenko_force(d: np.ndarray, S: float, E_b: float, E_s: float) -> np.ndarray:
+    """F = d / (S^3/(48 E_b) + S/(4 E_s)), physics.md section 5."""
+    return d / (S**3 / (48 * E_b) + S / (4 * E_s))
+
+
+def timoshenko_start(data: Sequence[BendData], E_b: float) -> float:
+    """E_s from the compliance of the first fifth of each loading branch (linear regime)."""
+    estimates = []
+    for b in data:
+        n = max(3, b.d.size // 5)
+        d, F = b.d[:n], b.F[:n]
+        C = float(np.dot(d, d) / np.dot(d, F))  # compliance d/F through the origin
+        shear = C - b.geometry.span**3 / (48 * E_b)
+        if shear > 0:
+            estimates.append(b.geometry.span / (4 * shear))
+    return float(np.median(estimates)) if estimates else 1e3 * E_b / min(b.geometry.span for b in data) ** 2
+
+
+def _held(known: Mapping[str, Estimate], name: str, specimen: str) -> Estimate:
+    est = known.get(name)
+    if est is None:
+        source = "a magnetic_bending test" if name == "E_b" else "extension tests"
+        raise FitError(
+            f"E_s of specimen {specimen} needs {name}: add {source} or a [[fixed]] {name} for {specimen}"
+        )
+    return est
+
+
+@dataclass
+class Outcome:
+    x: np.ndarray
+    r: np.ndarray
+    J: np.ndarray
+    cov_log: np.ndarray  # covariance of (log E_s[, log E_b]) from the fit alone
+    sigma: float  # residual standard deviation [N]
+    fe_error: float  # relative discretisation error of E_s
+    elements: int
+    solves: int
+    problem: Problem
+    levels: list  # [{elements, discretization_error, runtime_s}] of every mesh tried
+    covariance: Covariance | None = None  # AR(1) sandwich of matid.fits.stats (rho, n_eff, dof)
+
+
+def _statistics(r: np.ndarray, J: np.ndarray, segments) -> tuple[np.ndarray, float, Covariance]:
+    """Covariance of the log parameters under AR(1)-correlated residuals within each file
+    (:func:`matid.fits.stats.ar1_covariance`; the textbook one when rho is not significant)."""
+    dof = max(r.size - J.shape[1], 1)
+    cov = ar1_covariance(J, r, segments)
+    return cov.cov, float(np.sqrt(float(r @ r) / dof)), cov
+
+
+def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) -> tuple[float, list]:
+    """Richardson estimate of the relative error of E_s from a solve at half the elements.
+
+    The coarse solve runs on every third point of each curve (and its last):
+    enough to map the force error into E_s, a third of the cost. Returns the
+    error and the two mesh levels as (elements, estimated error of E_s, run time
+    of one cold solve of all curves) - the coarse time scaled to all points.
+    """
+    r, J = problem.evaluate(x)
+    picks = [np.unique(np.r_[np.arange(0, b.d.size, 3), b.d.size - 1]) for b in data]
+    sub = [replace(b, d=b.d[k], F=b.F[k]) for b, k in zip(data, picks, strict=True)]
+    elements = max(problem.models[0].elements // 2, 2)
+    coarse = Problem(sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=elements, jacobian=False)
+    coarse.nose = [n[k] for n, k in zip(problem.nose, picks, strict=True)]  # centreline: the fine mesh's
+    r_coarse, _ = coarse.evaluate(x)
+    scale = sum(b.d.size for b in data) / sum(b.d.size for b in sub)
+    offsets = np.cumsum([0] + [b.d.size for b in data[:-1]])
+    rows = np.concatenate([o + k for o, k in zip(offsets, picks, strict=True)])
+    dF = (r[rows] - r_coarse) / (2.0**ORDER - 1.0)  # error of the fine forces at those points
+    dx, *_ = np.linalg.lstsq(J[rows], dF, rcond=None)
+    error = float(abs(dx[0]))
+    levels = [
+        {
+            "elements": coarse.models[0].elements,
+            "discretization_error": error * 2.0**ORDER,
+            "runtime_s": coarse.cold_runtime_s * scale,
+        },
+        {
+            "elements": problem.models[0].elements,
+            "discretization_error": error,
+            "runtime_s": problem.cold_runtime_s,
+        },
+    ]
+    return error, levels
+
+
+def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progress) -> Outcome:
+    x = np.log([timoshenko_start(data, E_b)] + ([E_b] if fit_E_b else []))
+    n = elements or START_ELEMENTS
+    solves, levels = 0, []
+    while True:
+        problem = Problem(data, E_b, E_e, fit_E_b=fit_E_b, elements=n)
+        x = least_squares(problem, x)
+        r, J = problem.evaluate(x)
+        cov, sigma, full = _statistics(r, J, [b.d.size for b in data])
+        fe, tried = _fe_error(problem, x, data, E_e, fit_E_b)
+        levels += [lvl for lvl in tried if lvl["elements"] not in {m["elements"] for m in levels}]
+        solves += problem.solves + len(data)
+        if progress:
+            progress(f"E_s fit at {n} elements: E_s = {np.exp(x[0]):.6g} N, FE error {fe:.2e}")
+        target = max(FE_ERROR_FRACTION * float(np.sqrt(cov[0, 0])), FE_ERROR_FLOOR)
+        if elements or fe <= target or 2 * n > MAX_ELEMENTS:
+            return Outcome(x, r, J, cov, sigma, fe, n, solves, problem, levels, full)
+        n *= 2
+
+
+def fit_three_point_bend(
+    measurements: Sequence[Measurement],
+    *,
+    specimen: Specimen,
+    fixed: Mapping[str, float] | None = None,
+    known: Mapping[str, Estimate],
+    fit_E_b: bool = False,
+    elements: int | None = None,
+    progress=None,
+    local_compliance: tuple[float, float] | None = None,
+    model_form: float | None = None,
+) -> TestFit:
+    """E_s (and E_b with ``fit_E_b``) of one specimen from all its bend tests (module docstring).
+
+    Centreline tests, when there are any, are fitted alone and nose-travel tests
+    are shown but left out. Nose travel alone is assessed by
+    :func:`matid.fits.shear.checks.assess` (withheld or warned when the local
+    contact compliance would bias E_s); ``local_compliance`` (low, high) [m/N]
+    replaces its prediction, e.g. (0, 0) for data of the rod model itself.
+    ``model_form``: relative compliance uncertainty of the rod model against a
+    continuum (default :func:`matid.fits.shear.checks.model_form_variance`; 0 for
+    data of the rod model itself).
+    """
+    t0 = time.perf_counter()
+    if not measurements:
+        raise FitError("no three-point-bend tests to fit")
+    E_b_est = _held(known, "E_b", specimen.id)
+    E_e_est = _held(known, "E_e", specimen.id)
+    every = [bend_data(m, specimen, E_b_est.value) for m in measurements]
+    data = [b for b in every if b.centreline] or every
+    left_out = [b for b in every if b not in data]
+    nose = not data[0].centreline
+    spans = sorted({b.geometry.span for b in data})
+    if fit_E_b and len(spans) < 2:
+        raise FitError("fitting E_b jointly with E_s needs bend tests at two or more spans")
+    F_max = max(float(np.max(b.F)) for b in data)
+    check = assess(spans, E_b_est.value, specimen, known, nose=nose, local=local_compliance, max_force=F_max)
+    if check.withhold:
+        raise FitError(check.withhold)
+    out = _fit_adaptive(
+        data, E_b_est.value, E_e_est.value, fit_E_b=fit_E_b, elements=elements, progress=progress
+    )
+    E_s = float(np.exp(out.x[0]))
+    var_log, held = _propagated_variance(out, E_b_est, E_e_est, fit_E_b)
+    mf = model_form_variance(data, E_b_est.value, check.info, float(np.exp(out.x[0])), model_form)
+    var_log += mf["var_log"]
+    m = out.r.size
+    t = t_ppf(0.975, out.covariance.dof)
+    sd_log = float(np.sqrt(var_log))
+    E_b = float(np.exp(out.x[1])) if fit_E_b else E_b_est.value
+    shares = [shear_share(b.geometry.span, E_b, E_s) for b in data]
+    warnings = list(check.warnings)
+    if "reference_kGA_N" not in check.info and max(shares) < MIN_SHEAR_SHARE:
+        warnings.append(
+            f"E_s is not identifiable: shear is only {100 * max(shares):.1f} % of the bend compliance"
+        )
+    if sd_log > 0.1:
+        warnings.append(f"E_s is poorly determined: relative standard error {100 * sd_log:.0f} %")
+    fit_check = lack_of_fit(out.r, out.J.shape[1], segments=[b.d.size for b in data])
+    misfit = fit_check.warning(
+        "The rod model of the bend",
+        float(out.covariance.inflation[0]),
+        "Check the window (toe, yield), the unit of the force, and the set-up (span, radii).",
+    )
+    warnings += [misfit] if misfit else []
+    per_span = _per_span(data, out, E_b, E_e_est.value, spans)
+    extra_info = {"assessment": check.info, "per_span": per_span, "model_form": mf}
+    extra_info["lack_of_fit"] = fit_check.as_info()
+    extra_info["experiment_design"] = _design_note(specimen, known, E_b_est.value)
+    extra_info["residual_correlation"] = {
+        "rho": out.covariance.rho,
+        "n_eff": out.covariance.n_eff,
+        "interval_inflation": float(out.covariance.inflation[0]),
+    }
+    if per_span:
+        extra_info["span_consistency"], warning = consistency(
+            [(p["span"], p["E_s"], p["sd_log"]) for p in per_span], E_s
+        )
+        warnings += [warning] if warning else []
+    if left_out:
+        extra_info["left_out_tests"] = {
+            b.measurement.test.file.name: "nose travel, left out: centreline tests of this specimen "
+            "are fitted (nose travel includes the local contact compliance)"
+            for b in left_out
+        }
+    fe = {
+        "element": "P2",
+        "elements": out.elements,
+        "discretization_error": out.fe_error,
+        "runtime_s": round(time.perf_counter() - t0, 4),
+        "rod_solves": out.solves,
+        "levels": out.levels,  # error against run time of every mesh level tried
+    }
+    est = _log_estimate("E_s", E_s, sd_log, t, m, fe, ())
+    if check.widen > 1:
+        est = replace(est, ci95=(est.ci95[0], float(est.ci95[1] * check.widen)))
+    if "E_s_torsion" in known:
+        extra_info["torsion_check"] = text = agreement(est, known["E_s_torsion"])
+        warnings += [text] if "disagree" in text else []
+    estimates = [replace(est, warnings=tuple(warnings))]
+    if fit_E_b:
+        estimates.append(_log_estimate("E_b", E_b, float(np.sqrt(out.cov_log[1, 1])), t, m, fe, ()))
+    info = _info(data, out, shares, held, E_s, fe)
+    info.update(extra_info)
+    info["measurement"] = "nose travel" if nose else "centreline deflection"
+    return TestFit(
+        kind="three_point_bend",
+        specimen=specimen.id,
+        tests=tuple(b.measurement.test for b in every),
+        estimates=tuple(estimates),
+        series=tuple(_series(b, path) for b, path in zip(data, out.problem.paths, strict=True))
+        + tuple(_series(b, None) for b in left_out),
+        x_label="deflection [m]",
+        y_label="force [N]",
+        correlation=_correlation(out.cov_log) if fit_E_b else {},
+        info=info,
+    )
+
+
+def _design_note(specimen: Specimen, known: Mapping[str, Estimate], E_b: float) -> str:
+    """The recommendation of :func:`matid.fits.design.design` for this tube (E_s to 5 %)."""
+    from matid.fits.design import design, summary  # design builds on these fits: import at use
+
+    E_t = known.get("E_t")
+    options = design(
+        specimen, E_b=E_b, E_e=known["E_e"].value, E_t=E_t.value if E_t else None, precision=0.05
+    )
+    return "E_s to 5 %: " + summary(options, 0.05).splitlines()[-1]
+
+
+def _per_span(data, out: Outcome, E_b: float, E_e: float, spans) -> list[dict]:
+    """E_s of each span alone (E_b held at the joint value, the joint mesh), for the consistency test."""
+    if len(spans) < 2:
+        return []
+    rows = []
+    for S in spans:
+        # started at the joint E_s from the joint fit's paths of these tests (warm), on its mesh
+        idx = [k for k, b in enumerate(data) if b.geometry.span == S]
+        group = [data[k] for k in idx]
+        problem = Problem(group, E_b, E_e, fit_E_b=False, elements=out.elements)
+        joint = out.problem
+        problem.paths = [joint.paths[k] for k in idx]
+        problem.nose = [joint.nose[k].copy() for k in idx]
+        problem.nose_rate = [joint.nose_rate[k] for k in idx]
+        x = least_squares(problem, out.x[:1])
+        r, J = problem.evaluate(x)
+        cov, _, _ = _statistics(r, J, [b.d.size for b in group])
+        sd = float(np.sqrt(cov[0, 0]))
+        rows.append({"span": S, "span_mm": 1e3 * S, "E_s": float(np.exp(x[0])), "sd_log": sd})
+    return rows
+
+
+def _log_estimate(name: str, value: float, sd_log: float, t: float, n: int, fe: dict, warnings) -> Estimate:
+    """An estimate fitted in log space: stderr value * sd_log, interval value * exp(+-t sd_log)."""
+    ci = (value * float(np.exp(-t * sd_log)), value * float(np.exp(t * sd_log)))
+    return Estimate(
+        name, value, value * sd_log, ci, n_points=n, method="cosserat-fe", warnings=warnings, extra={"fe": fe}
+    )
+
+
+def _propagated_variance(out: Outcome, E_b: Estimate, E_e: Estimate, fit_E_b: bool):
+    """Variance of log E_s: the fit's own plus that of the held stiffnesses (first order)."""
+    Js = out.J[:, 0]
+    var = float(out.cov_log[0, 0])
+    held = {}
+    for name, est in (("E_b", E_b), ("E_e", E_e)):
+        if name == "E_b" and fit_E_b or not est.stderr:
+            continue
+        Jp = out.problem.sensitivity(name) * est.value  # dF/dlog p
+        dlogs = -float(Js @ Jp) / float(Js @ Js)  # d log E_s / d log p
+        rel = est.stderr / est.value
+        held[name] = {"dlogEs_dlogp": dlogs, "contribution": abs(dlogs) * rel}
+        var += (dlogs * rel) ** 2
+    return var, held
+
+
+def _series(b: BendData, path: BendPath | None) -> Series:
+    """The whole file, with the model at the rows in the fit (none for a test left out)."""
+    d = np.asarray(b.measurement.table["deflection"])
+    y_fit = np.full(d.size, np.nan)
+    used = b.loading if path is not None else np.zeros(d.size, dtype=bool)
+    if path is not None:
+        y_fit[np.nonzero(b.loading)[0]] = path.force  # loading rows are increasing in d (bend_window)
+    where = "centreline" if b.centreline else "nose"
+    label = f"{b.measurement.test.file.name} (span {1e3 * b.geometry.span:g} mm, {where})"
+    return Series(label, d, np.asarray(b.measurement.table["force"]), y_fit, used)
+
+
+def _correlation(cov: np.ndarray) -> dict[str, float]:
+    return {"E_s|E_b": float(cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1]))}
+
+
+def _info(data, out: Outcome, shares, held, E_s: float, fe: dict) -> dict:
+    E_b = out.problem.params(out.x)[1]
+    # force change for +10 % E_s, linearised: dF = dF/dE_s * 0.1 E_s (one back-substitution per point)
+    r10 = out.r + out.problem.sensitivity("E_s") * 0.1 * E_s
+    change = float(np.sqrt(np.mean((r10 - out.r) ** 2)))
+    return {
+        "spans_mm": [round(1e3 * b.geometry.span, 6) for b in data],
+        "shear_share": [round(s, 4) for s in shares],
+        "E_b_used": E_b,
+        "E_e_used": out.problem.E_e,
+        "timoshenko_start_N": timoshenko_start(data, out.problem.E_b),
+        "noise_N": out.sigma,
+        "force_change_for_10pct_E_s_N (linearised)": change,
+        "sensitivity_to_noise": change / out.sigma if out.sigma > 0 else float("inf"),
+        "held_stiffness_propagation": held,
+        "unloading_rows_excluded": int(sum((~b.loading).sum() for b in data)),
+        "rows_left_out": {
+            b.measurement.test.file.name: b.cut.reasons for b in data if b.cut and b.cut.reasons
+        },
+        "toe_offset_m": {b.measurement.test.file.name: b.cut.d0 for b in data if b.cut and b.cut.d0 > 0},
+        "fe": fe,
+        "plot_data": _plot_data(data, out, r10),
+    }
+
+
+def _plot_data(data, out: Outcome, r10: np.ndarray) -> dict:
+    """Arrays the report draws: Timoshenko-only curves, +10 % E_s curves, the deformed shape."""
+    E_s, E_b = out.problem.params(out.x)
+    curves, start = [], 0
+    for b, path, model in zip(data, out.problem.paths, out.problem.models, strict=True):
+        n = b.d.size
+        curves.append(
+            {
+                "label": b.measurement.test.file.name,
+                "span": b.geometry.span,
+                "d": b.d,
+                "F": b.F,
+                "model": path.force,
+                "timoshenko": timoshenko_force(b.d, b.geometry.span, E_b, E_s),
+                "plus10": r10[start : start + n] + b.F,
+                "shape": model.shape(path),
+            }
+        )
+        start += n
+    return {"curves": curves, "noise_N": out.sigma}

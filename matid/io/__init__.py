@@ -1,0 +1,1 @@
+"""Inputs and outputs: studies, ingest of test-machine records, results, exports and publishing."""

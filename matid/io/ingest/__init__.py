@@ -1,0 +1,1 @@
+"""Reading raw test-machine records: layout detection, columns and units, checks."""

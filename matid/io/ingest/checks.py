@@ -1,0 +1,107 @@
+"""Checks that the data of a test can describe it, at input (docs/contract.md section 7).
+
+A value beyond the physical bound of its quantity (:data:`matid.units.PHYSICAL_BOUND`,
+after SI conversion) is a unit or export mistake; loads recorded with the
+machine's sign convention (compression negative) would otherwise fail deep in a
+solver. Each check raises a DataError naming the file, the column and, where one
+row is at fault, the row, and says what to change.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from matid.errors import DataError
+from matid.io.study import TEST_COLUMNS
+from matid.units import PHYSICAL_BOUND, SI_UNITS
+
+#: Columns that must be positive for the test (tension, compression, nose travel
+#: counted positive); a column whose positive side never reaches this fraction of
+#: its largest magnitude has the wrong sign.
+POSITIVE: dict[str, tuple[str, ...]] = {
+    "extension": ("force", "elongation", "strain"),
+    "three_point_bend": ("force", "deflection"),
+}
+WRONG_SIGN_FRACTION = 0.1
+
+
+def check(
+    values: Mapping[str, np.ndarray],
+    kind: str,
+    rows: Sequence[int],
+    written: Mapping[str, str],
+    path: Path,
+    negate: Sequence[str] = (),
+) -> None:
+    """Bounds, then signs, then (three-point bend) the loading branch."""
+    used = TEST_COLUMNS[kind]
+    for name, quantity in used.items():
+        if name in values:
+            _bounded(values[name], quantity, rows, written[name], path)
+    for name in POSITIVE.get(kind, ()):
+        if name in values:
+            _positive(values[name], name, written[name], path, negate)
+    if kind == "torsion" and "torque" in values and "twist_angle" in values:
+        _same_sign(values["torque"], values["twist_angle"], written, path)
+    if kind == "three_point_bend" and "deflection" in values:
+        _loading_branch(values["deflection"], rows, written["deflection"], path)
+
+
+def _bounded(v: np.ndarray, quantity: str, rows: Sequence[int], column: str, path: Path) -> None:
+    bound = PHYSICAL_BOUND[quantity]
+    bad = np.flatnonzero(~(np.abs(v) <= bound))
+    if bad.size:
+        k = int(bad[0])
+        raise DataError(
+            f"value {v[k]:.6g} {SI_UNITS[quantity]} (after unit conversion) is beyond the physical "
+            f"bound {bound:g} {SI_UNITS[quantity]} for a {quantity}; check the unit of the column",
+            file=path,
+            row=rows[k],
+            column=column,
+        )
+
+
+def _positive(v: np.ndarray, name: str, column: str, path: Path, negate: Sequence[str]) -> None:
+    peak = float(np.max(np.abs(v))) if v.size else 0.0
+    if peak > 0 and float(np.max(v)) < WRONG_SIGN_FRACTION * peak:
+        if name in negate:
+            fix = f'remove "{name}" from negate: after negation it is negative'
+        else:
+            fix = f'if the machine records it as negative, add negate = ["{name}"] to the [[test]]'
+        raise DataError(
+            f"all values of {name} are negative (largest magnitude {-peak:.6g} in SI); matid expects "
+            f"{name} positive in this test; {fix}",
+            file=path,
+            column=column,
+        )
+
+
+def _same_sign(torque: np.ndarray, twist: np.ndarray, written: Mapping[str, str], path: Path) -> None:
+    product = torque * twist
+    total = float(np.sum(np.abs(product)))
+    if total > 0 and float(np.sum(product)) < -0.5 * total:
+        raise DataError(
+            "torque and twist_angle have opposite signs in most rows; the torque must turn the way the "
+            'tube is twisted: add negate = ["torque"] (or ["twist_angle"]) to the [[test]]',
+            file=path,
+            column=written["torque"],
+        )
+
+
+def _loading_branch(d: np.ndarray, rows: Sequence[int], column: str, path: Path) -> None:
+    """Nose travel up to the largest deflection must not be negative (physics: from first contact)."""
+    peak = int(np.argmax(d))
+    bad = np.flatnonzero(d[: peak + 1] < 0)
+    if bad.size:
+        k = int(bad[0])
+        raise DataError(
+            f"negative deflection {d[k]:.6g} m on the loading branch (rows up to the largest deflection "
+            f"at row {rows[peak]}); deflection is counted from first contact: shift or trim the data, "
+            "or use window = { deflection = [...] }",
+            file=path,
+            row=rows[k],
+            column=column,
+        )

@@ -1,0 +1,177 @@
+"""The header of an export turned into matid columns (docs/contract.md sections 2 and 7).
+
+A header cell is ``name [unit]`` or ``name (unit)``, or a name with its unit in
+the units row below; the test's ``columns`` maps a matid name to the file's
+header text, its ``units`` overrides a unit. The columns a test kind uses must
+have a unit; the others never stop the run.
+"""
+
+from __future__ import annotations
+
+import difflib
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from matid.errors import DataError
+from matid.io.ingest.detect import Layout, names
+from matid.io.study import TEST_COLUMNS, bounded_text
+
+#: Known columns and the quantity kind of their unit.
+KNOWN: dict[str, str] = {
+    "time": "time",
+    "force": "force",
+    "elongation": "length",
+    "strain": "strain",
+    "tip_angle": "angle",
+    "torque": "torque",
+    "field": "field",
+    "field_angle": "angle",
+    "twist_angle": "angle",
+    "deflection": "length",
+}
+
+#: Columns that may go without a unit: dimensionless by name.
+DIMENSIONLESS_NAMES = frozenset({"cycle", "index", "step", "point"})
+
+#: Per test kind, groups of alternatives: each group needs at least one of its
+#: columns. "torque, or both field and field_angle" is written as the two groups
+#: (torque, field) and (torque, field_angle).
+REQUIRED: dict[str, list[tuple[str, ...]]] = {
+    "extension": [("time",), ("force",), ("elongation", "strain")],
+    "magnetic_bending": [("tip_angle",), ("torque", "field"), ("torque", "field_angle")],
+    "torsion": [("twist_angle",), ("torque",)],
+    "three_point_bend": [("deflection",), ("force",)],
+}
+
+_NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\[\]()]*)[\])]$")
+_WRAPPED_UNIT = re.compile(r"^[\[(](?P<unit>.*)[\])]$")
+
+
+@dataclass(frozen=True)
+class Column:
+    """One header column: name as written, matid name, unit ('' if none).
+
+    ``unit_row`` is the 1-based line the unit was read from (header, units row),
+    0 when it came from the test's ``units``.
+    """
+
+    index: int
+    written: str
+    name: str
+    unit: str
+    unit_row: int
+
+
+def canonical(name: str) -> str:
+    """Canonical column name: lowercase, runs of spaces and ``_`` as one ``_``."""
+    return re.sub(r"[\s_]+", "_", name.strip().lower()).strip("_")
+
+
+def header(
+    lines: list[str],
+    layout: Layout,
+    kind: str,
+    mapping: dict[str, str],
+    overrides: dict[str, str],
+    path: Path,
+) -> list[Column]:
+    """Columns from the header row (and units row), the test's ``columns`` and ``units`` applied."""
+    header_row = layout.header_at + 1
+    cells = names(lines[layout.header_at], layout.delimiter, layout.n_cells) or []
+    written = [_name_and_unit(c) for c in cells]
+    units = [(unit, header_row) for _, unit in written]
+    if layout.units_at is not None:
+        row_units = _units_row(lines[layout.units_at], layout, path)
+        units = [(r, layout.units_at + 1) if r else u for r, u in zip(row_units, units, strict=True)]
+    names_ = _matid_names(cells, written, mapping, path, header_row)
+    columns = []
+    for i, ((shown, _), (unit, row), name) in enumerate(zip(written, units, names_, strict=True)):
+        if name in overrides:
+            unit, row = overrides[name], 0
+        columns.append(_column(i, cells[i] if name in mapping else shown, name, unit, row, kind, path))
+    _check_duplicates(columns, path, header_row)
+    return columns
+
+
+def _matid_names(
+    cells: list[str], written: list[tuple[str, str]], mapping: dict[str, str], path: Path, row: int
+) -> list[str]:
+    """matid name of each cell: the mapped one, else its canonical name (renamed on collision)."""
+    result = [canonical(name) or f"column_{i + 1}" for i, (name, _) in enumerate(written)]
+    for name, header in mapping.items():
+        want = header.strip().casefold()
+        hits = [
+            i
+            for i, (cell, (shown, _)) in enumerate(zip(cells, written, strict=True))
+            if want in (cell.strip().casefold(), shown.strip().casefold())
+        ]
+        if not hits:
+            close = difflib.get_close_matches(header.strip(), cells, n=1, cutoff=0.5)
+            hint = f"; did you mean '{close[0]}'?" if close else ""
+            raise DataError(
+                f"columns.{name} = '{bounded_text(header, 80)}' is not a column of the file; header row has: "
+                f"{bounded_text(', '.join(cells), 300)}{hint}",
+                file=path,
+                row=row,
+                column=bounded_text(header, 80),
+            )
+        for i, current in enumerate(result):
+            if current == name and i != hits[0]:
+                result[i] = f"{current}_col{i + 1}"  # the file's own 'force' when 'Load' is mapped to force
+        result[hits[0]] = name
+    return result
+
+
+def _name_and_unit(cell: str) -> tuple[str, str]:
+    match = _NAME_UNIT.match(cell)
+    if match is None:
+        return cell, ""
+    return match["name"].strip(), match["unit"].strip()
+
+
+def _units_row(line: str, layout: Layout, path: Path) -> list[str]:
+    """The units of the units row, padded to the header's cell count."""
+    cells = names(line, layout.delimiter, layout.n_cells) or []
+    cells += [""] * (layout.n_cells - len(cells))
+    return [(m["unit"] if (m := _WRAPPED_UNIT.match(c)) else c).strip() for c in cells]
+
+
+def _column(index: int, written: str, name: str, unit: str, row: int, kind: str, path: Path) -> Column:
+    written = bounded_text(written, 200)
+    if name in TEST_COLUMNS[kind] and not unit:
+        raise DataError(
+            f"column has no unit (write e.g. '{name} [unit]' in the header, a units row under it, "
+            f'or units = {{ {name} = "..." }} in the [[test]])',
+            file=path,
+            row=row,
+            column=written,
+        )
+    return Column(index=index, written=written, name=name, unit=unit, unit_row=row)
+
+
+def _check_duplicates(columns: list[Column], path: Path, row: int) -> None:
+    seen: set[str] = set()
+    for column in columns:
+        if column.name in seen:
+            raise DataError(
+                "column appears twice (name one with columns = { ... } in the [[test]])",
+                file=path,
+                row=row,
+                column=column.written,
+            )
+        seen.add(column.name)
+
+
+def check_required(columns: list[Column], kind: str, path: Path, row: int) -> None:
+    found = [c.name for c in columns]
+    for group in REQUIRED[kind]:
+        if not any(name in found for name in group):
+            wanted = " or ".join(f"'{name}'" for name in group)
+            shown = bounded_text(", ".join(c.written for c in columns), 300)
+            raise DataError(
+                f"{kind} file needs column {wanted}; found: {shown} (if one of these is it, say so with "
+                f'columns = {{ {group[0]} = "<header text>" }} in the [[test]])',
+                file=path,
+                row=row,
+            )

@@ -1,0 +1,277 @@
+"""How a test-machine export is laid out: encoding, delimiter, preamble, header.
+
+docs/contract.md section 7. The file is decoded (a BOM, else strict UTF-8,
+else charset-normalizer's best guess among the encodings lab PCs write, or the
+test's ``encoding``), split into lines, and the header found as the first row
+that is followed (after an optional units row) by numeric rows of as many
+cells, trying each delimiter ``\\t``, ``;``, ``,`` and runs of spaces. Lines
+above the header are the preamble: ``# key: value``, ``key: value``,
+``key,value``, ``"key:","value"`` and ``key<TAB>value`` lines become metadata,
+the others are kept as text; both bounded (:data:`MAX_TEXT`, :data:`MAX_LINES`).
+"""
+
+from __future__ import annotations
+
+import codecs
+import csv
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from matid.errors import DataError
+from matid.io.study_keys import MAX_TEXT, bounded_text
+
+#: Delimiters tried, in order of preference on a tie; " " means runs of whitespace.
+DELIMITERS = ("\t", ";", ",", " ")
+DELIMITER_NAMES = {"\t": "tab", ";": "';'", ",": "','", " ": "runs of spaces"}
+#: Lines searched for the header, and preamble lines kept as metadata or text.
+MAX_PREAMBLE = 500
+MAX_LINES = 200
+#: Encodings charset-normalizer chooses among when a file is neither BOM-marked nor UTF-8.
+DETECTED = ["cp1252", "gb18030", "utf_16", "utf_16_le", "utf_16_be", "shift_jis"]
+_MULTIBYTE = {"gb18030", "gbk", "gb2312", "shift_jis", "big5", "euc_kr", "euc_jp", "cp932", "cp949"}
+#: Chinese or Japanese words are runs of ideographs/kana; one stray Latin-1 byte
+#: (``°`` before ``]``) read as GBK is a lone ideograph amid ASCII.
+_CJK_WORD = re.compile(r"[\u3040-\u30ff\u4e00-\u9fff]{2,}")
+_BOMS = (
+    (codecs.BOM_UTF32_LE, "utf-32"),
+    (codecs.BOM_UTF32_BE, "utf-32"),
+    (codecs.BOM_UTF8, "utf-8-sig"),
+    (codecs.BOM_UTF16_LE, "utf-16"),
+    (codecs.BOM_UTF16_BE, "utf-16"),
+)
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+_WIDE_GAP = re.compile(r"\t|\s{2,}")
+_NAME_UNIT = re.compile(r"^\S.*\s*[\[(][^\[\]()]*[\])]$")
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where things are in one file; rows are 0-based line indices."""
+
+    encoding: str
+    delimiter: str
+    header_at: int
+    units_at: int | None
+    data_at: int
+    n_cells: int
+
+    @property
+    def decimal_comma(self) -> bool:
+        return self.delimiter != ","
+
+    def describe(self) -> str:
+        """What was seen, for messages: encoding, delimiter, header row."""
+        units = "" if self.units_at is None else f", units row {self.units_at + 1}"
+        return (
+            f"read as {self.encoding}, {DELIMITER_NAMES[self.delimiter]}-delimited, "
+            f"header row {self.header_at + 1}{units}"
+        )
+
+
+def decode(raw: bytes, path: Path, encoding: str | None = None) -> tuple[str, str]:
+    """The text of a file and the encoding used to read it."""
+    if encoding is not None:
+        try:
+            return raw.decode(encoding), encoding
+        except UnicodeDecodeError as exc:
+            raise DataError(
+                f"cannot be read as {encoding} (the test's encoding): byte {exc.start} is "
+                f"{raw[exc.start : exc.start + 1]!r}; remove `encoding` to detect it",
+                file=path,
+            ) from None
+    for bom, name in _BOMS:
+        if raw.startswith(bom):
+            try:
+                return raw.decode(name), name
+            except UnicodeDecodeError as exc:
+                raise DataError(
+                    f"starts with a {name} byte-order mark but is not {name}: {exc}", file=path
+                ) from None
+    try:
+        return raw.decode("utf-8"), "utf-8"
+    except UnicodeDecodeError:
+        pass
+    return _detected(raw)
+
+
+def _detected(raw: bytes) -> tuple[str, str]:
+    """charset-normalizer's candidates in its order of preference, a multi-byte one kept
+    only when it reads as words (on a short, mostly ASCII file it cannot tell a lone
+    ``°`` in cp1252 from half a GBK character); Latin-1 when none fits."""
+    from charset_normalizer import from_bytes
+
+    for match in from_bytes(raw, cp_isolation=DETECTED):
+        text = str(match)
+        if match.encoding in _MULTIBYTE and not _CJK_WORD.search(text):
+            continue
+        return text, match.encoding
+    return raw.decode("latin-1"), "latin-1"
+
+
+def lines_of(text: str) -> list[str]:
+    """Lines split on line breaks only (``str.splitlines`` would also split on \\x0c, \\x85, ...
+    and shift the row numbers from what an editor shows); trailing blank lines dropped."""
+    lines = _LINE_BREAK.split(text)
+    while lines and not lines[-1].strip():
+        lines.pop()
+    return lines
+
+
+def split(line: str, delimiter: str) -> list[str]:
+    """Cells of one line, stripped; trailing empty cells (a trailing delimiter) dropped.
+
+    Raises csv.Error for a cell longer than csv's field limit.
+    """
+    if delimiter == " ":
+        cells = (
+            line.split()
+            if '"' not in line
+            else next(csv.reader([line.strip()], delimiter=" ", skipinitialspace=True), [])
+        )
+    else:
+        cells = [c.strip() for c in next(csv.reader([line], delimiter=delimiter), [])]
+    while cells and not cells[-1]:
+        cells.pop()
+    return cells
+
+
+def number(text: str, decimal_comma: bool) -> float:
+    """A float from a cell; ValueError if it is not a plain number."""
+    if decimal_comma and text.count(",") == 1 and "." not in text:
+        text = text.replace(",", ".")
+    if not text or "_" in text or len(text) > 64:
+        raise ValueError(text[:64])
+    return float(text)
+
+
+def is_number(text: str, decimal_comma: bool) -> bool:
+    try:
+        number(text, decimal_comma)
+    except ValueError:
+        return False
+    return True
+
+
+def names(line: str, delimiter: str, n: int) -> list[str] | None:
+    """Header or units cells; with whitespace, names may hold single spaces (``Axial Force``)."""
+    try:
+        if delimiter == " ":
+            wide = [c.strip() for c in _WIDE_GAP.split(line.strip()) if c.strip()]
+            if len(wide) == n:
+                return wide
+        return split(line, delimiter)
+    except csv.Error:
+        return None
+
+
+def _is_data(line: str, delimiter: str) -> int:
+    """Cell count of a numeric row (at least two cells and most of them numbers), else 0."""
+    try:
+        cells = split(line, delimiter)
+    except csv.Error:
+        return 0
+    comma = delimiter != ","
+    numeric = sum(is_number(c, comma) for c in cells)
+    # A status or remark column ("ok") may hold text; most cells must be numbers.
+    return len(cells) if numeric >= 2 and 2 * numeric > len(cells) else 0
+
+
+def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layout | None:
+    """The layout if line ``h`` is a header for ``delimiter``, else None."""
+    after = [i for i in range(h + 1, min(len(lines), h + 8)) if lines[i].strip()][:4]
+    if not after:
+        return None
+    units_at = None
+    n = _is_data(lines[after[0]], delimiter)
+    if not n:
+        if len(after) < 2 or not (n := _is_data(lines[after[1]], delimiter)):
+            return None
+        units_at, after = after[0], after[1:]
+    header = names(lines[h], delimiter, n)
+    # Trailing columns may be empty in the data (a remark column): the header may be wider.
+    if header is None or not n <= len(header) <= 2 * n or any(is_number(c, delimiter != ",") for c in header):
+        return None
+    n = len(header)
+    if units_at is not None and not _units_like(names(lines[units_at], delimiter, n), n):
+        return None
+    return Layout(encoding, delimiter, h, units_at, after[0], n)
+
+
+def _units_like(cells: list[str] | None, n: int) -> bool:
+    """A units row: at most n short cells, none a ``name (unit)`` header cell, one a unit."""
+    from matid.units import UnitError, si_factor
+
+    if cells is None or len(cells) > n or any(len(c) > 24 or _NAME_UNIT.match(c) for c in cells):
+        return False
+    for cell in cells:
+        unit = cell.strip("()[] ")
+        if cell != unit or unit in ("%", "-", "1"):
+            return True
+        for kind in ("length", "force", "time", "torque", "angle", "field"):
+            try:
+                si_factor(unit, kind)
+                return True
+            except UnitError:
+                continue
+    return False
+
+
+def detect(lines: list[str], path: Path, encoding: str) -> Layout:
+    """The first line that is a header for some delimiter; the delimiter giving most columns."""
+    for h in range(min(len(lines), MAX_PREAMBLE)):
+        if not lines[h].strip() or lines[h].lstrip().startswith("#"):
+            continue
+        found = [c for d in DELIMITERS if (c := _candidate(lines, h, d, encoding)) is not None]
+        if found:
+            return max(found, key=lambda c: c.n_cells)
+    raise DataError(
+        f"no header row found (read as {encoding}): expected a row of column names followed, "
+        "after an optional units row, by rows of numbers with as many cells, separated by ',', "
+        f"';', tab or spaces; looked at the first {min(len(lines), MAX_PREAMBLE)} lines",
+        file=path,
+    )
+
+
+def preamble(lines: list[str], layout: Layout) -> tuple[dict[str, str], tuple[str, ...]]:
+    """Metadata and free text of the lines above the header, both bounded."""
+    metadata: dict[str, str] = {}
+    text: list[str] = []
+    for line in lines[: layout.header_at]:
+        if not line.strip():
+            continue
+        if len(metadata) + len(text) >= MAX_LINES:
+            text.append(f"[... further preamble lines not kept, at most {MAX_LINES}]")
+            break
+        pair = _key_value(line[: 4 * MAX_TEXT], layout.delimiter)
+        if pair is None:
+            text.append(bounded_text(line.strip()))
+            continue
+        key, value = bounded_text(pair[0], 200), bounded_text(pair[1])
+        k, n = key, 1
+        while k in metadata:
+            n += 1
+            k = f"{key} ({n})"
+        metadata[k] = value
+    return metadata, tuple(text)
+
+
+def _key_value(line: str, delimiter: str) -> tuple[str, str] | None:
+    """(key, value) of a metadata line, or None for free text."""
+    text = line.strip()
+    if text.startswith("#"):
+        key, sep, value = text.lstrip("#").partition(":")
+        return (key.strip(), value.strip()) if sep and key.strip() else None
+    key, sep, value = text.partition(":")
+    if sep and key.strip() and not any(ch in key for ch in ',;\t"|'):
+        return key.strip(), value.strip(" \t,;\"'")
+    for d in dict.fromkeys(("\t", delimiter, ",", ";")):
+        if d == " ":
+            continue
+        try:
+            cells = split(text, d)
+        except csv.Error:
+            return None
+        if len(cells) >= 2 and cells[0].strip().rstrip(":").strip():
+            return cells[0].strip().rstrip(":").strip(), " ".join(c for c in cells[1:] if c)
+    return None

@@ -1,0 +1,377 @@
+"""Results of a study and their export as stiffness tables (docs/contract.md sections 4 and 7).
+
+Fits produce :class:`TestFit` objects; the pipeline gathers them in a
+:class:`StudyResult`; this module turns that into the rows of the stiffness
+table (:func:`table_rows`), ``stiffness.csv`` and ``stiffness.json``; the
+same rows feed ``stiffness.xlsx`` (:mod:`matid.io.xlsx`) and the DataFrame of
+:mod:`matid.app.api`. Values are SI inside and converted once here (``--units cgs``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from matid import __version__
+from matid.io.study import Study, Test
+from matid.io.views import PicklesViews
+from matid.units import from_si
+
+#: Quantity kind of every reported parameter (for unit conversion).
+PARAMETER_KINDS: dict[str, str] = {
+    "E_e": "force",
+    "sls_k1": "force",
+    "sls_k2": "force",
+    "sls_eta": "viscosity",
+    "E_b": "bending_stiffness",
+    "E_t": "bending_stiffness",
+    "E_s": "force",
+    "E_s_torsion": "force",
+    # n-term Prony (generalised Maxwell) solid, matid.fits.extension.prony
+    "prony_k0": "force",
+    "prony_k1": "force",
+    "prony_k2": "force",
+    "prony_k3": "force",
+    "prony_tau1": "time",
+    "prony_tau2": "time",
+    "prony_tau3": "time",
+}
+#: Order of parameters in tables.
+PARAMETER_ORDER = ["E_b", "E_t", "E_s", "E_s_torsion", "E_e", "sls_k1", "sls_k2", "sls_eta"]
+PARAMETER_ORDER += ["prony_k0", "prony_k1", "prony_tau1", "prony_k2", "prony_tau2", "prony_k3", "prony_tau3"]
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """One fitted (or fixed) parameter of one specimen, in SI."""
+
+    parameter: str
+    value: float
+    stderr: float | None
+    ci95: tuple[float, float] | None
+    n_points: int
+    method: str  # "sls", "linear", "cosserat-fe", "shear-coefficient", "fixed"
+    warnings: tuple[str, ...] = ()
+    extra: Mapping[str, object] = field(default_factory=dict, hash=False)
+
+    def __post_init__(self) -> None:
+        if self.parameter not in PARAMETER_KINDS:
+            raise ValueError(f"unknown parameter {self.parameter!r}")
+        if not math.isfinite(self.value):
+            raise ValueError(f"{self.parameter}: value is not finite ({self.value})")
+
+    @property
+    def kind(self) -> str:
+        return PARAMETER_KINDS[self.parameter]
+
+
+@dataclass(frozen=True)
+class Series:
+    """One data set of a fit, for plots: measured y against x, the model, the points used."""
+
+    label: str
+    x: np.ndarray
+    y: np.ndarray
+    y_fit: np.ndarray | None = None
+    used: np.ndarray | None = None  # bool mask of the points in the fit (None: all)
+
+    @property
+    def residual(self) -> np.ndarray | None:
+        return None if self.y_fit is None else self.y - self.y_fit
+
+
+@dataclass(frozen=True)
+class TestFit:
+    """The fit of all tests of one kind on one specimen.
+
+    Axis labels are written ``"name [SI unit]"`` (the report converts that unit
+    for ``--units cgs``). ``info`` holds fit figures for the report as text, and
+    under ``info["figures"]`` extra figures as (title, PNG bytes) pairs.
+    """
+
+    __test__ = False  # not a pytest class
+
+    kind: str
+    specimen: str
+    tests: tuple[Test, ...]
+    estimates: tuple[Estimate, ...]
+    series: tuple[Series, ...]
+    x_label: str  # axis labels with SI units, e.g. "tip angle / free length [rad/m]"
+    y_label: str
+    correlation: Mapping[str, float] = field(default_factory=dict, hash=False)  # "a|b" -> r
+    warnings: tuple[str, ...] = ()
+    info: Mapping[str, object] = field(default_factory=dict, hash=False)  # fit window, noise, ...
+
+    def estimate(self, parameter: str) -> Estimate | None:
+        return next((e for e in self.estimates if e.parameter == parameter), None)
+
+
+@dataclass(frozen=True)
+class Failure:
+    """A fit that could not be done, with the reason shown to the user."""
+
+    kind: str
+    specimen: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class InputFile(PicklesViews):
+    path: Path
+    sha256: str
+    metadata: Mapping[str, str] = field(default_factory=dict, hash=False)
+    units: Mapping[str, str] = field(default_factory=dict, hash=False)  # column -> unit as written
+    n_rows: int = 0
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    study: Study
+    inputs: tuple[InputFile, ...]
+    fits: tuple[TestFit, ...]
+    failures: tuple[Failure, ...] = ()
+    pending: tuple[Failure, ...] = ()  # tests present but not fitted by design (not an error)
+    fixed: tuple[Estimate, ...] = ()  # [[fixed]] entries as estimates (method "fixed")
+    started: str = ""
+    runtime_s: float = 0.0
+    versions: Mapping[str, str] = field(default_factory=dict, hash=False)
+
+    @property
+    def ok(self) -> bool:
+        return not self.failures
+
+    def warnings(self) -> list[str]:
+        """Every warning of the study, prefixed by where it arose."""
+        out = [f"{f.specimen} {f.kind}: {f.reason}" for f in self.failures]
+        out += [f"{p.specimen} {p.kind}: not fitted: {p.reason}" for p in self.pending]
+        for fit in self.fits:
+            out += [f"{fit.specimen} {fit.kind}: {w}" for w in fit.warnings]
+            for est in fit.estimates:
+                out += [f"{fit.specimen} {est.parameter}: {w}" for w in est.warnings]
+        return out
+
+    def estimates(self) -> dict[str, dict[str, Estimate]]:
+        """specimen -> parameter -> estimate; fixed entries stand where no fit gives the parameter."""
+        table: dict[str, dict[str, Estimate]] = {s.id: {} for s in self.study.specimens}
+        for fit in self.fits:
+            for est in fit.estimates:
+                table[fit.specimen][est.parameter] = est
+        for est in self.fixed:
+            specimen = est.extra.get("specimen")
+            table[str(specimen)].setdefault(est.parameter, est)
+        return {
+            k: dict(sorted(v.items(), key=lambda kv: PARAMETER_ORDER.index(kv[0]))) for k, v in table.items()
+        }
+
+
+def _convert(est: Estimate, units: str) -> tuple[float, float | None, tuple[float, float] | None, str]:
+    value, unit = from_si(est.value, est.kind, units)
+    factor = value / est.value if est.value else from_si(1.0, est.kind, units)[0]
+    stderr = None if est.stderr is None else est.stderr * factor
+    ci = None if est.ci95 is None else (est.ci95[0] * factor, est.ci95[1] * factor)
+    return value, stderr, ci, unit
+
+
+def _clean(x: float | None) -> float | None:
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
+    """The ``stiffness.json`` document (docs/contract.md sections 4 and 7)."""
+    specimens: dict[str, dict] = {}
+    warns, windows = parameter_warnings(result), parameter_windows(result)
+    for sid, params in result.estimates().items():
+        entry = {}
+        for name, est in params.items():
+            value, stderr, ci, unit = _convert(est, units)
+            item: dict[str, object] = {
+                "value": value,
+                "stderr": _clean(stderr),
+                "ci95": None if ci is None else [_clean(ci[0]), _clean(ci[1])],
+                "unit": unit,
+                "n_points": est.n_points,
+                "method": est.method,
+                "warnings": warns.get((sid, name), []),
+                "window": windows.get((sid, name)),
+            }
+            item.update({k: v for k, v in est.extra.items() if k != "specimen"})
+            entry[name] = item
+        specimens[sid] = entry
+    return {
+        "matid_version": __version__,
+        "unit_system": units,
+        "study": result.study.name,
+        "inputs": [{"file": f.path.name, "sha256": f.sha256} for f in result.inputs],
+        "specimens": specimens,
+        "warnings": result.warnings(),
+    }
+
+
+CSV_COLUMNS = [
+    "specimen",
+    "parameter",
+    "value",
+    "stderr",
+    "ci95_low",
+    "ci95_high",
+    "unit",
+    "n_points",
+    "method",
+    "warnings",
+]
+#: Separator of the warnings of one parameter in the ``warnings`` column.
+WARNING_SEPARATOR = "; "
+
+
+def parameter_warnings(result: StudyResult) -> dict[tuple[str, str], list[str]]:
+    """(specimen, parameter) -> its warnings: those of the fit that gave it, then its own.
+
+    A warning of a fit (e.g. lack of fit of the extension model) concerns every
+    parameter of that fit, so each of them carries it (docs/contract.md section 7).
+    """
+    out: dict[tuple[str, str], list[str]] = {}
+    for fit in result.fits:
+        for est in fit.estimates:
+            out[(fit.specimen, est.parameter)] = [*fit.warnings, *est.warnings]
+    for est in result.fixed:
+        out.setdefault((str(est.extra.get("specimen")), est.parameter), list(est.warnings))
+    return out
+
+
+def rows_used(result: StudyResult) -> dict[Path, int]:
+    """Input file -> rows that entered a fit (files whose fit gives one series per test)."""
+    used: dict[Path, int] = {}
+    for fit in result.fits:
+        if len(fit.series) != len(fit.tests):
+            continue  # no per-file mapping: left blank rather than guessed
+        for test, series in zip(fit.tests, fit.series, strict=True):
+            n = len(series.x) if series.used is None else int(np.count_nonzero(series.used))
+            used[test.file] = used.get(test.file, 0) + n
+    return used
+
+
+def parameter_windows(result: StudyResult) -> dict[tuple[str, str], dict]:
+    """(specimen, parameter) -> the fit window used (SI): requested ranges, rows used and read.
+
+    ``requested`` holds the ``window`` of each test in study.toml (file -> column ->
+    [low, high], SI); ``rows_used``/``rows_read`` count the rows of the fit's files that
+    entered the fit and that were read; ``fit`` holds what the fitter reports of the
+    window it chose itself (``info["window"]``, or the linear range / time window).
+    """
+    n_read = {f.path: f.n_rows for f in result.inputs}
+    out: dict[tuple[str, str], dict] = {}
+    for fit in result.fits:
+        requested = {
+            t.file.name: {col: [float(lo), float(hi)] for col, (lo, hi) in t.window.items()}
+            for t in fit.tests
+            if t.window
+        }
+        chosen = {k: fit.info[k] for k in _WINDOW_INFO_KEYS if k in fit.info}
+        read = sum(n_read.get(t.file, 0) for t in fit.tests)
+        for est in fit.estimates:
+            out[(fit.specimen, est.parameter)] = {
+                "requested": requested,
+                "rows_used": est.n_points,
+                "rows_read": read,
+                "fit": _jsonable(chosen),
+            }
+    return out
+
+
+#: Keys of ``TestFit.info`` that describe the window a fitter chose.
+_WINDOW_INFO_KEYS = ("window", "linear_range", "time_window_s", "unloading_rows_excluded", "excluded_points")
+
+
+def _jsonable(value: object) -> object:
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        return _clean(float(value))
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+def table_rows(result: StudyResult, units: str = "SI") -> list[dict[str, object]]:
+    """One row per specimen and parameter, keyed by :data:`CSV_COLUMNS` (numbers as float or None)."""
+    warns = parameter_warnings(result)
+    rows = []
+    for sid, params in result.estimates().items():
+        for name, est in params.items():
+            value, stderr, ci, unit = _convert(est, units)
+            low, high = (None, None) if ci is None else (_clean(ci[0]), _clean(ci[1]))
+            rows.append(
+                dict(
+                    zip(
+                        CSV_COLUMNS,
+                        [sid, name, value, _clean(stderr), low, high, unit, est.n_points, est.method,
+                         WARNING_SEPARATOR.join(warns.get((sid, name), []))],
+                        strict=True,
+                    )
+                )
+            )  # fmt: skip
+    return rows
+
+
+#: CSV number formats per column (value and interval to 10 digits, stderr to 6).
+_CSV_FORMATS = {"value": ".10g", "stderr": ".6g", "ci95_low": ".10g", "ci95_high": ".10g"}
+
+
+def csv_text(rows: list[dict[str, object]], columns: list[str]) -> str:
+    """Rows as CSV text with ``columns``; None is an empty cell, floats as in :data:`_CSV_FORMATS`."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(columns)
+    for row in rows:
+        writer.writerow(
+            ["" if row[c] is None else format(row[c], _CSV_FORMATS[c]) if c in _CSV_FORMATS else row[c]
+             for c in columns]
+        )  # fmt: skip
+    return buffer.getvalue()
+
+
+def stiffness_csv(result: StudyResult, units: str = "SI") -> str:
+    """The ``stiffness.csv`` text: one row per specimen and parameter, warnings last."""
+    return csv_text(table_rows(result, units), CSV_COLUMNS)
+
+
+def atomic_write(path: Path, data: str | bytes) -> None:
+    """Write one file whole or not at all: a temporary name in the same folder, fsync, then rename.
+
+    For a set of files that belong together (a report) use :func:`matid.io.publish.publish`,
+    which replaces the whole folder in one step.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    mode = "wb" if isinstance(data, bytes) else "w"
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())  # the rename must never publish a file whose blocks are not on disk
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs are ordinary files
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_tables(result: StudyResult, out: Path, units: str = "SI") -> list[Path]:
+    """Write stiffness.csv and stiffness.json into ``out``; returns the paths."""
+    json_path, csv_path = out / "stiffness.json", out / "stiffness.csv"
+    atomic_write(json_path, json.dumps(stiffness_json(result, units), indent=2) + "\n")
+    atomic_write(csv_path, stiffness_csv(result, units))
+    return [json_path, csv_path]

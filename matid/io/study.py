@@ -1,0 +1,404 @@
+"""A study: specimens, tests and fixed stiffnesses, loaded from ``study.toml``.
+
+docs/contract.md sections 1 and 7. Every quantity is converted to SI here,
+once; every problem is a DataError naming the toml file, the entry and the key.
+Unknown keys are errors with the nearest valid key suggested (a misspelled
+``exlude`` must not silently fit the test); a bare number for a dimensional
+quantity is SI only where that is plausible for its kind
+(:data:`matid.units.PLAUSIBLE_BARE`); booleans must be TOML booleans; free
+text is bounded (:data:`MAX_TEXT`).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+
+from matid.errors import DataError
+from matid.io import study_keys as keys
+from matid.io.study_keys import MAX_TEXT, TEST_COLUMNS, bounded_text, nearest  # noqa: F401 - re-exported
+from matid.io.views import PicklesViews
+from matid.units import PHYSICAL_BOUND, PLAUSIBLE_BARE, UnitError, to_si
+
+#: Per test kind: the toml keys it needs and their quantity kinds; optional keys.
+TEST_KINDS: dict[str, dict[str, str]] = {
+    "extension": {"gauge_length": "length"},
+    "magnetic_bending": {"free_length": "length"},
+    "torsion": {"length": "length"},
+    "three_point_bend": {
+        "span": "length",
+        "specimen_length": "length",
+        "support_radius": "length",
+        "nose_radius": "length",
+    },
+}
+OPTIONAL_KEYS: dict[str, dict[str, str]] = {
+    "magnetic_bending": {"magnet_moment": "moment"},
+}
+
+#: Keys every [[test]] may carry besides its kind's quantities (sections 1 and 7).
+TEST_COMMON_KEYS = (
+    "kind",
+    "specimen",
+    "file",
+    "exclude",
+    "note",
+    "columns",
+    "units",
+    "negate",
+    "window",
+    "encoding",
+)
+TABLE_KEYS: dict[str, tuple[str, ...]] = {
+    "": ("study", "specimen", "test", "fixed"),
+    "study": ("name", "temperature"),
+    "specimen": ("id", "outer_diameter", "inner_diameter", "poisson_ratio"),
+    "fixed": ("specimen", "parameter", "value"),
+}
+
+#: Parameters a study may fix, with their quantity kinds (docs/contract.md section 3).
+PARAMETERS: dict[str, str] = {
+    "E_e": "force",
+    "E_b": "bending_stiffness",
+    "E_t": "bending_stiffness",
+    "E_s": "force",
+    "sls_k1": "force",
+    "sls_k2": "force",
+    "sls_eta": "viscosity",
+}
+
+
+@dataclass(frozen=True)
+class Specimen:
+    """A tube specimen; diameters in m."""
+
+    id: str
+    outer_diameter: float
+    inner_diameter: float = 0.0
+    #: Poisson's ratio for the shear coefficient of E_s from torsion (None: stated default range).
+    poisson_ratio: float | None = None
+
+    def __post_init__(self) -> None:
+        if not self.id:
+            raise ValueError("specimen id must not be empty")
+        if not (self.outer_diameter > self.inner_diameter >= 0.0):
+            raise ValueError(
+                f"specimen {self.id}: need outer_diameter > inner_diameter >= 0, got "
+                f"{self.outer_diameter} m and {self.inner_diameter} m"
+            )
+
+    @property
+    def outer_radius(self) -> float:
+        return 0.5 * self.outer_diameter
+
+
+@dataclass(frozen=True)
+class Test(PicklesViews):
+    """One lab test: a CSV file of one kind on one specimen, with its set-up in SI."""
+
+    __test__ = False  # not a pytest class
+
+    kind: str
+    specimen: str
+    file: Path
+    params: Mapping[str, float] = field(default_factory=dict, hash=False)
+    exclude: bool = False
+    note: str = ""
+    index: int = 0  #: position in study.toml, for messages
+    #: matid column name -> (low, high) in SI: only rows inside every range enter the fit
+    #: (docs/contract.md section 7, ``window``); rows outside are shown, marked.
+    window: Mapping[str, tuple[float, float]] = field(default_factory=dict, hash=False)
+    #: three_point_bend: where deflection is measured, "nose" (crosshead) or "centreline".
+    deflection_at: str = "nose"
+    #: matid column name -> the file's header text (section 7 ``columns``).
+    columns: Mapping[str, str] = field(default_factory=dict, hash=False)
+    #: matid column name -> unit text overriding the file's (section 7 ``units``).
+    units: Mapping[str, str] = field(default_factory=dict, hash=False)
+    #: matid columns whose sign is flipped on reading (section 7 ``negate``).
+    negate: tuple[str, ...] = ()
+    #: Text encoding of the file; None: detected.
+    encoding: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in TEST_KINDS:
+            raise ValueError(f"unknown test kind {self.kind!r}")
+        object.__setattr__(self, "params", MappingProxyType(dict(self.params)))
+        object.__setattr__(self, "window", MappingProxyType(dict(self.window)))
+        object.__setattr__(self, "columns", MappingProxyType(dict(self.columns)))
+        object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
+        object.__setattr__(self, "negate", tuple(self.negate))
+        if self.deflection_at not in ("nose", "centreline"):
+            raise ValueError(f"deflection_at must be 'nose' or 'centreline', got {self.deflection_at!r}")
+        for key in TEST_KINDS[self.kind]:
+            value = self.params.get(key)
+            if value is None or not value > 0:
+                raise ValueError(f"{self.kind} test needs a positive {key}")
+
+    @property
+    def label(self) -> str:
+        return f"{self.kind} {self.specimen} ({self.file.name})"
+
+
+@dataclass(frozen=True)
+class Fixed:
+    """A known stiffness used instead of a fit."""
+
+    specimen: str
+    parameter: str
+    value: float
+
+    def __post_init__(self) -> None:
+        if self.parameter not in PARAMETERS:
+            raise ValueError(f"unknown parameter {self.parameter!r} (one of {', '.join(PARAMETERS)})")
+        if not (math.isfinite(self.value) and self.value > 0):
+            raise ValueError(f"fixed {self.parameter} must be positive and finite")
+
+
+@dataclass(frozen=True)
+class Study:
+    name: str
+    source: Path
+    specimens: tuple[Specimen, ...]
+    tests: tuple[Test, ...]
+    fixed: tuple[Fixed, ...] = ()
+    temperature: str = ""
+
+    @property
+    def root(self) -> Path:
+        return self.source.parent
+
+    def specimen(self, specimen_id: str) -> Specimen:
+        for spec in self.specimens:
+            if spec.id == specimen_id:
+                return spec
+        raise KeyError(specimen_id)
+
+    def fixed_value(self, specimen_id: str, parameter: str) -> float | None:
+        for item in self.fixed:
+            if item.specimen == specimen_id and item.parameter == parameter:
+                return item.value
+        return None
+
+    def tests_of(self, kind: str, specimen_id: str, *, included: bool = True) -> list[Test]:
+        return [
+            t
+            for t in self.tests
+            if t.kind == kind and t.specimen == specimen_id and not (included and t.exclude)
+        ]
+
+
+def resolve_study_path(path: str | Path) -> Path:
+    """The study.toml for a folder or toml path (docs/contract.md section 1)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "study.toml"
+    if not path.is_file():
+        raise DataError("study file not found", file=path)
+    return path
+
+
+def load_study(path: str | Path) -> Study:
+    """Read and validate ``study.toml`` (or the folder holding it)."""
+    source = resolve_study_path(path)
+    try:
+        raw = tomllib.loads(source.read_text(encoding="utf-8-sig"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise DataError(f"not valid TOML: {exc}", file=source) from exc
+    except OSError as exc:
+        raise DataError(f"cannot read the study file: {exc.strerror}", file=source) from exc
+    _check_keys(source, "the top level", raw, TABLE_KEYS[""])
+    head = raw.get("study", {})
+    if not isinstance(head, dict):
+        raise DataError("[study] must be a table", file=source)
+    _check_keys(source, "[study]", head, TABLE_KEYS["study"])
+    specimens = tuple(_specimen(source, i, entry) for i, entry in enumerate(_list(raw, "specimen", source)))
+    ids = [s.id for s in specimens]
+    duplicates = {i for i in ids if ids.count(i) > 1}
+    if duplicates:
+        raise DataError(f"duplicate specimen id {sorted(duplicates)[0]!r}", file=source)
+    if not specimens:
+        raise DataError("no [[specimen]] entries", file=source)
+    tests = tuple(_test(source, i, entry, set(ids)) for i, entry in enumerate(_list(raw, "test", source)))
+    if not tests:
+        raise DataError("no [[test]] entries", file=source)
+    fixed = tuple(_fixed(source, i, entry, set(ids)) for i, entry in enumerate(_list(raw, "fixed", source)))
+    return Study(
+        name=bounded_text(head.get("name", source.parent.name)),
+        temperature=bounded_text(head.get("temperature", "")),
+        source=source,
+        specimens=specimens,
+        tests=tests,
+        fixed=fixed,
+    )
+
+
+def _check_keys(source: Path, where: str, entry: dict, valid: tuple[str, ...], other: str = "") -> None:
+    """Reject a key not in ``valid``, naming it and the nearest valid key."""
+    for key in entry:
+        if key not in valid:
+            hint = nearest(str(key), valid) or f" (valid keys: {', '.join(valid)})"
+            raise DataError(f"{where}: unknown key `{bounded_text(key, 80)}`{other}{hint}", file=source)
+
+
+def _list(raw: dict, key: str, source: Path) -> list[dict]:
+    entries = raw.get(key, [])
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+        raise DataError(f"[[{key}]] must be an array of tables", file=source)
+    return entries
+
+
+def _quantity(source: Path, where: str, entry: dict, key: str, kind: str) -> float:
+    if key not in entry:
+        raise DataError(f"{where}: missing '{key}'", file=source)
+    return _value(source, where, key, entry[key], kind)
+
+
+def _value(source: Path, where: str, key: str, value: object, kind: str) -> float:
+    """One quantity in SI: units parsed, bare numbers checked for plausibility, bounds checked."""
+    try:
+        number = to_si(value, kind)
+    except UnitError as exc:
+        raise DataError(f"{where}: {key}: {exc}", file=source) from exc
+    bare = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if bare and number != 0 and kind in PLAUSIBLE_BARE:
+        low, high, unit = PLAUSIBLE_BARE[kind]
+        if not low <= abs(number) <= high:
+            raise DataError(
+                f"{where}: {key} = {value} is a bare number, read as SI ({number:g} in SI units of "
+                f"{kind}), which is not plausible here (expected {low:g} to {high:g}); write the unit, "
+                f'e.g. {key} = "{value} {unit}"',
+                file=source,
+            )
+    bound = PHYSICAL_BOUND.get(kind)
+    if bound is not None and abs(number) > bound:
+        raise DataError(
+            f"{where}: {key} = {bounded_text(value, 80)!r} is {number:g} in SI, beyond the physical "
+            f"bound {bound:g} for a {kind}",
+            file=source,
+        )
+    return number
+
+
+def _boolean(source: Path, where: str, entry: dict, key: str) -> bool:
+    value = entry.get(key, False)
+    if not isinstance(value, bool):
+        raise DataError(
+            f"{where}: {key} must be a boolean (true or false, unquoted), got {bounded_text(value, 80)!r}",
+            file=source,
+        )
+    return value
+
+
+def _text(source: Path, where: str, entry: dict, key: str, default: str = "") -> str:
+    value = entry.get(key, default)
+    if not isinstance(value, str):
+        raise DataError(f"{where}: {key} must be a string, got {bounded_text(value, 80)!r}", file=source)
+    return bounded_text(value)
+
+
+def _specimen(source: Path, index: int, entry: dict) -> Specimen:
+    where = f"[[specimen]] #{index + 1}"
+    _check_keys(source, where, entry, TABLE_KEYS["specimen"])
+    sid = str(entry.get("id", "")).strip()
+    if not sid:
+        raise DataError(f"{where}: missing 'id'", file=source)
+    sid = bounded_text(sid, 200)
+    outer = _quantity(source, f"specimen {sid}", entry, "outer_diameter", "length")
+    inner = (
+        _quantity(source, f"specimen {sid}", entry, "inner_diameter", "length")
+        if "inner_diameter" in entry
+        else 0.0
+    )
+    nu = entry.get("poisson_ratio")
+    if nu is not None and (isinstance(nu, bool) or not isinstance(nu, (int, float)) or not -1.0 < nu <= 0.5):
+        raise DataError(
+            f"specimen {sid}: poisson_ratio must be a number in (-1, 0.5], got {bounded_text(nu, 80)!r}",
+            file=source,
+        )
+    try:
+        return Specimen(sid, outer, inner, None if nu is None else float(nu))
+    except ValueError as exc:
+        raise DataError(str(exc), file=source) from exc
+
+
+def _test(source: Path, index: int, entry: dict, ids: set[str]) -> Test:
+    where = f"[[test]] #{index + 1}"
+    kind = entry.get("kind")
+    if not isinstance(kind, str) or kind not in TEST_KINDS:
+        hint = nearest(str(kind), list(TEST_KINDS))
+        raise DataError(
+            f"{where}: kind must be one of {', '.join(TEST_KINDS)}, got {bounded_text(kind, 80)!r}{hint}",
+            file=source,
+        )
+    _check_test_keys(source, where, entry, kind)
+    specimen = str(entry.get("specimen", ""))
+    if specimen not in ids:
+        raise DataError(f"{where}: unknown specimen {bounded_text(specimen, 80)!r}", file=source)
+    if not entry.get("file") or not isinstance(entry["file"], str):
+        raise DataError(f"{where}: missing 'file' (a file name string)", file=source)
+    params = {key: _quantity(source, where, entry, key, q) for key, q in TEST_KINDS[kind].items()}
+    for key, q in OPTIONAL_KEYS.get(kind, {}).items():
+        if key in entry:
+            params[key] = _quantity(source, where, entry, key, q)
+    try:
+        return Test(
+            kind=kind,
+            specimen=specimen,
+            file=_resolve(source, where, entry["file"]),
+            params=params,
+            exclude=_boolean(source, where, entry, "exclude"),
+            note=_text(source, where, entry, "note"),
+            index=index,
+            window=keys.window(source, where, entry, kind, _value),
+            deflection_at=_text(source, where, entry, "deflection_at", "nose"),
+            columns=keys.columns(source, where, entry, kind),
+            units=keys.units(source, where, entry, kind),
+            negate=keys.negate(source, where, entry, kind),
+            encoding=keys.encoding(source, where, entry),
+        )
+    except ValueError as exc:
+        raise DataError(f"{where}: {exc}", file=source) from exc
+
+
+def _check_test_keys(source: Path, where: str, entry: dict, kind: str) -> None:
+    own = (*TEST_COMMON_KEYS, *TEST_KINDS[kind], *OPTIONAL_KEYS.get(kind, {}))
+    if kind == "three_point_bend":
+        own = (*own, "deflection_at")
+    for key in entry:
+        if key in own:
+            continue
+        owners = [k for k in TEST_KINDS if key in TEST_KINDS[k] or key in OPTIONAL_KEYS.get(k, {})]
+        if key == "deflection_at":
+            owners = ["three_point_bend"]
+        other = f", a key of {' and '.join(owners)} tests, not of {kind} tests" if owners else ""
+        _check_keys(source, where, {key: None}, own, other)
+
+
+def _resolve(source: Path, where: str, name: str) -> Path:
+    """The data file's absolute path; a symlink loop is an input error, not a crash."""
+    path = source.parent / name
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError) as exc:
+        raise DataError(f"{where}: file {name!r} cannot be resolved ({exc})", file=source) from exc
+
+
+def _fixed(source: Path, index: int, entry: dict, ids: set[str]) -> Fixed:
+    where = f"[[fixed]] #{index + 1}"
+    _check_keys(source, where, entry, TABLE_KEYS["fixed"])
+    specimen = str(entry.get("specimen", ""))
+    if specimen not in ids:
+        raise DataError(f"{where}: unknown specimen {bounded_text(specimen, 80)!r}", file=source)
+    parameter = str(entry.get("parameter", ""))
+    if parameter not in PARAMETERS:
+        hint = nearest(parameter, list(PARAMETERS))
+        raise DataError(f"{where}: unknown parameter {bounded_text(parameter, 80)!r}{hint}", file=source)
+    value = _quantity(source, where, entry, "value", PARAMETERS[parameter])
+    try:
+        return Fixed(specimen, parameter, value)
+    except ValueError as exc:
+        raise DataError(f"{where}: {exc}", file=source) from exc

@@ -1,0 +1,119 @@
+"""Parsing of the section-7 keys of a ``[[test]]`` and of free text, for :mod:`matid.io.study`.
+
+``columns``, ``units``, ``negate``, ``window`` and ``encoding`` (docs/contract.md
+section 7): each names a data column the test kind uses (:data:`TEST_COLUMNS`),
+checked here with the nearest valid name suggested. Free text is bounded.
+"""
+
+from __future__ import annotations
+
+import codecs
+import difflib
+from collections.abc import Callable
+from pathlib import Path
+
+from matid.errors import DataError
+from matid.units import UnitError, si_factor
+
+#: Per test kind, the data columns its fits use and their quantity kinds
+#: (docs/contract.md sections 2 and 7): only these need a known unit.
+TEST_COLUMNS: dict[str, dict[str, str]] = {
+    "extension": {"time": "time", "force": "force", "elongation": "length", "strain": "strain"},
+    "magnetic_bending": {"tip_angle": "angle", "torque": "torque", "field": "field", "field_angle": "angle"},
+    "torsion": {"twist_angle": "angle", "torque": "torque"},
+    "three_point_bend": {"deflection": "length", "force": "force"},
+}
+
+#: Longest free text kept (note, name, temperature); longer text is cut and marked.
+MAX_TEXT = 2000
+TRUNCATED = " [... truncated]"
+
+
+def bounded_text(value: object, limit: int = MAX_TEXT) -> str:
+    """Free text cut to ``limit`` characters, marked when cut (a 1 MB note is not a report)."""
+    text = str(value)
+    return text if len(text) <= limit else text[:limit] + TRUNCATED
+
+
+def nearest(word: str, valid: tuple[str, ...] | list[str]) -> str:
+    """`` (did you mean `x`?)`` for the closest valid word, or ``""``."""
+    match = difflib.get_close_matches(word, list(valid), n=1, cutoff=0.5)
+    return f" (did you mean `{match[0]}`?)" if match else ""
+
+
+def _column_key(source: Path, where: str, key: str, name: object, kind: str) -> str:
+    """``name`` checked to be a data column the ``kind`` uses."""
+    valid = list(TEST_COLUMNS[kind])
+    if name not in valid:
+        raise DataError(
+            f"{where}: {key}: `{bounded_text(name, 80)}` is not a column of {kind} tests "
+            f"(one of {', '.join(valid)}){nearest(str(name), valid)}",
+            file=source,
+        )
+    return str(name)
+
+
+def _table(source: Path, where: str, entry: dict, key: str) -> dict:
+    value = entry.get(key, {})
+    if not isinstance(value, dict):
+        raise DataError(f"{where}: {key} must be a table like {{ force = ... }}", file=source)
+    return value
+
+
+def window(
+    source: Path, where: str, entry: dict, kind: str, value: Callable[..., float]
+) -> dict[str, tuple[float, float]]:
+    window = {}
+    for name, bounds in _table(source, where, entry, "window").items():
+        column = _column_key(source, where, "window", name, kind)
+        if not isinstance(bounds, list) or len(bounds) != 2:
+            raise DataError(f'{where}: window.{column} must be ["low", "high"], got {bounds!r}', file=source)
+        q = TEST_COLUMNS[kind][column]
+        low, high = (value(source, where, f"window.{column}", b, q) for b in bounds)
+        if not low < high:
+            raise DataError(f"{where}: window.{column} needs low < high, got {bounds!r}", file=source)
+        window[column] = (low, high)
+    return window
+
+
+def columns(source: Path, where: str, entry: dict, kind: str) -> dict[str, str]:
+    columns = {}
+    for name, header in _table(source, where, entry, "columns").items():
+        column = _column_key(source, where, "columns", name, kind)
+        if not isinstance(header, str) or not header.strip() or len(header) > 200:
+            raise DataError(f"{where}: columns.{column} must be the file's header text", file=source)
+        columns[column] = header
+    return columns
+
+
+def units(source: Path, where: str, entry: dict, kind: str) -> dict[str, str]:
+    units = {}
+    for name, unit in _table(source, where, entry, "units").items():
+        column = _column_key(source, where, "units", name, kind)
+        if not isinstance(unit, str):
+            raise DataError(f"{where}: units.{column} must be a unit string", file=source)
+        try:
+            si_factor(unit, TEST_COLUMNS[kind][column])
+        except UnitError as exc:
+            raise DataError(f"{where}: units.{column}: {exc}", file=source) from exc
+        units[column] = unit
+    return units
+
+
+def negate(source: Path, where: str, entry: dict, kind: str) -> tuple[str, ...]:
+    names = entry.get("negate", [])
+    if not isinstance(names, list):
+        raise DataError(f'{where}: negate must be a list like ["force"]', file=source)
+    return tuple(_column_key(source, where, "negate", name, kind) for name in names)
+
+
+def encoding(source: Path, where: str, entry: dict) -> str | None:
+    if "encoding" not in entry:
+        return None
+    name = str(entry["encoding"])
+    try:
+        return codecs.lookup(name).name
+    except LookupError as exc:
+        raise DataError(
+            f"{where}: unknown encoding {name!r} (e.g. utf-8, cp1252, gbk, utf-16)", file=source
+        ) from exc

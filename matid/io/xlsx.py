@@ -1,0 +1,84 @@
+"""``stiffness.xlsx`` and ``summary.xlsx``: the stiffness tables as spreadsheets (docs/contract.md 7, 8).
+
+Sheets of ``stiffness.xlsx``: ``stiffness`` (the rows of ``stiffness.csv``, numbers
+as numbers), ``warnings`` (specimen, what it concerns, the warning) and ``inputs``
+(file, sha256, rows used, rows read). openpyxl is imported only when a workbook is
+written, so ``import matid`` stays light.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Mapping, Sequence
+
+from matid.io.results import CSV_COLUMNS, StudyResult, rows_used, table_rows
+
+#: A sheet: its column names and its rows (dicts keyed by those names).
+Sheet = tuple[Sequence[str], Sequence[Mapping[str, object]]]
+
+WARNING_COLUMNS = ["specimen", "concerns", "warning"]
+INPUT_COLUMNS = ["file", "sha256", "rows_used", "rows_read"]
+
+
+def warning_rows(result: StudyResult) -> list[dict[str, object]]:
+    """Every warning of a study as (specimen, parameter or test kind, text), failures first."""
+    rows = [{"specimen": f.specimen, "concerns": f.kind, "warning": f"could not be fitted: {f.reason}"}
+            for f in result.failures]  # fmt: skip
+    rows += [{"specimen": p.specimen, "concerns": p.kind, "warning": f"not fitted: {p.reason}"}
+             for p in result.pending]  # fmt: skip
+    for fit in result.fits:
+        rows += [{"specimen": fit.specimen, "concerns": fit.kind, "warning": w} for w in fit.warnings]
+        for est in fit.estimates:
+            rows += [
+                {"specimen": fit.specimen, "concerns": est.parameter, "warning": w} for w in est.warnings
+            ]
+    return rows
+
+
+def input_rows(result: StudyResult) -> list[dict[str, object]]:
+    """One row per input file: name, SHA-256, rows that entered a fit (None: not known), rows read."""
+    used = rows_used(result)
+    return [
+        {"file": f.path.name, "sha256": f.sha256, "rows_used": used.get(f.path), "rows_read": f.n_rows}
+        for f in result.inputs
+    ]
+
+
+def stiffness_xlsx(result: StudyResult, units: str = "SI") -> bytes:
+    """The ``stiffness.xlsx`` workbook (sheets ``stiffness``, ``warnings``, ``inputs``) as bytes."""
+    return workbook(
+        {
+            "stiffness": (CSV_COLUMNS, table_rows(result, units)),
+            "warnings": (WARNING_COLUMNS, warning_rows(result)),
+            "inputs": (INPUT_COLUMNS, input_rows(result)),
+        }
+    )
+
+
+def workbook(sheets: Mapping[str, Sheet]) -> bytes:
+    """An .xlsx file with one sheet per entry: a bold, frozen header row, then the rows."""
+    from openpyxl import Workbook
+    from openpyxl.styles import Font
+
+    book = Workbook()
+    book.remove(book.active)
+    for name, (columns, rows) in sheets.items():
+        sheet = book.create_sheet(name)
+        sheet.append(list(columns))
+        for cell in sheet[1]:
+            cell.font = Font(bold=True)
+        for row in rows:
+            sheet.append([row.get(c) for c in columns])
+        sheet.freeze_panes = "A2"
+        for letter, column in zip(_letters(len(columns)), columns, strict=True):
+            width = max([len(str(column))] + [len(str(r.get(column) or "")) for r in rows])
+            sheet.column_dimensions[letter].width = min(width + 2, 80)
+    buffer = io.BytesIO()
+    book.save(buffer)
+    return buffer.getvalue()
+
+
+def _letters(n: int) -> list[str]:
+    from openpyxl.utils import get_column_letter
+
+    return [get_column_letter(i + 1) for i in range(n)]

@@ -1,0 +1,183 @@
+"""Many studies in one run (docs/contract.md section 8): local processes, Dask, failures, progress."""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import statistics
+import threading
+from pathlib import Path
+
+import openpyxl
+import pytest
+
+from matid.app import pipeline
+from matid.app.batch import Progress, StudyOutcome, run_batch
+from matid.app.cli import main
+from tests.app.test_cli import CSV_HEADER, OUTPUTS, small_study
+from tests.io.test_results import E_T_WARNING, add_warnings, bending_study, drop_test
+
+SUMMARY_HEADER = "study," + CSV_HEADER
+
+
+def run(argv: list[str]) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(argv)
+    return code, out.getvalue(), err.getvalue()
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader(path.open(encoding="utf-8")))
+
+
+def light_report(monkeypatch) -> None:
+    """Skip the report rendering (tested elsewhere) for runs in this process."""
+    monkeypatch.setattr(pipeline, "render_report", lambda result, *, units: {"report.html": "<html/>"})
+
+
+@pytest.fixture(scope="module")
+def three(tmp_path_factory):
+    """``matid fit lot_a lot_b lot_c/study.toml --jobs 2``: real processes, full outputs."""
+    root = tmp_path_factory.mktemp("lots")
+    for name in ("lot_a", "lot_b", "lot_c"):
+        bending_study(root / name)
+    drop_test(root / "lot_c", "bending_T1_L30.csv")
+    out = root / "out"
+    argv = ["fit", str(root / "lot_a"), str(root / "lot_b"), str(root / "lot_c" / "study.toml")]
+    code, stdout, err = run([*argv, "--out", str(out), "--jobs", "2"])
+    return code, stdout, err, out
+
+
+@pytest.mark.slow
+def test_three_studies_write_each_folder_and_the_summary(three):
+    code, stdout, err, out = three
+    assert code == 0, err
+    names = {p.name for p in out.iterdir() if not p.name.startswith(".")}
+    assert names == {"lot_a", "lot_b", "lot_c", "summary.csv", "summary.xlsx", "summary.html"}
+    for name in ("lot_a", "lot_b", "lot_c"):
+        assert {p.name for p in (out / name).iterdir()} == OUTPUTS
+    assert (out / "summary.csv").read_text(encoding="utf-8").splitlines()[0] == SUMMARY_HEADER
+    rows = read_csv(out / "summary.csv")
+    for name in ("lot_a", "lot_b", "lot_c"):  # every row of every study, study name first
+        mine = [{k: v for k, v in r.items() if k != "study"} for r in rows if r["study"] == name]
+        assert mine == read_csv(out / name / "stiffness.csv")
+    assert "3/3" in err  # plain progress lines (stderr is not a terminal here)
+
+
+@pytest.mark.slow
+def test_summary_xlsx_opens_with_openpyxl(three):
+    out = three[3]
+    book = openpyxl.load_workbook(out / "summary.xlsx", read_only=True)
+    assert book.sheetnames == ["summary", "studies"]
+    sheet = list(book["summary"].iter_rows(values_only=True))
+    rows = read_csv(out / "summary.csv")
+    assert ",".join(sheet[0]) == SUMMARY_HEADER and len(sheet) == len(rows) + 1
+    for cells, row in zip(sheet[1:], rows, strict=True):
+        assert cells[:3] == (row["study"], row["specimen"], row["parameter"])
+        assert cells[3] == pytest.approx(float(row["value"]), rel=1e-9)
+    studies = list(book["studies"].iter_rows(values_only=True))
+    assert [(r[0], r[2]) for r in studies[1:]] == [("lot_a", 0), ("lot_b", 0), ("lot_c", 0)]
+
+
+@pytest.mark.slow
+def test_comparison_shows_mean_and_sd_across_specimens(three):
+    _, stdout, _, out = three
+    values = [float(r["value"]) for r in read_csv(out / "summary.csv") if r["parameter"] == "E_b"]
+    assert len(values) == 3 and statistics.stdev(values) > 0  # lot_c is fitted without one length
+    mean, sd = statistics.fmean(values), statistics.stdev(values)
+    assert f"E_b: {mean:.5g} ± {sd:.2g} N m^2 (mean ± sd of 3 specimens)" in stdout
+    html = (out / "summary.html").read_text(encoding="utf-8")
+    assert '<img alt="values per specimen' in html and "data:image/png;base64," in html
+    assert f"<td>E_b</td><td>3</td><td>{mean:.4g}</td><td>{sd:.2g}</td>" in html
+
+
+def test_one_failed_study_does_not_stop_the_others(tmp_path, monkeypatch):
+    """A study that cannot be read (exit 2) and one with a failed fit (exit 1): the rest is written."""
+    light_report(monkeypatch)
+    good, short, broken = (small_study(tmp_path / n) for n in ("good", "short", "broken"))
+    rows = "\n".join(f"{t},{0.5 * t},{0.01 * t}" for t in range(4))
+    (short / "extension_T1_r1.csv").write_text(f"time [s],force [N],elongation [mm]\n{rows}\n")
+    text = (broken / "bending_T1_L60.csv").read_text()
+    (broken / "bending_T1_L60.csv").write_text(text.replace("torque [mN m]", "torque [furlong]"))
+    out = tmp_path / "out"
+    code, stdout, err = run(["fit", str(broken), str(short), str(good), "--out", str(out), "--jobs", "1"])
+    assert code == 2  # the worst of 2, 1, 0
+    assert "matid: broken: error:" in err and "furlong" in err and "bending_T1_L60.csv" in err
+    assert "matid: short: fit failed: T1 extension" in err
+    assert not (out / "broken").exists()
+    assert (out / "good" / "stiffness.xlsx").is_file() and (out / "short" / "stiffness.csv").is_file()
+    studies = {r["study"] for r in read_csv(out / "summary.csv")}
+    assert studies == {"good", "short"}
+    book = openpyxl.load_workbook(out / "summary.xlsx", read_only=True)
+    codes = {r[0]: (r[2], r[3]) for r in list(book["studies"].iter_rows(values_only=True))[1:]}
+    assert codes["good"] == (0, None) and codes["short"][0] == 1 and codes["broken"][0] == 2
+    assert "furlong" in codes["broken"][1]
+
+
+def test_strict_batch_exits_1_on_a_warning(tmp_path, monkeypatch):
+    light_report(monkeypatch)
+    add_warnings(
+        monkeypatch
+    )  # in this process (--jobs 1): every study warns (on E_t and on E_s_torsion, from it)
+    a, b = bending_study(tmp_path / "a"), bending_study(tmp_path / "b")
+    argv = ["fit", str(a), str(b), "--out", str(tmp_path / "o"), "--jobs", "1", "--quiet"]
+    code, stdout, _ = run(argv)
+    assert code == 0 and "warnings (4):" in stdout and f"a: T1 E_t: {E_T_WARNING}" in stdout
+    assert run([*argv, "--strict"])[0] == 1
+
+
+def test_same_folder_name_is_refused(tmp_path, monkeypatch):
+    light_report(monkeypatch)
+    a, b = small_study(tmp_path / "x" / "lot"), small_study(tmp_path / "y" / "lot")
+    code, _, err = run(["fit", str(a), str(b), "--out", str(tmp_path / "o")])
+    assert code == 2 and "share the folder name 'lot'" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_dask_local_cluster(tmp_path, monkeypatch):
+    distributed = pytest.importorskip("distributed")
+    light_report(monkeypatch)  # processes=False: the worker runs in this process, patched too
+    a, b = small_study(tmp_path / "a"), small_study(tmp_path / "b")
+    out = tmp_path / "out"
+    with distributed.LocalCluster(
+        n_workers=1, processes=False, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
+        code, stdout, err = run(
+            ["fit", str(a), str(b), "--out", str(out), "--scheduler", cluster.scheduler_address]
+        )
+    assert code == 0, err
+    assert {r["study"] for r in read_csv(out / "summary.csv")} == {"a", "b"}
+    assert (out / "a" / "stiffness.json").is_file() and (out / "b" / "stiffness.xlsx").is_file()
+
+
+def test_run_batch_from_python(tmp_path, monkeypatch):
+    light_report(monkeypatch)
+    batch = run_batch([small_study(tmp_path / "a")], tmp_path / "o", jobs=1)
+    assert batch.code == 0 and [o.name for o in batch.outcomes] == ["a"]
+    assert {p.name for p in batch.paths} == {"summary.csv", "summary.xlsx", "summary.html"}
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bar_on_a_terminal_and_lines_otherwise():
+    threads = threading.active_count()
+    tty, pipe = _Terminal(), io.StringIO()
+    for stream in (tty, pipe):
+        progress = Progress(2, stream=stream)
+        progress(StudyOutcome("x", "lot_x", 0, runtime_s=1.0))
+        progress(StudyOutcome("y", "lot_y", 2, error="bad"))
+        progress.close()
+    assert "fitting studies" in tty.getvalue() and "2/2" in tty.getvalue() and "\r" in tty.getvalue()
+    lines = pipe.getvalue().splitlines()
+    assert (
+        len(lines) == 2 and lines[0].endswith("1/2 lot_x: done (1.0 s)") and "2/2 lot_y: exit 2" in lines[1]
+    )
+    quiet = io.StringIO()
+    Progress(1, quiet=True, stream=quiet)(StudyOutcome("x", "lot_x", 0))
+    assert quiet.getvalue() == ""
+    assert threading.active_count() == threads  # no tqdm monitor left behind
