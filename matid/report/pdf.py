@@ -113,6 +113,26 @@ def _section_rule() -> HRFlowable:
 
 
 def _first_page(report: Report) -> list[Flowable]:
+    """The study and its run, the summary table, the warnings and the material moduli."""
+    story = [*_title(report), space(8), Heading("Summary of stiffnesses", 14, key="summary"), _section_rule()]
+    summary = (
+        f"Values in {report.units} units, as in stiffness.json and stiffness.csv, rounded to two "
+        "significant figures of the standard error; 95 % confidence interval from-to; "
+        "⚠ [n] points to warning n below the table."
+    )
+    story += [para(summary, 8, muted=True, space=4), _table(report.summary, size=6.5), space(8)]
+    story += _warnings(report)
+    if report.moduli:
+        moduli = (
+            "E = E_e / A, E = E_b / I and G = E_t / J of the tube section (diameters of the study, "
+            "taken as exact)."
+        )
+        story += [Heading("Material moduli", 14, key="moduli"), _section_rule()]
+        story += [para(moduli, 8, muted=True, space=4), _table(report.moduli, size=6.5)]
+    return story
+
+
+def _title(report: Report) -> list[Flowable]:
     software = ", ".join([f"matid {report.matid_version}", *(f"{k} {v}" for k, v in report.versions)])
     story: list[Flowable] = [
         para("Stiffness identification report", 10, muted=True, space=2),
@@ -129,31 +149,6 @@ def _first_page(report: Report) -> list[Flowable]:
     if report.sections:
         parts = "; ".join(f"{s.title} ({s.parameters})" for s in report.sections)
         story += [space(4), para(f"Sections: {parts}; Provenance", 8.5)]
-    story += [space(8), Heading("Summary of stiffnesses", 14, key="summary"), _section_rule()]
-    story.append(
-        para(
-            f"Values in {report.units} units, as in stiffness.json and stiffness.csv, rounded to two "
-            "significant figures of the standard error; 95 % confidence interval from-to; "
-            "⚠ [n] points to warning n below the table.",
-            8,
-            muted=True,
-            space=4,
-        )
-    )
-    story += [_table(report.summary, size=6.5), space(8), *_warnings(report)]
-    if report.moduli:
-        story += [
-            Heading("Material moduli", 14, key="moduli"),
-            _section_rule(),
-            para(
-                "E = E_e / A, E = E_b / I and G = E_t / J of the tube section (diameters of the study, "
-                "taken as exact).",
-                8,
-                muted=True,
-                space=4,
-            ),
-            _table(report.moduli, size=6.5),
-        ]
     return story
 
 

@@ -47,9 +47,9 @@ PAD = 3.0  # points of cell padding, left and right
 @contextlib.contextmanager
 def binary_streams() -> Iterator[None]:
     """reportlab's documented setting ``rl_config.useA85`` off while a PDF is built (restored
-    after): streams are written binary, Flate-compressed, without the ASCII-85 layer (7-bit
-    files, for mail), which reportlab encodes in pure Python: a third of the PDF's time, and
-    25 % more bytes, for the report's images."""
+    after): streams are written binary, Flate-compressed, without the ASCII-85 layer for 7-bit
+    channels, which reportlab encodes in Python. On the demo report: 0.42 -> 0.32 s CPU for the
+    PDF, 816 -> 674 kB."""
     before = rl_config.useA85
     rl_config.useA85 = 0
     try:
@@ -182,7 +182,8 @@ def table(
     columns right-aligned, cells wrapped in their column; ``mono`` columns in the monospaced font.
 
     A cell that fits its column on one line is a plain string (drawn in the column's font),
-    the others paragraphs wrapped to the column: a paragraph costs ten times more to lay out."""
+    the others paragraphs wrapped to the column (a paragraph's markup is parsed and its lines
+    broken: most of the PDF's time when every cell was one)."""
     mono = tuple(mono) or (False,) * len(header)
     fonts = [MONO if m else SANS for m in mono]
     widths = column_widths(header, rows, fonts, size, width)
@@ -194,6 +195,17 @@ def table(
                 for c, f, w, r in zip(row, fonts, widths, numeric, strict=True)
             ]
         )
+    return Table(
+        data,
+        colWidths=widths,
+        repeatRows=1,
+        hAlign="LEFT",
+        style=_table_style(numeric, mono, size, len(data)),
+    )
+
+
+def _table_style(numeric: Sequence[bool], mono: Sequence[bool], size: float, n_rows: int) -> TableStyle:
+    """Fonts (monospaced columns), right-aligned numbers, the header's shade and rule, zebra rows."""
     commands = [
         ("FONT", (0, 0), (-1, -1), SANS, size, 1.25 * size),
         ("FONT", (0, 0), (-1, 0), SANS_BOLD, size, 1.25 * size),
@@ -208,9 +220,9 @@ def table(
     ]
     commands += [("FONT", (j, 1), (j, -1), MONO, size, 1.25 * size) for j, m in enumerate(mono) if m]
     commands += [("ALIGN", (j, 0), (j, -1), "RIGHT") for j, r in enumerate(numeric) if r]
-    if len(data) > 2:
+    if n_rows > 2:
         commands.append(("ROWBACKGROUNDS", (0, 1), (-1, -1), [colors.white, ZEBRA]))
-    return Table(data, colWidths=widths, repeatRows=1, hAlign="LEFT", style=TableStyle(commands))
+    return TableStyle(commands)
 
 
 def _cell(text: str, font: str, size: float, width: float, *, right: bool) -> str | Paragraph:
