@@ -183,7 +183,7 @@ def table(
 
     A cell that fits its column on one line is a plain string (drawn in the column's font),
     the others paragraphs wrapped to the column (a paragraph's markup is parsed and its lines
-    broken: most of the PDF's time when every cell was one)."""
+    broken: about a third of the PDF's time on the demo when every cell was one)."""
     mono = tuple(mono) or (False,) * len(header)
     fonts = [MONO if m else SANS for m in mono]
     widths = column_widths(header, rows, fonts, size, width)
