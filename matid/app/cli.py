@@ -24,7 +24,6 @@ the fits load only for the commands that need them).
 from __future__ import annotations
 
 import argparse
-import gc
 import importlib
 import sys
 import time
@@ -36,7 +35,6 @@ from typing import TYPE_CHECKING
 from matid import __version__
 from matid.app.options import UNITS_METAVAR as UNITS_METAVAR  # re-exported: tests/test_cli.py
 from matid.app.options import _add_strict, _add_units, _common, _positive_int
-from matid.app.processes import settled_imports
 from matid.app.solve_cli import _register_design, _register_solve
 from matid.app.solve_cli import solve_summary as solve_summary  # re-exported: its home before the split
 from matid.errors import DataError, MatidError
@@ -56,16 +54,8 @@ _KIND_PARAMETER = {
 
 
 def run() -> None:
-    """The console script ``matid``: :func:`main`, then exit with its code.
-
-    Before exiting, every object is moved out of the cyclic collector's reach
-    (``gc.freeze``): the interpreter's exit otherwise sweeps the objects of every loaded
-    module, 0.3-0.4 s after ``matid demo`` (measured). Nothing is lost: the outputs are
-    written and closed by then, and the exit returns the memory anyway.
-    """
-    code = main()
-    gc.freeze()
-    sys.exit(code)
+    """The console script ``matid``: :func:`main`, then exit with its code."""
+    sys.exit(main())
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -242,18 +232,6 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
 
     0 if every fit was done (and, with ``strict``, nothing warned); else 1.
     """
-    from matid.app.render_worker import RenderWorker
-
-    worker = RenderWorker.start()  # imports the report's stack beside the fits' imports
-    try:
-        with settled_imports("matid.app.pipeline"):
-            return _fit_and_write(source, out, units=units, quiet=quiet, strict=strict, worker=worker)
-    finally:
-        if worker is not None:
-            worker.close()
-
-
-def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool, worker) -> int:
     from matid.app import pipeline
     from matid.io.study import load_study
 
@@ -269,8 +247,7 @@ def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: 
     study = load_study(source)
     result = pipeline.run_study(study, progress=progress)
     progress(f"rendering the report and tables into {out}")
-    report = worker.render(pipeline.render_report, result, units=units) if worker is not None else None
-    paths = pipeline.write_outputs(result, out, units=units, report=report)
+    paths = pipeline.write_outputs(result, out, units=units)
     progress("done")
     for failure in result.failures:
         print(

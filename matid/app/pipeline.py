@@ -32,7 +32,6 @@ from pathlib import Path
 import numpy as np
 
 from matid import __version__
-from matid.app.render_worker import render_report
 from matid.errors import ConvergenceError, DataError, FitError
 from matid.fits.bending import fit_bending
 from matid.fits.extension.fit import fit_extension
@@ -220,35 +219,28 @@ def _fit_kind(
     return fit
 
 
-def render_outputs(
-    result: StudyResult, *, units: str = "SI", report: Callable[[], Mapping[str, bytes]] | None = None
-) -> dict[str, bytes | str]:
-    """Every output file of docs/contract.md section 4, rendered in memory: name -> content.
+def render_report(result: StudyResult, *, units: str = "SI") -> dict[str, bytes]:
+    """:func:`matid.report.render_report`, imported on first use (fitting alone does not need
+    matplotlib and reportlab)."""
+    from matid.report import render_report as render
 
-    ``report`` gives report.html and report.pdf rendered elsewhere (the CLI's
-    :class:`matid.app.render_worker.RenderWorker`, busy while the tables are made here);
-    without it they are rendered here by :func:`render_report`.
-    """
+    return render(result, units=units)
+
+
+def render_outputs(result: StudyResult, *, units: str = "SI") -> dict[str, bytes | str]:
+    """Every output file of docs/contract.md section 4, rendered in memory: name -> content."""
     tables: dict[str, bytes | str] = {
         "stiffness.csv": stiffness_csv(result, units),
         "stiffness.json": json.dumps(stiffness_json(result, units), indent=2) + "\n",
         "stiffness.xlsx": stiffness_xlsx(result, units),  # docs/contract.md section 7
     }
-    rendered = report() if report is not None else render_report(result, units=units)
-    return {**rendered, **tables}
+    return {**render_report(result, units=units), **tables}
 
 
-def write_outputs(
-    result: StudyResult,
-    out: Path,
-    *,
-    units: str = "SI",
-    report: Callable[[], Mapping[str, bytes]] | None = None,
-) -> list[Path]:
+def write_outputs(result: StudyResult, out: Path, *, units: str = "SI") -> list[Path]:
     """Render everything first, then publish the files as the folder ``out`` whole; returns the paths.
 
     The old contents of ``out`` stay whole until the new folder replaces them in
     one step (:func:`matid.io.publish.publish`); a write error raises OutputError.
-    ``report``: see :func:`render_outputs`.
     """
-    return publish(render_outputs(result, units=units, report=report), Path(out))
+    return publish(render_outputs(result, units=units), Path(out))

@@ -2,11 +2,10 @@
 
 ``render_report(result, units="SI")`` returns ``{"report.html": bytes, "report.pdf": bytes}``;
 the caller writes them (atomically, see :func:`matid.io.results.atomic_write`). Content is built
-once (:mod:`matid.report.content`), its figures rendered once to PNG
-(:mod:`matid.report.images`; by a second process while the PDF is drawn,
-:mod:`matid.report.imagejob`), then drawn by :mod:`matid.report.html` (jinja2 template,
-plots inlined as PNG) and :mod:`matid.report.pdf` (A4 pages via matplotlib's PdfPages). The
-hook for extra figures of a fit, ``TestFit.info["figures"]``, is described in
+once (:mod:`matid.report.content`), its figures drawn once by matplotlib to PNG
+(:mod:`matid.report.images`), then typeset by :mod:`matid.report.html` (jinja2 template, plots
+inlined as PNG) and :mod:`matid.report.pdf` (A4 pages typeset by reportlab's platypus), all in
+this process. The hook for extra figures of a fit, ``TestFit.info["figures"]``, is described in
 :mod:`matid.report.figures`; the three-point-bend figures drawn from ``info["plot_data"]`` in
 :mod:`matid.report.bend`.
 """
@@ -16,7 +15,7 @@ from __future__ import annotations
 from matid.io.results import StudyResult
 from matid.report.content import build_report
 from matid.report.html import render_html
-from matid.report.imagejob import ImageJob, Relayout
+from matid.report.images import render_images
 from matid.report.pdf import render_pdf
 from matid.units import UNIT_SYSTEMS
 
@@ -28,12 +27,5 @@ def render_report(result: StudyResult, *, units: str = "SI") -> dict[str, bytes]
     if units not in UNIT_SYSTEMS:
         raise ValueError(f"units must be one of {', '.join(UNIT_SYSTEMS)}, got {units!r}")
     report = build_report(result, units)
-    job = ImageJob(report)  # each figure drawn once, for both documents, beside the PDF if it can
-    try:
-        try:
-            pdf = render_pdf(report, job.pending())
-        except Relayout:  # a figure came out other than the place kept for it
-            pdf = render_pdf(report, job.images())
-        return {"report.html": render_html(report, job.images()), "report.pdf": pdf}
-    finally:
-        job.close()
+    images = render_images(report)  # each figure drawn once, for both documents
+    return {"report.html": render_html(report, images), "report.pdf": render_pdf(report, images)}

@@ -23,6 +23,7 @@ Deflections and shapes are in mm in both unit systems; forces in N (SI) or dyn (
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import partial
@@ -31,7 +32,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Polygon
-from matplotlib.ticker import NullFormatter
+from matplotlib.ticker import LogFormatter, NullFormatter
 
 from matid.io.results import TestFit
 from matid.report.figures import (
@@ -44,6 +45,7 @@ from matid.report.figures import (
     quiet_legend,
     style_axes,
 )
+from matid.report.summary import SUPERSCRIPT
 
 MM = 1e3
 TUBE, CYLINDER, CYLINDER_EDGE, BAND = "#0072B2", "#d9dce1", "#555555", "#8a94a6"
@@ -182,12 +184,28 @@ def bend_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
     return drawings
 
 
+class PowerFormatter(LogFormatter):
+    """Log-axis labels as plain text, ``2×10⁻⁶``: the labels matplotlib's LogFormatter picks
+    (decades; between them where an axis spans little), without mathtext, whose parsing made
+    this figure cost twice another."""
+
+    def __call__(self, x, pos=None) -> str:
+        label = super().__call__(x, pos).replace("\N{MINUS SIGN}", "-")
+        match = re.fullmatch(r"(\d(?:\.\d+)?)e([+-]?\d+)", label)
+        if match is None:
+            return label
+        mantissa, power = match.group(1), "10" + str(int(match.group(2))).translate(SUPERSCRIPT)
+        return power if mantissa == "1" else f"{mantissa}×{power}"
+
+
 def draw_fe_levels(fig: Figure, rect: Rect, *, levels: Sequence[Mapping], stat: float | None) -> None:
     """Estimated relative error of E_s against the run time of one cold solve, per mesh level."""
     ax = _axes(fig, rect)
     t = [float(lv["runtime_s"]) for lv in levels]
     e = [max(float(lv["discretization_error"]), 1e-16) for lv in levels]
     ax.semilogy(t, e, "o-", color=COLOURS[0], linewidth=1.4, markersize=4)
+    ax.yaxis.set_major_formatter(PowerFormatter())
+    ax.yaxis.set_minor_formatter(PowerFormatter())
     for lv, ti, ei in zip(levels, t, e, strict=True):
         ax.annotate(f"{lv['elements']} P2", (ti, ei), textcoords="offset points", xytext=(5, 4), fontsize=7)
     if stat:
@@ -203,6 +221,7 @@ def draw_fe_levels(fig: Figure, rect: Rect, *, levels: Sequence[Mapping], stat: 
         )
     if max(t) > 20 * min(t):  # run times over decades: a log axis, labelled at the decades
         ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(PowerFormatter())
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlim(min(t) / 1.5, max(t) * 1.5)
     else:  # a linear axis keeps its tick labels over a narrow range

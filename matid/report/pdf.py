@@ -1,224 +1,261 @@
-"""The PDF report: A4 portrait pages drawn with matplotlib and saved through PdfPages.
+"""The PDF report: A4 pages typeset by reportlab's platypus from the report's content model.
 
-A title page (header, summary table, warnings), then one part per test-kind section (the
-same plots as the HTML report and the same tables) and the provenance.
-Pages are laid out by :class:`matid.report.layout.Flow`. Figures are the PNGs rendered once
-for both documents (:mod:`matid.report.images`; their image streams encoded by the process
-that drew them where it could, :func:`_prepared_images`); fonts are embedded (Type 3 with a ToUnicode
-map), so the text can be searched and extracted.
+The same :class:`~matid.report.content.Report` the HTML page shows, in the same order: a first
+page (study, summary table, warnings, moduli), one part per test-kind section (each specimen's
+fit plot, parameters, warnings, drawings, details and tests) and the provenance. Each page has
+a header (the study) and a footer (matid's version, the page number); the PDF outline has one
+entry per section of the HTML page and one per specimen block. Figures are the PNGs rendered
+once for both documents (:mod:`matid.report.images`); text is in embedded DejaVu fonts
+(:mod:`matid.report.pdfparts`) and can be searched and extracted.
 """
 
 from __future__ import annotations
 
 import io
-from datetime import UTC
 
-import matplotlib
-from matplotlib.backends.backend_pdf import PdfPages
+from reportlab.lib.pagesizes import A4
+from reportlab.lib.units import inch
+from reportlab.platypus import BaseDocTemplate, Frame, PageBreak, PageTemplate
+from reportlab.platypus.flowables import Flowable, HRFlowable
 
 from matid.report.content import Block, Report, Section, Table, TestView
+from matid.report.figures import DPI, png_size
 from matid.report.images import Image, Images, render_images
-from matid.report.layout import SANS, Flow, wrap
+from matid.report.pdfparts import (
+    AMBER,
+    GREEN,
+    GREY,
+    MUTED,
+    RULE,
+    SANS,
+    Heading,
+    Together,
+    assemble,
+    binary_streams,
+    box,
+    figure,
+    para,
+    picture,
+    register_fonts,
+    space,
+    table,
+)
 from matid.report.quantities import Nested
 
-AMBER, AMBER_EDGE, GREY_BOX, GREY_EDGE = "#fff4d6", "#e0a800", "#f3f4f6", "#8a94a6"
-FIT_HEIGHT = 4.6  # inches of a fit plot on the page (its PNG scaled to the text width)
-SQUEEZE = 0.85  # a drawing may shrink to this share of its height to fit the rest of a page
-#: Type 3 fonts: 25 % less PDF time than TrueType (42) subsetting, and the text still extracts
-#: and searches (matplotlib writes a ToUnicode map); measured on the demo report.
-RC = {"pdf.fonttype": 3, "font.family": SANS, "axes.unicode_minus": False}
+MARGIN_X, MARGIN_TOP, MARGIN_BOTTOM = 0.65 * inch, 0.75 * inch, 0.75 * inch
+WIDTH = A4[0] - 2 * MARGIN_X  # of the text, points
+FIT_HEIGHT = 4.3 * inch  # the most a fit plot takes of a page (its PNG scaled to the text width)
+DRAWING_HEIGHT = 4.6 * inch
 
 
 def render_pdf(report: Report, images: Images | None = None) -> bytes:
     """The report as PDF bytes (figures from ``images``, rendered here if not given)."""
+    register_fonts()
     images = render_images(report) if images is None else images
     buffer = io.BytesIO()
-    metadata = {
-        "Title": f"{report.study}: matid stiffness report",
-        "Subject": "Stiffness identification (E_b, E_t, E_s, E_e) of catheter tubes",
-        "Creator": f"matid {report.matid_version}",
-    }
-    when = report.run_date
-    if when is not None:  # the same result gives the same bytes
-        # in UTC: matplotlib writes the sign of a non-zero utcoffset the wrong way round
-        metadata["CreationDate"] = when.astimezone(UTC) if when.tzinfo else when
-    with matplotlib.rc_context(RC), PdfPages(buffer, metadata=metadata) as pdf:
-        flow = Flow(pdf, footer=f"{report.study} · matid {report.matid_version}")
-        _prepared_images(pdf, flow)
-        _title_page(flow, report)
-        for section in report.sections:
-            _section(flow, section, images)
-        _provenance(flow, report)
-        flow.close()
+    doc = _document(buffer, report)
+    story = _first_page(report)
+    for section in report.sections:
+        story += _section(section, images)
+    story += _provenance(report)
+    with binary_streams():
+        doc.build(assemble(story))
     return buffer.getvalue()
 
 
-def _prepared_images(pdf: PdfPages, flow: Flow) -> None:
-    """Let the PDF write the image streams the image job's child prepared for its figures
-    (:func:`matid.report.images.pdf_image`, the bytes ``PdfFile._writeImg`` writes) instead of
-    encoding their pixels again when it closes; the other images as ``PdfFile.writeImages`` does."""
-    file = pdf._ensure_file() if hasattr(pdf, "_ensure_file") else None
-    if file is None or not all(hasattr(file, n) for n in ("_images", "_unpack", "_writeImg", "writeImages")):
-        return  # another matplotlib: it writes every image itself
-
-    def write_images() -> None:
-        compression = matplotlib.rcParams["pdf.compression"]
-        for img, _name, ob in file._images.values():
-            source = flow.sources.get(id(img))
-            prepared = source[1].stream() if source is not None and source[0] is img else None
-            if prepared is not None and prepared[0] == compression:
-                _, extra, png, data = prepared
-                file.beginStream(ob.id, file.reserveObject("length of image stream"), extra, png=png)
-                file.currentstream.write(data)
-                file.endStream()
-                continue
-            data, adata = file._unpack(img)  # PdfFile.writeImages
-            smask = None
-            if adata is not None:
-                smask = file.reserveObject("smask")
-                file._writeImg(adata, smask.id)
-            file._writeImg(data, ob.id, smask)
-
-    file.writeImages = write_images
+class _Document(BaseDocTemplate):
+    def beforeDocument(self) -> None:  # noqa: N802 -- platypus' hook
+        self.canv.showOutline()  # the viewer opens with the outline shown
 
 
-# -- pages --------------------------------------------------------------------------------------
+def _document(buffer: io.BytesIO, report: Report) -> BaseDocTemplate:
+    doc = _Document(
+        buffer,
+        pagesize=A4,
+        leftMargin=MARGIN_X,
+        rightMargin=MARGIN_X,
+        topMargin=MARGIN_TOP,
+        bottomMargin=MARGIN_BOTTOM,
+        title=f"{report.study}: matid stiffness report",
+        subject="Stiffness identification (E_b, E_t, E_s, E_e) of catheter tubes",
+        creator=f"matid {report.matid_version}",
+        author=f"matid {report.matid_version}",
+    )
+    frame = Frame(MARGIN_X, MARGIN_BOTTOM, WIDTH, A4[1] - MARGIN_TOP - MARGIN_BOTTOM, 0, 0, 0, 0, id="text")
+    header, footer = f"{report.study}: stiffness identification report", f"matid {report.matid_version}"
+
+    def decorate(canvas, document) -> None:
+        canvas.saveState()
+        canvas.setFont(SANS, 7)
+        canvas.setFillColor(MUTED)
+        canvas.drawString(MARGIN_X, A4[1] - 0.45 * inch, header)
+        canvas.setStrokeColor(RULE)
+        canvas.setLineWidth(0.5)
+        canvas.line(MARGIN_X, A4[1] - 0.5 * inch, A4[0] - MARGIN_X, A4[1] - 0.5 * inch)
+        canvas.drawString(MARGIN_X, 0.4 * inch, footer)
+        canvas.drawRightString(A4[0] - MARGIN_X, 0.4 * inch, f"page {document.page}")
+        canvas.restoreState()
+
+    doc.addPageTemplates([PageTemplate("page", [frame], onPage=decorate)])
+    return doc
 
 
-def _title_page(flow: Flow, report: Report) -> None:
-    flow.new_page()
-    flow.paragraph("Stiffness identification report", size=10, color="#5f6368")
-    flow.heading(report.study, level=0)
+def _table(t: Table | Nested, *, size: float = 7.0, numeric=None, mono=()) -> Flowable:
+    numeric = t.numeric if numeric is None else numeric
+    return table(t.header, t.rows, numeric, width=WIDTH, size=size, mono=mono)
+
+
+def _section_rule() -> HRFlowable:
+    return HRFlowable(width="100%", thickness=1.2, color=RULE, spaceBefore=0, spaceAfter=6)
+
+
+# -- the first page ------------------------------------------------------------------------------
+
+
+def _first_page(report: Report) -> list[Flowable]:
     software = ", ".join([f"matid {report.matid_version}", *(f"{k} {v}" for k, v in report.versions)])
-    for key, value in [
+    story: list[Flowable] = [
+        para("Stiffness identification report", 10, muted=True, space=2),
+        Heading(report.study, 18),
+    ]
+    for key, value in (
         ("Temperature", report.temperature),
         ("Run started", report.started),
         ("Runtime", report.runtime),
         ("Units", report.units),
         ("Software", software),
-    ]:
-        flow.paragraph(f"{key}: {value}", size=8.5)
-    flow.space(0.1)
+    ):
+        story.append(para(f"{key}: {value}", 8.5))
     if report.sections:
-        flow.paragraph(
-            "Sections: " + "; ".join(f"{s.title} ({s.parameters})" for s in report.sections) + "; Provenance",
-            size=8.5,
+        parts = "; ".join(f"{s.title} ({s.parameters})" for s in report.sections)
+        story += [space(4), para(f"Sections: {parts}; Provenance", 8.5)]
+    story += [space(8), Heading("Summary of stiffnesses", 14, key="summary"), _section_rule()]
+    story.append(
+        para(
+            f"Values in {report.units} units, as in stiffness.json and stiffness.csv, rounded to two "
+            "significant figures of the standard error; 95 % confidence interval from-to; "
+            "⚠ [n] points to warning n below the table.",
+            8,
+            muted=True,
+            space=4,
         )
-    flow.heading("Summary of stiffnesses", level=1)
-    flow.paragraph(
-        f"Values in {report.units} units, as in stiffness.json and stiffness.csv, rounded to two "
-        "significant figures of the standard error; 95 % confidence interval from-to; "
-        "⚠ [n] points to warning n below the table.",
-        size=8,
-        color="#5f6368",
     )
-    flow.table(report.summary, size=6.5)
+    story += [_table(report.summary, size=6.5), space(8), *_warnings(report)]
+    if report.moduli:
+        story += [
+            Heading("Material moduli", 14, key="moduli"),
+            _section_rule(),
+            para(
+                "E = E_e / A, E = E_b / I and G = E_t / J of the tube section (diameters of the study, "
+                "taken as exact).",
+                8,
+                muted=True,
+                space=4,
+            ),
+            _table(report.moduli, size=6.5),
+        ]
+    return story
+
+
+def _warnings(report: Report) -> list[Flowable]:
+    """The warnings box (its title in the outline, as the HTML page's warnings section), then
+    what is not yet fitted."""
     count = len(report.notes) + len(report.failures)
     if count:
         items = [f"could not be fitted: {line}" for line in report.failures]
         items += [f"[{n.number}] {n.where}: {n.text}" for n in report.notes]
-        flow.box(f"{count} warning{'s' if count != 1 else ''}", items, (AMBER, AMBER_EDGE))
+        title = Heading(f"{count} warning{'s' if count != 1 else ''}", 11, key="warnings")
+        story = [box(title, items, AMBER, width=WIDTH)]
     else:
-        flow.box("No warnings", ["Every fit completed without a warning."], ("#eaf6ec", "#3d9a4b"))
+        title = Heading("No warnings", 11, key="warnings")
+        story = [box(title, ["Every fit completed without a warning."], GREEN, width=WIDTH)]
     if report.pending:
-        flow.box("Not yet fitted (by design, not an error)", list(report.pending), (GREY_BOX, GREY_EDGE))
-    if report.moduli:
-        flow.heading("Material moduli", level=2)
-        flow.paragraph(
-            "E = E_e / A, E = E_b / I and G = E_t / J of the tube section (diameters of the study, "
-            "taken as exact).",
-            size=8,
-            color="#5f6368",
-        )
-        flow.table(report.moduli, size=6.5)
+        title = para("Not yet fitted (by design, not an error)", 8.5, bold=True)
+        story += [space(6), box(title, report.pending, GREY, width=WIDTH)]
+    return [*story, space(10)]
 
 
-def _section(flow: Flow, section: Section, images: Images) -> None:
-    flow.new_page()
-    flow.heading(f"{section.title} ({section.parameters})", level=1)
+# -- the sections --------------------------------------------------------------------------------
+
+
+def _section(section: Section, images: Images) -> list[Flowable]:
+    story: list[Flowable] = [
+        PageBreak(),
+        Heading(f"{section.title} ({section.parameters})", 14, key=section.anchor),
+        _section_rule(),
+    ]
     for block in section.blocks:
-        _block(flow, section, block, images)
+        story += _block(section, block, images)
+    return story
 
 
-def _block(flow: Flow, section: Section, block: Block, images: Images) -> None:
-    if block.plot:
-        flow.need(0.45 + FIT_HEIGHT)  # keep the specimen's heading with its fit plot
-    flow.heading(f"{section.title}, specimen {block.specimen}", level=2)
+def _block(section: Section, block: Block, images: Images) -> list[Flowable]:
+    story: list[Flowable] = [
+        Heading(f"{section.title}, specimen {block.specimen}", 11.5, key=block.anchor, level=1)
+    ]
     for status, line in block.messages:
-        colours = (AMBER, AMBER_EDGE) if status == "failed" else (GREY_BOX, GREY_EDGE)
-        flow.lines(
-            wrap(line, flow.width - 0.3, 8.5, mono=False, bold=True),
-            size=8.5,
-            mono=False,
-            box=colours,
-            weight="bold",
-        )
-        flow.space(0.1)
+        colours = AMBER if status == "failed" else GREY
+        story += [box(para(line, 8.5, bold=True), (), colours, width=WIDTH), space(6)]
     if block.plot:
         image = images.plots[block.anchor]
-        flow.image(image.png, max_height=FIT_HEIGHT)
-        flow.paragraph(image.caption, size=7.5, color="#5f6368")
-        flow.space(0.08)
+        story.append(figure(None, _picture(image.png, FIT_HEIGHT), image.caption))
     if block.parameters and block.parameters.rows:
-        flow.heading("Parameters", level=3)
-        flow.table(block.parameters)
+        story += [Heading("Parameters", 9.5), _table(block.parameters), space(6)]
     if block.warnings:
         items = [f"[{n}] {w}" for n, w in enumerate(block.warnings, 1)]
-        flow.box("Warnings of this fit", items, (AMBER, AMBER_EDGE))
-    for note in block.fe_notes:
-        flow.paragraph(note, size=7.5, color="#5f6368")
-        flow.space(0.08)
+        story += [box(para("Warnings of this fit", 8.5, bold=True), items, AMBER, width=WIDTH), space(6)]
+    story += [para(note, 7.5, muted=True, space=4) for note in block.fe_notes]
     if block.correlation:
-        flow.heading("Correlation of the estimates", level=3)
-        flow.table(block.correlation)
-    for image in images.drawings.get(block.anchor, []):
-        _drawing(flow, image)
-    if block.info:
-        _info(flow, block.info)
+        story += [Heading("Correlation of the estimates", 9.5), _table(block.correlation), space(6)]
+    story += [_drawing(image) for image in images.drawings.get(block.anchor, [])]
+    story += _info(block.info)
     for extra in block.extras:
-        flow.heading(extra.title, level=3)
         if extra.png:
-            flow.image(extra.png)
+            story.append(figure(extra.title, _picture(extra.png, DRAWING_HEIGHT), ""))
         else:
-            flow.box(f"Figure could not be drawn: {extra.title}", [str(extra.error)], (AMBER, AMBER_EDGE))
+            story += [_failed(extra.title, str(extra.error)), space(6)]
     if block.tests:
-        flow.heading("Tests", level=3)
-        for test in block.tests:
-            _test(flow, test)
+        story.append(Heading("Tests", 9.5))
+        story += [_test(test) for test in block.tests]
+    return [*story, space(10)]
 
 
-def _drawing(flow: Flow, image: Image) -> None:
-    """A rendered drawing under its title, its caption below."""
+def _picture(png: bytes, max_height: float) -> Flowable:
+    return picture(png, png_size(png), DPI, width=WIDTH, max_height=max_height)
+
+
+def _failed(title: str, error: str) -> Flowable:
+    return box(para(f"Figure could not be drawn: {title}", 8.5, bold=True), [error], AMBER, width=WIDTH)
+
+
+def _drawing(image: Image) -> Together:
+    """A rendered drawing under its title, its caption below; or why it could not be drawn."""
     if not image.png:
-        flow.box(f"Figure could not be drawn: {image.title}", [image.error], (AMBER, AMBER_EDGE))
-        return
-    caption_lines = wrap(image.caption, flow.width, 7.5, mono=False)
-    around = 0.3 + len(caption_lines) * 7.5 * 1.35 / 72  # title and caption, kept with the plot
-    height = min(flow.width * image.height / image.width, 5.0)
-    if around + height > flow.room() >= around + SQUEEZE * height:
-        height = flow.room() - around  # a little smaller rather than a new page for want of a few lines
-    flow.need(around + height)
-    flow.heading(image.title, level=3)
-    flow.image(image.png, max_height=height)
-    flow.lines(caption_lines, size=7.5, mono=False, color="#5f6368")
-    flow.space(0.08)
+        return Together([_failed(image.title, image.error), space(6)])
+    return figure(image.title, _picture(image.png, DRAWING_HEIGHT), image.caption)
 
 
-def _info(flow: Flow, info) -> None:
+def _info(info) -> list[Flowable]:
     """The fit's details: quantities in a two-column table, nested values as small tables after it."""
-    flow.heading("Fit window and details", level=3)
+    if not info:
+        return []
+    story: list[Flowable] = [Heading("Fit window and details", 9.5)]
     plain = tuple((label, value) for label, value in info if not isinstance(value, Nested))
     if plain:
-        flow.table(Table(("item", "value"), plain, (False, False)))
+        story += [table(("item", "value"), plain, (False, False), width=WIDTH), space(4)]
     for label, value in info:
         if isinstance(value, Nested):
-            flow.need(0.6)
-            flow.paragraph(label, size=7.5, weight="bold")
             numeric = (False, *(True,) * (len(value.header) - 1))
-            flow.table(Table(value.header, value.rows, numeric), size=6.5)
+            story += [
+                para(label, 7.5, bold=True, keep=True, space=2),
+                _table(value, size=6.5, numeric=numeric),
+                space(4),
+            ]
+    return story
 
 
-def _test(flow: Flow, test: TestView) -> None:
+def _test(test: TestView) -> Together:
+    """One test's file, checksum, set-up, note, units and metadata, kept together on a page."""
     rows = f", {test.n_rows} rows" if test.n_rows is not None else ""
     head = f"{test.file}  (sha256 {test.sha_short}{rows})"
     if test.exclude:
@@ -231,22 +268,35 @@ def _test(flow: Flow, test: TestView) -> None:
     if test.units:
         details.append("Units as written: " + ", ".join(f"{c} [{u}]" for c, u in test.units))
     details += [f"{k}: {v}" for k, v in test.metadata]
-    head_lines = wrap(head, flow.width, 8, mono=True, bold=True)
-    lines = [line for text in details for line in wrap(text, flow.width - 0.2, 7.5, mono=False)]
-    flow.need(min(len(head_lines) * 8 + len(lines) * 7.5, 400) * 1.35 / 72)  # keep a test together
-    flow.lines(head_lines, size=8, mono=True, weight="bold")
-    flow.lines(lines, size=7.5, mono=False, indent=0.2)
-    flow.space(0.08)
+    lines = [para(head, 8, mono=True, bold=True, space=1)] + [para(d, 7.5) for d in details]
+    return Together([*lines, space(5)])
 
 
-def _provenance(flow: Flow, report: Report) -> None:
-    flow.new_page()
-    flow.heading("Provenance", level=1)
-    flow.paragraph("Every input file with its full SHA-256 checksum.", size=8.5)
+# -- provenance ----------------------------------------------------------------------------------
+
+
+def _provenance(report: Report) -> list[Flowable]:
+    story: list[Flowable] = [
+        PageBreak(),
+        Heading("Provenance", 14, key="provenance"),
+        _section_rule(),
+        para("Every input file with its full SHA-256 checksum.", 8.5, space=4),
+    ]
     rows = tuple((name, n, sha) for name, n, sha, _ in report.provenance.rows)
-    if rows:
-        flow.table(Table(("file", "rows", "sha256"), rows, (False, True, False)), size=6.5)
-        for name, _, _, path in report.provenance.rows:
-            flow.paragraph(f"{name}: {path}", size=6.5, mono=True, color="#5f6368")
-    else:
-        flow.paragraph("No input files were read.", size=8.5)
+    if not rows:
+        return [*story, para("No input files were read.", 8.5)]
+    story += [
+        table(
+            ("file", "rows", "sha256"),
+            rows,
+            (False, True, False),
+            width=WIDTH,
+            size=6.5,
+            mono=(False, False, True),
+        ),
+        space(6),
+    ]
+    story += [
+        para(f"{name}: {path}", 6.5, mono=True, muted=True) for name, _, _, path in report.provenance.rows
+    ]
+    return story

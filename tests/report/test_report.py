@@ -603,31 +603,6 @@ def test_dashed_model_line_and_its_legend_only_past_the_fitted_points():
     assert not _series_outside(Series("c", x, x, None, used=x <= 0.6))
 
 
-def test_table_columns_narrow_where_words_stay_whole():
-    """A one-word cell ('shear-coefficient') is not split while a column of several words can wrap."""
-    from hypothesis import given
-    from hypothesis import strategies as st
-
-    from matid.report.content import Table
-    from matid.report.layout import _wrap_row, column_widths
-
-    table = Table(
-        ("specimen", "method", "warnings"),
-        (("T1", "shear-coefficient", "a long warning text that wraps at its spaces"), ("T2", "linear", "")),
-        (False, False, False),
-    )
-    widths = column_widths(table, 36)
-    assert sum(widths) <= 36
-    assert _wrap_row(table.rows[0], widths)[1] == ["shear-coefficient"]
-
-    @given(st.integers(min_value=3, max_value=80))
-    def fits_when_it_can(available):  # the old floors still apply when words cannot stay whole
-        w = column_widths(table, available)
-        assert sum(w) <= max(available, 8 + 8 + 8)
-
-    fits_when_it_can()
-
-
 def test_fit_blocks_number_their_warnings_once_below_the_parameters(full):
     """A parameter's warning (stiffness.json) is listed once in its block, in full, and the block's
     parameter table refers to it by number; the fit's own warnings come first."""
