@@ -23,7 +23,9 @@ The fit (:func:`fit_extension`) is a joint weighted least-squares fit over all r
 one specimen in log-parameters ``log(k / k_start)`` (positive, well scaled). Starts come
 from variable projection: for fixed tau the model is linear in (k1, eta), so a grid of
 tau over the observed window is solved by non-negative least squares and the best
-local minima seed a Levenberg-Marquardt least squares.
+local minima seed lmfit's Levenberg-Marquardt (``leastsq``); the 95 % profile intervals
+are ``lmfit.conf_interval``, on which matid adds the AR(1) sandwich, lack of fit and
+identifiability.
 
 The parts: runs in SI (:mod:`matid.fits.extension.runs`), the least squares
 (:mod:`matid.fits.extension.lsq`), standard errors and intervals
@@ -151,15 +153,15 @@ def fit_extension(
     if len(fixed_k) == 3:
         raise FitError(f"specimen {specimen}: k1, k2 and eta are all fixed; nothing to fit")
     runs = _unique([_run(m) for m in measurements])
-    runs, result, ref, sigma = _solve(runs, fixed_k)
-    result, unc = _covariance_fit(runs, sigma, result, ref, fixed_k)
-    k = _values(result, ref)
-    se, cov = _sandwich(result, runs, sigma, ref, _stderr(result, unc, ref))
-    corr = _correlation(unc)
+    runs, minimizer, result, ref, sigma = _solve(runs, fixed_k)
+    minimizer, result = _covariance_fit(runs, sigma, minimizer, result, ref, fixed_k)
+    k = _values(result.params, ref)
+    se, cov = _sandwich(result, runs, sigma, ref, _stderr(result, ref))
+    corr = _correlation(result)
     reasons = _unidentifiable(k, se, corr, runs, fixed_k)
     correlated = cov is not None and cov.rho > 0
     dof = cov.dof if cov is not None else result.nfree
-    ci = _intervals(result, unc, runs, sigma, ref, se, profile=not reasons and not correlated, dof=dof)
+    ci = _intervals(minimizer, result, ref, se, profile=not reasons and not correlated, dof=dof)
     n = int(result.ndata)
     lof, misfit = _misfit(result, runs, cov)
     choice, prony_estimates, prony_e_e, prony_sls = _prony(runs, sigma, k, fixed_k)

@@ -10,8 +10,9 @@ n = 1 is the standard linear solid (k0 = sls_k1, k1 = sls_k2, tau1 = sls_eta / s
 Each arm is the SLS arm of :func:`matid.physics.sls.sls_force` with unit stiffness,
 so for fixed taus the force is linear in (k0, k_1..k_n).
 
-Fit (:func:`fit_prony`): variable projection. The outer least squares moves log tau_i;
-the inner one solves (k0, k_i) >= 0 by NNLS on the rows used, each run weighted by its
+Fit (:func:`fit_prony`): variable projection. The outer least squares (lmfit
+``least_squares`` on bounded ``Parameters``) moves log tau_i; the inner one solves
+(k0, k_i) >= 0 by NNLS on the rows used, each run weighted by its
 noise sigma_j. The covariance of (log k0, log k_i, log tau_i) is the AR(1) sandwich of
 :mod:`matid.fits.stats` on the numerical Jacobian.
 
@@ -35,8 +36,10 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import lmfit
 import numpy as np
 from scipy import optimize
+from scipy import stats as sstats
 
 from matid.fits import stats
 from matid.io.results import Estimate
@@ -192,26 +195,38 @@ def _starts(data: Sequence[Data], n_terms: int) -> list[np.ndarray]:
     return starts
 
 
+def _tau_params(start: np.ndarray, bounds: tuple[float, float]) -> lmfit.Parameters:
+    """lmfit parameters log tau_1..n, bounded to the observed window widened 100x each side."""
+    out = lmfit.Parameters()
+    for i, value in enumerate(np.clip(start, *bounds), start=1):
+        out.add(f"log_tau{i}", value=float(value), min=bounds[0], max=bounds[1])
+    return out
+
+
+def _outer(params: lmfit.Parameters, data, arms: Arms) -> np.ndarray:
+    """Weighted residuals at these taus with the stiffnesses projected out (NNLS)."""
+    return _inner(data, np.sort(np.array(list(params.valuesdict().values()))), arms)[1]
+
+
 def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
-    """The n-arm fit with the least weighted RSS, or None when an arm vanishes (k_i = 0)."""
+    """The n-arm fit with the least weighted RSS, or None when an arm vanishes (k_i = 0).
+
+    lmfit's ``least_squares`` (trust region reflective, within the bounds) on log tau;
+    the stiffnesses are projected out by NNLS in each evaluation (variable projection).
+    """
     low = min(float(np.median(np.diff(d.t))) for d in data) / 100.0
     high = max(float(d.t[-1] - d.t[0]) for d in data) * 100.0
     bounds = (math.log(low), math.log(high))
     best = None
     arms: Arms = {}
     for start in _starts(data, n_terms):
+        minimizer = lmfit.Minimizer(_outer, _tau_params(start, bounds), fcn_args=(data, arms))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sol = optimize.least_squares(
-                lambda lt: _inner(data, np.sort(lt), arms)[1],
-                np.clip(start, *bounds),
-                bounds=bounds,
-                x_scale=1.0,
-                diff_step=1e-4,
-            )
-        if best is None or sol.cost < best.cost:
-            best = sol
-    log_taus = np.sort(best.x)
+            result = minimizer.minimize(method="least_squares", x_scale=1.0, diff_step=1e-4)
+        if best is None or result.chisqr < best.chisqr:
+            best = result
+    log_taus = np.sort(np.array(list(best.params.valuesdict().values())))
     coef, resid = _inner(data, log_taus, arms)
     if np.any(coef <= 0) or np.any(np.diff(log_taus) < 1e-3):
         return None  # a vanished or duplicated arm: this n says nothing beyond n - 1
@@ -298,7 +313,7 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
 def _estimate(name: str, value: float, se: float | None, dof: float, n: int, warnings_=()) -> Estimate:
     ci = None
     if se is not None and math.isfinite(se) and value > 0:
-        tq = stats.t_ppf(0.975, max(dof, 1.0))
+        tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
         ci = stats.wald_log_interval(value, se, tq)
     se = se if se is not None and math.isfinite(se) else None
     return Estimate(name, value, se, ci, n, "prony", tuple(warnings_), {"ci_method": "t-log" if ci else None})
