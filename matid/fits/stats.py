@@ -36,6 +36,7 @@ Public API (stable, used by linear, extension, shear fits):
 - :func:`lag1` (residuals, segments) -> float
 - :func:`runs` (residuals, segments) -> (n_runs, expected, p_too_few)
 - :func:`effective_n` (residuals, segments) -> float
+- :func:`ar1_rho` (residuals, segments, n_params) -> float; :func:`mean_variance_factor` (m, rho)
 - :func:`variance_factor` (residuals, segments, n_params) -> ((1 + rho) / (1 - rho), n_eff)
 - :func:`ar1_covariance` (jacobian, residuals, segments) -> :class:`Covariance`
 - :func:`lack_of_fit` (residuals, n_params, noise=None, segments=None) -> :class:`LackOfFit`
@@ -134,7 +135,7 @@ def runs(residuals: np.ndarray, segments: Sequence[int] | None = None) -> tuple[
     return observed, mean, float(sstats.norm.cdf((observed - mean + 0.5) / math.sqrt(var)))
 
 
-def _rho(residuals: np.ndarray, segments, n_params: int) -> float:
+def ar1_rho(residuals: np.ndarray, segments: Sequence[int] | None = None, n_params: int = 0) -> float:
     """Bias-corrected lag-1 autocorrelation used for the covariance (0 when not significant)."""
     r = np.asarray(residuals, dtype=float)
     n = r.size
@@ -146,6 +147,15 @@ def _rho(residuals: np.ndarray, segments, n_params: int) -> float:
     return float(min(max(corrected, 0.0), RHO_MAX))
 
 
+def mean_variance_factor(m: np.ndarray, rho: float) -> np.ndarray:
+    """Var(mean of m consecutive AR(1) values) / (sd^2 / m): ``1 + 2 sum_k (1 - k/m) rho^k``
+    for k < m, i.e. ``(1 + rho)/(1 - rho) - 2 rho (1 - rho^m) / (m (1 - rho)^2)``; 1 at m = 1."""
+    m = np.asarray(m, dtype=float)
+    if rho == 0.0:
+        return np.ones_like(m)
+    return (1.0 + rho) / (1.0 - rho) - 2.0 * rho * (1.0 - rho**m) / (m * (1.0 - rho) ** 2)
+
+
 def _neff(n: int, rho: float) -> float:
     return n * (1.0 - rho) / (1.0 + rho)
 
@@ -153,7 +163,7 @@ def _neff(n: int, rho: float) -> float:
 def effective_n(residuals: np.ndarray, segments: Sequence[int] | None = None, n_params: int = 0) -> float:
     """Effective number of independent residuals: ``n (1 - rho) / (1 + rho)`` (AR(1))."""
     r = np.asarray(residuals)
-    return _neff(r.size, _rho(r, segments, n_params))
+    return _neff(r.size, ar1_rho(r, segments, n_params))
 
 
 def _ar1_apply(matrix: np.ndarray, rho: float, bounds) -> np.ndarray:
@@ -218,7 +228,7 @@ def ar1_covariance(
     jtj_inv = np.linalg.inv(J.T @ J)  # LinAlgError for singular J
     rss = float(np.dot(r, r))
     cov_iid = rss / (n - p) * jtj_inv
-    rho = _rho(r, segments, p)
+    rho = ar1_rho(r, segments, p)
     if rho == 0.0:
         return Covariance(cov_iid, cov_iid, 0.0, n, float(n), float(n - p))
     rj = _ar1_apply(J, rho, bounds)
@@ -326,7 +336,7 @@ def variance_factor(
     inflate the variance of a smooth contrast (a slope, a curvature term), and the
     effective sample size ``n / f``; (1, n) when rho is not significant."""
     r = np.asarray(residuals)
-    rho = _rho(r, segments, n_params)
+    rho = ar1_rho(r, segments, n_params)
     return (1.0 + rho) / (1.0 - rho), _neff(r.size, rho)
 
 

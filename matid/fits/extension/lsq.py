@@ -25,6 +25,7 @@ import numpy as np
 from scipy import optimize
 
 from matid.errors import FitError
+from matid.fits import stats
 from matid.fits.extension.runs import SLACK, _near_zero, _Run
 
 _PARAM_NAMES = {"k1": "sls_k1", "k2": "sls_k2", "eta": "sls_eta"}
@@ -48,11 +49,11 @@ def _profile_point(
 
     Returns (cost, k1, eta); fixed k1, eta (or eta = k2 tau for fixed k2) are held.
     """
-    eps = np.concatenate([run.eps[run.used] / s for run, s in zip(runs, sigma, strict=True)])
+    eps = np.concatenate([run.reduce(run.eps) / s for run, s in zip(runs, sigma, strict=True)])
     g = np.concatenate(
-        [run.history.force(0.0, 1.0 / tau, 1.0)[run.used] / s for run, s in zip(runs, sigma, strict=True)]
+        [run.reduce(run.history.force(0.0, 1.0 / tau, 1.0)) / s for run, s in zip(runs, sigma, strict=True)]
     )
-    y = np.concatenate([run.force[run.used] / s for run, s in zip(runs, sigma, strict=True)])
+    y = np.concatenate([run.reduce(run.force) / s for run, s in zip(runs, sigma, strict=True)])
     known = {"k1": fixed.get("k1"), "eta": fixed.get("eta")}
     if "k2" in fixed:
         known["eta"] = fixed["k2"] * tau
@@ -114,11 +115,15 @@ def _models(runs: Sequence[_Run], k: Mapping[str, float]) -> list[np.ndarray]:
     return [run.history.force(k["k1"], k["k2"], k["eta"]) for run in runs]  # = sls_force(run.t, run.eps, ...)
 
 
-def residual(params: lmfit.Parameters, runs, sigma, ref) -> np.ndarray:
-    """Weighted residuals (F_model - F) / sigma_run over the used rows of all runs."""
+def residual(params: lmfit.Parameters, runs, sigma, ref, rows: bool = False) -> np.ndarray:
+    """Weighted residuals (F_model - F) / sigma_run of all runs: over their bin means on a long
+    record (:mod:`matid.fits.extension.reduce`), else, or with ``rows``, over the used rows."""
     models = _models(runs, _values(params, ref))
     return np.concatenate(
-        [(f - run.force)[run.used] / s for f, run, s in zip(models, runs, sigma, strict=True)]
+        [
+            (f - run.force)[run.used] / s if rows else run.reduce(f - run.force) / s
+            for f, run, s in zip(models, runs, sigma, strict=True)
+        ]
     )
 
 
@@ -138,11 +143,27 @@ def _minimise(runs, sigma, starts, ref, fixed) -> tuple[lmfit.Minimizer, lmfit.m
     return best
 
 
-def _run_noise(result, runs: Sequence[_Run], sigma: np.ndarray) -> np.ndarray:
+def _correlated(runs: Sequence[_Run], result, sigma: np.ndarray, ref) -> tuple[list[_Run], np.ndarray]:
+    """Runs whose residuals are bin means get the AR(1) correlation of their full-resolution
+    residuals (it sets the bins' weights); returns the runs and the residuals at ``result``
+    with those weights (``result.residual`` itself when no run is reduced)."""
+    if all(run.reduce.starts is None for run in runs):
+        return list(runs), result.residual
+    models = _models(runs, _values(result.params, ref))
+    runs = [
+        replace(run, rho=stats.ar1_rho((f - run.force)[run.used], None, result.nvarys))
+        if run.reduce.starts is not None
+        else run
+        for run, f in zip(runs, models, strict=True)
+    ]
+    return runs, residual(result.params, runs, sigma, ref)
+
+
+def _run_noise(resid: np.ndarray, nvarys: int, runs: Sequence[_Run], sigma: np.ndarray) -> np.ndarray:
     """Noise of each run from its own residuals, each run taking its share of the dof."""
-    n = np.array([int(run.used.sum()) for run in runs])
-    share = 1.0 - result.nvarys / n.sum()
-    pieces = np.split(result.residual, np.cumsum(n)[:-1])
+    n = np.array([run.reduce.size for run in runs])
+    share = 1.0 - nvarys / n.sum()
+    pieces = np.split(resid, np.cumsum(n)[:-1])
     return np.array(
         [s * math.sqrt(np.sum(r**2) / (m * share)) for r, s, m in zip(pieces, sigma, n, strict=True)]
     )
@@ -167,7 +188,8 @@ def _solve(runs: Sequence[_Run], fixed: Mapping[str, float], reweight: int = 2):
         runs = slack
         minimizer, result = _minimise(runs, sigma, [_values(result.params, ref)], ref, fixed)
     for _ in range(reweight):
-        sigma = _run_noise(result, runs, sigma)
+        runs, resid = _correlated(runs, result, sigma, ref)
+        sigma = _run_noise(resid, result.nvarys, runs, sigma)
         if not np.all(sigma > 0):
             break  # an exact fit: keep the weights
         minimizer, result = _minimise(runs, sigma, [_values(result.params, ref)], ref, fixed)

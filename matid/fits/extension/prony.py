@@ -42,6 +42,7 @@ from scipy import optimize
 from scipy import stats as sstats
 
 from matid.fits import stats
+from matid.fits.extension.reduce import Reduction
 from matid.io.results import Estimate
 from matid.physics.sls import History, sls_force
 
@@ -53,17 +54,23 @@ BIC_MARGIN = 10.0
 
 @dataclass(frozen=True)
 class Data:
-    """One run for the fit: all rows (the history), the rows used, and the run's noise sd."""
+    """One run for the fit: all rows (the history), the rows used, the run's noise sd, and
+    how its rows become residuals (``rows``; default one per used row)."""
 
     t: np.ndarray
     eps: np.ndarray
     force: np.ndarray
     used: np.ndarray
     sigma: float
+    rows: Reduction | None = None
 
     @functools.cached_property
     def history(self) -> History:
         return History(self.t, self.eps)
+
+    @functools.cached_property
+    def reduce(self) -> Reduction:
+        return Reduction(self.used) if self.rows is None else self.rows
 
 
 def arm(t: np.ndarray, eps: np.ndarray, tau: float) -> np.ndarray:
@@ -97,8 +104,8 @@ def _basis(data: Sequence[Data], taus, arms: Arms) -> tuple[np.ndarray, np.ndarr
             if key not in arms:
                 arms[key] = d.history.force(0.0, 1.0, tau)  # = arm(d.t, d.eps, tau)
             block.append(arms[key])
-        cols.append(np.column_stack(block)[d.used] / d.sigma)
-        rhs.append(d.force[d.used] / d.sigma)
+        cols.append(d.reduce(np.column_stack(block)) / d.sigma)
+        rhs.append(d.reduce(d.force) / d.sigma)
     return np.vstack(cols), np.concatenate(rhs)
 
 
@@ -133,6 +140,7 @@ class PronyFit:
     residual: np.ndarray
     n: int
     covariance: stats.Covariance | None
+    rows: int | None = None  # rows fitted, when the n residuals are bin means of more rows
 
     @property
     def rss(self) -> float:
@@ -239,11 +247,14 @@ def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
         resid,
         resid.size,
         _cov(data, x, n_terms),
+        sum(int(d.used.sum()) for d in data),
     )
 
 
 def _cov(data, x: np.ndarray, n_terms: int) -> stats.Covariance | None:
-    """AR(1) sandwich covariance of the log-parameters on a central-difference Jacobian."""
+    """AR(1) sandwich covariance of the log-parameters on a central-difference Jacobian, on
+    every used row (also where the fit itself ran on bin means: the rows carry the AR(1)
+    structure the sandwich models)."""
     r0 = _model_residual(data, x, n_terms)
     h = 1e-5
     jac = np.column_stack(
@@ -297,7 +308,13 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
     # effective sample size of the richest fit (its residuals are the closest to the noise;
     # the SLS's own would count a misfit as correlated noise), else noise wander buys arms
     cov = fits[max(fits)].covariance
-    n_eff = cov.n_eff if cov is not None else float(fits[1].n)
+    richest = fits[max(fits)]
+    segments = [d.reduce.size for d in data]
+    n_eff = (
+        stats.effective_n(richest.residual, segments, richest.n_params)
+        if cov is not None
+        else float(fits[1].n)
+    )
     # a model the data do not determine (an arm far faster than the sampling: singular
     # covariance) is no evidence against the SLS, and would leave E_e without an interval
     best = 1
@@ -336,7 +353,7 @@ def preferred(choice: Choice, sls_k1: float, longest_run: float) -> tuple[tuple[
             "prony_k0 includes whatever relaxes more slowly; add a longer hold to confirm it",
         )
     estimates = tuple(
-        _estimate(name, value, se[name], dof, fit.n, k0_warn if name == "prony_k0" else ())
+        _estimate(name, value, se[name], dof, fit.rows or fit.n, k0_warn if name == "prony_k0" else ())
         for name, value in values.items()
     )
     arms = f"a {fit.n_terms}-arm Prony (generalised Maxwell) model"

@@ -51,14 +51,15 @@ def _stderr(result, ref: Mapping[str, float]) -> dict[str, float | None]:
 
 
 def jacobian(params: lmfit.Parameters, runs, sigma, ref) -> np.ndarray:
-    """d residual / d x for the varied x, by central differences of step ``_STEP`` on copies
-    of the lmfit Parameters (a step past a bound stops there, as the Parameter clips it)."""
-    columns = []
+    """d residual / d x over the used rows for the varied x, by central differences of step
+    ``_STEP`` on copies of the lmfit Parameters (a step past a bound stops there, as the
+    Parameter clips it)."""
+    columns, args = [], (runs, sigma, ref, True)
     for name in (n for n in _ORDER if params[n].vary):
         up, down = params.copy(), params.copy()
         up[name].value += _STEP
         down[name].value -= _STEP
-        columns.append((residual(up, runs, sigma, ref) - residual(down, runs, sigma, ref)) / (2 * _STEP))
+        columns.append((residual(up, *args) - residual(down, *args)) / (2 * _STEP))
     return np.column_stack(columns)
 
 
@@ -67,7 +68,8 @@ def _sandwich(result, runs, sigma, ref, se):
 
     Dense extension records have correlated residuals (and a misfit looks the same):
     lmfit's i.i.d. errors then shrink with the sampling rate, not with the information.
-    The Jacobian of the weighted residuals in the log-parameters is :func:`jacobian`.
+    The Jacobian of the weighted residuals in the log-parameters is :func:`jacobian`; both
+    are taken on every used row, also where the fit ran on bin means (a long record).
     Returns (se, covariance); the covariance is None (and se unchanged) when a parameter
     has no error.
     """
@@ -76,7 +78,8 @@ def _sandwich(result, runs, sigma, ref, se):
         return se, None
     try:
         jac = jacobian(result.params, runs, sigma, ref)
-        cov = stats.ar1_covariance(jac, result.residual, [int(r.used.sum()) for r in runs])
+        rows = residual(result.params, runs, sigma, ref, rows=True)
+        cov = stats.ar1_covariance(jac, rows, [int(r.used.sum()) for r in runs])
     except (ValueError, np.linalg.LinAlgError):
         return se, None
     k = _values(result.params, ref)
@@ -146,8 +149,10 @@ _ADVICE = (
 )
 
 
-def _misfit(result, runs, cov) -> tuple[stats.LackOfFit, str | None]:
-    """Lack of fit of the SLS on the weighted residuals, and its warning (None if it fits)."""
-    lof = stats.lack_of_fit(result.residual, result.nvarys, segments=[int(r.used.sum()) for r in runs])
+def _misfit(result, runs, sigma, ref, cov) -> tuple[stats.LackOfFit, str | None]:
+    """Lack of fit of the SLS on the weighted residuals of the used rows, and its warning
+    (None if it fits)."""
+    rows = residual(result.params, runs, sigma, ref, rows=True)
+    lof = stats.lack_of_fit(rows, result.nvarys, segments=[int(r.used.sum()) for r in runs])
     widening = float(np.max(cov.inflation)) if cov is not None else None
     return lof, lof.warning("the standard linear solid", widening, _ADVICE)
