@@ -18,9 +18,10 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.stats
 
 from matid.errors import DataError, FitError
-from matid.fits import linear, stats
+from matid.fits import linear
 from matid.io.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
@@ -89,7 +90,7 @@ def _per_length(records, lengths) -> tuple[dict[str, dict[str, float]], float | 
     w = 1.0 / se**2
     mean = np.sum(w * slopes) / np.sum(w)
     chi2 = float(np.sum(w * (slopes - mean) ** 2))
-    return out, stats.chi2_sf(chi2, slopes.size - 1)
+    return out, float(scipy.stats.chi2.sf(chi2, slopes.size - 1))
 
 
 def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFit:

@@ -33,6 +33,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.stats
 
 from matid.errors import FitError
 from matid.fits import stats
@@ -90,7 +91,7 @@ def _curvature_p(u: np.ndarray, y: np.ndarray, order: np.ndarray) -> float:
         return 0.0 if rss0 > 1e-24 * max(float(np.sum(y**2)), 1e-300) else 1.0
     factor, n_eff = stats.variance_factor(resid[np.argsort(order)], n_params=rank)
     f = max(rss0 - rss1, 0.0) / q / (rss1 / dof) / factor
-    return stats.f_sf(f, q, max(n_eff - rank, 1.0))
+    return float(scipy.stats.f.sf(f, q, max(n_eff - rank, 1.0)))
 
 
 def _onset_rss(u: np.ndarray, y: np.ndarray, u0: float) -> float:
@@ -299,7 +300,7 @@ def _offset_p(coef: np.ndarray, cov: stats.Covariance) -> float:
     """p-value of the Wald test that every tare offset is zero (F on the covariance's dof)."""
     c = coef[1:]
     wald = float(c @ np.linalg.solve(cov.cov[1:, 1:], c))
-    return stats.f_sf(wald / c.size, c.size, cov.dof)
+    return float(scipy.stats.f.sf(wald / c.size, c.size, cov.dof))
 
 
 def fit_lines(records: Sequence[Record]) -> LineFit:
