@@ -9,8 +9,7 @@ so with the director-frame forces n1 = E_s nu1, n3 = E_e (nu3 - 1) and J = d(nu1
 H = J^T C J + n1 Hess(nu1) + n3 Hess(nu3) (+ the field term). In the mixed tangent
 (:meth:`matid.rod.models.RodSystem.mixed_update`) (n1, n3) in the geometric part are the
 independent point stresses of the iteration instead of those of the displacements.
-The same model as the jets of :meth:`RodSystem.density` (compared in the tests) and as the
-compiled kernel (:mod:`matid.rod.kernel`).
+The same model as the jets of :meth:`RodSystem.density` (compared in the tests).
 """
 
 from __future__ import annotations

@@ -30,7 +30,6 @@ import scipy.sparse.linalg as spla
 from matid.physics import full, planar
 from matid.physics import kinematics as kin
 from matid.physics.jet import Jet
-from matid.rod import compiled
 from matid.rod.fem import Discretisation
 
 PLANAR, FULL = "planar", "full"
@@ -111,10 +110,8 @@ class RodSystem:
     def __post_init__(self) -> None:
         self._stress = self._strain = None
         #: point stresses (ne, nq, ns) for the mixed tangent's first iteration (a warm start
-        #: from a coarser mesh's recovered stresses), and C e(u) at the points of the last
-        #: compiled Newton (the converged state's stresses, for the next warm start)
+        #: from a coarser mesh's recovered stresses)
         self.stress_start: np.ndarray | None = None
-        self.point_stress: np.ndarray | None = None
         self.props, self.mu, roundoff = _fields(self.disc, self.rod)
         self._roundoff = (self.props, roundoff)
         nf = self.disc.nf
@@ -210,8 +207,6 @@ class RodSystem:
 
     def converged_stress(self) -> np.ndarray | None:
         """C e(u) (ne, nq, ns) at the points of the last Newton evaluation (mixed systems)."""
-        if self.point_stress is not None:
-            return self.point_stress
         return None if self._strain is None else self._strain[0]
 
     def hold_stress(self) -> None:
@@ -299,23 +294,6 @@ class RodSystem:
         H = self.c_u * (2.0 * e[:, None, None] * np.eye(4) + 4.0 * Q[:, :, None] * Q[:, None, :])
         dofs = np.arange(Q.shape[0])[:, None] * nf + 3 + np.arange(4)[None, :]
         return R.ravel(), [(dofs, H)]
-
-    @property
-    def kernel_served(self) -> bool:
-        """Whether :mod:`matid.rod.compiled` serves this system (asked once per system)."""
-        ok = self.__dict__.get("_compiled")
-        if ok is None:
-            ok = self._compiled = compiled.supported(self)
-        return ok
-
-    def compiled_newton(self, x0: np.ndarray, lam: float, **options):
-        """:func:`matid.rod.newton.newton` in one compiled call (:mod:`matid.rod.compiled`), or None
-        when this system is not one it serves."""
-        return compiled.newton(self, x0, lam, **options) if self.kernel_served else None
-
-    def load_derivative(self, X: np.ndarray) -> np.ndarray | None:
-        """dR/dlam = R(X, 1) - R(X, 0) from the kernel, or None (then newton.tangent evaluates)."""
-        return compiled.load_derivative(self, X) if self.kernel_served else None
 
     # -- residual and tangent on the free dofs ---------------------------------
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):

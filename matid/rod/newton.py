@@ -88,12 +88,6 @@ def newton(
     load step is halved by :func:`follow`.
     """
     floor = min(max(xtol, float(getattr(system, "roundoff", 0.0))), FLOOR_CAP)
-    compiled = getattr(system, "compiled_newton", None)
-    if compiled is not None:  # the same iteration in one compiled call (matid.rod.kernel)
-        options = {"xtol": xtol, "max_iter": max_iter, "max_step": max_step, "floor": floor}
-        out = compiled(x0, lam, mixed_above=MIXED_ABOVE, **options)
-        if out is not None:
-            return _compiled_result(out, max_iter)
     measure = getattr(system, "step_size", None) or (lambda d: float(np.max(np.abs(d))) if d.size else 0.0)
     x = x0.copy()
     sizes: list[float] = []
@@ -131,23 +125,6 @@ def _stagnation(size: float, first: float) -> RoundoffStagnation:
     )
 
 
-def _compiled_result(out: tuple, max_iter: int) -> tuple[np.ndarray, int, object]:
-    """(x, iterations, factor) of a compiled Newton (matid.rod.compiled), or its failure raised."""
-    from matid.rod import compiled as kernel  # the statuses, without importing numba
-
-    status, x, it, size, first, factor, info = out
-    if status == kernel.CONVERGED:
-        return x, it, factor
-    raise {
-        kernel.SINGULAR: NewtonFailure(f"singular tangent (zero pivot {info})"),
-        kernel.NOT_FINITE_R: NewtonFailure("residual is not finite"),
-        kernel.NOT_FINITE_DX: NewtonFailure("Newton correction is not finite"),
-        kernel.DIVERGING: NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}"),
-        kernel.STAGNATION: _stagnation(size, first),
-        kernel.MAX_ITER: NewtonFailure(f"no convergence in {max_iter} iterations (correction {size:.3g})"),
-    }[status]
-
-
 def _factor(K) -> object:
     if hasattr(K, "factor"):  # fem.Banded: LAPACK banded Cholesky, or LU when not positive definite
         try:
@@ -164,7 +141,7 @@ def tangent(system: System, x: np.ndarray, lam: float, lu: object) -> np.ndarray
     """dx/dlam on the equilibrium path: K dx/dlam = -dR/dlam.
 
     Every load of the rod scenes is linear in lam, so dR/dlam = R(x, 1) - R(x, 0) exactly
-    (``system.load_derivative(x)`` when it offers it, e.g. compiled).
+    (``system.load_derivative(x)`` when it offers it).
     """
     load = getattr(system, "load_derivative", None)
     dR = load(x) if load is not None else None
@@ -197,17 +174,6 @@ def definite(system: System, x: np.ndarray, lam: float) -> bool | None:
     """Whether the tangent at (x, lam) is positive definite (its banded Cholesky succeeds), as
     the first Newton iteration there factorises it; None when the system cannot tell
     (unsymmetric or unbanded tangent, non-finite residual)."""
-    compiled = getattr(system, "compiled_newton", None)
-    if compiled is not None:
-        options = {"xtol": 0.0, "max_iter": 1, "max_step": 0.0, "floor": 0.0}
-        out = compiled(x, lam, mixed_above=MIXED_ABOVE, **options)
-        if out is not None:
-            from matid.rod import compiled as kernel  # the statuses, without importing numba
-
-            status, factor = out[0], out[5]
-            if status == kernel.SINGULAR:
-                return False
-            return None if status in (kernel.NOT_FINITE_R, kernel.NOT_FINITE_DX) else factor.positive_definite
     getattr(system, "mixed_begin", getattr(system, "mixed_reset", lambda: None))()
     R, K = system.evaluate(x, lam)
     if not hasattr(K, "factor") or not np.all(np.isfinite(R)):
