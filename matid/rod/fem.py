@@ -20,9 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 from scipy.linalg import lapack
-from skfem import Basis, ElementLineP1, ElementLineP2, MeshLine
+from skfem import Basis, ElementLineHermite, ElementLineP1, ElementLineP2, MeshLine
 
-ELEMENTS = {"P2": ElementLineP2, "P1": ElementLineP1}
+#: The rod's elements: scikit-fem's; "Hermite" is the paper's cubic (values and slopes at vertices).
+ELEMENTS = {"P2": ElementLineP2, "P1": ElementLineP1, "Hermite": ElementLineHermite}
 
 
 @dataclass(frozen=True)
@@ -112,30 +113,66 @@ class BandFactor:
         return out
 
 
-@functools.lru_cache(maxsize=8)
-def _gauss(points: int) -> tuple[np.ndarray, np.ndarray]:
-    return np.polynomial.legendre.leggauss(points)
+@dataclass(frozen=True)
+class Tables:
+    """What the rod needs of a scikit-fem ``Basis`` on a ``MeshLine``, built once per mesh.
+
+    phi, dphi: (nloc, ne, nq) shape functions and their s-derivatives at the quadrature
+    points; dx: (ne, nq) quadrature weights times Jacobian; edofs: (nloc, ne) the DOF map;
+    s_dof: the reference arc length of each scalar dof; slope: which dofs are derivatives
+    (the cubic Hermite's ``u_x``: a clamp holds only the values, an affine field a + b s has
+    b there); s_quad: (ne, nq) the quadrature points.
+    """
+
+    basis: Basis
+    phi: np.ndarray
+    dphi: np.ndarray
+    dx: np.ndarray
+    edofs: np.ndarray
+    s_dof: np.ndarray
+    slope: np.ndarray
+    s_quad: np.ndarray
+
+
+@functools.lru_cache(maxsize=64)
+def tables(vertices: bytes, element: str, intorder: int | None) -> Tables:
+    """The basis tables of ``element`` on the mesh with these vertices (cached: one Basis per mesh)."""
+    mesh = MeshLine(np.frombuffer(vertices).copy())
+    elem = ELEMENTS[element]()
+    basis = Basis(mesh, elem) if intorder is None else Basis(mesh, elem, intorder=intorder)
+    phi = np.array([np.asarray(field[0]) for field in basis.basis])
+    dphi = np.array([field[0].grad[0] for field in basis.basis])
+    slope = np.zeros(basis.N, dtype=bool)
+    for row, name in enumerate(elem.dofnames[: elem.nodal_dofs]):
+        slope[basis.nodal_dofs[row]] = name == "u_x"
+    out = Tables(
+        basis,
+        phi,
+        dphi,
+        basis.dx,
+        basis.element_dofs,
+        basis.doflocs[0],
+        slope,
+        np.asarray(basis.global_coordinates())[0],
+    )
+    for a in (out.phi, out.dphi, out.dx, out.edofs, out.s_dof, out.slope, out.s_quad):
+        a.flags.writeable = False  # shared by every Discretisation on this mesh
+    return out
 
 
 class Discretisation:
-    """Mesh, basis tables and assembly for ``nf`` scalar fields on [0, L]."""
+    """Mesh, scikit-fem basis tables and vectorised assembly for ``nf`` scalar fields on [0, L]."""
 
     def __init__(self, vertices: np.ndarray, nf: int, *, element: str = "P2", intorder: int | None = None):
         vertices = np.asarray(vertices, dtype=float)
-        self.element = element
-        self.nf = nf
-        if intorder is None:  # scikit-fem's default rule
-            b = Basis(MeshLine(vertices), ELEMENTS[element]())
-            nloc = len(b.basis)
-            self.phi = np.array([np.asarray(b.basis[i][0]) for i in range(nloc)])  # (nloc, ne, nq)
-            self.dphi = np.array([b.basis[i][0].grad[0] for i in range(nloc)])
-            self.dx = b.dx  # (ne, nq)
-            self.edofs = b.element_dofs  # (nloc, ne) scalar dofs
-            self.nscalar = b.N
-            self.s_dof = b.doflocs[0]  # reference arc length of each scalar dof
-            self.s_quad = b.mapping.F(b.X)[0]  # (ne, nq)
-        else:
-            self._gauss_tables(vertices, intorder)
+        t = tables(vertices.tobytes(), element, intorder)
+        self.element, self.nf, self.basis = element, nf, t.basis
+        self.phi, self.dphi, self.dx, self.edofs = t.phi, t.dphi, t.dx, t.edofs
+        self.s_dof, self.slope, self.s_quad = t.s_dof, t.slope, t.s_quad
+        self.nscalar = t.s_dof.size
+        values = np.flatnonzero(~self.slope)
+        #: scalar dofs that are point values, ordered along s (the output points of a solution)
+        self.value_dofs = values[np.argsort(self.s_dof[values], kind="stable")]
         self._vertices = vertices.copy()
         self.n = self.nscalar * nf
         self.weighted = np.stack([self.phi, self.dphi]) * self.dx[None, None]  # (2, nloc, ne, nq)
@@ -144,31 +181,10 @@ class Discretisation:
         self.gdofs = gd  # (ne, nloc*nf), local order (i, c)
         self.set_free(np.ones(self.n, dtype=bool))
 
-    def _gauss_tables(self, v: np.ndarray, intorder: int) -> None:
-        """Basis tables of scikit-fem's 1D P1/P2 with an ``intorder`` Gauss rule, built directly.
-
-        Same numbering as scikit-fem (vertices first, then mid-points; local order
-        v0, v1, mid) and the same rule (intorder // 2 + 1 Gauss points), at a
-        fraction of the set-up cost; checked against scikit-fem in the tests.
-        """
-        ne = v.size - 1
-        x, w = _gauss(intorder // 2 + 1)
-        t, w = 0.5 * (x + 1.0), 0.5 * w
-        h = np.diff(v)[:, None]
-        if self.element == "P2":
-            ref = np.array([2 * t * t - 3 * t + 1, 2 * t * t - t, 4 * t * (1 - t)])
-            dref = np.array([4 * t - 3, 4 * t - 1, 4 - 8 * t])
-            self.edofs = np.array([np.arange(ne), np.arange(1, ne + 1), v.size + np.arange(ne)])
-            self.s_dof = np.concatenate([v, 0.5 * (v[:-1] + v[1:])])
-        else:
-            ref, dref = np.array([1 - t, t]), np.array([-np.ones_like(t), np.ones_like(t)])
-            self.edofs = np.array([np.arange(ne), np.arange(1, ne + 1)])
-            self.s_dof = v.copy()
-        self.phi = np.broadcast_to(ref[:, None, :], (ref.shape[0], ne, t.size)).copy()
-        self.dphi = dref[:, None, :] / h[None]
-        self.dx = w[None, :] * h
-        self.nscalar = self.s_dof.size
-        self.s_quad = v[:-1, None] + t[None, :] * h
+    def affine(self, a: float, b: float) -> np.ndarray:
+        """Scalar dofs of the field a + b s (values at point dofs, b at derivative dofs): exact
+        in every element here, since each holds the affine fields."""
+        return np.where(self.slope, b, a + b * self.s_dof)
 
     @property
     def ne(self) -> int:
@@ -184,6 +200,8 @@ class Discretisation:
         phi is unchanged, phi' and dx scale with each element's length: cheap
         enough to differentiate the residual with respect to vertex positions.
         """
+        if self.slope.any():  # a global element (Hermite): its shape functions do not just rescale
+            raise ValueError(f"moved: only affine-mapped elements, not {self.element}")
         new = object.__new__(Discretisation)
         new.__dict__.update(self.__dict__)
         vertices = np.asarray(vertices, float)
@@ -192,20 +210,17 @@ class Discretisation:
         new.dphi = self.dphi / ratio[None]
         new.dx = self.dx * ratio
         new.s_quad = vertices[:-1, None] + (self.s_quad - self._vertices[:-1, None]) * ratio
-        nv = vertices.size
-        new.s_dof = (
-            np.concatenate([vertices, 0.5 * (vertices[:-1] + vertices[1:])])
-            if self.element == "P2"
-            else vertices.copy()
-        )
-        assert new.s_dof.size == self.nscalar and nv == self._vertices.size
+        new.s_dof = np.empty(self.nscalar)  # each dof keeps its place in its element
+        h_old, h_new = np.diff(self._vertices), np.diff(vertices)
+        t = (self.s_dof[self.edofs] - self._vertices[:-1]) / h_old  # (nloc, ne) local coordinates
+        new.s_dof[self.edofs] = vertices[:-1] + t * h_new
         new.weighted = np.stack([new.phi, new.dphi]) * new.dx[None, None]
         new.both = np.stack([new.phi, new.dphi])
         return new
 
     def vertex_dof(self, index: int) -> int:
-        """Scalar dof of mesh vertex ``index`` (P1/P2 vertices come first in scikit-fem)."""
-        return int(index)
+        """Scalar dof of the value at mesh vertex ``index`` (scikit-fem's first nodal dof)."""
+        return int(self.basis.nodal_dofs[0, index])
 
     def set_free(self, free: np.ndarray) -> None:
         """Which dofs are free: the band pattern now, the CSR pattern when first used.

@@ -116,13 +116,16 @@ class RodSystem:
         self._roundoff = (self.props, roundoff)
         nf = self.disc.nf
         free = np.ones(self.disc.n, dtype=bool)
-        free[list(range(nf)) if self.fixed is None else list(self.fixed)] = False
+        clamp = self.disc.vertex_dof(0) * nf + np.arange(nf)  # values only (Hermite: slopes stay free)
+        free[clamp if self.fixed is None else list(self.fixed)] = False
         self.disc.set_free(free)  # a shared (cached) mesh keeps its patterns when the set is the same
         self.index = self.disc._index  # free dof number of each dof, -1 where fixed
         self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
         magnets = [(s_m, m) for s_m, m in self.rod.magnets]
         verts = self.disc.vertices
-        self.magnet_nodes = [(int(np.argmin(np.abs(verts - s_m))), m) for s_m, m in magnets]
+        self.magnet_nodes = [
+            (self.disc.vertex_dof(int(np.argmin(np.abs(verts - s_m)))), m) for s_m, m in magnets
+        ]
         self.terms = ["bending", "shear", "extension"] + (
             ["twist", "unity penalty"] if self.model == FULL else []
         )
@@ -135,9 +138,9 @@ class RodSystem:
     def reference(self) -> np.ndarray:
         """Straight rod along the axis, identity rotation."""
         U = np.zeros((self.disc.nscalar, self.disc.nf))
-        U[:, 1 if self.model == PLANAR else 2] = self.disc.s_dof
+        U[:, 1 if self.model == PLANAR else 2] = self.disc.affine(0.0, 1.0)
         if self.model == FULL:
-            U[:, 3] = 1.0
+            U[:, 3] = self.disc.affine(1.0, 0.0)
         return U.ravel()
 
     def _reference(self) -> np.ndarray:
@@ -286,13 +289,13 @@ class RodSystem:
         the element size, so load terms coupling into |q| (a dead tip moment)
         cannot swamp it; the physical solution is the same for any c_u > 0.
         """
-        nf = self.disc.nf
-        Q = U.reshape(-1, nf)[:, 3:]
+        nf, nodes = self.disc.nf, self.disc.value_dofs  # point values of q (not Hermite's slopes)
+        Q = U.reshape(-1, nf)[nodes, 3:]
         e = np.sum(Q * Q, axis=1) - 1.0
         R = np.zeros_like(U).reshape(-1, nf)
-        R[:, 3:] = 2.0 * self.c_u * e[:, None] * Q
+        R[nodes, 3:] = 2.0 * self.c_u * e[:, None] * Q
         H = self.c_u * (2.0 * e[:, None, None] * np.eye(4) + 4.0 * Q[:, :, None] * Q[:, None, :])
-        dofs = np.arange(Q.shape[0])[:, None] * nf + 3 + np.arange(4)[None, :]
+        dofs = nodes[:, None] * nf + 3 + np.arange(4)[None, :]
         return R.ravel(), [(dofs, H)]
 
     # -- residual and tangent on the free dofs ---------------------------------
