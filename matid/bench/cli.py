@@ -84,6 +84,8 @@ def run_bench(
         times[name] = time.perf_counter() - start
         if name == "peers" and results[name].get("rows"):
             _say(quiet, peers.table(results[name]))
+        if name == "convergence" and results[name].get("p2_vs_hermite"):
+            _say(quiet, convergence.side_by_side_table(results[name]["p2_vs_hermite"]))
         _say(quiet, f"matid bench: {name} done in {times[name]:.1f} s")
     doc = {
         "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),

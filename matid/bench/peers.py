@@ -13,8 +13,8 @@ Cosserat rod (shear and extension included) as a first-order BVP in the strong f
 (:mod:`matid.bench.baseline`). Timing: interleaved (matid, baseline, matid, ...),
 process CPU, best of ``REPEATS``; call i solves a fresh scene whose load is scaled by
 1 + 1e-9 i, so nothing scene-specific is cached between calls (issue 19); the tip error
-of each is measured against a tight reference (solve_bvp at tol 1e-9 on a fine mesh). Optionally PyElastica when installed
-(it is not a dependency): otherwise the section says so.
+of each is measured against a tight reference (solve_bvp at tol 1e-9 on a fine mesh).
+Optionally PyElastica when installed (it is not a dependency): otherwise the section says so.
 """
 
 from __future__ import annotations
@@ -84,7 +84,9 @@ def problems(factor: float = 1.0) -> list[dict]:
             "name": "precurved_3d",
             "label": "45-degree precurved 3D bend (full model)",
             "scene": precurved_3d(factor),
-            "baseline": B.Spatial(E_t=0.7, E_s=STIFF_3D, E_e=STIFF_3D, kappa_ref=(0.0, math.pi / 4, 0.0), F=F),
+            "baseline": B.Spatial(
+                E_t=0.7, E_s=STIFF_3D, E_e=STIFF_3D, kappa_ref=(0.0, math.pi / 4, 0.0), F=F
+            ),
         },
     ]
 
