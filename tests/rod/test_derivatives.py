@@ -92,19 +92,6 @@ def test_mixed_newton_reaches_the_same_equilibrium(model):
     assert np.max(np.abs(answers[0] - answers[1])) < 1e-9
 
 
-@pytest.mark.parametrize(("element", "intorder"), [("P2", 2), ("P2", 4), ("P1", 2)])
-def test_basis_tables_are_scikit_fems(element, intorder):
-    from skfem import Basis, ElementLineP1, ElementLineP2, MeshLine
-
-    v = np.array([0.0, 0.3, 0.5, 0.6, 1.0])
-    ours = Discretisation(v, 3, element=element, intorder=intorder)
-    b = Basis(MeshLine(v), {"P2": ElementLineP2, "P1": ElementLineP1}[element](), intorder=intorder)
-    phi = np.array([np.asarray(b.basis[i][0]) for i in range(len(b.basis))])
-    dphi = np.array([b.basis[i][0].grad[0] for i in range(len(b.basis))])
-    assert np.allclose(ours.phi, phi) and np.allclose(ours.dphi, dphi) and np.allclose(ours.dx, b.dx)
-    assert np.array_equal(ours.edofs, b.element_dofs) and np.allclose(ours.s_dof, b.doflocs[0])
-
-
 def test_bend_mesh_derivative_and_bordered_solve():
     """dR/dsigma in closed form equals central differences; the bordered solve equals a dense one."""
     from matid.rod.bend import BendGeometry, BendModel
