@@ -41,6 +41,19 @@ class Pattern:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
 
+@dataclass(frozen=True)
+class BlockPattern:
+    """Where dense node-local blocks on global ``dofs`` (k, m) land in the free-dof tangent: the
+    kept entries (both dofs free) of the (k, m, m) blocks, their free-dof rows and columns (CSR)
+    and their positions in the band storage (built once per system)."""
+
+    dofs: np.ndarray
+    keep: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
+    flat: np.ndarray
+
+
 class Banded:
     """A free-dof tangent in LAPACK band storage, dofs ordered along s (half-bandwidth ``u``).
 
@@ -61,6 +74,12 @@ class Banded:
         pos = self.position[rows]
         col = self.position[cols]
         np.add.at(self.ab, (self.u + pos - col, col), vals)
+
+    def add(self, pattern: BlockPattern, blocks: np.ndarray) -> None:
+        """Add dense blocks (k, m, m) laid out by ``pattern`` (no two entries of one pattern share
+        a position: node-local blocks on distinct dofs)."""
+        flat = self.ab.reshape(-1)  # a view: ab is C-contiguous
+        flat[pattern.flat] += blocks.reshape(-1)[pattern.keep]
 
     def tocsr(self) -> sp.csr_matrix:
         """The matrix in free-dof numbering (tests, eigenvalue checks)."""
@@ -238,6 +257,21 @@ class Discretisation:
         self.keep_mask = ((local[:, :, None] >= 0) & (local[:, None, :] >= 0)).ravel()
         self._index, self._pattern = index, None
         self._band_pattern(index, nfree)
+
+    def block_pattern(self, dofs: np.ndarray) -> BlockPattern:
+        """The :class:`BlockPattern` of blocks on ``dofs`` (k, m) under the current free set."""
+        dofs = np.atleast_2d(dofs)
+        k, m = dofs.shape
+        idx = self._index[dofs]
+        ii = np.broadcast_to(idx[:, :, None], (k, m, m)).ravel()
+        jj = np.broadcast_to(idx[:, None, :], (k, m, m)).ravel()
+        keep = (ii >= 0) & (jj >= 0)
+        rows, cols = ii[keep], jj[keep]
+        pos, u = self.band_position, self.band_u
+        if rows.size and np.max(np.abs(pos[rows] - pos[cols])) > u:
+            raise ValueError("block_pattern: the blocks do not fit in the band (not node-local)")
+        flat = (u + pos[rows] - pos[cols]) * self.band_order.size + pos[cols]
+        return BlockPattern(dofs, keep, rows, cols, flat)
 
     @property
     def pattern(self) -> Pattern:

@@ -33,6 +33,7 @@ from matid.physics.jet import Jet
 from matid.rod.fem import Discretisation
 
 PLANAR, FULL = "planar", "full"
+_DIAG4 = np.arange(4)
 FIELDS = {PLANAR: ("x", "z", "theta"), FULL: ("x", "y", "z", "q0", "q1", "q2", "q3")}
 
 
@@ -133,6 +134,7 @@ class RodSystem:
             self.terms.append("magnetic")
         if any(self.rod.kappa_ref):
             self.terms.append("precurvature")
+        self._node_patterns()
 
     # -- states -------------------------------------------------------------
     def reference(self) -> np.ndarray:
@@ -177,31 +179,28 @@ class RodSystem:
         return w
 
     def energy_derivatives(self, U: np.ndarray, lam: float, tangent: bool = True):
-        vals, ders = self.disc.interpolate(U)
-        closed_form = self.model == PLANAR or self.variant == kin.NORMALISED
-        if self.analytic and closed_form:  # the jets below are the cross-check (tests)
-            rod = self.rod
-            mu = self.mu if "magnetic" in self.terms else None
-            out = (planar if self.model == PLANAR else full).derivatives(
-                vals,
-                ders,
-                lam,
-                self.props,
-                rod.kappa_ref,
-                mu,
-                rod.B,
-                rod.f,
-                tangent,
-                stress=self._stress,
-                want_strain=self.mixed,
-            )
-            if self.mixed and tangent:
-                self._strain = out[2]
-            return out[0], out[1]
-        variables = Jet.variables(np.concatenate([vals, ders]), hessian=tangent)
-        nf = self.disc.nf
-        w = self.density(variables[:nf], variables[nf:], lam)
-        return w.g, w.h
+        """Pointwise gradient and Hessian of the density: the closed forms of
+        :mod:`matid.physics.planar` and :mod:`matid.physics.full`; the jets of :meth:`density`
+        only when ``analytic`` is off (their test oracle)."""
+        rod = self.rod
+        mu = self.mu if "magnetic" in self.terms else None
+        options = {"stress": self._stress, "want_strain": self.mixed}
+        if not self.analytic:
+            variables = Jet.variables(np.concatenate(self.disc.interpolate(U)), hessian=tangent)
+            nf = self.disc.nf
+            w = self.density(variables[:nf], variables[nf:], lam)
+            return w.g, w.h
+        if self.model == PLANAR:
+            vals, ders = self.disc.interpolate(U)
+            args = (vals, ders, lam, self.props, rod.kappa_ref, mu, rod.B, rod.f, tangent)
+            out = planar.derivatives(*args, **options)
+        else:
+            z = self.disc.point_values(U)
+            args = (z, lam, self.props, rod.kappa_ref, mu, rod.B, rod.f, tangent)
+            out = full.derivatives(*args, variant=self.variant, c_u=self.c_u, **options)
+        if self.mixed and tangent:
+            self._strain = out[2]
+        return out[0], out[1]
 
     # -- mixed-integration-point Newton (independent stresses at the quadrature points) ----------
     def mixed_reset(self) -> None:
@@ -249,36 +248,44 @@ class RodSystem:
             cached = self._roundoff = (self.props, _roundoff_floor(self.props))
         return cached[1]
 
-    # -- point terms (tip loads, lumped magnets) --------------------------------
+    # -- point terms (tip loads, lumped magnets, the nodal unity penalty) -------------------
+    def _node_patterns(self) -> None:
+        """Dofs and tangent patterns of the node-local terms, built once per system."""
+        disc, nf = self.disc, self.disc.nf
+        self._tip = np.arange(self.tip * nf, self.tip * nf + nf)
+        local = np.array([2]) if self.model == PLANAR else 3 + np.arange(4)  # theta, or q
+        nodes = np.array([node for node, _ in self.magnet_nodes], int)
+        self._magnet_dofs = nodes[:, None] * nf + local[None, :]
+        self._magnet_m = np.array([m for _, m in self.magnet_nodes], float)
+        self._patterns = {"magnets": disc.block_pattern(self._magnet_dofs) if self.magnet_nodes else None}
+        if self.model == FULL:
+            self._patterns["moment"] = disc.block_pattern(self._tip[3:])
+            self._gauge_dofs = disc.value_dofs[:, None] * nf + 3 + np.arange(4)[None, :]
+            self._patterns["gauge"] = disc.block_pattern(self._gauge_dofs)
+
     def point_terms(self, U: np.ndarray, lam: float) -> tuple[np.ndarray, list]:
-        """Residual of the point loads (all dofs) and their tangent blocks [(dofs, matrix)]."""
-        nf = self.disc.nf
+        """Residual of the point loads (all dofs) and their tangent blocks [(pattern, blocks)]."""
         R = np.zeros(self.disc.n)
         blocks = []
-        tip = np.arange(self.tip * nf, self.tip * nf + nf)
-        rod = self.rod
+        tip, rod = self._tip, self.rod
         if self.model == PLANAR:
-            R[tip[0]] -= lam * rod.tip_force[0]
-            R[tip[1]] -= lam * rod.tip_force[2]
-            R[tip[2]] -= lam * rod.tip_moment[1]
-            for node, m in self.magnet_nodes:
-                th = U[node * nf + 2]
-                # -m (sin th Bx + cos th Bz): derivative and second derivative in theta
-                R[node * nf + 2] -= lam * m * (np.cos(th) * rod.B[0] - np.sin(th) * rod.B[2])
-                k = lam * m * (np.sin(th) * rod.B[0] + np.cos(th) * rod.B[2])
-                blocks.append((np.array([node * nf + 2]), np.array([[k]])))
+            R[tip] -= lam * np.array([rod.tip_force[0], rod.tip_force[2], rod.tip_moment[1]])
+            if self.magnet_nodes:  # -m (sin th Bx + cos th Bz): first and second derivative in theta
+                th, m = U[self._magnet_dofs[:, 0]], lam * self._magnet_m
+                R[self._magnet_dofs[:, 0]] -= m * (np.cos(th) * rod.B[0] - np.sin(th) * rod.B[2])
+                k = m * (np.sin(th) * rod.B[0] + np.cos(th) * rod.B[2])
+                blocks.append((self._patterns["magnets"], k))
             return R, blocks
         R[tip[:3]] -= lam * np.asarray(rod.tip_force)
         if any(rod.tip_moment):
-            g, h = _moment_work(U[tip[3:]], np.asarray(rod.tip_moment))
+            g, h = full.dead_moment(U[tip[3:]], rod.tip_moment)
             R[tip[3:]] -= lam * g
-            blocks.append((tip[3:], -lam * h))
-        for node, m in self.magnet_nodes:
-            dofs = np.arange(node * nf + 3, node * nf + 7)
-            qj = Jet.variables(U[dofs].reshape(4, 1))
-            e = kin.magnetic_energy(lam * m, kin.d3(qj, self.variant), rod.B)
-            R[dofs] += e.g[0]
-            blocks.append((dofs, e.h[0]))
+            blocks.append((self._patterns["moment"], -lam * h))
+        if self.magnet_nodes:
+            g, h = full.magnet(U[self._magnet_dofs], rod.B, self.variant)
+            m = lam * self._magnet_m
+            R[self._magnet_dofs] += m[:, None] * g
+            blocks.append((self._patterns["magnets"], m[:, None, None] * h))
         return R, blocks
 
     def gauge_terms(self, U: np.ndarray) -> tuple[np.ndarray, list]:
@@ -288,19 +295,20 @@ class RodSystem:
         that null direction. Applied per node its stiffness does not shrink with
         the element size, so load terms coupling into |q| (a dead tip moment)
         cannot swamp it; the physical solution is the same for any c_u > 0.
+        The nodes are the point values of q (not the Hermite's slopes).
         """
-        nf, nodes = self.disc.nf, self.disc.value_dofs  # point values of q (not Hermite's slopes)
-        Q = U.reshape(-1, nf)[nodes, 3:]
-        e = np.sum(Q * Q, axis=1) - 1.0
-        R = np.zeros_like(U).reshape(-1, nf)
-        R[nodes, 3:] = 2.0 * self.c_u * e[:, None] * Q
-        H = self.c_u * (2.0 * e[:, None, None] * np.eye(4) + 4.0 * Q[:, :, None] * Q[:, None, :])
-        dofs = nodes[:, None] * nf + 3 + np.arange(4)[None, :]
-        return R.ravel(), [(dofs, H)]
+        dofs = self._gauge_dofs
+        Q = U[dofs]
+        e = np.einsum("na,na->n", Q, Q) - 1.0
+        R = np.zeros_like(U)
+        R[dofs] = (2.0 * self.c_u) * e[:, None] * Q
+        H = (4.0 * self.c_u) * (Q[:, :, None] * Q[:, None, :])
+        H[:, _DIAG4, _DIAG4] += (2.0 * self.c_u) * e[:, None]
+        return R, [(self._patterns["gauge"], H)]
 
     # -- residual and tangent on the free dofs ---------------------------------
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):
-        """Residual on the free dofs and, with ``tangent``, its Jacobian (CSR)."""
+        """Residual on the free dofs and, with ``tangent``, its Jacobian (banded or CSR)."""
         U = self.expand(X) if U is None else U
         g, H = self.energy_derivatives(U, lam, tangent)
         self.last_points = (U, g, H)  # pointwise derivatives of this evaluation (bend: dR/dsigma)
@@ -310,19 +318,23 @@ class RodSystem:
         else:
             R, K = self.disc.assemble(g, H)
         Rp, blocks = self.point_terms(U, lam)
-        R = R + Rp
+        R += Rp
         if self.model == FULL and self.variant == kin.NORMALISED:
             Rg, gblocks = self.gauge_terms(U)
-            R = R + Rg
-            blocks = blocks + gblocks
+            R += Rg
+            blocks += gblocks
         if not tangent:
             return R[self.disc.free], None
         if self.banded:
-            rows, cols, vals = self._triplets(blocks)
-            if vals.size:
-                K.add_blocks(rows, cols, vals)
+            for pattern, values in blocks:
+                K.add(pattern, values)
             return R[self.disc.free], K
-        return R[self.disc.free], K + self._blocks_matrix(blocks, K.shape)
+        for pattern, values in blocks:
+            shape = K.shape
+            K = K + sp.csr_matrix(
+                (values.reshape(-1)[pattern.keep], (pattern.rows, pattern.cols)), shape=shape
+            )
+        return R[self.disc.free], K
 
     @property
     def symmetric(self) -> bool:
@@ -364,28 +376,6 @@ class RodSystem:
             return None
         return int(np.sum(lu.U.diagonal() <= 0.0))
 
-    def _blocks_matrix(self, blocks: list, shape: tuple[int, int]) -> sp.csr_matrix:
-        """Sum of dense blocks (dofs of shape (..., m), matrices (..., m, m)) on the free dofs."""
-        rows, cols, vals = self._triplets(blocks)
-        if not vals.size:
-            return sp.csr_matrix(shape)
-        return sp.csr_matrix((vals, (rows, cols)), shape=shape)
-
-    def _triplets(self, blocks: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(rows, cols, values) in free-dof numbering of blocks (dofs (..., m), matrices (..., m, m))."""
-        rows, cols, vals = [], [], []
-        for dofs, block in blocks:
-            dofs = np.atleast_2d(dofs)
-            block = block.reshape(dofs.shape[0], dofs.shape[1], dofs.shape[1])
-            idx = self.index[dofs]
-            ii = np.broadcast_to(idx[:, :, None], block.shape)
-            jj = np.broadcast_to(idx[:, None, :], block.shape)
-            ok = (ii >= 0) & (jj >= 0)
-            rows.append(ii[ok]), cols.append(jj[ok]), vals.append(block[ok])
-        if not rows:
-            return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
-        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
-
     def expand(self, X: np.ndarray) -> np.ndarray:
         U = self._reference().copy()
         U[self.disc.free] = X
@@ -413,20 +403,3 @@ def _roundoff_floor(props: dict[str, np.ndarray]) -> float:
     """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
     stiff = max(float(np.max(v)) for v in props.values())
     return 1e-15 * max(stiff, 1.0)
-
-
-def _moment_work(q: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Generalised force of a dead moment M on q and its Jacobian.
-
-    dphi = 2 (q0 dv - dq0 v + v x dv)/|q|^2, so Q0 = -2 M.v/|q|^2 and
-    Qv = 2 (q0 M + M x v)/|q|^2.
-    """
-    qj = Jet.variables(q.reshape(4, 1))
-    q0, v = qj[0], qj[1:]
-    inv = 1.0 / kin.norm2(qj)
-    Mxv = [M[1] * v[2] - M[2] * v[1], M[2] * v[0] - M[0] * v[2], M[0] * v[1] - M[1] * v[0]]
-    Q = [-2.0 * (M[0] * v[0] + M[1] * v[1] + M[2] * v[2]) * inv]
-    Q += [2.0 * (q0 * M[i] + Mxv[i]) * inv for i in range(3)]
-    g = np.array([c.v[0] for c in Q])
-    jac = np.array([c.g[0] for c in Q])
-    return g, jac
