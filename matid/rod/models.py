@@ -190,13 +190,11 @@ class RodSystem:
             nf = self.disc.nf
             w = self.density(variables[:nf], variables[nf:], lam)
             return w.g, w.h
+        z = self.disc.point_values(U)
+        args = (z, lam, self.props, rod.kappa_ref, mu, rod.B, rod.f, tangent)
         if self.model == PLANAR:
-            vals, ders = self.disc.interpolate(U)
-            args = (vals, ders, lam, self.props, rod.kappa_ref, mu, rod.B, rod.f, tangent)
             out = planar.derivatives(*args, **options)
         else:
-            z = self.disc.point_values(U)
-            args = (z, lam, self.props, rod.kappa_ref, mu, rod.B, rod.f, tangent)
             out = full.derivatives(*args, variant=self.variant, c_u=self.c_u, **options)
         if self.mixed and tangent:
             self._strain = out[2]
