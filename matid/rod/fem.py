@@ -304,6 +304,12 @@ class Discretisation:
         u = max(u, 3 * nf - 1)  # node-local point blocks fit in any case
         self.band_u, self.band_order, self.band_position = u, order, position
         self.band_flat = (u + rows - cols) * nfree + cols  # index into ab.ravel()
+        # the same for every entry of the element matrices in their natural layout (e, i, j, c, d)
+        # of :meth:`element_blocks`, entries on a fixed dof sent to one slot past the band
+        nloc = self.edofs.shape[0]
+        full = np.full((self.ne, nloc, nf, nloc, nf), (2 * u + 1) * nfree)
+        full.reshape(self.ne, m * m)[self.keep_mask.reshape(self.ne, m * m)] = self.band_flat
+        self.band_all = np.ascontiguousarray(full.transpose(0, 1, 3, 2, 4)).ravel()
 
     def interpolate(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Field values and s-derivatives at the quadrature points, each (nf, ne, nq)."""
@@ -325,19 +331,6 @@ class Discretisation:
             cached = self._P = (self.dphi, np.ascontiguousarray(table.reshape(ne, nq * 2, -1)))
         return cached[1]
 
-    def element_matrices(self, H: np.ndarray) -> np.ndarray:
-        """Element matrices (ne, nloc*nf, nloc*nf), local order (i, c), from the pointwise Hessian.
-
-        K_e = sum_q sum_(k,l) T_(kl)(q) (x) H_(kl)(q): a batched matmul with the tables
-        T = [phi, phi'] dx [phi, phi']^T precomputed once per mesh (no einsum path search).
-        """
-        ne, nq, nf = self.ne, H.shape[1], self.nf
-        T = self._tables()  # (ne, nq*4, nloc*nloc)
-        H4 = H.reshape(ne, nq, 2, nf, 2, nf).transpose(0, 1, 2, 4, 3, 5).reshape(ne, nq * 4, nf * nf)
-        K = np.matmul(T.transpose(0, 2, 1), H4)  # (ne, nloc*nloc, nf*nf)
-        nloc = self.phi.shape[0]
-        return K.reshape(ne, nloc, nloc, nf, nf).transpose(0, 1, 3, 2, 4).reshape(ne, nloc * nf, nloc * nf)
-
     def _tables(self) -> np.ndarray:
         T = self.__dict__.get("_T")
         if T is None or T[0] is not self.weighted:
@@ -348,11 +341,23 @@ class Discretisation:
             self._T = T
         return T[1]
 
-    def banded(self, Ke: np.ndarray, symmetric: bool) -> Banded:
-        """The free-dof tangent in band storage from element matrices (one bincount)."""
+    def element_blocks(self, H: np.ndarray) -> np.ndarray:
+        """Element matrices from the pointwise Hessian, in the layout of the product (ne, nloc, nloc,
+        nf, nf).
+
+        K_e = sum_q sum_(k,l) T_(kl)(q) (x) H_(kl)(q): a batched matmul with the tables
+        T = [phi, phi'] dx [phi, phi']^T precomputed once per mesh (no einsum path search).
+        """
+        ne, nq, nf = self.ne, H.shape[1], self.nf
+        H4 = H.reshape(ne, nq, 2, nf, 2, nf).transpose(0, 1, 2, 4, 3, 5).reshape(ne, nq * 4, nf * nf)
+        return np.matmul(self._tables().transpose(0, 2, 1), H4)
+
+    def tangent(self, H: np.ndarray, symmetric: bool) -> Banded:
+        """The free-dof tangent in band storage from the pointwise Hessian (one product, one bincount)."""
         n, u = self.band_order.size, self.band_u
-        ab = np.bincount(self.band_flat, weights=Ke.ravel()[self.keep_mask], minlength=(2 * u + 1) * n)
-        out = Banded(ab.reshape(2 * u + 1, n), u, self.band_order, symmetric)
+        size = (2 * u + 1) * n
+        ab = np.bincount(self.band_all, weights=self.element_blocks(H).ravel(), minlength=size + 1)
+        out = Banded(ab[:size].reshape(2 * u + 1, n), u, self.band_order, symmetric)
         out.position = self.band_position
         return out
 

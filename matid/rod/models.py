@@ -312,7 +312,7 @@ class RodSystem:
         self.last_points = (U, g, H)  # pointwise derivatives of this evaluation (bend: dR/dsigma)
         if self.banded:
             R = self.disc.residual(g)
-            K = self.disc.banded(self.disc.element_matrices(H), self.symmetric) if tangent else None
+            K = self.disc.tangent(H, self.symmetric) if tangent else None
         else:
             R, K = self.disc.assemble(g, H)
         Rp, blocks = self.point_terms(U, lam)
