@@ -255,12 +255,20 @@ class Discretisation:
         index[self.free] = np.arange(nfree)
         local = index[self.gdofs]
         self.keep_mask = ((local[:, :, None] >= 0) & (local[:, None, :] >= 0)).ravel()
-        self._index, self._pattern = index, None
+        self._index, self._pattern, self._blocks = index, None, {}
         self._band_pattern(index, nfree)
 
     def block_pattern(self, dofs: np.ndarray) -> BlockPattern:
-        """The :class:`BlockPattern` of blocks on ``dofs`` (k, m) under the current free set."""
+        """The :class:`BlockPattern` of blocks on ``dofs`` (k, m) under the current free set
+        (remembered per mesh and free set: the systems of a scene share them)."""
         dofs = np.atleast_2d(dofs)
+        key = (dofs.shape, dofs.tobytes())
+        hit = self._blocks.get(key)
+        if hit is None:
+            hit = self._blocks[key] = self._block_pattern(dofs)
+        return hit
+
+    def _block_pattern(self, dofs: np.ndarray) -> BlockPattern:
         k, m = dofs.shape
         idx = self._index[dofs]
         ii = np.broadcast_to(idx[:, :, None], (k, m, m)).ravel()

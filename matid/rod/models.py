@@ -146,11 +146,14 @@ class RodSystem:
         return U.ravel()
 
     def _reference(self) -> np.ndarray:
-        """:meth:`reference`, cached per mesh (the fixed dofs of :meth:`expand`)."""
-        cached = self.__dict__.get("_ref")
-        if cached is None or cached[0] is not self.disc:
-            cached = self._ref = (self.disc, self.reference())
-        return cached[1]
+        """:meth:`reference`, cached per mesh and model (the fixed dofs of :meth:`expand`); read-only."""
+        cache = self.disc.__dict__.setdefault("_references", {})
+        hit = cache.get(self.model)
+        if hit is None or hit[0] is not self.disc.s_dof:  # a moved mesh shares the dict, not s_dof
+            U = self.reference()
+            U.flags.writeable = False
+            hit = cache[self.model] = (self.disc.s_dof, U)
+        return hit[1]
 
     # -- energy density -------------------------------------------------------
     def density(self, u: list, du: list, lam: float):
