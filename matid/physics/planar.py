@@ -12,7 +12,8 @@ J = d(nu1, nu3)/d(t, x', z') = [[-nu3, c, -s], [nu1, s, c]],
     G_tt = -n.nu,  G_(t, x') = -s n1 + c n3,  G_(t, z') = -c n1 - s n3
 
 (G = n1 Hess(nu1) + n3 Hess(nu3)), g_t' = E_b (t' - lam k_ref), H_t't' = E_b, plus the
-field term in t. In the mixed tangent (:meth:`matid.rod.models.RodSystem.mixed_update`) n in
+field term in t. Written entry by entry: on a few dozen points numpy's cost is per
+operation, and this is the fewest. In the mixed tangent (:meth:`matid.rod.models.RodSystem.mixed_update`) n in
 G is the iteration's independent point stress instead of that of the displacements.
 The same model as the jets of :meth:`RodSystem.density` (compared in the tests).
 """
@@ -20,10 +21,6 @@ The same model as the jets of :meth:`RodSystem.density` (compared in the tests).
 from __future__ import annotations
 
 import numpy as np
-
-#: (t, x', z') among the point variables, and the (row, column) pairs of their 3 x 3 block
-ACTIVE = np.array([2, 3, 4])
-_ROWS, _COLS = np.meshgrid(ACTIVE, ACTIVE, indexing="ij")
 
 
 def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None, want_strain=False):
@@ -38,45 +35,45 @@ def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None
     shape = z.shape[:-1]
     z = z.reshape(-1, 6)
     n = z.shape[0]
-    th = z[:, 2]
+    th, dx, dz = z[:, 2], z[:, 3], z[:, 4]
     c, s = np.cos(th), np.sin(th)
-    J = np.empty((n, 2, 3))  # d(nu1, nu3)/d(t, x', z')
-    J[:, 0, 1], J[:, 0, 2], J[:, 1, 1], J[:, 1, 2] = c, -s, s, c
-    nu = np.matmul(J[:, :, 1:], z[:, 3:5, None])[:, :, 0]  # (nu1, nu3)
-    J[:, 0, 0], J[:, 1, 0] = -nu[:, 1], nu[:, 0]
-    C = np.empty((n, 2))
-    C[:, 0], C[:, 1] = props["E_s"].ravel(), props["E_e"].ravel()
-    force = C * (nu - (0.0, 1.0))  # (n1, n3) in the director frame
-    Eb = props["E_b"].ravel()
+    nu1, nu3 = dx * c - dz * s, dx * s + dz * c
+    Es, Ee, Eb = props["E_s"].ravel(), props["E_e"].ravel(), props["E_b"].ravel()
+    n1, n3 = Es * nu1, Ee * (nu3 - 1.0)
     g = np.empty((n, 6))
     g[:, 0], g[:, 1] = -lam * f[0], -lam * f[2]
-    g[:, 2:5] = np.matmul(force[:, None, :], J)[:, 0, :]
+    g[:, 2] = n3 * nu1 - n1 * nu3
+    g[:, 3] = n1 * c + n3 * s
+    g[:, 4] = n3 * c - n1 * s
     g[:, 5] = Eb * (z[:, 5] - lam * kappa_ref[1])
     if mu is not None:
-        mu = lam * np.ravel(mu)
+        mu = lam * mu.ravel()
         g[:, 2] -= mu * (c * B[0] - s * B[2])
     if not tangent:
         return (g.reshape(shape + (6,)), None, None) if want_strain else (g.reshape(shape + (6,)), None)
-    CJ = C[:, :, None] * J
+    Esc, Ess, Eec, Ees = Es * c, Es * s, Ee * c, Ee * s
+    a, b = -Es * nu3, Ee * nu1  # C J on t: (E_s dnu1/dt, E_e dnu3/dt)
     strain = None
-    if want_strain:  # stress of the displacement field and C J, for the mixed update
-        CJ6 = np.zeros((n, 2, 6))
-        CJ6[:, :, 2:5] = CJ
-        strain = (force.reshape(shape + (2,)), CJ6.reshape(shape + (2, 6)))
+    if want_strain:
+        CJ = np.zeros((n, 2, 6))
+        CJ[:, 0, 2], CJ[:, 0, 3], CJ[:, 0, 4] = a, Esc, -Ess
+        CJ[:, 1, 2], CJ[:, 1, 3], CJ[:, 1, 4] = b, Ees, Eec
+        force = np.empty((n, 2))
+        force[:, 0], force[:, 1] = n1, n3
+        strain = (force.reshape(shape + (2,)), CJ.reshape(shape + (2, 6)))
     if stress is not None:
-        force = stress.reshape(n, 2)
-    n1, n3 = force[:, 0], force[:, 1]
-    A = np.matmul(J.transpose(0, 2, 1), CJ)  # J^T C J on (t, x', z')
-    A[:, 0, 0] -= np.einsum("pk,pk->p", force, nu)
-    gtx, gtz = n3 * c - n1 * s, -n1 * c - n3 * s
-    A[:, 0, 1] += gtx
-    A[:, 1, 0] += gtx
-    A[:, 0, 2] += gtz
-    A[:, 2, 0] += gtz
-    if mu is not None:
-        A[:, 0, 0] += mu * (s * B[0] + c * B[2])
+        stress = stress.reshape(n, 2)
+        n1, n3 = stress[:, 0], stress[:, 1]
     H = np.zeros((n, 6, 6))
-    H[:, _ROWS, _COLS] = A
+    h22 = b * nu1 - a * nu3 - n1 * nu1 - n3 * nu3
+    if mu is not None:
+        h22 += mu * (s * B[0] + c * B[2])
+    H[:, 2, 2] = h22
+    H[:, 2, 3] = H[:, 3, 2] = a * c + b * s - n1 * s + n3 * c
+    H[:, 2, 4] = H[:, 4, 2] = b * c - a * s - n1 * c - n3 * s
+    H[:, 3, 3] = Esc * c + Ees * s
+    H[:, 3, 4] = H[:, 4, 3] = Ees * c - Ess * c
+    H[:, 4, 4] = Ess * s + Eec * c
     H[:, 5, 5] = Eb
     g, H = g.reshape(shape + (6,)), H.reshape(shape + (6, 6))
     return (g, H, strain) if want_strain else (g, H)
