@@ -59,6 +59,7 @@ A_S = A.reshape(3, 16)  # s @ A_S = sum_i s_i A_i
 Q_S = Q.reshape(9, 16)  # (r' (x) s) @ Q_S = sum_ji r'_j s_i Q_ji
 # local variables y = (q, r', q') of z = (r, q, r', q')
 YQ, YR, YP = slice(0, 4), slice(4, 7), slice(7, 11)
+_I4 = np.arange(4)
 #: exponents p of n2 per strain row (kappa 1-3, nu 1-3, d3.B)
 POWERS = {kin.NORMALISED: np.full(7, -1.0), kin.RAW: np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0])}
 
@@ -111,9 +112,9 @@ def derivatives(
     W = linear_maps(tuple(float(b) for b in B))
     F, gF, Qq = _numerators(z, z @ W, mu is not None)
     M = W[3:7, 60:64] if mu is not None else None
-    gn2 = 2.0 * q
-    ge = a[:, :, None] * gF
-    ge[:, :, YQ] += (a1 * F)[:, :, None] * gn2[:, None, :]
+    gn2 = np.zeros((n, 11))
+    gn2[:, YQ] = 2.0 * q
+    ge = a[:, :, None] * gF + (a1 * F)[:, :, None] * gn2[:, None, :]
     C = np.empty((n, 6))
     C[:, 0] = C[:, 1] = props["E_b"].ravel()
     C[:, 2], C[:, 3], C[:, 5] = props["E_t"].ravel(), props["E_s"].ravel(), props["E_e"].ravel()
@@ -140,8 +141,7 @@ def derivatives(
         s = s.copy()
         s[:, :6] = stress.reshape(n, 6)
     H = np.zeros((n, 14, 14))
-    H[:, 3:, 3:] = np.matmul(ge6.transpose(0, 2, 1), Cge)
-    H[:, 3:, 3:] += _geometric(s, a, a1, power, n2, F, gF, gn2, dr, Qq, M, penalty, c_u)
+    H[:, 3:, 3:] = _hessian(ge6, Cge, s, a, a1, power, n2, F, gF, gn2, dr, Qq, M, penalty, c_u)
     g, H = g.reshape(shape + (14,)), H.reshape(shape + (14, 14))
     return (g, H, strain) if want_strain else (g, H)
 
@@ -171,40 +171,44 @@ def _numerators(z, Wz, magnetic):
 
 def _gradient(s, a, a1, F, gF, gn2, penalty):
     """sum_k s_k grad e_k (+ the raw penalty's c_u (n2 - 1) grad n2) over y."""
-    y = np.einsum("pk,pka->pa", s * a, gF)
     c1 = np.einsum("pk,pk->p", s * a1, F)
     if penalty is not None:
         c1 = c1 + penalty
-    y[:, YQ] += c1[:, None] * gn2
-    return y
+    return np.einsum("pk,pka->pa", s * a, gF) + c1[:, None] * gn2
 
 
-def _geometric(s, a, a1, power, n2, F, gF, gn2, dr, Qq, M, penalty, c_u):
-    """sum_k s_k Hess e_k (+ the raw penalty's Hessian) over y."""
+def _hessian(ge6, Cge, s, a, a1, power, n2, F, gF, gn2, dr, Qq, M, penalty, c_u):
+    """sum_k C_k grad e_k grad e_k^T + sum_k s_k Hess e_k (+ the raw penalty's Hessian) over y.
+
+    The rank-one terms of the chain rule, V grad n2^T + grad n2 V^T + c2 grad n2 grad n2^T with
+    V = sum_k s_k a'_k grad F_k, ride in the same batched product as J^T C J: rows
+    [grad e (6), grad n2, V] against [C grad e, c2 grad n2 + V, grad n2]."""
     n = s.shape[0]
     sa, sa1 = s * a, s * a1
-    HS = np.zeros((n, 11, 11))
-    HS[:, YQ, YP] = (sa[:, :3] @ A_S).reshape(n, 4, 4)
-    HS[:, YP, YQ] = HS[:, YQ, YP].transpose(0, 2, 1)
-    rs = (dr[:, :, None] * sa[:, None, 3:6]).reshape(n, 9)
-    HS[:, YQ, YQ] = 2.0 * (rs @ Q_S).reshape(n, 4, 4)
-    if M is not None:  # Hess (q^T M q) = 2 M
-        HS[:, YQ, YQ] += 2.0 * sa[:, 6, None, None] * M
-    HS[:, YQ, YR] = 2.0 * np.einsum("pi,pjia->paj", sa[:, 3:6], Qq)  # the nu rows' q-r' block
-    HS[:, YR, YQ] = HS[:, YQ, YR].transpose(0, 2, 1)
-    V = np.einsum("pk,pka->pa", sa1, gF)  # sum_k s_k a'_k grad F_k
-    HS[:, :, YQ] += V[:, :, None] * gn2[:, None, :]
-    HS[:, YQ, :] += gn2[:, :, None] * V[:, None, :]
     a2 = power * (power - 1.0) * a / (n2 * n2)[:, None]
     c2 = np.einsum("pk,pk->p", s * a2, F)
     c1 = 2.0 * np.einsum("pk,pk->p", sa1, F)
     if penalty is not None:
         c2 = c2 + c_u
         c1 = c1 + 2.0 * penalty
-    HS[:, YQ, YQ] += c2[:, None, None] * (gn2[:, :, None] * gn2[:, None, :])
-    idx = np.arange(4)
-    HS[:, idx, idx] += c1[:, None]
-    return HS
+    V = np.einsum("pk,pka->pa", sa1, gF)
+    rows, cols = np.empty((n, 8, 11)), np.empty((n, 8, 11))
+    rows[:, :6], rows[:, 6], rows[:, 7] = ge6, gn2, V
+    cols[:, :6], cols[:, 6], cols[:, 7] = Cge, c2[:, None] * gn2 + V, gn2
+    H = np.matmul(rows.transpose(0, 2, 1), cols)
+    S = (sa[:, :3] @ A_S).reshape(n, 4, 4)  # sum_i s_i A_i: the kappa rows' q-q' block
+    H[:, YQ, YP] += S
+    H[:, YP, YQ] += S.transpose(0, 2, 1)
+    rs = (dr[:, :, None] * sa[:, None, 3:6]).reshape(n, 9)
+    Hqq = 2.0 * (rs @ Q_S).reshape(n, 4, 4)
+    if M is not None:  # Hess (q^T M q) = 2 M
+        Hqq += 2.0 * sa[:, 6, None, None] * M
+    Hqq[:, _I4, _I4] += c1[:, None]
+    H[:, YQ, YQ] += Hqq
+    T = 2.0 * np.einsum("pi,pjia->paj", sa[:, 3:6], Qq)  # the nu rows' q-r' block
+    H[:, YQ, YR] += T
+    H[:, YR, YQ] += T.transpose(0, 2, 1)
+    return H
 
 
 def magnet(q: np.ndarray, B, variant: str = kin.NORMALISED) -> tuple[np.ndarray, np.ndarray]:
