@@ -192,6 +192,10 @@ class Discretisation:
         values = np.flatnonzero(~self.slope)
         #: scalar dofs that are point values, ordered along s (the output points of a solution)
         self.value_dofs = values[np.argsort(self.s_dof[values], kind="stable")]
+        elem, nodal = t.basis.elem, t.basis.nodal_dofs
+        rows = [r for r, name in enumerate(elem.dofnames[: elem.nodal_dofs]) if name == "u_x"]
+        #: (value dof, slope dof) of each vertex of an element with slopes (Hermite), else empty
+        self.slope_pairs = (nodal[0], nodal[rows[0]]) if rows else (np.zeros(0, int), np.zeros(0, int))
         self._vertices = vertices.copy()
         self.n = self.nscalar * nf
         self.weighted = np.stack([self.phi, self.dphi]) * self.dx[None, None]  # (2, nloc, ne, nq)

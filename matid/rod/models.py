@@ -263,6 +263,11 @@ class RodSystem:
             self._patterns["moment"] = disc.block_pattern(self._tip[3:])
             self._gauge_dofs = disc.value_dofs[:, None] * nf + 3 + np.arange(4)[None, :]
             self._patterns["gauge"] = disc.block_pattern(self._gauge_dofs)
+            values, slopes = disc.slope_pairs  # Hermite: (q, q') at each vertex
+            self._slope_dofs = np.concatenate([values[:, None] * nf, slopes[:, None] * nf], axis=1)[
+                :, [0, 0, 0, 0, 1, 1, 1, 1]
+            ] + np.tile(3 + np.arange(4), 2)
+            self._patterns["slopes"] = disc.block_pattern(self._slope_dofs) if values.size else None
 
     def point_terms(self, U: np.ndarray, lam: float) -> tuple[np.ndarray, list]:
         """Residual of the point loads (all dofs) and their tangent blocks [(pattern, blocks)]."""
@@ -305,7 +310,27 @@ class RodSystem:
         R[dofs] = (2.0 * self.c_u) * e[:, None] * Q
         H = (4.0 * self.c_u) * (Q[:, :, None] * Q[:, None, :])
         H[:, _DIAG4, _DIAG4] += (2.0 * self.c_u) * e[:, None]
-        return R, [(self._patterns["gauge"], H)]
+        blocks = [(self._patterns["gauge"], H)]
+        if self._patterns["slopes"] is not None:
+            Rs, Hs = self._slope_gauge(U)
+            R += Rs
+            blocks.append((self._patterns["slopes"], Hs))
+        return R, blocks
+
+    def _slope_gauge(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """c_u/2 (q.q')^2 at each vertex of an element with slopes (the Hermite): d|q|^2/ds = 0
+        there, the slopes' share of the null direction |q| (the values' is the penalty above)."""
+        dofs = self._slope_dofs
+        Y = U[dofs]  # (k, 8): q, q'
+        q, p = Y[:, :4], Y[:, 4:]
+        w = np.einsum("ka,ka->k", q, p)
+        R = np.zeros_like(U)
+        R[dofs] = self.c_u * w[:, None] * Y[:, [4, 5, 6, 7, 0, 1, 2, 3]]
+        swapped = Y[:, [4, 5, 6, 7, 0, 1, 2, 3]]  # d(q.q')/d(q, q') = (q', q)
+        H = self.c_u * (swapped[:, :, None] * swapped[:, None, :])
+        H[:, _DIAG4, _DIAG4 + 4] += self.c_u * w[:, None]
+        H[:, _DIAG4 + 4, _DIAG4] += self.c_u * w[:, None]
+        return R, H
 
     # -- residual and tangent on the free dofs ---------------------------------
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):
