@@ -220,26 +220,41 @@ class Discretisation:
     def moved(self, vertices: np.ndarray) -> Discretisation:
         """A copy on moved vertices (same topology), by rescaling the affine 1D basis tables.
 
-        phi is unchanged, phi' and dx scale with each element's length: cheap
-        enough to differentiate the residual with respect to vertex positions.
+        With r = h_new/h_old per element: phi is unchanged, phi' scales by 1/r and dx by r,
+        so the assembly tables [phi, phi'] dx (x) [phi, phi'] scale by (r, 1, 1, 1/r): cheap
+        enough to move the mesh at every Newton iteration (the bend's contact section).
         """
         if self.slope.any():  # a global element (Hermite): its shape functions do not just rescale
             raise ValueError(f"moved: only affine-mapped elements, not {self.element}")
         new = object.__new__(Discretisation)
         new.__dict__.update(self.__dict__)
         vertices = np.asarray(vertices, float)
-        ratio = (np.diff(vertices) / np.diff(self._vertices))[:, None]
+        h_new = np.diff(vertices)
+        r = (h_new / np.diff(self._vertices))[:, None]
         new._vertices = vertices
-        new.dphi = self.dphi / ratio[None]
-        new.dx = self.dx * ratio
-        new.s_quad = vertices[:-1, None] + (self.s_quad - self._vertices[:-1, None]) * ratio
+        new.dphi = self.dphi / r[None]
+        new.dx = self.dx * r
+        new.s_quad = vertices[:-1, None] + (self.s_quad - self._vertices[:-1, None]) * r
         new.s_dof = np.empty(self.nscalar)  # each dof keeps its place in its element
-        h_old, h_new = np.diff(self._vertices), np.diff(vertices)
-        t = (self.s_dof[self.edofs] - self._vertices[:-1]) / h_old  # (nloc, ne) local coordinates
-        new.s_dof[self.edofs] = vertices[:-1] + t * h_new
-        new.weighted = np.stack([new.phi, new.dphi]) * new.dx[None, None]
-        new.both = np.stack([new.phi, new.dphi])
+        new.s_dof[self.edofs] = vertices[:-1] + self._local() * h_new
+        one = np.ones_like(r)
+        new.weighted = self.weighted * np.stack([r, one])[:, None]  # (2, 1, ne, 1)
+        new.both = self.both * np.stack([one, 1.0 / r])[:, None]
+        ne, nq = self.dx.shape
+        kl = np.stack([r, one, one, 1.0 / r], axis=1)[:, None, :, :]  # (ne, 1, 4, 1)
+        T = self._tables().reshape(ne, nq, 4, -1) * kl
+        new._T = (new.weighted, T.reshape(ne, nq * 4, -1))
+        P = self._point_table().reshape(ne, nq, 2, -1) * np.stack([one, 1.0 / r], axis=1)[:, None, :, :]
+        new._P = (new.dphi, P.reshape(ne, nq * 2, -1))
         return new
+
+    def _local(self) -> np.ndarray:
+        """Local coordinate in [0, 1] of each element dof (nloc, ne): where a moved mesh puts it."""
+        cached = self.__dict__.get("_t")
+        if cached is None:
+            v = self._vertices
+            cached = self._t = (self.s_dof[self.edofs] - v[:-1]) / np.diff(v)
+        return cached
 
     def vertex_dof(self, index: int) -> int:
         """Scalar dof of the value at mesh vertex ``index`` (scikit-fem's first nodal dof)."""
