@@ -1,17 +1,19 @@
-"""1D finite elements for the rod: scikit-fem basis tables, one vectorised assembly.
+"""1D finite elements for the rod on scikit-fem: one Basis per mesh, one vectorised assembly.
 
 The total energy is  E(U) = sum_e sum_q dx_eq  w(u_eq, u'_eq)  plus point terms.
-With the pointwise gradient g = dw/d(u, u') and Hessian H (from
-:mod:`matid.physics.jet`) and the basis tables phi, phi' of scikit-fem,
+With the pointwise gradient g = dw/d(u, u') and Hessian H (the closed forms of
+:mod:`matid.physics.planar` and :mod:`matid.physics.full`) and the tables phi, phi',
+dx and the DOF map of a scikit-fem ``Basis(MeshLine(s), element, intorder=...)``,
 
     R_(i,c) = sum_q dx [g_c phi_i + g_c' phi_i']
     K_(i,c)(j,d) = sum_q dx [phi_i, phi_i'] H_(c,d) [phi_j, phi_j']^T
 
-are a pair of einsums over all elements at once; the sparse pattern is built
-once and each assembly is a single ``bincount``. No Python loop over elements.
-Unknowns are interleaved per scalar P2 dof: global dof = k * nf + c.
+are batched matrix products over all elements at once, the same code for every
+element (P1, P2, the cubic Hermite whose dofs are values and slopes); the scatter
+patterns are built once per mesh and each assembly is a single ``bincount`` into band
+storage (:mod:`matid.rod.band`). No Python loop over elements. Unknowns are
+interleaved per scalar dof: global dof = k * nf + c.
 """
-
 from __future__ import annotations
 
 import functools
@@ -19,8 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import lapack
 from skfem import Basis, ElementLineHermite, ElementLineP1, ElementLineP2, MeshLine
+
+from matid.rod.band import Banded, BlockPattern
 
 #: The rod's elements: scikit-fem's; "Hermite" is the paper's cubic (values and slopes at vertices).
 ELEMENTS = {"P2": ElementLineP2, "P1": ElementLineP1, "Hermite": ElementLineHermite}
@@ -39,97 +42,6 @@ class Pattern:
     def matrix(self, values: np.ndarray) -> sp.csr_matrix:
         data = np.bincount(self.inverse, weights=values.ravel()[self.keep], minlength=self.indices.size)
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
-
-
-@dataclass(frozen=True)
-class BlockPattern:
-    """Where dense node-local blocks on global ``dofs`` (k, m) land in the free-dof tangent: the
-    kept entries (both dofs free) of the (k, m, m) blocks, their free-dof rows and columns (CSR)
-    and their positions in the band storage (built once per system)."""
-
-    dofs: np.ndarray
-    keep: np.ndarray
-    rows: np.ndarray
-    cols: np.ndarray
-    flat: np.ndarray
-
-
-class Banded:
-    """A free-dof tangent in LAPACK band storage, dofs ordered along s (half-bandwidth ``u``).
-
-    ``ab[u + i - j, j] = K[i, j]`` in band order; ``order[k]`` is the free dof at band
-    position k. P2 couples three consecutive nodes, so u = 3 nf - 1 whatever the mesh
-    size: a Newton step costs O(n u^2) with no sparse bookkeeping.
-    """
-
-    def __init__(self, ab: np.ndarray, u: int, order: np.ndarray, symmetric: bool):
-        self.ab, self.u, self.order, self.symmetric = ab, u, order, symmetric
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return (self.ab.shape[1], self.ab.shape[1])
-
-    def add_blocks(self, rows: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> None:
-        """Add entries given in free-dof numbering (must lie in the band)."""
-        pos = self.position[rows]
-        col = self.position[cols]
-        np.add.at(self.ab, (self.u + pos - col, col), vals)
-
-    def add(self, pattern: BlockPattern, blocks: np.ndarray) -> None:
-        """Add dense blocks (k, m, m) laid out by ``pattern`` (no two entries of one pattern share
-        a position: node-local blocks on distinct dofs)."""
-        flat = self.ab.reshape(-1)  # a view: ab is C-contiguous
-        flat[pattern.flat] += blocks.reshape(-1)[pattern.keep]
-
-    def tocsr(self) -> sp.csr_matrix:
-        """The matrix in free-dof numbering (tests, eigenvalue checks)."""
-        n, u = self.shape[0], self.u
-        dense = np.zeros((n, n))
-        for k in range(-u, u + 1):
-            j = np.arange(max(0, -k), min(n, n - k))
-            dense[j + k, j] = self.ab[u + k, j]
-        out = np.empty_like(dense)
-        out[np.ix_(self.order, self.order)] = dense
-        return sp.csr_matrix(out)
-
-    def tocsc(self) -> sp.csc_matrix:
-        return self.tocsr().tocsc()
-
-    def factor(self) -> BandFactor:
-        """Cholesky (LAPACK pbtrf) when symmetric and positive definite, else banded LU (gbtrf).
-
-        A successful Cholesky is the stability test of the state (every pivot > 0).
-        """
-        u, n = self.u, self.shape[0]
-        if self.symmetric:
-            c, info = lapack.dpbtrf(self.ab[u:], lower=1)
-            if info == 0:
-                return BandFactor(self, c, None, True)
-        lu_ab = np.zeros((3 * u + 1, n))
-        lu_ab[u:] = self.ab
-        lu, piv, info = lapack.dgbtrf(lu_ab, u, u)
-        if info != 0:
-            raise np.linalg.LinAlgError(f"singular tangent (zero pivot {info})")
-        return BandFactor(self, lu, piv, False if self.symmetric else None)
-
-
-class BandFactor:
-    """A factorised :class:`Banded`; ``positive_definite`` is True (Cholesky succeeded), False
-    (symmetric, Cholesky failed: not a stable state) or None (unsymmetric: no test)."""
-
-    def __init__(self, matrix: Banded, factor: np.ndarray, piv: np.ndarray | None, positive_definite):
-        self.matrix, self.factor_, self.piv, self.positive_definite = matrix, factor, piv, positive_definite
-
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        m = self.matrix
-        rhs = b[m.order]
-        if self.piv is None:
-            x, info = lapack.dpbtrs(self.factor_, rhs, lower=1)
-        else:
-            x, info = lapack.dgbtrs(self.factor_, m.u, m.u, rhs, self.piv)
-        out = np.empty_like(x)
-        out[m.order] = x
-        return out
 
 
 @dataclass(frozen=True)

@@ -104,7 +104,7 @@ class RodSystem:
     c_u: float = 1.0
     fixed: tuple[int, ...] | None = None  # fixed global dofs; default: clamp at s = 0
     analytic: bool = True  # planar: closed-form derivatives (False: jets, the cross-check)
-    banded: bool = False  # tangent in band storage (fem.Banded: LAPACK Cholesky/LU) instead of CSR
+    banded: bool = False  # tangent in band storage (band.Banded: LAPACK Cholesky/LU) instead of CSR
     mixed: bool = False  # mixed-integration-point tangent in Newton (see mixed_update)
     terms: list[str] = field(default_factory=list)
 

@@ -142,7 +142,7 @@ def _stagnation(size: float, first: float) -> RoundoffStagnation:
 
 
 def _factor(K) -> object:
-    if hasattr(K, "factor"):  # fem.Banded: LAPACK banded Cholesky, or LU when not positive definite
+    if hasattr(K, "factor"):  # band.Banded: LAPACK banded Cholesky, or LU when not positive definite
         try:
             return K.factor()
         except np.linalg.LinAlgError as exc:

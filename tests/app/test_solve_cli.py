@@ -129,5 +129,3 @@ def test_console_script_runs(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "tip at (25.0256, 0, 8.71892) mm" in proc.stdout
     assert json.loads((tmp_path / "solution.json").read_text())["elements"] == 20
-
-
