@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from pathlib import Path
@@ -193,13 +192,10 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=Path)
     parser.add_argument("--only", default="load_point,es_fit,demo,tube3d")
     args = parser.parse_args(argv)
-    # the steady state of a process that fits on: the bend kernel from the first system (a short
-    # process, e.g. matid demo, stays on numpy until matid.rod.bend_compiled.WARMUP evaluations)
-    os.environ.setdefault("MATID_JIT", "1")
     counter = Counter()
     parts = args.only.split(",")
     doc = {"matid": str(Path(shear.__file__).resolve().parents[2])}
-    print(f"matid {doc['matid']}, MATID_JIT={os.environ['MATID_JIT']}")
+    print(f"matid {doc['matid']}")
     if "load_point" in parts:
         doc["load_point"] = lp = load_point(args.repeat)
         print(
