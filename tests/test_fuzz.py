@@ -102,7 +102,7 @@ def test_a_full_disk_leaves_the_old_report_whole(tmp_path, capsys):
         old = fuzzkit.old_report(out)
         code = main(["fit", str(_study(tmp_path / "study")), "--out", str(out), "--quiet"])
         err = capsys.readouterr().err
-        assert code == 1
+        assert code == 4  # docs/contract.md section 5: the outputs could not be written
         assert "No space left on device" in err and "unchanged" in err and str(out) in err
         assert fuzzkit.folder_state(out, old) == "old"
     finally:

@@ -10,7 +10,13 @@ runs in a ``_cmd_<name>(args) -> int`` function: ``fit`` and ``demo`` here,
 - 1: some fits failed (the rest written, reasons printed), a warning under
   ``--strict``, or another MatidError (solve: no convergence, nothing written);
 - 2: the input cannot be used (DataError; also argparse usage errors);
-- 3: an unexpected error (a bug): a short message, the traceback with ``--debug``.
+- 3: an unexpected error (a bug): a short message, the traceback with ``--debug``;
+- 4: the outputs could not be written (a full disk, an I/O error): the previous outputs are
+  unchanged;
+- 130 / 143: stopped by SIGINT (Ctrl-C) / SIGTERM (:mod:`matid.app.exits`).
+
+Messages are printed with control characters escaped (an ESC in a file name never
+reaches the terminal raw).
 
 Progress goes to stderr (unless ``--quiet``); the summary of the stiffnesses,
 the warnings and the output paths go to stdout.
@@ -326,10 +332,13 @@ def _guarded(args: argparse.Namespace) -> int:
     except DataError as exc:
         return _fail(args, exc, 2, str(exc))
     except MatidError as exc:
-        return _fail(args, exc, 1, str(exc))
-    except KeyboardInterrupt:
+        from matid.app.exits import FAILED, NOT_WRITTEN
+        from matid.io.publish import OutputError
+
+        return _fail(args, exc, NOT_WRITTEN if isinstance(exc, OutputError) else FAILED, str(exc))
+    except KeyboardInterrupt as exc:  # SIGINT; SIGTERM during a batch (matid.app.batch.Terminated)
         print("matid: interrupted", file=sys.stderr)
-        return 130
+        return getattr(exc, "exit_code", 130)
     except Exception as exc:
         hint = "" if args.debug else " (rerun with --debug for the traceback)"
         return _fail(args, exc, 3, f"internal error: {type(exc).__name__}: {exc}{hint}")
@@ -338,5 +347,7 @@ def _guarded(args: argparse.Namespace) -> int:
 def _fail(args: argparse.Namespace, exc: BaseException, code: int, message: str) -> int:
     if args.debug:
         traceback.print_exception(exc, file=sys.stderr)
-    print(f"matid: error: {message}", file=sys.stderr)
+    from matid.io.cells import escaped
+
+    print(f"matid: error: {escaped(message)}", file=sys.stderr)
     return code
