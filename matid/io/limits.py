@@ -18,8 +18,8 @@ from __future__ import annotations
 
 #: Largest study.toml read, in bytes (a scene file has the same bound, in matid.rod.scenes).
 MAX_TOML_BYTES = 1 << 20
-#: Deepest nesting of tables and arrays in a study or scene TOML (the document itself is level 0;
-#: ``[[test]]`` with ``window = { force = [..] }`` reaches 4). Python's TOML parser recurses per level.
+#: Deepest nesting in a study or scene TOML: the level of its deepest value (a top-level key is level 1;
+#: ``[[test]]`` with ``window = { force = [..] }`` reaches 5). Python's TOML parser recurses per level.
 MAX_TOML_DEPTH = 16
 #: Longest string value of a TOML key that is not free text (file names, ids, quantities, units).
 MAX_VALUE_CHARS = 4096
