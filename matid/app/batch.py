@@ -296,14 +296,16 @@ class Progress:
             self.bar = Bar(total=total, unit="study", file=self.stream, desc="fitting studies")
 
     def __call__(self, outcome: StudyOutcome) -> None:
+        from matid.io.cells import escaped
+
         self.count += 1
-        status = "done" if outcome.code == 0 else f"exit {outcome.code}"
+        status = escaped(f"{outcome.name}: {'done' if outcome.code == 0 else f'exit {outcome.code}'}")
         if self.bar is not None:
-            self.bar.set_postfix_str(f"{outcome.name}: {status}", refresh=False)
+            self.bar.set_postfix_str(status, refresh=False)
             self.bar.update(1)
         elif not self.quiet:
             elapsed = time.perf_counter() - self.clock
-            print(f"[{elapsed:6.1f} s] {self.count}/{self.total} {outcome.name}: {status} "
+            print(f"[{elapsed:6.1f} s] {self.count}/{self.total} {status} "
                   f"({outcome.runtime_s:.1f} s)", file=self.stream, flush=True)  # fmt: skip
 
     def close(self) -> None:

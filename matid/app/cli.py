@@ -166,6 +166,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def fit_many(args: argparse.Namespace) -> int:
     """``matid fit A B C``: each study into --out/<folder>/, then the summary; exit code the worst."""
     from matid.app.batch import Progress, run_batch
+    from matid.io.cells import escaped
 
     out = args.out or Path("reports")
     progress = Progress(len(args.paths), quiet=args.quiet)
@@ -179,16 +180,16 @@ def fit_many(args: argparse.Namespace) -> int:
     for o in batch.outcomes:
         if o.error:
             error = o.error if args.debug else o.error.split("\n")[0]
-            print(f"matid: {o.name}: error: {error}", file=sys.stderr)
+            print(escaped(f"matid: {o.name}: error: {error}"), file=sys.stderr)
         for failure in o.failures:
-            print(f"matid: {o.name}: fit failed: {failure}", file=sys.stderr)
-    print(batch_summary(batch))
+            print(escaped(f"matid: {o.name}: fit failed: {failure}"), file=sys.stderr)
+    print(escaped(batch_summary(batch)))
     print("outputs:")
     for o in batch.outcomes:
         if o.paths:
-            print(f"  {Path(o.paths[0]).parent}/")
+            print(escaped(f"  {Path(o.paths[0]).parent}/"))
     for path in batch.paths:
-        print(f"  {path}")
+        print(escaped(f"  {path}"))
     return batch.code
 
 
@@ -261,6 +262,7 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
 
 def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: bool, worker) -> int:
     from matid.app import pipeline
+    from matid.io.cells import escaped
     from matid.io.study import load_study
 
     clock = time.perf_counter()
@@ -283,8 +285,8 @@ def _fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: 
             f"matid: fit failed: {_what(failure)}: {failure.reason}",
             file=sys.stderr,
         )
-    print(summary(result, units=units))
-    print("\n".join(_warning_lines(fit_warnings(result))))
+    print(escaped(summary(result, units=units)))  # control characters never reach the terminal raw
+    print(escaped("\n".join(_warning_lines(fit_warnings(result)))))
     print("outputs:")
     for path in paths:
         print(f"  {path}")

@@ -208,3 +208,17 @@ def test_a_stopped_batch_leaves_no_process_and_publishes_nothing_more(four, tmp_
     assert result["code"] == code, result["message"]
     assert fuzzhostile.signal_problem(result, sig) is None
     assert not (out / "summary.csv").exists()  # an interrupted batch writes no summary
+
+
+def test_escape_codes_in_folder_names_never_reach_the_terminal_raw(tmp_path, monkeypatch):
+    """A study folder named with ESC/BEL (its name is the batch's study name) and one that fails:
+    every line printed has them escaped, and summary.csv / summary.xlsx hold them as text."""
+    light_report(monkeypatch)
+    good, bad = bending_study(tmp_path / "=ok\x1b[31m"), small_study(tmp_path / "bell\x07")
+    (bad / "torsion_T1_L60.csv").unlink()
+    code, stdout, err = run(["fit", str(good), str(bad), "--out", str(tmp_path / "out"), "--jobs", "1"])
+    assert code == 2, err
+    assert "\x1b" not in stdout + err and "\x07" not in stdout + err
+    assert "\\x1b[31m" in stdout + err and "\\x07" in err
+    cells = fuzzhostile.formula_cells(tmp_path / "out")
+    assert cells == [] and "=ok" in (tmp_path / "out" / "summary.csv").read_text(encoding="utf-8")
