@@ -258,3 +258,12 @@ def test_a_full_disk_exits_4_and_keeps_the_old_report(tmp_path, monkeypatch):
     assert "No space left on device" in err and "unchanged" in err
     assert fuzzkit.folder_state(out, old) == "old"
     shutil.rmtree(out)
+
+
+def test_a_value_shown_in_a_message_at_the_limit_and_one_past_it():
+    from matid.io.toml import shown
+
+    at = "v" * limits.SHOWN_CHARS
+    assert shown(at) == at
+    assert shown(at + "v") == f"{at}... ({limits.SHOWN_CHARS + 1} characters)"
+    assert shown("a\nb\x1b") == "a\\nb\\x1b"  # one line, nothing raw
