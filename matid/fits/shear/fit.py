@@ -246,10 +246,17 @@ def fit_three_point_bend(
     ``model_form``: relative compliance uncertainty of the rod model against a
     continuum (default :func:`matid.fits.shear.checks.model_form_variance`; 0 for
     data of the rod model itself).
+    ``fixed``: the specimen's [[fixed]] values (SI), held as the lmfit fits hold a
+    ``vary=False`` parameter: a fixed E_b is not fitted with ``fit_E_b`` (its value
+    comes, like E_e's, through ``known``); a fixed E_s leaves nothing to fit.
     """
     t0 = time.perf_counter()
     if not measurements:
         raise FitError("no three-point-bend tests to fit")
+    fixed = fixed or {}
+    if "E_s" in fixed:
+        raise FitError(f"specimen {specimen.id}: E_s is fixed; nothing to fit")
+    fit_E_b = fit_E_b and "E_b" not in fixed
     E_b_est = _held(known, "E_b", specimen.id)
     E_e_est = _held(known, "E_e", specimen.id)
     every = [bend_data(m, specimen, E_b_est.value) for m in measurements]

@@ -14,6 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from matid.errors import FitError
 from matid.example.forward import bend_centreline
 from matid.fits.shear import fit as shear
 from matid.fits.shear import problem as shear_problem
@@ -208,3 +209,18 @@ def test_interpolant_reproduces_cubics_and_bounds_its_error():
     assert np.max(np.abs(force - np.sin(q))) <= np.max(error)
     on = np.isin(q, k)
     assert np.array_equal(force[on], np.sin(q[on])) and np.all(error[on] == 0.0)
+
+
+# --------------------------------------------------------------------------- parameter conventions
+
+
+def test_fixed_E_b_is_held_and_fixed_E_s_leaves_nothing_to_fit():
+    """[[fixed]] values as the lmfit fits treat vary=False parameters."""
+    d, force = rod_curve(SPAN)
+    m = nose_measurement(d, force * (1.0 + 1e-3 * np.sin(np.arange(d.size))), rig(SPAN))
+    held = fit_rod([m], specimen=SPECIMEN, known=known(), fixed={"E_b": E_B}, fit_E_b=True)
+    alone = fit_rod([m], specimen=SPECIMEN, known=known())
+    assert [e.parameter for e in held.estimates] == ["E_s"]  # one span: fit_E_b alone would fail
+    assert held.estimate("E_s").value == alone.estimate("E_s").value
+    with pytest.raises(FitError, match="E_s is fixed"):
+        fit_rod([m], specimen=SPECIMEN, known=known(), fixed={"E_s": E_S})
