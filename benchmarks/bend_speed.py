@@ -206,7 +206,7 @@ def tube3d(counter: Counter) -> dict:
         "E_b": Estimate("E_b", 6.5345e-5, 0.0, None, 0, "linear"),
         "E_e": Estimate("E_e", 125.66, 0.0, None, 0, "sls"),
     }
-    out, folder = {}, Path(shear.__file__).resolve().parents[2] / "tests" / "data" / "tube3d"
+    out, folder = {}, Path(shear.__file__).resolve().parents[3] / "tests" / "data" / "tube3d"
     for span_mm in (8, 20):
         rows = json.loads((folder / f"T{span_mm}.json").read_text())["rows"]
         F = np.r_[0.0, [r["F"] for r in rows]]
@@ -242,7 +242,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     counter = Counter()
     parts = args.only.split(",")
-    doc = {"matid": str(Path(shear.__file__).resolve().parents[2])}
+    doc = {"matid": str(Path(shear.__file__).resolve().parents[3])}
     print(f"matid {doc['matid']}, MATID_JIT={os.environ.get('MATID_JIT', '(unset)')}")
     if "load_point" in parts:
         doc["load_point"] = lp = load_point(args.repeat)
