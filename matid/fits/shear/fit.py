@@ -97,7 +97,7 @@ def bend_data(m: Measurement, specimen: Specimen, E_b: float) -> BendData:
     window = m.in_window()
     if not np.any(F[window] > 0):
         check_plausible(d[window], F[window], span=geometry.span, E_b=E_b, file=m.test.file)
-    c = cut(d, F, window)
+    c = cut(d, F, window, windowed=bool(m.test.window))
     dl, Fl = d[c.used] - c.d0, F[c.used]
     if dl.size < 3 or dl[-1] <= 0:
         raise FitError(f"{m.test.file.name}: fewer than 3 loading points with positive deflection")
