@@ -1,6 +1,6 @@
 """Speed of the three-point bend and the E_s fit (issue 13), with the answers to compare checkouts.
 
-    PYTHONPATH=<checkout> python benchmarks/bend_speed.py [--repeat N] [--json OUT]
+    PYTHONPATH=<checkout> python benchmarks/bend_speed.py [--repeat N] [--json OUT] [--only rows,...]
 
 Measures, in one process of the checkout on PYTHONPATH:
 
@@ -9,6 +9,10 @@ Measures, in one process of the checkout on PYTHONPATH:
   E_s + 1 % from it (warm start, as the E_s fit does); its time / 30, best of N;
 - ``E_s fit``: ``fit_three_point_bend`` on a 30-point curve of the rod model
   (96 elements, 0.2 % noise, seed 1), best of N;
+- ``rows``: ``fit_three_point_bend`` on a 3000-row record of the rod model (48 elements,
+  d to 1 mm, 0.2 % noise, seed 1) and on its 30 evenly spread rows, interleaved
+  (30, 3000, 30, ...), process CPU, best of N; E_s and its standard error of both, the
+  ratio, and the knots (issue 19.7: cost independent of the rows);
 - ``demo``: every three-point-bend fit of the demo study (``matid demo``), its
   time, with E_s, its interval and warnings;
 - ``tube3d``: the continuum tube of ``tests/data/tube3d`` (spans 8 and 20 mm, nose
@@ -24,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from pathlib import Path
@@ -125,6 +128,49 @@ def es_fit(repeat: int, counter: Counter) -> dict:
     return {"seconds": best, "cpu_seconds": cpu, "paths": paths, "newton_iterations": its, **_answer(fit)}
 
 
+def rows(repeat: int, counter: Counter) -> dict:
+    d = np.linspace(0.0, 1e-3, 3000)
+    geometry = bend.BendGeometry(**RIG, outer_diameter=2.4e-3)
+    F = bend.BendModel(geometry, elements=48).solve(E_B, E_S, E_E, d).force
+    F = F + np.random.default_rng(1).normal(0.0, 0.002 * F.max(), F.size)
+    few = np.round(np.linspace(0, d.size - 1, 30)).astype(int)
+    known = {
+        "E_b": Estimate("E_b", E_B, 0.0, None, 0, "linear"),
+        "E_e": Estimate("E_e", E_E, 0.0, None, 0, "sls"),
+    }
+    spec = study.Specimen("T", 2.4e-3, 1.6e-3)
+    out: dict = {30: {"cpu_seconds": np.inf}, 3000: {"cpu_seconds": np.inf}}
+    for _ in range(repeat):
+        for n, rows in ((30, few), (3000, slice(None))):
+            counter.reset()
+            c0 = time.process_time()
+            fit = shear.fit_three_point_bend(
+                [_measurement(d[rows], F[rows], 0.01)],
+                specimen=spec,
+                known=known,
+                local_compliance=(0.0, 0.0),
+                model_form=0.0,
+            )
+            cpu = time.process_time() - c0
+            paths, its = counter.reset()
+            if cpu < out[n]["cpu_seconds"]:
+                est = fit.estimate("E_s")
+                every_row = {"rows": est.n_points, "knots": est.n_points, "error_N": 0.0}  # before 19.7
+                (interp,) = fit.info["fe"].get("interpolation", [every_row])
+                out[n] = {
+                    "cpu_seconds": cpu,
+                    "paths": paths,
+                    "newton_iterations": its,
+                    "E_s": est.value,
+                    "stderr": est.stderr,
+                    "rows": interp["rows"],
+                    "knots": interp["knots"],
+                    "interpolation_error_N": interp["error_N"],
+                }
+    out["ratio"] = out[3000]["cpu_seconds"] / out[30]["cpu_seconds"]
+    return out
+
+
 def demo(counter: Counter) -> dict:
     from matid.app import pipeline
     from matid.app.cli import demo_study_path
@@ -159,7 +205,7 @@ def tube3d(counter: Counter) -> dict:
         "E_b": Estimate("E_b", 6.5345e-5, 0.0, None, 0, "linear"),
         "E_e": Estimate("E_e", 125.66, 0.0, None, 0, "sls"),
     }
-    out, folder = {}, Path(shear.__file__).resolve().parents[2] / "tests" / "data" / "tube3d"
+    out, folder = {}, Path(shear.__file__).resolve().parents[3] / "tests" / "data" / "tube3d"
     for span_mm in (8, 20):
         rows = json.loads((folder / f"T{span_mm}.json").read_text())["rows"]
         F = np.r_[0.0, [r["F"] for r in rows]]
@@ -191,15 +237,12 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--json", type=Path)
-    parser.add_argument("--only", default="load_point,es_fit,demo,tube3d")
+    parser.add_argument("--only", default="load_point,es_fit,rows,demo,tube3d")
     args = parser.parse_args(argv)
-    # the steady state of a process that fits on: the bend kernel from the first system (a short
-    # process, e.g. matid demo, stays on numpy until matid.rod.bend_compiled.WARMUP evaluations)
-    os.environ.setdefault("MATID_JIT", "1")
     counter = Counter()
     parts = args.only.split(",")
-    doc = {"matid": str(Path(shear.__file__).resolve().parents[2])}
-    print(f"matid {doc['matid']}, MATID_JIT={os.environ['MATID_JIT']}")
+    doc = {"matid": str(Path(shear.__file__).resolve().parents[3])}
+    print(f"matid {doc['matid']}")
     if "load_point" in parts:
         doc["load_point"] = lp = load_point(args.repeat)
         print(
@@ -210,6 +253,17 @@ def main(argv=None) -> int:
     if "es_fit" in parts:
         doc["es_fit"] = f = es_fit(max(1, args.repeat // 2 + 1), counter)
         print(f"E_s fit, 30 points: {_line(f)} (CPU {f['cpu_seconds']:.3f} s)")
+    if "rows" in parts:
+        doc["rows"] = rw = rows(args.repeat, counter)
+        for n in (30, 3000):
+            v = rw[n]
+            print(
+                f"E_s fit, {n} rows: CPU {v['cpu_seconds']:.3f} s, {v['paths']} paths, "
+                f"{v['newton_iterations']} Newton its, {v['knots']} knots of {v['rows']} rows "
+                f"(interpolation error <= {v['interpolation_error_N']:.2g} N); "
+                f"E_s {v['E_s']:.6g} +- {v['stderr']:.3g}"
+            )
+        print(f"E_s fit CPU 3000 / 30 rows: {rw['ratio']:.2f}")
     if "demo" in parts:
         doc["demo"] = dm = demo(counter)
         for k, v in dm.items():

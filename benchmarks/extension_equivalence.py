@@ -37,13 +37,13 @@ RECORDS: dict[str, dict] = {}
 _CONTEXT = {"key": "extra", "n": 0}
 
 TESTS = [
-    "tests/test_viscoelastic.py",
-    "tests/test_prony.py",
-    "tests/test_study.py",
-    "tests/test_pipeline.py",
-    "tests/test_example_data.py",
-    "tests/test_results.py",
-    "tests/test_exports.py",
+    "tests/fits/extension/test_viscoelastic.py",
+    "tests/fits/extension/test_prony.py",
+    "tests/io/test_study.py",
+    "tests/app/test_pipeline.py",
+    "tests/example/test_example_data.py",
+    "tests/io/test_results.py",
+    "tests/io/test_exports.py",
 ]
 
 
@@ -103,7 +103,14 @@ class _Keys:
     """pytest plugin: key the records by test id."""
 
     def pytest_runtest_setup(self, item):
-        _CONTEXT["key"], _CONTEXT["n"] = item.nodeid, 0
+        _CONTEXT["key"], _CONTEXT["n"] = _test_key(item.nodeid), 0
+
+
+def _test_key(nodeid: str) -> str:
+    """A test's key without its folder ("test_prony.py::test_x"): records dumped before the
+    layout of style.md (tests/test_prony.py) pair with those after (tests/fits/extension/...)."""
+    path, _, name = nodeid.partition("::")
+    return f"{Path(path).name}::{name}"
 
 
 def _measurements(runs):

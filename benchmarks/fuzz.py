@@ -1,11 +1,15 @@
-"""The long fuzz run of issue 12: thousands of mutated studies and scenes, and a kill -9 loop.
+"""The long fuzz run of issues 12 and 20: mutated and hostile studies and scenes, signals, a kill -9 loop.
 
-    nice -n 10 python benchmarks/fuzz.py --examples 5000 --kills 50
+    nice -n 10 python benchmarks/fuzz.py --examples 3500 --signals 120 --kills 50
 
 runs ``pytest tests/test_fuzz.py --hypothesis-profile=long`` with ``--examples``
-cases per fuzz test (study and scene), every outcome logged as JSON lines, then
-the kill -9 loop, and prints: cases, outcomes by exit code and stage, uncaught
-exceptions (exit 3), hangs, half-written folders, and the kill loop's result.
+cases per fuzz test (study, scene, and the hostile classes of tests/fuzzhostile.py:
+text, paths, nesting; hypothesis stops a class early once it has tried every case
+of it), ``--signals`` signalled runs, every outcome logged as JSON lines, then the
+kill -9 loop, and prints: cases by class, outcomes by exit code and stage, uncaught
+exceptions (exit 3), hangs, half-written or later-changed folders, processes alive
+5 s after a signalled or killed run, formulas in a sheet or formula-leading text
+cells in a CSV, files read from outside a study, and the kill loop's result.
 Knobs: MATID_FUZZ_FULL_ONE_IN (one in N accepted inputs runs the whole command,
 default here 100) and the three-point-bend whole runs, on here (MATID_FUZZ_BEND=1).
 """
@@ -30,6 +34,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--examples", type=int, default=5000, help="cases per fuzz test (2 tests)")
     parser.add_argument("--kills", type=int, default=50, help="kill -9 trials")
+    parser.add_argument("--signals", type=int, default=100, help="signalled single and batch runs")
     parser.add_argument("--log", type=Path, default=Path(tempfile.gettempdir()) / "matid-fuzz.jsonl")
     parser.add_argument("--full-one-in", default=os.environ.get("MATID_FUZZ_FULL_ONE_IN", "100"))
     args = parser.parse_args()
@@ -42,6 +47,7 @@ def main() -> int:
         "MATID_FUZZ_BEND": "1",
         "MATID_FUZZ_LIMIT": os.environ.get("MATID_FUZZ_LIMIT", "300"),  # 2 shared cores: slow is not a hang
         "MATID_FUZZ_COLLECT": "1",  # count every outcome; do not stop at the first bad one
+        "MATID_FUZZ_SIGNALS": str(args.signals),
     }
     clock = time.perf_counter()
     cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests/test_fuzz.py",
@@ -62,33 +68,60 @@ def main() -> int:
     return 0 if pytest.returncode == 0 and not bad(args.log) else 1
 
 
-def bad(log: Path) -> int:
-    """How many logged cases ended in an outcome that is not allowed."""
+def problem(record: dict) -> str | None:
+    """What is wrong with a logged case (None: allowed); signal cases carry their own verdict."""
     import fuzzkit
 
-    records = [json.loads(line) for line in log.read_text().splitlines()] if log.exists() else []
+    if "problem" in record:
+        return record["problem"]
     fields = ("code", "stage", "seconds", "message", "folder")
-    return sum(fuzzkit.allowed(fuzzkit.Outcome(**{k: r[k] for k in fields})) is not None for r in records)
+    return fuzzkit.allowed(fuzzkit.Outcome(**{k: record[k] for k in fields}))
+
+
+def bad(log: Path) -> int:
+    """How many logged cases ended in an outcome that is not allowed."""
+    records = [json.loads(line) for line in log.read_text().splitlines()] if log.exists() else []
+    return sum(problem(r) is not None for r in records)
+
+
+def counts(records: list[dict]) -> dict[str, list[dict]]:
+    """The cases of each kind of failure the issues name."""
+    signals = [r for r in records if r["stage"] == "signal"]
+    return {
+        "uncaught exceptions (exit 3)": [r for r in records if r["code"] == 3],
+        "hangs (signals: no exit within 5 s)": [r for r in records if r["code"] == "hang"],
+        "half-written folders": [
+            r for r in records if r["folder"] not in ("", "old", "new") and not r["folder"].startswith("temp")
+        ],
+        "later-changed folders (after the signal)": [r for r in signals if r.get("changed")],
+        "runs with a process alive 5 s after": [r for r in signals if r.get("alive")],
+        "formula in a sheet or formula-leading CSV cell": [r for r in records if r["code"] == "formula"],
+        "files read from outside a study without leave": [r for r in records if r["code"] == "outside"],
+        "outside files refused without naming the key": [r for r in records if r["code"] == "unnamed"],
+        "files inside a study refused": [r for r in records if r["code"] == "refused"],
+    }
 
 
 def summarise(log: Path, seconds: float, returncode: int) -> str:
     records = [json.loads(line) for line in log.read_text().splitlines()] if log.exists() else []
     codes = collections.Counter(str(r["code"]) for r in records)
+    classes = collections.Counter(r["target"].split("/")[0] for r in records)
     stages = collections.Counter((r["target"].split("/")[0], r["stage"], str(r["code"])) for r in records)
-    uncaught = [r for r in records if r["code"] == 3]
-    hangs = [r for r in records if r["code"] == "hang"]
-    half = [r for r in records if r["stage"] == "full" and r["folder"] not in ("", "old", "new")]
+    signals = [r for r in records if r["stage"] == "signal"]
     lines = [
         f"fuzz: {len(records)} cases in {seconds:.0f} s (pytest exit {returncode})",
+        f"  by class: {dict(sorted(classes.items()))}",
         f"  by exit code: {dict(sorted(codes.items()))}",
         "  by target/stage/exit: " + ", ".join(f"{'/'.join(k)}: {v}" for k, v in sorted(stages.items())),
-        f"  uncaught exceptions (exit 3): {len(uncaught)}",
-        f"  hangs: {len(hangs)}",
-        f"  half-written folders: {len(half)}",
+        f"  signals: {len(signals)} runs, {sum(bool(r.get('sent')) for r in signals)} signalled before they "
+        f"ended; temp folders a SIGKILL left (removed by the next run): "
+        f"{sum(r['folder'].startswith('temp') for r in signals)}",
+        *[f"  {name}: {len(found)}" for name, found in counts(records).items()],
         f"  slowest case: {max((r['seconds'] for r in records), default=0):.1f} s",
+        f"  cases not allowed: {sum(problem(r) is not None for r in records)}",
     ]
-    for r in (uncaught + hangs + half)[:10]:
-        lines.append(f"  ! {r['target']} {r['labels']}: {r['code']} {r['message'][:300]}")
+    for r in [r for r in records if problem(r) is not None][:10]:
+        lines.append(f"  ! {r['target']} {r['labels']}: {r['code']} {str(problem(r))[:300]}")
     return "\n".join(lines)
 
 

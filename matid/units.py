@@ -232,17 +232,20 @@ def vector_to_si(values: object, kind: str) -> tuple[float, float, float]:
     return (x, y, z)
 
 
-#: Output unit systems: for each reported kind, (unit label, factor from SI).
+#: Output unit systems: for each reported kind, (unit label, factor from SI). Every kind of
+#: :data:`matid.io.results.PARAMETER_KINDS` has a unit in every system (tests/test_units.py).
 UNIT_SYSTEMS: dict[str, dict[str, tuple[str, float]]] = {
     "SI": {
         "force": ("N", 1.0),
         "bending_stiffness": ("N m^2", 1.0),
         "viscosity": ("N s", 1.0),
+        "time": ("s", 1.0),
     },
     "cgs": {
         "force": ("dyn", 1e5),
         "bending_stiffness": ("dyn cm^2", 1e9),
         "viscosity": ("dyn s", 1e5),
+        "time": ("s", 1.0),
     },
 }
 

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tests import ROOT
@@ -42,3 +43,25 @@ def test_registry_without_a_usable_cache(tmp_path, damage):
         for cached in (home / "pint").iterdir():
             cached.write_bytes(cached.read_bytes()[:7])
     assert _probe(home) == "1000.0 3.0"
+
+
+def _prony_names() -> set[str]:
+    """Every parameter the Prony fit can report: those of a fit with the most arms."""
+    from matid.fits.extension.prony import MAX_TERMS, PronyFit
+
+    taus = tuple(float(i) for i in range(1, MAX_TERMS + 1))
+    return set(PronyFit(MAX_TERMS, 1.0, taus, taus, np.zeros(3), 3, None).values())
+
+
+@pytest.mark.parametrize("system", ["SI", "cgs"])
+def test_every_parameter_has_a_unit_in_every_system(system):
+    """Each reported parameter, the Prony time constants included, converts in SI and cgs, and
+    the unit label pint reads back gives the SI value again."""
+    from matid.io.results import PARAMETER_KINDS
+    from matid.units import UNIT_SYSTEMS, from_si, to_si
+
+    assert set(UNIT_SYSTEMS) == {"SI", "cgs"}
+    assert _prony_names() <= set(PARAMETER_KINDS)
+    for parameter, kind in PARAMETER_KINDS.items():
+        value, unit = from_si(2.5, kind, system)
+        assert to_si(f"{value!r} {unit}", kind) == pytest.approx(2.5, rel=1e-12), (parameter, unit)

@@ -11,12 +11,25 @@ others; the exit code of the batch is the worst of the studies' (0 < 1 < 2 < 3).
 
 On a Dask cluster the workers read the study folders and write into DIR by the
 same paths as this process: the cluster must share that file system.
+
+A batch stops whole (docs/contract.md section 11). Each local worker process runs a
+thread that ends it (``os._exit``) as soon as the batch's process is gone (the
+sentinel of :func:`multiprocessing.parent_process`, readable once the parent died,
+even by SIGKILL) or the batch is stopped (a shared :class:`multiprocessing.Event`),
+and a worker checks the event again just before it publishes. SIGINT (Ctrl-C) and,
+while a batch runs in the main thread, SIGTERM (:class:`Terminated`) stop it: the
+event is set, the queued studies cancelled, the workers awaited, temporary folders
+they left removed, and the interrupt raised on (exit 130 / 143). Studies that
+finished keep their folders; no summary is written for an interrupted batch.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import sys
+import threading
 import time
 import traceback
 from collections.abc import Callable, Sequence
@@ -28,6 +41,16 @@ from matid.errors import DataError, MatidError
 #: Columns of summary.csv and of the sheet ``summary``: the study folder name, then stiffness.csv's.
 SUMMARY_FIRST = "study"
 STUDY_COLUMNS = ["study", "source", "exit_code", "error", "warnings", "runtime_s"]
+#: Seconds between a worker's looks at the batch's stop event (the parent's death wakes it at once).
+WATCH_S = 0.05
+#: The stop event of the batch in a worker process (None in the batch's own process and on Dask).
+_STOP = None
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM during a batch: it stops as after Ctrl-C, and ``matid`` exits 143."""
+
+    exit_code = 143
 
 
 @dataclass(frozen=True)
@@ -72,11 +95,17 @@ def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> S
     name = study_folder_name(source)
     try:
         result = run_study(load_study(source))
+        if _STOP is not None and _STOP.is_set():  # the batch was stopped: publish nothing more
+            os._exit(Terminated.exit_code)
         paths = write_outputs(result, Path(out), units=units)
     except DataError as exc:
         return StudyOutcome(source, name, 2, error=str(exc), runtime_s=time.perf_counter() - clock)
     except MatidError as exc:
-        return StudyOutcome(source, name, 1, error=str(exc), runtime_s=time.perf_counter() - clock)
+        from matid.app.exits import FAILED, NOT_WRITTEN
+        from matid.io.publish import OutputError
+
+        code = NOT_WRITTEN if isinstance(exc, OutputError) else FAILED
+        return StudyOutcome(source, name, code, error=str(exc), runtime_s=time.perf_counter() - clock)
     except Exception as exc:  # a bug: say so, keep the traceback for --debug
         error = f"internal error: {type(exc).__name__}: {exc}\n{traceback.format_exc()}"
         return StudyOutcome(source, name, 3, error=error, runtime_s=time.perf_counter() - clock)
@@ -119,15 +148,16 @@ def run_batch(
             raise DataError(f"studies {', '.join(same)} share the folder name {name!r}; rename one", file=out)
     tasks = [(str(s), str(out / n), units, strict) for s, n in zip(sources, names, strict=True)]
     done = on_done or (lambda _: None)
-    if scheduler:
-        outcomes = _run_dask(tasks, scheduler, done)
-    elif (jobs or os.cpu_count() or 1) == 1 or len(tasks) == 1:
-        outcomes = []
-        for task in tasks:
-            outcomes.append(fit_one(*task))
-            done(outcomes[-1])
-    else:
-        outcomes = _run_processes(tasks, min(jobs or os.cpu_count() or 1, len(tasks)), done)
+    with _sigterm_interrupts():
+        if scheduler:
+            outcomes = _run_dask(tasks, scheduler, done)
+        elif (jobs or os.cpu_count() or 1) == 1 or len(tasks) == 1:
+            outcomes = []
+            for task in tasks:
+                outcomes.append(fit_one(*task))
+                done(outcomes[-1])
+        else:
+            outcomes = _run_processes(tasks, min(jobs or os.cpu_count() or 1, len(tasks)), done)
     from matid.app.compare import write_summary
 
     return BatchResult(outcomes, write_summary(outcomes, out))
@@ -140,6 +170,45 @@ def _crashed(task: tuple, exc: BaseException) -> StudyOutcome:
     )
 
 
+@contextlib.contextmanager
+def _sigterm_interrupts():
+    """While the batch runs in the main thread, SIGTERM raises :class:`Terminated` there (as SIGINT
+    raises KeyboardInterrupt); elsewhere (a thread) the process's handlers stay as they are."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def terminate(signum, frame):
+        raise Terminated()
+
+    previous = signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _watch(stop) -> None:
+    """In a worker: wait until the batch stops or the batch's process is gone, then end this process."""
+    import multiprocessing
+    from multiprocessing.connection import wait
+
+    parent = multiprocessing.parent_process()
+    while not stop.is_set():
+        if parent is not None and wait([parent.sentinel], timeout=WATCH_S):
+            break  # the parent died (even by SIGKILL): nothing of this batch may go on
+        if parent is None:
+            stop.wait(WATCH_S)
+    os._exit(Terminated.exit_code)  # at once: no study of a dead or stopped batch is published
+
+
+def _start_worker(stop) -> None:
+    """Initializer of each pool process: remember the stop event, start the watching thread."""
+    global _STOP
+    _STOP = stop
+    threading.Thread(target=_watch, args=(stop,), name="matid-batch-watch", daemon=True).start()
+
+
 def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyOutcome]:
     """Each task in a process of a local pool; results in the order of ``tasks``."""
     import multiprocessing
@@ -149,8 +218,10 @@ def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyO
     # forked from a server that has imported the pipeline and the report once.
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(["matid.app.pipeline", "matid.report"])  # imported once, in the server
+    stop = context.Event()
     outcomes: dict[int, StudyOutcome] = {}
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+    pool = ProcessPoolExecutor(jobs, mp_context=context, initializer=_start_worker, initargs=(stop,))
+    try:
         futures = {pool.submit(fit_one, *task): i for i, task in enumerate(tasks)}
         for future in as_completed(futures):
             i = futures[future]
@@ -159,7 +230,23 @@ def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyO
             except Exception as exc:  # the worker process died (e.g. killed for memory)
                 outcomes[i] = _crashed(tasks[i], exc)
             done(outcomes[i])
+    except BaseException:  # SIGINT, SIGTERM (Terminated), or a failing progress callback
+        stop.set()
+        pool.shutdown(wait=True, cancel_futures=True)  # the workers end within WATCH_S
+        _tidy([Path(task[1]) for task in tasks])
+        raise
+    pool.shutdown(wait=True)
     return [outcomes[i] for i in range(len(tasks))]
+
+
+def _tidy(outs: list[Path]) -> None:
+    """Remove the temporary folders that stopped workers left beside their output folders."""
+    from matid.io.publish import claim_output
+
+    for out in outs:
+        if any(out.parent.glob(f".{out.name}.matid-new-*")):
+            with contextlib.suppress(MatidError, OSError), claim_output(out):
+                pass  # a claim cleans what a crashed run left (matid.io.publish.Claim._recover)
 
 
 def _run_dask(tasks: list[tuple], address: str, done: Callable) -> list[StudyOutcome]:
@@ -176,13 +263,17 @@ def _run_dask(tasks: list[tuple], address: str, done: Callable) -> list[StudyOut
     with client:
         futures = [client.submit(fit_one, *task, pure=False) for task in tasks]
         index = {f.key: i for i, f in enumerate(futures)}
-        for future in as_completed(futures, loop=client.loop):  # this client, not a global default
-            i = index[future.key]
-            try:
-                outcomes[i] = future.result()
-            except Exception as exc:  # worker lost, or the task could not be unpickled there
-                outcomes[i] = _crashed(tasks[i], exc)
-            done(outcomes[i])
+        try:
+            for future in as_completed(futures, loop=client.loop):  # this client, not a global default
+                i = index[future.key]
+                try:
+                    outcomes[i] = future.result()
+                except Exception as exc:  # worker lost, or the task could not be unpickled there
+                    outcomes[i] = _crashed(tasks[i], exc)
+                done(outcomes[i])
+        except BaseException:  # interrupted: the queued studies are not started (running ones may finish)
+            client.cancel(futures)
+            raise
     return [outcomes[i] for i in range(len(tasks))]
 
 
@@ -205,14 +296,16 @@ class Progress:
             self.bar = Bar(total=total, unit="study", file=self.stream, desc="fitting studies")
 
     def __call__(self, outcome: StudyOutcome) -> None:
+        from matid.io.cells import escaped
+
         self.count += 1
-        status = "done" if outcome.code == 0 else f"exit {outcome.code}"
+        status = escaped(f"{outcome.name}: {'done' if outcome.code == 0 else f'exit {outcome.code}'}")
         if self.bar is not None:
-            self.bar.set_postfix_str(f"{outcome.name}: {status}", refresh=False)
+            self.bar.set_postfix_str(status, refresh=False)
             self.bar.update(1)
         elif not self.quiet:
             elapsed = time.perf_counter() - self.clock
-            print(f"[{elapsed:6.1f} s] {self.count}/{self.total} {outcome.name}: {status} "
+            print(f"[{elapsed:6.1f} s] {self.count}/{self.total} {status} "
                   f"({outcome.runtime_s:.1f} s)", file=self.stream, flush=True)  # fmt: skip
 
     def close(self) -> None:

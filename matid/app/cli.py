@@ -10,7 +10,13 @@ runs in a ``_cmd_<name>(args) -> int`` function: ``fit`` and ``demo`` here,
 - 1: some fits failed (the rest written, reasons printed), a warning under
   ``--strict``, or another MatidError (solve: no convergence, nothing written);
 - 2: the input cannot be used (DataError; also argparse usage errors);
-- 3: an unexpected error (a bug): a short message, the traceback with ``--debug``.
+- 3: an unexpected error (a bug): a short message, the traceback with ``--debug``;
+- 4: the outputs could not be written (a full disk, an I/O error): the previous outputs are
+  unchanged;
+- 130 / 143: stopped by SIGINT (Ctrl-C) / SIGTERM (:mod:`matid.app.exits`).
+
+Messages are printed with control characters escaped (an ESC in a file name never
+reaches the terminal raw).
 
 Progress goes to stderr (unless ``--quiet``); the summary of the stiffnesses,
 the warnings and the output paths go to stdout.
@@ -150,6 +156,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def fit_many(args: argparse.Namespace) -> int:
     """``matid fit A B C``: each study into --out/<folder>/, then the summary; exit code the worst."""
     from matid.app.batch import Progress, run_batch
+    from matid.io.cells import escaped
 
     out = args.out or Path("reports")
     progress = Progress(len(args.paths), quiet=args.quiet)
@@ -163,16 +170,16 @@ def fit_many(args: argparse.Namespace) -> int:
     for o in batch.outcomes:
         if o.error:
             error = o.error if args.debug else o.error.split("\n")[0]
-            print(f"matid: {o.name}: error: {error}", file=sys.stderr)
+            print(escaped(f"matid: {o.name}: error: {error}"), file=sys.stderr)
         for failure in o.failures:
-            print(f"matid: {o.name}: fit failed: {failure}", file=sys.stderr)
-    print(batch_summary(batch))
+            print(escaped(f"matid: {o.name}: fit failed: {failure}"), file=sys.stderr)
+    print(escaped(batch_summary(batch)))
     print("outputs:")
     for o in batch.outcomes:
         if o.paths:
-            print(f"  {Path(o.paths[0]).parent}/")
+            print(escaped(f"  {Path(o.paths[0]).parent}/"))
     for path in batch.paths:
-        print(f"  {path}")
+        print(escaped(f"  {path}"))
     return batch.code
 
 
@@ -233,6 +240,7 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
     0 if every fit was done (and, with ``strict``, nothing warned); else 1.
     """
     from matid.app import pipeline
+    from matid.io.cells import escaped
     from matid.io.study import load_study
 
     clock = time.perf_counter()
@@ -254,8 +262,8 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
             f"matid: fit failed: {_what(failure)}: {failure.reason}",
             file=sys.stderr,
         )
-    print(summary(result, units=units))
-    print("\n".join(_warning_lines(fit_warnings(result))))
+    print(escaped(summary(result, units=units)))  # control characters never reach the terminal raw
+    print(escaped("\n".join(_warning_lines(fit_warnings(result)))))
     print("outputs:")
     for path in paths:
         print(f"  {path}")
@@ -303,10 +311,13 @@ def _guarded(args: argparse.Namespace) -> int:
     except DataError as exc:
         return _fail(args, exc, 2, str(exc))
     except MatidError as exc:
-        return _fail(args, exc, 1, str(exc))
-    except KeyboardInterrupt:
+        from matid.app.exits import FAILED, NOT_WRITTEN
+        from matid.io.publish import OutputError
+
+        return _fail(args, exc, NOT_WRITTEN if isinstance(exc, OutputError) else FAILED, str(exc))
+    except KeyboardInterrupt as exc:  # SIGINT; SIGTERM during a batch (matid.app.batch.Terminated)
         print("matid: interrupted", file=sys.stderr)
-        return 130
+        return getattr(exc, "exit_code", 130)
     except Exception as exc:
         hint = "" if args.debug else " (rerun with --debug for the traceback)"
         return _fail(args, exc, 3, f"internal error: {type(exc).__name__}: {exc}{hint}")
@@ -315,5 +326,7 @@ def _guarded(args: argparse.Namespace) -> int:
 def _fail(args: argparse.Namespace, exc: BaseException, code: int, message: str) -> int:
     if args.debug:
         traceback.print_exception(exc, file=sys.stderr)
-    print(f"matid: error: {message}", file=sys.stderr)
+    from matid.io.cells import escaped
+
+    print(f"matid: error: {escaped(message)}", file=sys.stderr)
     return code

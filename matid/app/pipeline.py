@@ -82,7 +82,7 @@ FIT_FAILURES: tuple[type[BaseException], ...] = (
     FloatingPointError,
 )
 
-VERSION_PACKAGES = ("numpy", "scipy", "scikit-fem", "pint", "matplotlib")
+VERSION_PACKAGES = ("numpy", "scipy", "lmfit", "scikit-fem", "pint", "matplotlib")
 
 
 class NotFitted(Exception):

@@ -9,8 +9,6 @@ import: the solver, pint and matplotlib load when a command runs.
 from __future__ import annotations
 
 import argparse
-import contextlib
-import os
 from pathlib import Path
 
 from matid.app.options import _common, _fraction, _positive_int
@@ -69,8 +67,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise DataError(f"--model {args.model}: {exc}", file=args.scene) from exc
     try:
-        with _numpy_path_unless_asked():
-            sol = solve(scene, elements=args.elements, model=args.model)
+        sol = solve(scene, elements=args.elements, model=args.model)
     except DataError as exc:  # scene content the solver cannot take: name the file
         raise exc if exc.file else DataError(exc.detail, file=args.scene) from exc
     except ConvergenceError as exc:
@@ -85,22 +82,6 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(f"outputs:\n  {json_path}\n  {png_path}")
     return 0
-
-
-@contextlib.contextmanager
-def _numpy_path_unless_asked():
-    """One scene per process: loading numba and the kernel's cache (~1 s) costs more than it
-    saves, so ``matid solve`` runs the numpy path unless MATID_JIT is set (README)."""
-    if "MATID_JIT" in os.environ:
-        yield
-        return
-    from matid.rod import compiled
-
-    saved, compiled.ENABLED = compiled.ENABLED, False
-    try:
-        yield
-    finally:
-        compiled.ENABLED = saved
 
 
 def _deflection_reached(scene, exc: ConvergenceError) -> str:

@@ -24,7 +24,6 @@ from matid.bench import convergence, leave_out, peers, stability
 from matid.bench.common import jsonable, machine
 from matid.bench.html import page
 from matid.bench.plots import convergence_figure, penalty_figure
-from matid.rod import compiled
 
 SECTIONS = ("convergence", "stability", "vs_3d", "leave_out", "peers")
 DEFAULT_OUT = Path("reports/bench")
@@ -78,8 +77,6 @@ def run_bench(
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     results, times = {}, {}
-    if compiled.ENABLED and not compiled.kernel_cached():
-        _say(quiet, "matid bench: compiling the rod kernel (first use after installation, ~20 s, once)")
     for name in names:
         _say(quiet, f"matid bench: {name} ...")
         start = time.perf_counter()
@@ -87,6 +84,8 @@ def run_bench(
         times[name] = time.perf_counter() - start
         if name == "peers" and results[name].get("rows"):
             _say(quiet, peers.table(results[name]))
+        if name == "convergence" and results[name].get("p2_vs_hermite"):
+            _say(quiet, convergence.side_by_side_table(results[name]["p2_vs_hermite"]))
         _say(quiet, f"matid bench: {name} done in {times[name]:.1f} s")
     doc = {
         "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),

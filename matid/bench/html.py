@@ -180,6 +180,11 @@ def _convergence(s: dict, figures: dict[str, bytes]) -> str:
         ),
         f"<h3>Time to reach {s['time_to_target'][0]['target']:g}</h3>" if s["time_to_target"] else "",
         table(s["time_to_target"], ["scene", "element", "quadrature", "elements", "runtime_s"]),
+        "<h3>P2 and the cubic Hermite: error against run time</h3>",
+        table(
+            s.get("p2_vs_hermite", []),
+            ["scene", "elements", "P2_error", "P2_runtime_s", "Hermite_error", "Hermite_runtime_s"],
+        ),
         "<h3>References</h3>",
         table([{"scene": k, "check": v} for k, v in s["references"].items()], ["scene", "check"], digits=8),
         "<h3>All levels</h3>",

@@ -85,6 +85,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.integrate import trapezoid
 from skfem import (
     Basis,
     ElementHex1,
@@ -200,7 +201,7 @@ def bend_stiffness_patch(
     M = np.concatenate([[0.0], np.cumsum(0.5 * (V[1:] + V[:-1]) * np.diff(z))])
     M = M[-1] - M  # M(z) = int_z^end V: zero moment at the free end
     integrand = M**2 / (sec.E * sec.I) + V**2 / (sec.k * sec.G * sec.A)
-    d = 2 * np.trapezoid(integrand, z)
+    d = 2 * trapezoid(integrand, z)
     return 1.0 / d
 
 

@@ -8,8 +8,10 @@ deflection::
 
 E_b is the slope of torque against theta / L, fitted jointly over all files (lengths)
 of one specimen with a tare offset per file (:func:`matid.fits.linear.fit_lines`), on
-the rows inside the test's ``window``. Per-length slopes are compared: a disagreement
-beyond their errors says E_b depends on length (clamp compliance, shear).
+the rows of the test's ``window`` when it has one, else on each file's loading branch's
+linear range (:mod:`matid.fits.branch`: holds of the field, returns and a departure from
+the line are left out with their reason). Per-length slopes are compared: a
+disagreement beyond their errors says E_b depends on length (clamp compliance, shear).
 """
 
 from __future__ import annotations
@@ -18,9 +20,10 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.stats
 
 from matid.errors import DataError, FitError
-from matid.fits import linear, stats
+from matid.fits import linear
 from matid.io.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
@@ -61,15 +64,13 @@ def bending_torque(table: Table, test: Test) -> np.ndarray:
 
 
 def _record(m: Measurement) -> tuple[linear.Record, float]:
-    """The file as a record x = tip_angle / free_length [rad/m], y = torque [N m], and L."""
+    """The file's fitted rows of x = tip_angle / free_length [rad/m], y = torque [N m], and L."""
     if "tip_angle" not in m.table:
         raise DataError("magnetic bending needs a 'tip_angle' column", file=m.table.path)
     length = float(m.test.params["free_length"])
     x = np.asarray(m.table["tip_angle"], dtype=float) / length
-    rec = linear.record(m.table.path.name, x, bending_torque(m.table, m.test), m.in_window())
-    if not rec.used.any():
-        raise DataError("no row with finite values inside the window", file=m.table.path)
-    return rec, length
+    y = bending_torque(m.table, m.test)
+    return linear.select(m.table.path.name, x, y, m.in_window(), m.test.window, file=m.table.path), length
 
 
 def _per_length(records, lengths) -> tuple[dict[str, dict[str, float]], float | None]:
@@ -89,7 +90,7 @@ def _per_length(records, lengths) -> tuple[dict[str, dict[str, float]], float | 
     w = 1.0 / se**2
     mean = np.sum(w * slopes) / np.sum(w)
     chi2 = float(np.sum(w * (slopes - mean) ** 2))
-    return out, stats.chi2_sf(chi2, slopes.size - 1)
+    return out, float(scipy.stats.chi2.sf(chi2, slopes.size - 1))
 
 
 def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFit:
@@ -104,24 +105,26 @@ def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
         warnings += linear.check_sign(fit, "E_b", "torque", "tip angle")
     except FitError as exc:
         raise FitError(f"specimen {specimen}: {exc}") from exc
-    misfit = fit.lof.warning("the line torque = c + E_b theta / L", fit.inflation, _ADVICE)
-    warnings += [misfit] if misfit else []
+    warnings += linear.share_warnings(records)
+    warnings += linear.misfit_warning(fit, "the line torque = c + E_b theta / L", _ADVICE)
     per_length, p = _per_length(records, lengths)
     if p is not None and p < SLOPES_ALPHA:
-        warnings.append(
+        text = (
             f"slopes at different free lengths disagree beyond their errors (p = {p:.2g}): "
             "E_b seems to depend on length; see the per-length slopes"
         )
+        warnings.append(linear.Warning("slopes_disagree", text))
     series = tuple(
         Series(f"{r.name} (L = {length * 1e3:.4g} mm)", r.x, r.y, fit.model(r), r.used)
         for r, length in zip(records, lengths, strict=True)
     )
-    extra = {"ci_method": "t-ar1" if fit.covariance.rho else "t", "tare_offset_N_m": fit.intercepts}
+    texts, kinds = linear.warning_fields(warnings)
+    extra = {"ci_method": "t-ar1" if fit.covariance.rho else "t", "tare_offset_N_m": fit.intercepts, **kinds}
     return TestFit(
         kind="magnetic_bending",
         specimen=specimen,
         tests=tuple(m.test for m in measurements),
-        estimates=(Estimate("E_b", *fit.value, "linear", tuple(warnings), extra),),
+        estimates=(Estimate("E_b", *fit.value, "linear", texts, extra),),
         series=series,
         x_label="tip angle / free length [rad/m]",
         y_label="torque [N m]",
@@ -129,7 +132,9 @@ def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
             "free_lengths_m": sorted(set(lengths)),
             "r2": linear.r2(records, fit),
             "per_length_slopes": per_length,
+            "fitted_x_range": linear.range_info(records),
             "left_out": linear.left_out_info(records),
+            "rows_left_out": linear.rows_info(records),
             "sign_flipped": [r.name for r in records if r.flipped],
             **fit.info(),
         },

@@ -8,22 +8,28 @@ intercept c_f and all files of a specimen share the slope E::
 
     y_fi = c_f + E x_fi + e_fi                       (:func:`fit_lines`)
 
-fitted by weighted least squares, each file weighted by 1 / s_f^2 with s_f its own
-residual rms (iterated; a short tube twisted further is noisier). When the offsets are
-not significant (Wald test, p >= OFFSET_ALPHA) the lines go through the origin: an
-offset per file would cost precision for nothing. The interval is the
-AR(1) sandwich of :mod:`matid.fits.stats` on Student's t with n_eff - p dof, so it holds
-for dense records whose noise is correlated, and widens when the line misses the data;
-:func:`matid.fits.stats.lack_of_fit` then names the misfit in a warning.
+fitted by weighted least squares as an lmfit ``Model`` per file (the slope a shared
+``Parameter``, each offset its own, ``vary=False`` where a value is fixed: the offsets at 0
+for lines through the origin, or the slope given), each file weighted by 1 / s_f^2 with
+s_f its own residual rms (iterated; a short tube twisted further is noisier). When the
+offsets are not significant (Wald test, p >= OFFSET_ALPHA) the lines go through the
+origin: an offset per file would cost precision for nothing. On top of lmfit's result,
+matid gives the interval as the AR(1) sandwich of :mod:`matid.fits.stats` on Student's t
+with n_eff - p dof, so it holds for dense records whose noise is correlated, and widens
+when the line misses the data; :func:`matid.fits.stats.lack_of_fit` then names the
+misfit in a warning.
+
+Which rows enter: the test's ``window`` when it has one (exactly its rows; too few is a
+DataError naming it), else the loading branch's linear range of
+:mod:`matid.fits.branch` (:func:`select`). Each row left out keeps its reason.
 
 Sign: physics makes E > 0 (torque rises with twist, the magnet's torque with tip angle).
-A file whose slope is clearly negative (t < -SIGN_T) has a flipped sign convention: it is
-negated and a warning says so (:func:`orient`). A joint slope <= 0 is never a result
-(FitError).
+A file whose slope on its fitted rows is clearly negative (t < -SIGN_T) has a flipped
+sign convention: it is negated and a warning says so (:func:`orient`). A joint slope
+<= 0 is never a result (FitError).
 
-The linear range of a record is found by :func:`linear_range`: an F-test for curvature
-(odd terms u|u|, u^3 on top of c + a u) corrected for correlated residuals, then a
-segmented fit for the onset.
+Warnings carry a machine-readable kind (:class:`Warning`, ``Estimate.extra
+["warning_kinds"]``) so that a status per value can be decided from them.
 """
 
 from __future__ import annotations
@@ -32,17 +38,14 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
+import lmfit
 import numpy as np
+import scipy.stats
 
-from matid.errors import FitError
-from matid.fits import stats
+from matid.errors import DataError, FitError
+from matid.fits import branch, stats
+from matid.fits.branch import LINEAR_RANGE_MIN_POINTS, linear_range
 
-#: Significance level of the curvature test of :func:`linear_range`.
-LINEAR_RANGE_ALPHA = 0.01
-#: Fewest points a linear range may hold.
-LINEAR_RANGE_MIN_POINTS = 6
-#: At most this many onsets are tried (evenly spread) by :func:`linear_range`.
-LINEAR_RANGE_WINDOWS = 200
 #: Tare offsets are fitted when the Wald test of "all offsets zero" gives p below this.
 #: Large on purpose: a real offset dropped biases the slope, an absent one kept only costs
 #: precision, so offsets go only when the data agree with none (measured at 0.05: E_b
@@ -53,103 +56,6 @@ OFFSET_ALPHA = 0.5
 SIGN_T = 3.0
 
 
-def __getattr__(name: str):
-    """The fits themselves live in bending.py / torsion.py; kept importable from here."""
-    if name in ("fit_bending", "magnet_torque", "bending_torque"):
-        from matid.fits import bending
-
-        return getattr(bending, name)
-    if name == "fit_torsion":
-        from matid.fits import torsion
-
-        return torsion.fit_torsion
-    raise AttributeError(name)
-
-
-# --------------------------------------------------------------------------- linear range
-
-
-def _curvature_p(u: np.ndarray, y: np.ndarray, order: np.ndarray) -> float:
-    """p-value of the F-test of ``y = c + a u`` against ``y = c + a u + b u|u| + d u^3``.
-
-    The F statistic is divided by the AR(1) variance factor of the alternative's
-    residuals taken in recording order (``order``), on n_eff denominator dof: correlated
-    noise is not curvature.
-    """
-    one = np.ones_like(u)
-    null = np.column_stack([one, u])
-    alt = np.column_stack([one, u, u * np.abs(u), u**3])
-    rss0 = float(np.sum((y - null @ np.linalg.lstsq(null, y, rcond=None)[0]) ** 2))
-    coef, _, rank, _ = np.linalg.lstsq(alt, y, rcond=None)
-    resid = y - alt @ coef
-    rss1 = float(np.sum(resid**2))
-    q, dof = rank - 2, u.size - rank
-    if q < 1 or dof < 1:
-        return 1.0
-    if rss1 <= 0.0:
-        return 0.0 if rss0 > 1e-24 * max(float(np.sum(y**2)), 1e-300) else 1.0
-    factor, n_eff = stats.variance_factor(resid[np.argsort(order)], n_params=rank)
-    f = max(rss0 - rss1, 0.0) / q / (rss1 / dof) / factor
-    return stats.f_sf(f, q, max(n_eff - rank, 1.0))
-
-
-def _onset_rss(u: np.ndarray, y: np.ndarray, u0: float) -> float:
-    """RSS of y = c + a u + b sgn(u) max(|u| - u0, 0)^2 (linear least squares in c, a, b)."""
-    excess = np.maximum(np.abs(u) - u0, 0.0)
-    design = np.column_stack([np.ones_like(u), u, np.sign(u) * excess**2])
-    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
-    return float(np.sum((y - design @ coef) ** 2))
-
-
-def linear_range(
-    x: np.ndarray,
-    y: np.ndarray,
-    *,
-    alpha: float = LINEAR_RANGE_ALPHA,
-    min_points: int = LINEAR_RANGE_MIN_POINTS,
-    max_windows: int = LINEAR_RANGE_WINDOWS,
-) -> np.ndarray:
-    """Mask of the points in the linear range |x| <= x0 of ``y = c + E x`` data.
-
-    Points are ordered by |x| (twist in both directions alike); c absorbs a tare offset.
-
-    1. Is there curvature at all? F-test of the line against the line plus the lowest
-       odd terms u|u| and u^3 (u = x / max|x|; torque is odd in twist) over all points at
-       level ``alpha``, corrected for correlated residuals. If not, every point is kept.
-    2. Where does it start? Segmented regression for the onset u0 of a C^1 departure,
-       ``y = c + a u + b sgn(u) max(|u| - u0, 0)^2``, u0 scanned over the sorted |u| (at
-       most ``max_windows`` candidates, at least ``min_points`` below); the range is
-       |u| <= u0 of least residual sum of squares. It uses the shape of the whole curve,
-       unlike nested window tests that admit points past the onset.
-    3. If curvature is still significant inside |u| <= u0 (a curve bent from the
-       origin), the range is the largest nested window inside it that passes the test.
-    With fewer than ``min_points`` finite points all of them are returned.
-    """
-    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-    if x.ndim != 1 or x.shape != y.shape:
-        raise ValueError("x and y must be 1-d arrays of the same length")
-    if min_points < 3:
-        raise ValueError(f"min_points must be at least 3, got {min_points}")
-    ok = np.isfinite(x) & np.isfinite(y)
-    index = np.flatnonzero(ok)[np.argsort(np.abs(x[ok]), kind="stable")]
-    n = index.size
-    if n <= min_points or not np.any(x[index] != 0):
-        return ok
-    u, yy = x[index] / np.max(np.abs(x[index])), y[index]
-    if _curvature_p(u, yy, index) >= alpha:
-        return ok
-    sizes = np.unique(
-        np.linspace(min_points, n - 2, min(max(n - 1 - min_points, 1), max_windows)).astype(int)
-    )
-    rss = [_onset_rss(u, yy, abs(u[k - 1])) for k in sizes]
-    k = int(sizes[int(np.argmin(rss))])
-    if _curvature_p(u[:k], yy[:k], index[:k]) < alpha:
-        inner = sizes[sizes <= k]
-        passing = [m for m in inner if _curvature_p(u[:m], yy[:m], index[:m]) >= alpha]
-        k = int(max(passing)) if passing else min_points
-    return ok & (np.abs(x) <= np.abs(x[index[k - 1]]))
-
-
 # --------------------------------------------------------------------------- records
 
 
@@ -157,24 +63,39 @@ def linear_range(
 class Record:
     """One file of a linear test: x and y of every row, the rows used, and why rows are out.
 
-    ``left_out`` counts rows left out by reason ("outside the window", "not finite",
-    "beyond the linear range"); ``flipped`` is True when y was negated by :func:`orient`.
+    ``excluded`` maps a reason ("outside the window", "not finite", "unloading ...",
+    "hold ...", "before the linear range ...", "beyond the linear range") to the mask of
+    the rows left out for it; ``flipped`` is True when y was negated by :func:`orient`.
     """
 
     name: str
     x: np.ndarray
     y: np.ndarray
     used: np.ndarray
-    left_out: dict[str, int] = field(default_factory=dict)
+    excluded: dict[str, np.ndarray] = field(default_factory=dict)
     flipped: bool = False
+
+    @property
+    def left_out(self) -> dict[str, int]:
+        """Rows left out, counted by reason."""
+        return {reason: int(mask.sum()) for reason, mask in self.excluded.items()}
 
     def leave_out(self, keep: np.ndarray, reason: str) -> Record:
         """The record with the used rows outside ``keep`` left out for ``reason``."""
-        dropped = int(np.sum(self.used & ~keep))
-        left_out = dict(self.left_out)
-        if dropped:
-            left_out[reason] = left_out.get(reason, 0) + dropped
-        return replace(self, used=self.used & keep, left_out=left_out)
+        dropped = self.used & ~np.asarray(keep, dtype=bool)
+        if not dropped.any():
+            return self
+        excluded = dict(self.excluded)
+        excluded[reason] = excluded.get(reason, np.zeros(self.x.size, dtype=bool)) | dropped
+        return replace(self, used=self.used & ~dropped, excluded=excluded)
+
+    def rows_left_out(self) -> dict[str, list[list[int]]]:
+        """reason -> [first, last] data-row ranges (0-based) left out for it."""
+        out = {}
+        for reason, mask in self.excluded.items():
+            edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+            out[reason] = [[int(a), int(b) - 1] for a, b in zip(edges[::2], edges[1::2], strict=True)]
+        return out
 
 
 def record(name: str, x: np.ndarray, y: np.ndarray, window: np.ndarray) -> Record:
@@ -183,6 +104,46 @@ def record(name: str, x: np.ndarray, y: np.ndarray, window: np.ndarray) -> Recor
     rec = Record(name, x, y, np.ones(x.size, dtype=bool))
     rec = rec.leave_out(np.asarray(window, dtype=bool), "outside the window")
     return rec.leave_out(np.isfinite(x) & np.isfinite(y), "not finite")
+
+
+def automatic(rec: Record) -> Record:
+    """The record cut to its loading branch's linear range (:mod:`matid.fits.branch`)."""
+    idx = np.flatnonzero(rec.used)
+    for reason, mask in branch.branch(rec.x[idx], rec.y[idx]).items():
+        keep = np.ones(rec.x.size, dtype=bool)
+        keep[idx[mask]] = False
+        rec = rec.leave_out(keep, reason)
+    idx = np.flatnonzero(rec.used)
+    if idx.size == 0:
+        return rec
+    inside = np.zeros(rec.x.size, dtype=bool)
+    inside[idx] = linear_range(rec.x[idx], rec.y[idx])
+    x0, xs = rec.x[idx[0]], rec.x[inside]
+    near = np.abs(rec.x - x0) < np.min(np.abs(xs - x0), initial=np.inf)
+    rec = rec.leave_out(inside | ~near, branch.BEFORE)
+    return rec.leave_out(inside, branch.BEYOND)
+
+
+def select(name: str, x: np.ndarray, y: np.ndarray, window: np.ndarray, ranges, *, file) -> Record:
+    """The rows of one file that enter a line fit.
+
+    With a ``window`` (``ranges``: the test's column -> (low, high), SI) exactly its
+    finite rows, at least LINEAR_RANGE_MIN_POINTS of them (else DataError naming the
+    window); without one, the loading branch's linear range (:func:`automatic`).
+    """
+    rec = record(name, x, y, window)
+    if not ranges:
+        if not rec.used.any():
+            raise DataError("no row with finite values", file=file)
+        return automatic(rec)
+    if rec.used.sum() < LINEAR_RANGE_MIN_POINTS:
+        text = ", ".join(f"{column} = [{lo:.6g}, {hi:.6g}]" for column, (lo, hi) in ranges.items())
+        raise DataError(
+            f"the window {{{text}}} (SI) holds {int(rec.used.sum())} rows with finite values; a line "
+            f"with an offset needs at least {LINEAR_RANGE_MIN_POINTS}: widen the window",
+            file=file,
+        )
+    return rec
 
 
 def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
@@ -195,8 +156,16 @@ def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return float(coef[1]), math.sqrt(s2 / float(np.sum((x - x.mean()) ** 2)))
 
 
-def orient(records: Sequence[Record], quantity: str, against: str) -> tuple[list[Record], list[str]]:
-    """Negate the y of every record whose own slope is clearly negative; say so.
+@dataclass(frozen=True)
+class Warning:
+    """A warning of a fit: its text and a machine-readable kind for the value's status."""
+
+    kind: str  # "sign_flipped", "zero_in_interval", "little_linear", "misfit", "slopes_disagree"
+    text: str
+
+
+def orient(records: Sequence[Record], quantity: str, against: str) -> tuple[list[Record], list[Warning]]:
+    """Negate the y of every record whose own slope on its used rows is clearly negative; say so.
 
     Physics makes ``quantity`` rise with ``against``; a slope below -SIGN_T standard
     errors is a flipped sign convention (a torque meter mounted the other way round).
@@ -207,9 +176,12 @@ def orient(records: Sequence[Record], quantity: str, against: str) -> tuple[list
         if slope < 0 and slope < -SIGN_T * se:
             out.append(replace(rec, y=-rec.y, flipped=True))
             warnings.append(
-                f"{rec.name}: {quantity} falls as {against} rises (slope {slope:.3g}, t = "
-                f"{slope / se:.1f}); taken as a flipped sign convention and {quantity} negated. "
-                f'Check the channel\'s polarity, or set negate = ["{quantity}"] on the test'
+                Warning(
+                    "sign_flipped",
+                    f"{rec.name}: {quantity} falls as {against} rises (slope {slope:.3g}, t = "
+                    f"{slope / se:.1f}); taken as a flipped sign convention and {quantity} negated. "
+                    f'Check the channel\'s polarity, or set negate = ["{quantity}"] on the test',
+                )
             )
         else:
             out.append(rec)
@@ -259,8 +231,35 @@ class LineFit:
         }
 
 
+def tared_line(x: np.ndarray, slope: float = 1.0, offset: float = 0.0) -> np.ndarray:
+    """The line with a tare offset: ``y = offset + slope * x``."""
+    return offset + slope * x
+
+
+def _lines(n_files: int) -> list[lmfit.Model]:
+    """One :func:`tared_line` Model per file, parameters prefixed ``f<i>_``."""
+    return [lmfit.Model(tared_line, prefix=f"f{f}_") for f in range(n_files)]
+
+
+def _parameters(n_files: int, offsets: bool, slope: float) -> lmfit.Parameters:
+    """The shared slope and one offset per file, held at 0 (``vary=False``) without offsets."""
+    params = lmfit.Parameters()
+    params.add("slope", value=slope)
+    for f in range(n_files):
+        params.add(f"f{f}_slope", expr="slope")
+        params.add(f"f{f}_offset", value=0.0, vary=offsets)
+    return params
+
+
+def _residual(params: lmfit.Parameters, models, xs, ys, w) -> np.ndarray:
+    """Weighted residuals ``w_f (y - c_f - E x)`` of every file, concatenated in file order."""
+    return np.concatenate(
+        [wf * (y - m.eval(params, x=x)) for m, x, y, wf in zip(models, xs, ys, w, strict=True)]
+    )
+
+
 def _design(xs: Sequence[np.ndarray], w: Sequence[float], offsets: bool) -> np.ndarray:
-    """Weighted design: column 0 the slope, column 1 + f the intercept of file f (if offsets)."""
+    """Weighted Jacobian of the model: column 0 the slope, column 1 + f the offset of file f."""
     n = sum(x.size for x in xs)
     design = np.zeros((n, 1 + (len(xs) if offsets else 0)))
     start = 0
@@ -273,25 +272,32 @@ def _design(xs: Sequence[np.ndarray], w: Sequence[float], offsets: bool) -> np.n
 
 
 def _solve(xs, ys, offsets: bool):
-    """Iteratively reweighted fit: (coef, weighted design, weighted residuals, sigma, covariance)."""
+    """Iteratively reweighted lmfit fit: (coef, weighted design, weighted residuals, sigma, covariance).
+
+    ``coef`` is (slope, offset of each file) as lmfit found them.
+    """
     scale = float(np.max(np.abs(np.concatenate(ys)))) or 1.0
     sigma = [stats.difference_noise(y) or 1e-9 * scale for y in ys]
+    models = _lines(len(xs))
+    params = _parameters(len(xs), offsets, _line(np.concatenate(xs), np.concatenate(ys))[0] or 1.0)
     for _ in range(4):
         w = [1.0 / s for s in sigma]
-        design = _design(xs, w, offsets)
-        rhs = np.concatenate([wf * y for wf, y in zip(w, ys, strict=True)])
-        coef, *_ = np.linalg.lstsq(design, rhs, rcond=None)
-        resid = np.split((rhs - design @ coef), np.cumsum([x.size for x in xs])[:-1])
-        dof = [max(r.size - design.shape[1] // len(xs) - 1, 1) for r in resid]
+        result = lmfit.minimize(_residual, params, args=(models, xs, ys, w), method="leastsq")
+        params = result.params
+        resid = np.split(result.residual, np.cumsum([x.size for x in xs])[:-1])
+        dof = [max(r.size - result.nvarys // len(xs) - 1, 1) for r in resid]
         sigma = [
             max(s * math.sqrt(float(np.sum(r**2)) / d), 1e-12 * scale)
             for s, r, d in zip(sigma, resid, dof, strict=True)
         ]
-    weighted = rhs - design @ coef
+    w = [1.0 / s for s in sigma]
+    weighted = _residual(params, models, xs, ys, w)
+    design = _design(xs, w, offsets)
     try:
         cov = stats.ar1_covariance(design, weighted, [x.size for x in xs])
     except (ValueError, np.linalg.LinAlgError) as exc:
         raise FitError(f"the slope's error cannot be computed: {exc}") from exc
+    coef = np.array([params["slope"].value] + [params[f"f{f}_offset"].value for f in range(len(xs))])
     return coef, design, weighted, sigma, cov
 
 
@@ -299,7 +305,7 @@ def _offset_p(coef: np.ndarray, cov: stats.Covariance) -> float:
     """p-value of the Wald test that every tare offset is zero (F on the covariance's dof)."""
     c = coef[1:]
     wald = float(c @ np.linalg.solve(cov.cov[1:, 1:], c))
-    return stats.f_sf(wald / c.size, c.size, cov.dof)
+    return float(scipy.stats.f.sf(wald / c.size, c.size, cov.dof))
 
 
 def fit_lines(records: Sequence[Record]) -> LineFit:
@@ -344,7 +350,7 @@ def fit_lines(records: Sequence[Record]) -> LineFit:
     )
 
 
-def check_sign(fit: LineFit, parameter: str, quantity: str, against: str) -> list[str]:
+def check_sign(fit: LineFit, parameter: str, quantity: str, against: str) -> list[Warning]:
     """FitError for a slope <= 0; a warning when its interval reaches zero."""
     if fit.slope <= 0:
         raise FitError(
@@ -352,16 +358,54 @@ def check_sign(fit: LineFit, parameter: str, quantity: str, against: str) -> lis
             "data taken together; no stiffness can be given. Check the channels and their signs"
         )
     if fit.ci95[0] <= 0:
-        return [
+        text = (
             f"{parameter} is not distinguishable from zero (95 % interval {fit.ci95[0]:.3g} .. "
             f"{fit.ci95[1]:.3g}); measure over a wider range of {against}"
-        ]
+        )
+        return [Warning("zero_in_interval", text)]
     return []
+
+
+#: Below this share of a file's loading rows in the linear range, the estimate carries a warning.
+MIN_LINEAR_SHARE = 0.5
+
+
+def share_warnings(records: Sequence[Record]) -> list[Warning]:
+    """A warning for each file whose linear range holds under MIN_LINEAR_SHARE of its loading rows."""
+    out = []
+    for r in records:
+        beyond = sum(int(r.excluded[k].sum()) for k in (branch.BEFORE, branch.BEYOND) if k in r.excluded)
+        loading = int(r.used.sum()) + beyond
+        if beyond and r.used.sum() < MIN_LINEAR_SHARE * loading:
+            text = f"{r.name}: only {int(r.used.sum())} of {loading} loading points are in the linear range"
+            out.append(Warning("little_linear", text))
+    return out
+
+
+def misfit_warning(fit: LineFit, model: str, advice: str) -> list[Warning]:
+    """The lack-of-fit warning of :mod:`matid.fits.stats`, if the line misses the data."""
+    text = fit.lof.warning(model, fit.inflation, advice)
+    return [Warning("misfit", text)] if text else []
+
+
+def warning_fields(warnings: Sequence[Warning]) -> tuple[tuple[str, ...], dict[str, object]]:
+    """(texts for ``Estimate.warnings``, ``{"warning_kinds": kinds}`` for its extra)."""
+    return tuple(w.text for w in warnings), {"warning_kinds": tuple(w.kind for w in warnings)}
 
 
 def left_out_info(records: Sequence[Record]) -> dict[str, dict[str, int]]:
     """file -> reason -> rows left out (files with none omitted)."""
     return {r.name: dict(r.left_out) for r in records if r.left_out}
+
+
+def rows_info(records: Sequence[Record]) -> dict[str, dict[str, list[list[int]]]]:
+    """file -> reason -> [first, last] row ranges left out (files with none omitted)."""
+    return {r.name: r.rows_left_out() for r in records if r.excluded}
+
+
+def range_info(records: Sequence[Record]) -> dict[str, list[float]]:
+    """file -> [x_min, x_max] of the rows fitted."""
+    return {r.name: [float(np.min(r.x[r.used])), float(np.max(r.x[r.used]))] for r in records if r.used.any()}
 
 
 def r2(records: Sequence[Record], fit: LineFit) -> float:

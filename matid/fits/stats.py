@@ -36,13 +36,13 @@ Public API (stable, used by linear, extension, shear fits):
 - :func:`lag1` (residuals, segments) -> float
 - :func:`runs` (residuals, segments) -> (n_runs, expected, p_too_few)
 - :func:`effective_n` (residuals, segments) -> float
+- :func:`ar1_rho` (residuals, segments, n_params) -> float; :func:`mean_variance_factor` (m, rho)
 - :func:`variance_factor` (residuals, segments, n_params) -> ((1 + rho) / (1 - rho), n_eff)
 - :func:`ar1_covariance` (jacobian, residuals, segments) -> :class:`Covariance`
 - :func:`lack_of_fit` (residuals, n_params, noise=None, segments=None) -> :class:`LackOfFit`
 - :func:`interval` (value, se, dof) -> (low, high)
-- :func:`chi2_sf`, :func:`f_sf`, :func:`t_ppf`, :func:`norm_cdf`: the distribution functions
-  the fits use, from scipy.special (scipy.stats costs ~0.3 s to import), with
-  scipy.stats' conventions at the edges
+
+Distributions (t, F, chi-square, normal) are scipy.stats' own, here and in every fit.
 
 ``segments`` is a sequence of segment lengths summing to ``len(residuals)`` (one per
 file, in the order the rows were recorded); None means one segment. Residuals must be in
@@ -57,7 +57,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, special
+from scipy import signal
+from scipy import stats as sstats
 
 #: Reduced chi-square (residual variance / difference noise) above which a fit is a misfit.
 MISFIT_CHI2 = 2.0
@@ -69,31 +70,6 @@ MIN_POINTS = 12
 RHO_Z = 2.0
 #: Largest rho used: beyond, the record holds about one independent value per segment.
 RHO_MAX = 0.999
-
-
-def chi2_sf(x: float, dof: float) -> float:
-    """``scipy.stats.chi2.sf(x, dof)``: P(X > x) for X ~ chi^2_dof (1 for x < 0, NaN for dof <= 0)."""
-    return float(special.chdtrc(dof, max(x, 0.0))) if dof > 0 else math.nan
-
-
-def f_sf(x: float, dfn: float, dfd: float) -> float:
-    """``scipy.stats.f.sf(x, dfn, dfd)``: P(X > x) for X ~ F(dfn, dfd) (1 for x < 0)."""
-    return float(special.fdtrc(dfn, dfd, max(x, 0.0))) if dfn > 0 and dfd > 0 else math.nan
-
-
-def f_cdf(x: float, dfn: float, dfd: float) -> float:
-    """``scipy.stats.f.cdf(x, dfn, dfd)`` (0 for x < 0)."""
-    return float(special.fdtr(dfn, dfd, max(x, 0.0))) if dfn > 0 and dfd > 0 else math.nan
-
-
-def t_ppf(q: float, dof: float) -> float:
-    """``scipy.stats.t.ppf(q, dof)``: the q quantile of Student's t with dof degrees of freedom."""
-    return float(special.stdtrit(dof, q))
-
-
-def norm_cdf(x: float) -> float:
-    """``scipy.stats.norm.cdf(x)``."""
-    return float(special.ndtr(x))
 
 
 def _bounds(n: int, segments: Sequence[int] | None) -> list[tuple[int, int]]:
@@ -156,10 +132,10 @@ def runs(residuals: np.ndarray, segments: Sequence[int] | None = None) -> tuple[
         var += 2.0 * n_pos * n_neg * (2.0 * n_pos * n_neg - n) / (n * n * (n - 1)) if n > 1 else 0.0
     if var <= 0:
         return observed, mean, 1.0
-    return observed, mean, norm_cdf((observed - mean + 0.5) / math.sqrt(var))
+    return observed, mean, float(sstats.norm.cdf((observed - mean + 0.5) / math.sqrt(var)))
 
 
-def _rho(residuals: np.ndarray, segments, n_params: int) -> float:
+def ar1_rho(residuals: np.ndarray, segments: Sequence[int] | None = None, n_params: int = 0) -> float:
     """Bias-corrected lag-1 autocorrelation used for the covariance (0 when not significant)."""
     r = np.asarray(residuals, dtype=float)
     n = r.size
@@ -171,6 +147,15 @@ def _rho(residuals: np.ndarray, segments, n_params: int) -> float:
     return float(min(max(corrected, 0.0), RHO_MAX))
 
 
+def mean_variance_factor(m: np.ndarray, rho: float) -> np.ndarray:
+    """Var(mean of m consecutive AR(1) values) / (sd^2 / m): ``1 + 2 sum_k (1 - k/m) rho^k``
+    for k < m, i.e. ``(1 + rho)/(1 - rho) - 2 rho (1 - rho^m) / (m (1 - rho)^2)``; 1 at m = 1."""
+    m = np.asarray(m, dtype=float)
+    if rho == 0.0:
+        return np.ones_like(m)
+    return (1.0 + rho) / (1.0 - rho) - 2.0 * rho * (1.0 - rho**m) / (m * (1.0 - rho) ** 2)
+
+
 def _neff(n: int, rho: float) -> float:
     return n * (1.0 - rho) / (1.0 + rho)
 
@@ -178,16 +163,7 @@ def _neff(n: int, rho: float) -> float:
 def effective_n(residuals: np.ndarray, segments: Sequence[int] | None = None, n_params: int = 0) -> float:
     """Effective number of independent residuals: ``n (1 - rho) / (1 + rho)`` (AR(1))."""
     r = np.asarray(residuals)
-    return _neff(r.size, _rho(r, segments, n_params))
-
-
-def _ar1_filter(block: np.ndarray, rho: float) -> np.ndarray:
-    """y_i = x_i + rho y_(i-1) down axis 0 (``scipy.signal.lfilter([1], [1, -rho], x, axis=0)``):
-    a lower-bidiagonal solve, O(n)."""
-    bands = np.zeros((2, block.shape[0]))
-    bands[0] = 1.0
-    bands[1, :-1] = -rho
-    return linalg.solve_banded((1, 0), bands, block, check_finite=False)
+    return _neff(r.size, ar1_rho(r, segments, n_params))
 
 
 def _ar1_apply(matrix: np.ndarray, rho: float, bounds) -> np.ndarray:
@@ -198,8 +174,8 @@ def _ar1_apply(matrix: np.ndarray, rho: float, bounds) -> np.ndarray:
     out = np.empty_like(matrix)
     for a, b in bounds:
         block = matrix[a:b]
-        forward = _ar1_filter(block, rho)
-        backward = _ar1_filter(block[::-1], rho)[::-1]
+        forward = signal.lfilter([1.0], [1.0, -rho], block, axis=0)
+        backward = signal.lfilter([1.0], [1.0, -rho], block[::-1], axis=0)[::-1]
         out[a:b] = forward + backward - block
     return out
 
@@ -252,7 +228,7 @@ def ar1_covariance(
     jtj_inv = np.linalg.inv(J.T @ J)  # LinAlgError for singular J
     rss = float(np.dot(r, r))
     cov_iid = rss / (n - p) * jtj_inv
-    rho = _rho(r, segments, p)
+    rho = ar1_rho(r, segments, p)
     if rho == 0.0:
         return Covariance(cov_iid, cov_iid, 0.0, n, float(n), float(n - p))
     rj = _ar1_apply(J, rho, bounds)
@@ -266,7 +242,7 @@ def ar1_covariance(
 
 def interval(value: float, se: float, dof: float, level: float = 0.95) -> tuple[float, float]:
     """``value -+ t_{(1+level)/2, dof} se``."""
-    half = t_ppf(0.5 + level / 2.0, max(dof, 1.0)) * se
+    half = float(sstats.t.ppf(0.5 + level / 2.0, max(dof, 1.0))) * se
     return value - half, value + half
 
 
@@ -360,7 +336,7 @@ def variance_factor(
     inflate the variance of a smooth contrast (a slope, a curvature term), and the
     effective sample size ``n / f``; (1, n) when rho is not significant."""
     r = np.asarray(residuals)
-    rho = _rho(r, segments, n_params)
+    rho = ar1_rho(r, segments, n_params)
     return (1.0 + rho) / (1.0 - rho), _neff(r.size, rho)
 
 
@@ -371,11 +347,8 @@ def ar1_noise(rng: np.random.Generator, n: int, phi: float) -> np.ndarray:
     test-machine records have residuals of this kind.
     """
     innovations = rng.normal(size=n) * np.sqrt(1.0 - phi**2)
-    out = np.empty(n)
-    out[0] = rng.normal()
-    for i in range(1, n):
-        out[i] = phi * out[i - 1] + innovations[i]
-    return out
+    innovations[0] = rng.normal()
+    return signal.lfilter([1.0], [1.0, -phi], innovations)
 
 
 #: Largest argument of math.exp that stays finite (log of the largest float, 709.78...).

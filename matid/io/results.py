@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from matid import __version__
+from matid.io.cells import text_cell
 from matid.io.study import Study, Test
 from matid.io.views import PicklesViews
 from matid.units import from_si
@@ -329,16 +330,23 @@ _CSV_FORMATS = {"value": ".10g", "stderr": ".6g", "ci95_low": ".10g", "ci95_high
 
 
 def csv_text(rows: list[dict[str, object]], columns: list[str]) -> str:
-    """Rows as CSV text with ``columns``; None is an empty cell, floats as in :data:`_CSV_FORMATS`."""
+    """Rows as CSV text with ``columns``; None is an empty cell, floats as in :data:`_CSV_FORMATS`,
+    text never a formula (:func:`matid.io.cells.text_cell`, docs/contract.md section 11)."""
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(columns)
+    writer.writerow([text_cell(c) for c in columns])
     for row in rows:
-        writer.writerow(
-            ["" if row[c] is None else format(row[c], _CSV_FORMATS[c]) if c in _CSV_FORMATS else row[c]
-             for c in columns]
-        )  # fmt: skip
+        writer.writerow([_csv_cell(row[c], _CSV_FORMATS.get(c)) for c in columns])
     return buffer.getvalue()
+
+
+def _csv_cell(value: object, number_format: str | None) -> object:
+    """None as an empty cell, a number in ``number_format`` (or as it is), text as :func:`text_cell`."""
+    if value is None:
+        return ""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return format(value, number_format) if number_format else value
+    return text_cell(value)
 
 
 def stiffness_csv(result: StudyResult, units: str = "SI") -> str:

@@ -5,14 +5,13 @@ once; every problem is a DataError naming the toml file, the entry and the key.
 Unknown keys are errors with the nearest valid key suggested (a misspelled
 ``exlude`` must not silently fit the test); a bare number for a dimensional
 quantity is SI only where that is plausible for its kind
-(:data:`matid.units.PLAUSIBLE_BARE`); booleans must be TOML booleans; free
-text is bounded (:data:`MAX_TEXT`).
+(:data:`matid.units.PLAUSIBLE_BARE`); booleans must be TOML booleans; free text is bounded
+(:data:`MAX_TEXT`); the toml is read by :func:`matid.io.toml.load_toml` (docs/limits.md).
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,10 +19,14 @@ from types import MappingProxyType
 
 from matid.errors import DataError
 from matid.io import study_keys as keys
+from matid.io.limits import MAX_ENTRIES
 from matid.io.study_keys import MAX_TEXT, TEST_COLUMNS, bounded_text, nearest  # noqa: F401 - re-exported
+from matid.io.toml import load_toml, shown
 from matid.io.views import PicklesViews
 from matid.units import PHYSICAL_BOUND, PLAUSIBLE_BARE, UnitError, to_si
 
+#: Keys whose strings are free text: any length (cut at MAX_TEXT), not bounded by MAX_VALUE_CHARS.
+FREE_TEXT = ("name", "temperature", "note")
 #: Per test kind: the toml keys it needs and their quantity kinds; optional keys.
 TEST_KINDS: dict[str, dict[str, str]] = {
     "extension": {"gauge_length": "length"},
@@ -55,7 +58,7 @@ TEST_COMMON_KEYS = (
 )
 TABLE_KEYS: dict[str, tuple[str, ...]] = {
     "": ("study", "specimen", "test", "fixed"),
-    "study": ("name", "temperature"),
+    "study": ("name", "temperature", "allow_outside"),
     "specimen": ("id", "outer_diameter", "inner_diameter", "poisson_ratio"),
     "fixed": ("specimen", "parameter", "value"),
 }
@@ -132,7 +135,8 @@ class Test(PicklesViews):
         object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
         object.__setattr__(self, "negate", tuple(self.negate))
         if self.deflection_at not in ("nose", "centreline"):
-            raise ValueError(f"deflection_at must be 'nose' or 'centreline', got {self.deflection_at!r}")
+            got = shown(self.deflection_at)
+            raise ValueError(f"deflection_at must be 'nose' or 'centreline', got '{got}'")
         for key in TEST_KINDS[self.kind]:
             value = self.params.get(key)
             if value is None or not value > 0:
@@ -204,25 +208,21 @@ def resolve_study_path(path: str | Path) -> Path:
 def load_study(path: str | Path) -> Study:
     """Read and validate ``study.toml`` (or the folder holding it)."""
     source = resolve_study_path(path)
-    try:
-        raw = tomllib.loads(source.read_text(encoding="utf-8-sig"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise DataError(f"not valid TOML: {exc}", file=source) from exc
-    except OSError as exc:
-        raise DataError(f"cannot read the study file: {exc.strerror}", file=source) from exc
+    raw = load_toml(source, "study file", FREE_TEXT)
     _check_keys(source, "the top level", raw, TABLE_KEYS[""])
     head = raw.get("study", {})
     if not isinstance(head, dict):
         raise DataError("[study] must be a table", file=source)
     _check_keys(source, "[study]", head, TABLE_KEYS["study"])
+    outside = _boolean(source, "[study]", head, "allow_outside")
     specimens = tuple(_specimen(source, i, entry) for i, entry in enumerate(_list(raw, "specimen", source)))
     ids = [s.id for s in specimens]
     duplicates = {i for i in ids if ids.count(i) > 1}
     if duplicates:
-        raise DataError(f"duplicate specimen id {sorted(duplicates)[0]!r}", file=source)
+        raise DataError(f"duplicate specimen id '{shown(sorted(duplicates)[0])}'", file=source)
     if not specimens:
         raise DataError("no [[specimen]] entries", file=source)
-    tests = tuple(_test(source, i, entry, set(ids)) for i, entry in enumerate(_list(raw, "test", source)))
+    tests = tuple(_test(source, i, e, set(ids), outside) for i, e in enumerate(_list(raw, "test", source)))
     if not tests:
         raise DataError("no [[test]] entries", file=source)
     fixed = tuple(_fixed(source, i, entry, set(ids)) for i, entry in enumerate(_list(raw, "fixed", source)))
@@ -241,13 +241,16 @@ def _check_keys(source: Path, where: str, entry: dict, valid: tuple[str, ...], o
     for key in entry:
         if key not in valid:
             hint = nearest(str(key), valid) or f" (valid keys: {', '.join(valid)})"
-            raise DataError(f"{where}: unknown key `{bounded_text(key, 80)}`{other}{hint}", file=source)
+            raise DataError(f"{where}: unknown key `{shown(key)}`{other}{hint}", file=source)
 
 
 def _list(raw: dict, key: str, source: Path) -> list[dict]:
     entries = raw.get(key, [])
     if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
         raise DataError(f"[[{key}]] must be an array of tables", file=source)
+    if len(entries) > MAX_ENTRIES:
+        raise DataError(f"{len(entries)} [[{key}]] entries, more than MAX_ENTRIES = {MAX_ENTRIES}",
+                        file=source)  # fmt: skip
     return entries
 
 
@@ -276,7 +279,7 @@ def _value(source: Path, where: str, key: str, value: object, kind: str) -> floa
     bound = PHYSICAL_BOUND.get(kind)
     if bound is not None and abs(number) > bound:
         raise DataError(
-            f"{where}: {key} = {bounded_text(value, 80)!r} is {number:g} in SI, beyond the physical "
+            f"{where}: {key} = '{shown(value)}' is {number:g} in SI, beyond the physical "
             f"bound {bound:g} for a {kind}",
             file=source,
         )
@@ -287,7 +290,7 @@ def _boolean(source: Path, where: str, entry: dict, key: str) -> bool:
     value = entry.get(key, False)
     if not isinstance(value, bool):
         raise DataError(
-            f"{where}: {key} must be a boolean (true or false, unquoted), got {bounded_text(value, 80)!r}",
+            f"{where}: {key} must be a boolean (true or false, unquoted), got '{shown(value)}'",
             file=source,
         )
     return value
@@ -296,7 +299,7 @@ def _boolean(source: Path, where: str, entry: dict, key: str) -> bool:
 def _text(source: Path, where: str, entry: dict, key: str, default: str = "") -> str:
     value = entry.get(key, default)
     if not isinstance(value, str):
-        raise DataError(f"{where}: {key} must be a string, got {bounded_text(value, 80)!r}", file=source)
+        raise DataError(f"{where}: {key} must be a string, got '{shown(value)}'", file=source)
     return bounded_text(value)
 
 
@@ -316,7 +319,7 @@ def _specimen(source: Path, index: int, entry: dict) -> Specimen:
     nu = entry.get("poisson_ratio")
     if nu is not None and (isinstance(nu, bool) or not isinstance(nu, (int, float)) or not -1.0 < nu <= 0.5):
         raise DataError(
-            f"specimen {sid}: poisson_ratio must be a number in (-1, 0.5], got {bounded_text(nu, 80)!r}",
+            f"specimen {sid}: poisson_ratio must be a number in (-1, 0.5], got '{shown(nu)}'",
             file=source,
         )
     try:
@@ -325,19 +328,19 @@ def _specimen(source: Path, index: int, entry: dict) -> Specimen:
         raise DataError(str(exc), file=source) from exc
 
 
-def _test(source: Path, index: int, entry: dict, ids: set[str]) -> Test:
+def _test(source: Path, index: int, entry: dict, ids: set[str], outside: bool = False) -> Test:
     where = f"[[test]] #{index + 1}"
     kind = entry.get("kind")
     if not isinstance(kind, str) or kind not in TEST_KINDS:
         hint = nearest(str(kind), list(TEST_KINDS))
         raise DataError(
-            f"{where}: kind must be one of {', '.join(TEST_KINDS)}, got {bounded_text(kind, 80)!r}{hint}",
+            f"{where}: kind must be one of {', '.join(TEST_KINDS)}, got '{shown(kind)}'{hint}",
             file=source,
         )
     _check_test_keys(source, where, entry, kind)
     specimen = str(entry.get("specimen", ""))
     if specimen not in ids:
-        raise DataError(f"{where}: unknown specimen {bounded_text(specimen, 80)!r}", file=source)
+        raise DataError(f"{where}: unknown specimen '{shown(specimen)}'", file=source)
     if not entry.get("file") or not isinstance(entry["file"], str):
         raise DataError(f"{where}: missing 'file' (a file name string)", file=source)
     params = {key: _quantity(source, where, entry, key, q) for key, q in TEST_KINDS[kind].items()}
@@ -348,7 +351,7 @@ def _test(source: Path, index: int, entry: dict, ids: set[str]) -> Test:
         return Test(
             kind=kind,
             specimen=specimen,
-            file=_resolve(source, where, entry["file"]),
+            file=keys.data_file(source, where, entry["file"], outside),
             params=params,
             exclude=_boolean(source, where, entry, "exclude"),
             note=_text(source, where, entry, "note"),
@@ -378,25 +381,16 @@ def _check_test_keys(source: Path, where: str, entry: dict, kind: str) -> None:
         _check_keys(source, where, {key: None}, own, other)
 
 
-def _resolve(source: Path, where: str, name: str) -> Path:
-    """The data file's absolute path; a symlink loop is an input error, not a crash."""
-    path = source.parent / name
-    try:
-        return path.resolve()
-    except (OSError, RuntimeError) as exc:
-        raise DataError(f"{where}: file {name!r} cannot be resolved ({exc})", file=source) from exc
-
-
 def _fixed(source: Path, index: int, entry: dict, ids: set[str]) -> Fixed:
     where = f"[[fixed]] #{index + 1}"
     _check_keys(source, where, entry, TABLE_KEYS["fixed"])
     specimen = str(entry.get("specimen", ""))
     if specimen not in ids:
-        raise DataError(f"{where}: unknown specimen {bounded_text(specimen, 80)!r}", file=source)
+        raise DataError(f"{where}: unknown specimen '{shown(specimen)}'", file=source)
     parameter = str(entry.get("parameter", ""))
     if parameter not in PARAMETERS:
         hint = nearest(parameter, list(PARAMETERS))
-        raise DataError(f"{where}: unknown parameter {bounded_text(parameter, 80)!r}{hint}", file=source)
+        raise DataError(f"{where}: unknown parameter '{shown(parameter)}'{hint}", file=source)
     value = _quantity(source, where, entry, "value", PARAMETERS[parameter])
     try:
         return Fixed(specimen, parameter, value)

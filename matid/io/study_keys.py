@@ -2,7 +2,9 @@
 
 ``columns``, ``units``, ``negate``, ``window`` and ``encoding`` (docs/contract.md
 section 7): each names a data column the test kind uses (:data:`TEST_COLUMNS`),
-checked here with the nearest valid name suggested. Free text is bounded.
+checked here with the nearest valid name suggested. Free text is bounded. The data
+file of a test lies inside the study's folder unless ``[study] allow_outside = true``
+(:func:`data_file`, section 11).
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from matid.errors import DataError
+from matid.io.limits import MAX_TEXT
+from matid.io.toml import shown
 from matid.units import UnitError, si_factor
 
 #: Per test kind, the data columns its fits use and their quantity kinds
@@ -24,8 +28,6 @@ TEST_COLUMNS: dict[str, dict[str, str]] = {
     "three_point_bend": {"deflection": "length", "force": "force"},
 }
 
-#: Longest free text kept (note, name, temperature); longer text is cut and marked.
-MAX_TEXT = 2000
 TRUNCATED = " [... truncated]"
 
 
@@ -46,7 +48,7 @@ def _column_key(source: Path, where: str, key: str, name: object, kind: str) -> 
     valid = list(TEST_COLUMNS[kind])
     if name not in valid:
         raise DataError(
-            f"{where}: {key}: `{bounded_text(name, 80)}` is not a column of {kind} tests "
+            f"{where}: {key}: `{shown(name)}` is not a column of {kind} tests "
             f"(one of {', '.join(valid)}){nearest(str(name), valid)}",
             file=source,
         )
@@ -67,11 +69,12 @@ def window(
     for name, bounds in _table(source, where, entry, "window").items():
         column = _column_key(source, where, "window", name, kind)
         if not isinstance(bounds, list) or len(bounds) != 2:
-            raise DataError(f'{where}: window.{column} must be ["low", "high"], got {bounds!r}', file=source)
+            got = shown(bounds)
+            raise DataError(f'{where}: window.{column} must be ["low", "high"], got {got}', file=source)
         q = TEST_COLUMNS[kind][column]
         low, high = (value(source, where, f"window.{column}", b, q) for b in bounds)
         if not low < high:
-            raise DataError(f"{where}: window.{column} needs low < high, got {bounds!r}", file=source)
+            raise DataError(f"{where}: window.{column} needs low < high, got {shown(bounds)}", file=source)
         window[column] = (low, high)
     return window
 
@@ -115,5 +118,26 @@ def encoding(source: Path, where: str, entry: dict) -> str | None:
         return codecs.lookup(name).name
     except LookupError as exc:
         raise DataError(
-            f"{where}: unknown encoding {name!r} (e.g. utf-8, cp1252, gbk, utf-16)", file=source
+            f"{where}: unknown encoding '{shown(name)}' (e.g. utf-8, cp1252, gbk, utf-16)", file=source
         ) from exc
+
+
+def data_file(source: Path, where: str, name: str, outside: bool = False) -> Path:
+    """The data file's absolute path, links resolved; inside the study's folder unless ``outside``.
+
+    A symlink loop is an input error, not a crash; a file outside the folder (``../x``,
+    an absolute path, a link leading out) is refused unless ``[study] allow_outside = true``
+    (docs/contract.md section 11): a study handed over must not read the reader's files.
+    """
+    try:
+        root, path = source.parent.resolve(), (source.parent / name).resolve()
+    except (OSError, RuntimeError) as exc:
+        message = f"{where}: file '{shown(name)}' cannot be resolved ({shown(exc)})"
+        raise DataError(message, file=source) from exc
+    if not (outside or path.is_relative_to(root)):
+        raise DataError(
+            f"{where}: file = '{shown(name)}' is {shown(path, 200)}, outside the study folder "
+            f"{shown(root, 200)}; move it in, or set [study] allow_outside = true",
+            file=source,
+        )
+    return path

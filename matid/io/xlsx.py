@@ -2,7 +2,8 @@
 
 Sheets of ``stiffness.xlsx``: ``stiffness`` (the rows of ``stiffness.csv``, numbers
 as numbers), ``warnings`` (specimen, what it concerns, the warning) and ``inputs``
-(file, sha256, rows used, rows read). openpyxl is imported only when a workbook is
+(file, sha256, rows used, rows read); text is written as text, never as a formula
+(:mod:`matid.io.cells`). openpyxl is imported only when a workbook is
 written, so ``import matid`` stays light.
 """
 
@@ -11,6 +12,7 @@ from __future__ import annotations
 import io
 from collections.abc import Mapping, Sequence
 
+from matid.io.cells import cell
 from matid.io.results import CSV_COLUMNS, StudyResult, rows_used, table_rows
 
 #: A sheet: its column names and its rows (dicts keyed by those names).
@@ -64,11 +66,11 @@ def workbook(sheets: Mapping[str, Sheet]) -> bytes:
     book.remove(book.active)
     for name, (columns, rows) in sheets.items():
         sheet = book.create_sheet(name)
-        sheet.append(list(columns))
-        for cell in sheet[1]:
-            cell.font = Font(bold=True)
+        _append(sheet, list(columns))
+        for header in sheet[1]:
+            header.font = Font(bold=True)
         for row in rows:
-            sheet.append([row.get(c) for c in columns])
+            _append(sheet, [row.get(c) for c in columns])
         sheet.freeze_panes = "A2"
         for letter, column in zip(_letters(len(columns)), columns, strict=True):
             width = max([len(str(column))] + [len(str(r.get(column) or "")) for r in rows])
@@ -76,6 +78,14 @@ def workbook(sheets: Mapping[str, Sheet]) -> bytes:
     buffer = io.BytesIO()
     book.save(buffer)
     return buffer.getvalue()
+
+
+def _append(sheet, values: list[object]) -> None:
+    """One row: numbers as numbers, text as text (never a formula, an error code or a control character)."""
+    sheet.append([cell(v) for v in values])
+    for written in sheet[sheet.max_row]:
+        if isinstance(written.value, str):
+            written.data_type = "s"  # openpyxl would type "#N/A" as an error; "=..." is prefixed already
 
 
 def _letters(n: int) -> list[str]:

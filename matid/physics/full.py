@@ -1,24 +1,32 @@
-"""Closed-form gradient and Hessian of the full-model density (normalised quaternions).
+"""Closed-form gradient and Hessian of the full-model density, both quaternion treatments.
 
-Variables per point z = (r, q, r', q') (14). With n2 = |q|^2 every strain is a
-polynomial numerator over n2 (:mod:`matid.physics.kinematics`):
+Variables per point z = (r, q, r', q') (14); only y = (q, r', q') (11) enter the strains.
+Every strain is a polynomial numerator times a power of n2 = |q|^2
+(:mod:`matid.physics.kinematics`):
 
-    kappa_i = a_i / n2,  a_i = q^T A_i q'          (A_i constant, bilinear)
-    nu_i    = b_i / n2,  b_i = sum_j r'_j q^T Q_ji q  (R_ji(q) = q^T Q_ji q, Q constant)
-    d3.B    = m / n2,    m = q^T (sum_j B_j Q_j3) q
+    kappa_i = a_i n2^p,  a_i = q^T A_i q'              (A_i constant, bilinear)
+    nu_i    = b_i n2^p,  b_i = sum_j r'_j q^T Q_ji q   (R_ji(q) = q^T Q_ji q, Q constant)
+    d3.B    = m n2^p,    m = q^T (sum_j B_j Q_j3) q
 
-and for e = F/n2:  grad e = (grad F - e grad n2)/n2,
-Hess e = (Hess F - grad e grad n2^T - grad n2 grad e^T - 2 e I_q)/n2.
-The density W = 1/2 sum_k C_k (e_k - e_k^ref)^2 - lam mu d3.B - lam f.r then has
+with p = -1 for every row when the directors come from q/|q| (normalised), and p = +1 for
+kappa, 0 for nu and d3 with the raw q (the paper's). For e = F a(n2), a = n2^p:
 
-    g = sum_k s_k grad e_k (- lam f),   H = sum_k C_k grad e_k grad e_k^T + sum_k s_k Hess e_k
+    grad e = a grad F + a' F grad n2
+    Hess e = a Hess F + a' (grad F grad n2^T + grad n2 grad F^T) + a'' F grad n2 grad n2^T + 2 a' F I_q.
 
-with s_k = dW/de_k. The constants A_i, Q_ji are read off kinematics.directors and
-kinematics.curvature_numerator once, so this is the same model as the jets
-(compared to them in tests/test_rod_closed_forms.py).
+The density W = 1/2 sum_k C_k (e_k - e_k^ref)^2 - lam mu d3.B - lam f.r (+ c_u/2 (n2 - 1)^2,
+raw) then has, with s_k = dW/de_k,
+
+    g = sum_k s_k grad e_k (- lam f),   H = sum_k C_k grad e_k grad e_k^T + sum_k s_k Hess e_k,
+
+each a few batched matrix products over all points at once with the constant tensors A, Q read
+off kinematics.directors and kinematics.curvature_numerator, so this is the same model as the
+jets (compared to them in tests/rod/test_derivatives.py).
 """
 
 from __future__ import annotations
+
+import functools
 
 import numpy as np
 
@@ -47,73 +55,194 @@ def _quadratic() -> np.ndarray:
 
 A = _bilinear()
 Q = _quadratic()
-QS, DR, DQ = slice(3, 7), slice(7, 10), slice(10, 14)
+A_S = A.reshape(3, 16)  # s @ A_S = sum_i s_i A_i
+Q_S = Q.reshape(9, 16)  # (r' (x) s) @ Q_S = sum_ji r'_j s_i Q_ji
+# local variables y = (q, r', q') of z = (r, q, r', q')
+YQ, YR, YP = slice(0, 4), slice(4, 7), slice(7, 11)
+_I4 = np.arange(4)
+#: exponents p of n2 per strain row (kappa 1-3, nu 1-3, d3.B)
+POWERS = {kin.NORMALISED: np.full(7, -1.0), kin.RAW: np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0])}
 
 
-def derivatives(vals, ders, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None, want_strain=False):
-    """(g, H) of the normalised full-model density at every point: shapes P + (14,), P + (14, 14).
+@functools.lru_cache(maxsize=16)
+def linear_maps(B: tuple[float, float, float]) -> np.ndarray:
+    """W (14, 64) with z @ W = [A_i^T q (12), A_i q' (12), Q_ji q (36), M q (4)] at every point:
+    every linear map of the point values in one matrix product (M = sum_j B_j Q_j3)."""
+    W = np.zeros((14, 64))
+    W[3:7, 0:12] = A.transpose(1, 0, 2).reshape(4, 12)  # [i, b] = sum_a q_a A_iab
+    W[10:14, 12:24] = A.transpose(2, 0, 1).reshape(4, 12)  # [i, a] = sum_b A_iab q'_b
+    W[3:7, 24:60] = Q.transpose(3, 0, 1, 2).reshape(4, 36)  # [j, i, a] = sum_b Q_jiab q_b
+    W[3:7, 60:64] = np.einsum("j,jab->ab", np.asarray(B, float), Q[:, 2])
+    return W
 
-    vals, ders: (7,) + P field values and s-derivatives; props: stiffness arrays (P);
-    mu: magnetisation per length (P) or None; B, f: 3-vectors; kappa_ref: 3-vector (scaled by lam here).
-    ``stress`` (P + (6,)): independent point stresses for the geometric part of the Hessian
-    (the mixed tangent, see RodSystem.mixed_update); ``want_strain``: also return
-    (C (e - e_ref), C de/dz) for that update.
+
+def derivatives(
+    z,
+    lam,
+    props,
+    kappa_ref,
+    mu,
+    B,
+    f,
+    tangent=True,
+    *,
+    stress=None,
+    want_strain=False,
+    variant=kin.NORMALISED,
+    c_u=0.0,
+):
+    """(g, H) of the full-model density at every point: shapes P + (14,), P + (14, 14).
+
+    z: P + (14,) the point values (r, q, r', q'); props: stiffness arrays (P); mu:
+    magnetisation per length (P) or None; B, f: 3-vectors; kappa_ref: 3-vector (scaled by lam
+    here); ``variant``: directors from q/|q| or the raw q (then with the integrated penalty
+    c_u/2 (|q|^2 - 1)^2). ``stress`` (P + (6,)): independent point stresses for the geometric
+    part of the Hessian (the mixed tangent, see RodSystem.mixed_update); ``want_strain``: also
+    return (C (e - e_ref), C de/dz) for that update.
     """
-    q = np.moveaxis(vals[3:], 0, -1)  # P + (4,)
-    p = np.moveaxis(ders[3:], 0, -1)
-    dr = np.moveaxis(ders[:3], 0, -1)
-    P = q.shape[:-1]
-    n2 = np.sum(q * q, axis=-1)
-    inv = 1.0 / n2
-    Rq = np.einsum("...a,jiab,...b->...ji", q, Q, q)  # R(q), P + (3, 3)
-    Qq = np.einsum("jiab,...b->...jia", Q, q)  # P + (3, 3, 4)
+    shape = z.shape[:-1]
+    z = z.reshape(-1, 14)
+    n = z.shape[0]
+    q, dr = z[:, 3:7], z[:, 7:10]
+    n2 = np.einsum("pa,pa->p", q, q)
     nF = 6 + (mu is not None)
-    F = np.empty(P + (nF,))
-    gF = np.zeros(P + (nF, 14))
-    F[..., :3] = np.einsum("...a,iab,...b->...i", q, A, p)
-    gF[..., :3, QS] = np.einsum("iab,...b->...ia", A, p)
-    gF[..., :3, DQ] = np.einsum("iab,...a->...ib", A, q)
-    F[..., 3:6] = np.einsum("...j,...ji->...i", dr, Rq)
-    gF[..., 3:6, QS] = 2.0 * np.einsum("...j,...jia->...ia", dr, Qq)
-    gF[..., 3:6, DR] = np.swapaxes(Rq, -1, -2)
-    if mu is not None:
-        M = np.einsum("j,jab->ab", np.asarray(B, float), Q[:, 2])
-        F[..., 6] = np.einsum("...a,ab,...b->...", q, M, q)
-        gF[..., 6, QS] = 2.0 * np.einsum("ab,...b->...a", M, q)
-    e = F * inv[..., None]
-    gn2 = np.zeros(P + (14,))
-    gn2[..., QS] = 2.0 * q
-    ge = (gF - e[..., None] * gn2[..., None, :]) * inv[..., None, None]
-    C = np.stack(
-        [props["E_b"], props["E_b"], props["E_t"], props["E_s"], props["E_s"], props["E_e"]], axis=-1
-    )
+    power = POWERS[variant][:nF]
+    a = n2[:, None] ** power  # (n, nF)
+    a1 = power * a / n2[:, None]
+    W = linear_maps(tuple(float(b) for b in B))
+    F, gF, Qq = _numerators(z, z @ W, mu is not None)
+    M = W[3:7, 60:64] if mu is not None else None
+    gn2 = np.zeros((n, 11))
+    gn2[:, YQ] = 2.0 * q
+    ge = a[:, :, None] * gF + (a1 * F)[:, :, None] * gn2[:, None, :]
+    C = np.empty((n, 6))
+    C[:, 0] = C[:, 1] = props["E_b"].ravel()
+    C[:, 2], C[:, 3], C[:, 5] = props["E_t"].ravel(), props["E_s"].ravel(), props["E_e"].ravel()
+    C[:, 4] = C[:, 3]
     ref = np.array([lam * kappa_ref[0], lam * kappa_ref[1], lam * kappa_ref[2], 0.0, 0.0, 1.0])
-    s = np.empty(P + (nF,))
-    s[..., :6] = C * (e[..., :6] - ref)
+    s = np.empty((n, nF))
+    s[:, :6] = C * (a[:, :6] * F[:, :6] - ref)
     if mu is not None:
-        s[..., 6] = -lam * mu
-    G = np.einsum("...k,...ka->...a", s, ge)
-    g = G.copy()
-    g[..., :3] -= lam * np.asarray(f, float)
+        s[:, 6] = -lam * np.ravel(mu)
+    penalty = c_u * (n2 - 1.0) if variant == kin.RAW else None
+    g = np.empty((n, 14))
+    g[:, :3] = -lam * np.asarray(f, float)
+    g[:, 3:] = _gradient(s, a, a1, F, gF, gn2, penalty)
     if not tangent:
-        return g, None
-    strain = (s[..., :6].copy(), C[..., :, None] * ge[..., :6, :]) if want_strain else None
-    if stress is not None:
-        s[..., :6] = stress
-        G = np.einsum("...k,...ka->...a", s, ge)
-    H = np.einsum("...k,...ka,...kb->...ab", C, ge[..., :6, :], ge[..., :6, :])
-    HS = np.zeros(P + (14, 14))
-    HS[..., QS, DQ] = np.einsum("...i,iab->...ab", s[..., :3], A)
-    HS[..., DQ, QS] = np.swapaxes(HS[..., QS, DQ], -1, -2)
-    HS[..., QS, QS] = 2.0 * np.einsum("...i,...j,jiab->...ab", s[..., 3:6], dr, Q)
-    if mu is not None:
-        HS[..., QS, QS] += 2.0 * s[..., 6, None, None] * M
-    HS[..., QS, DR] = 2.0 * np.einsum("...i,...jia->...aj", s[..., 3:6], Qq)
-    HS[..., DR, QS] = np.swapaxes(HS[..., QS, DR], -1, -2)
-    outer = G[..., :, None] * gn2[..., None, :]
-    HS -= outer + np.swapaxes(outer, -1, -2)
-    se = np.sum(s * e, axis=-1)
-    idx = np.arange(3, 7)
-    HS[..., idx, idx] -= 2.0 * se[..., None]
-    H += HS * inv[..., None, None]
+        return g.reshape(shape + (14,)), None
+    ge6 = ge[:, :6, :]
+    Cge = C[:, :, None] * ge6
+    strain = None
+    if want_strain:
+        CJ = np.zeros((n, 6, 14))
+        CJ[:, :, 3:] = Cge
+        strain = (s[:, :6].reshape(shape + (6,)), CJ.reshape(shape + (6, 14)))
+    if stress is not None:  # the geometric part from the independent point stresses
+        s = s.copy()
+        s[:, :6] = stress.reshape(n, 6)
+    H = np.zeros((n, 14, 14))
+    H[:, 3:, 3:] = _hessian(ge6, Cge, s, a, a1, power, n2, F, gF, gn2, dr, Qq, M, penalty, c_u)
+    g, H = g.reshape(shape + (14,)), H.reshape(shape + (14, 14))
     return (g, H, strain) if want_strain else (g, H)
+
+
+def _numerators(z, Wz, magnetic):
+    """(F, dF/dy, Q_ji q) at every point: the strain numerators and their gradients."""
+    n = z.shape[0]
+    q, dr, p = z[:, 3:7], z[:, 7:10], z[:, 10:14]
+    Aq, Ap = Wz[:, 0:12].reshape(n, 3, 4), Wz[:, 12:24].reshape(n, 3, 4)
+    Qq = Wz[:, 24:60].reshape(n, 3, 3, 4)  # [j, i, a] = (Q_ji q)_a
+    nF = 6 + magnetic
+    F = np.empty((n, nF))
+    gF = np.zeros((n, nF, 11))
+    F[:, :3] = np.einsum("pib,pb->pi", Aq, p)
+    gF[:, :3, YQ] = Ap
+    gF[:, :3, YP] = Aq
+    R = np.einsum("pjia,pa->pji", Qq, q)  # R_ji(q)
+    F[:, 3:6] = np.einsum("pj,pji->pi", dr, R)
+    gF[:, 3:6, YQ] = 2.0 * np.einsum("pj,pjia->pia", dr, Qq)
+    gF[:, 3:6, YR] = R.transpose(0, 2, 1)
+    if magnetic:
+        Mq = Wz[:, 60:64]
+        F[:, 6] = np.einsum("pa,pa->p", Mq, q)
+        gF[:, 6, YQ] = 2.0 * Mq
+    return F, gF, Qq
+
+
+def _gradient(s, a, a1, F, gF, gn2, penalty):
+    """sum_k s_k grad e_k (+ the raw penalty's c_u (n2 - 1) grad n2) over y."""
+    c1 = np.einsum("pk,pk->p", s * a1, F)
+    if penalty is not None:
+        c1 = c1 + penalty
+    return np.einsum("pk,pka->pa", s * a, gF) + c1[:, None] * gn2
+
+
+def _hessian(ge6, Cge, s, a, a1, power, n2, F, gF, gn2, dr, Qq, M, penalty, c_u):
+    """sum_k C_k grad e_k grad e_k^T + sum_k s_k Hess e_k (+ the raw penalty's Hessian) over y.
+
+    The rank-one terms of the chain rule, V grad n2^T + grad n2 V^T + c2 grad n2 grad n2^T with
+    V = sum_k s_k a'_k grad F_k, ride in the same batched product as J^T C J: rows
+    [grad e (6), grad n2, V] against [C grad e, c2 grad n2 + V, grad n2]."""
+    n = s.shape[0]
+    sa, sa1 = s * a, s * a1
+    a2 = power * (power - 1.0) * a / (n2 * n2)[:, None]
+    c2 = np.einsum("pk,pk->p", s * a2, F)
+    c1 = 2.0 * np.einsum("pk,pk->p", sa1, F)
+    if penalty is not None:
+        c2 = c2 + c_u
+        c1 = c1 + 2.0 * penalty
+    V = np.einsum("pk,pka->pa", sa1, gF)
+    rows, cols = np.empty((n, 8, 11)), np.empty((n, 8, 11))
+    rows[:, :6], rows[:, 6], rows[:, 7] = ge6, gn2, V
+    cols[:, :6], cols[:, 6], cols[:, 7] = Cge, c2[:, None] * gn2 + V, gn2
+    H = np.matmul(rows.transpose(0, 2, 1), cols)
+    S = (sa[:, :3] @ A_S).reshape(n, 4, 4)  # sum_i s_i A_i: the kappa rows' q-q' block
+    H[:, YQ, YP] += S
+    H[:, YP, YQ] += S.transpose(0, 2, 1)
+    rs = (dr[:, :, None] * sa[:, None, 3:6]).reshape(n, 9)
+    Hqq = 2.0 * (rs @ Q_S).reshape(n, 4, 4)
+    if M is not None:  # Hess (q^T M q) = 2 M
+        Hqq += 2.0 * sa[:, 6, None, None] * M
+    Hqq[:, _I4, _I4] += c1[:, None]
+    H[:, YQ, YQ] += Hqq
+    T = 2.0 * np.einsum("pi,pjia->paj", sa[:, 3:6], Qq)  # the nu rows' q-r' block
+    H[:, YQ, YR] += T
+    H[:, YR, YQ] += T.transpose(0, 2, 1)
+    return H
+
+
+def magnet(q: np.ndarray, B, variant: str = kin.NORMALISED) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient and Hessian in q (k, 4) of a unit lumped magnet's potential -d3(q).B, eq. (9):
+    -q^T M q n2^p with the chain rule of the module docstring (p = -1 normalised, 0 raw)."""
+    M = linear_maps(tuple(float(b) for b in B))[3:7, 60:64]
+    p = POWERS[variant][6]
+    n2 = np.einsum("ka,ka->k", q, q)
+    a, a1 = n2**p, p * n2 ** (p - 1.0)
+    a2 = p * (p - 1.0) * n2 ** (p - 2.0)
+    Mq = q @ M
+    F = np.einsum("ka,ka->k", Mq, q)
+    gF, gn2 = 2.0 * Mq, 2.0 * q
+    g = -(a[:, None] * gF + (a1 * F)[:, None] * gn2)
+    cross = gF[:, :, None] * gn2[:, None, :]
+    H = -(
+        2.0 * a[:, None, None] * M
+        + a1[:, None, None] * (cross + cross.transpose(0, 2, 1))
+        + (a2 * F)[:, None, None] * (gn2[:, :, None] * gn2[:, None, :])
+        + 2.0 * (a1 * F)[:, None, None] * np.eye(4)
+    )
+    return g, H
+
+
+def dead_moment(q: np.ndarray, M) -> tuple[np.ndarray, np.ndarray]:
+    """Generalised force of a dead moment M on q (4,) and its Jacobian.
+
+    The spatial spin dphi = 2 (q0 dv - dq0 v + v x dv)/|q|^2 gives the virtual work M.dphi = Q.dq
+    with Q = L q / |q|^2, L = [[0, -2 M^T], [2 M, 2 [M]x]], so dQ/dq = (L - 2 Q q^T)/|q|^2.
+    """
+    M = np.asarray(M, float)
+    L = np.zeros((4, 4))
+    L[0, 1:], L[1:, 0] = -2.0 * M, 2.0 * M
+    L[1:, 1:] = 2.0 * np.array([[0.0, -M[2], M[1]], [M[2], 0.0, -M[0]], [-M[1], M[0], 0.0]])
+    n2 = float(q @ q)
+    Q = L @ q / n2
+    return Q, (L - 2.0 * np.outer(Q, q)) / n2

@@ -61,7 +61,7 @@ def solve(
 
     ``elements`` overrides the scene's; for the three-point bend it counts the
     elements of the half model. ``variant`` ("normalised" or "raw") and
-    ``element`` ("P2" or "P1") apply to the cantilever models.
+    ``element`` ("P2", "P1" or "Hermite", the paper's cubic) apply to the cantilever models.
     """
     if variant not in (kin.NORMALISED, kin.RAW):
         raise ValueError(f"variant must be 'normalised' or 'raw', got {variant!r}")

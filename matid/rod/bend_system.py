@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from matid.physics.contact import Circle
-from matid.rod import bend_compiled
 from matid.rod.bordered import Bordered
 from matid.rod.models import RodSystem
 from matid.rod.newton import NewtonFailure
@@ -55,8 +54,6 @@ class BendSystem:
             name: {p: (np.ones_like(v) if p == name else np.zeros_like(v)) for p, v in props.items()}
             for name in ("E_s", "E_e")
         }
-        #: the compiled rod (:mod:`matid.rod.bend_compiled`), or None: the numpy path below
-        self.jit = bend_compiled.for_bend(rod, model, self._unit)
 
     def _inside(self, sigma: float) -> None:
         if not 0.0 < sigma < self.model.half:
@@ -92,15 +89,9 @@ class BendSystem:
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
         n = self.nu
         u, mult, sigma = X[:n], X[n : n + 2], float(X[-1])
-        if self.jit is not None:
-            self._inside(sigma)
-            U = self.jit.expand(u)
-            R, K, dR_dsigma = self.jit.evaluate(U, sigma)
-        else:
-            bend_compiled.count_numpy_evaluation()
-            self.at(sigma)
-            U = self.rod.expand(u)
-            R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
+        self.at(sigma)
+        U = self.rod.expand(u)
+        R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
         gaps = self._gaps(U, lam)
         G = np.zeros((2, n))
         for c, (idx, (_, nx, nz, _)) in enumerate(zip(self.dofs, gaps, strict=True)):
@@ -123,13 +114,13 @@ class BendSystem:
         K.add_blocks(rows, cols, vals)
         B = np.empty((n, 3))
         B[:, :2] = -G.T
-        B[:, 2] = dR_dsigma if self.jit is not None else self._mesh_derivative(U)
+        B[:, 2] = self._mesh_derivative(U)
         C = np.zeros((3, n))
         C[:2] = -G
         for a in range(3):  # dh/d(x, z, theta) at the support vertex
             if self.dofs[0][a] >= 0:
                 C[2, self.dofs[0][a]] = dh[a]
-        return R_all, (Bordered(K, B, C) if self.jit is None else self.jit.bordered(K, B, C))
+        return R_all, Bordered(K, B, C)
 
     def _mesh_derivative(self, U: np.ndarray) -> np.ndarray:
         """dR/dsigma with nodal values held, in closed form from the pointwise g and H.
@@ -189,13 +180,8 @@ class BendSystem:
         names = ("lam", "E_s", "E_e") if stiffness else ("lam",)
         rhs = np.empty((X.size, len(names)))
         rhs[:, 0] = self.lam_derivative(X, lam)
-        if stiffness and self.jit is not None:
-            self._inside(float(X[-1]))
-            rhs[: self.nu, 1:] = self.jit.stiffness_residuals(self.jit.expand(X[: self.nu]), float(X[-1]))
-            rhs[self.nu :, 1:] = 0.0
-        else:
-            for j, name in enumerate(names[1:], start=1):
-                rhs[:, j] = self.stiffness_derivative(X, name)
+        for j, name in enumerate(names[1:], start=1):
+            rhs[:, j] = self.stiffness_derivative(X, name)
         out = lu.solve(-rhs)
         return {name: out[:, j] for j, name in enumerate(names)}
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from matid.rod.fem import Banded
+from matid.rod.band import Banded
 
 
 class Bordered:

@@ -1,17 +1,19 @@
-"""1D finite elements for the rod: scikit-fem basis tables, one vectorised assembly.
+"""1D finite elements for the rod on scikit-fem: one Basis per mesh, one vectorised assembly.
 
 The total energy is  E(U) = sum_e sum_q dx_eq  w(u_eq, u'_eq)  plus point terms.
-With the pointwise gradient g = dw/d(u, u') and Hessian H (from
-:mod:`matid.physics.jet`) and the basis tables phi, phi' of scikit-fem,
+With the pointwise gradient g = dw/d(u, u') and Hessian H (the closed forms of
+:mod:`matid.physics.planar` and :mod:`matid.physics.full`) and the tables phi, phi',
+dx and the DOF map of a scikit-fem ``Basis(MeshLine(s), element, intorder=...)``,
 
     R_(i,c) = sum_q dx [g_c phi_i + g_c' phi_i']
     K_(i,c)(j,d) = sum_q dx [phi_i, phi_i'] H_(c,d) [phi_j, phi_j']^T
 
-are a pair of einsums over all elements at once; the sparse pattern is built
-once and each assembly is a single ``bincount``. No Python loop over elements.
-Unknowns are interleaved per scalar P2 dof: global dof = k * nf + c.
+are batched matrix products over all elements at once, the same code for every
+element (P1, P2, the cubic Hermite whose dofs are values and slopes); the scatter
+patterns are built once per mesh and each assembly is a single ``bincount`` into band
+storage (:mod:`matid.rod.band`). No Python loop over elements. Unknowns are
+interleaved per scalar dof: global dof = k * nf + c.
 """
-
 from __future__ import annotations
 
 import functools
@@ -19,10 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import lapack
-from skfem import Basis, ElementLineP1, ElementLineP2, MeshLine
+from skfem import Basis, ElementLineHermite, ElementLineP1, ElementLineP2, MeshLine
 
-ELEMENTS = {"P2": ElementLineP2, "P1": ElementLineP1}
+from matid.rod.band import Banded, BlockPattern
+
+#: The rod's elements: scikit-fem's; "Hermite" is the paper's cubic (values and slopes at vertices).
+ELEMENTS = {"P2": ElementLineP2, "P1": ElementLineP1, "Hermite": ElementLineHermite}
 
 
 @dataclass(frozen=True)
@@ -40,102 +44,70 @@ class Pattern:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
 
-class Banded:
-    """A free-dof tangent in LAPACK band storage, dofs ordered along s (half-bandwidth ``u``).
+@dataclass(frozen=True)
+class Tables:
+    """What the rod needs of a scikit-fem ``Basis`` on a ``MeshLine``, built once per mesh.
 
-    ``ab[u + i - j, j] = K[i, j]`` in band order; ``order[k]`` is the free dof at band
-    position k. P2 couples three consecutive nodes, so u = 3 nf - 1 whatever the mesh
-    size: a Newton step costs O(n u^2) with no sparse bookkeeping.
+    phi, dphi: (nloc, ne, nq) shape functions and their s-derivatives at the quadrature
+    points; dx: (ne, nq) quadrature weights times Jacobian; edofs: (nloc, ne) the DOF map;
+    s_dof: the reference arc length of each scalar dof; slope: which dofs are derivatives
+    (the cubic Hermite's ``u_x``: a clamp holds only the values, an affine field a + b s has
+    b there); s_quad: (ne, nq) the quadrature points.
     """
 
-    def __init__(self, ab: np.ndarray, u: int, order: np.ndarray, symmetric: bool):
-        self.ab, self.u, self.order, self.symmetric = ab, u, order, symmetric
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return (self.ab.shape[1], self.ab.shape[1])
-
-    def add_blocks(self, rows: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> None:
-        """Add entries given in free-dof numbering (must lie in the band)."""
-        pos = self.position[rows]
-        col = self.position[cols]
-        np.add.at(self.ab, (self.u + pos - col, col), vals)
-
-    def tocsr(self) -> sp.csr_matrix:
-        """The matrix in free-dof numbering (tests, eigenvalue checks)."""
-        n, u = self.shape[0], self.u
-        dense = np.zeros((n, n))
-        for k in range(-u, u + 1):
-            j = np.arange(max(0, -k), min(n, n - k))
-            dense[j + k, j] = self.ab[u + k, j]
-        out = np.empty_like(dense)
-        out[np.ix_(self.order, self.order)] = dense
-        return sp.csr_matrix(out)
-
-    def tocsc(self) -> sp.csc_matrix:
-        return self.tocsr().tocsc()
-
-    def factor(self) -> BandFactor:
-        """Cholesky (LAPACK pbtrf) when symmetric and positive definite, else banded LU (gbtrf).
-
-        A successful Cholesky is the stability test of the state (every pivot > 0).
-        """
-        u, n = self.u, self.shape[0]
-        if self.symmetric:
-            c, info = lapack.dpbtrf(self.ab[u:], lower=1)
-            if info == 0:
-                return BandFactor(self, c, None, True)
-        lu_ab = np.zeros((3 * u + 1, n))
-        lu_ab[u:] = self.ab
-        lu, piv, info = lapack.dgbtrf(lu_ab, u, u)
-        if info != 0:
-            raise np.linalg.LinAlgError(f"singular tangent (zero pivot {info})")
-        return BandFactor(self, lu, piv, False if self.symmetric else None)
+    basis: Basis
+    phi: np.ndarray
+    dphi: np.ndarray
+    dx: np.ndarray
+    edofs: np.ndarray
+    s_dof: np.ndarray
+    slope: np.ndarray
+    s_quad: np.ndarray
 
 
-class BandFactor:
-    """A factorised :class:`Banded`; ``positive_definite`` is True (Cholesky succeeded), False
-    (symmetric, Cholesky failed: not a stable state) or None (unsymmetric: no test)."""
-
-    def __init__(self, matrix: Banded, factor: np.ndarray, piv: np.ndarray | None, positive_definite):
-        self.matrix, self.factor_, self.piv, self.positive_definite = matrix, factor, piv, positive_definite
-
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        m = self.matrix
-        rhs = b[m.order]
-        if self.piv is None:
-            x, info = lapack.dpbtrs(self.factor_, rhs, lower=1)
-        else:
-            x, info = lapack.dgbtrs(self.factor_, m.u, m.u, rhs, self.piv)
-        out = np.empty_like(x)
-        out[m.order] = x
-        return out
-
-
-@functools.lru_cache(maxsize=8)
-def _gauss(points: int) -> tuple[np.ndarray, np.ndarray]:
-    return np.polynomial.legendre.leggauss(points)
+@functools.lru_cache(maxsize=64)
+def tables(vertices: bytes, element: str, intorder: int | None) -> Tables:
+    """The basis tables of ``element`` on the mesh with these vertices (cached: one Basis per mesh)."""
+    mesh = MeshLine(np.frombuffer(vertices).copy())
+    elem = ELEMENTS[element]()
+    basis = Basis(mesh, elem) if intorder is None else Basis(mesh, elem, intorder=intorder)
+    phi = np.array([np.asarray(field[0]) for field in basis.basis])
+    dphi = np.array([field[0].grad[0] for field in basis.basis])
+    slope = np.zeros(basis.N, dtype=bool)
+    for row, name in enumerate(elem.dofnames[: elem.nodal_dofs]):
+        slope[basis.nodal_dofs[row]] = name == "u_x"
+    out = Tables(
+        basis,
+        phi,
+        dphi,
+        basis.dx,
+        basis.element_dofs,
+        basis.doflocs[0],
+        slope,
+        np.asarray(basis.global_coordinates())[0],
+    )
+    for a in (out.phi, out.dphi, out.dx, out.edofs, out.s_dof, out.slope, out.s_quad):
+        a.flags.writeable = False  # shared by every Discretisation on this mesh
+    return out
 
 
 class Discretisation:
-    """Mesh, basis tables and assembly for ``nf`` scalar fields on [0, L]."""
+    """Mesh, scikit-fem basis tables and vectorised assembly for ``nf`` scalar fields on [0, L]."""
 
     def __init__(self, vertices: np.ndarray, nf: int, *, element: str = "P2", intorder: int | None = None):
         vertices = np.asarray(vertices, dtype=float)
-        self.element = element
-        self.nf = nf
-        if intorder is None:  # scikit-fem's default rule
-            b = Basis(MeshLine(vertices), ELEMENTS[element]())
-            nloc = len(b.basis)
-            self.phi = np.array([np.asarray(b.basis[i][0]) for i in range(nloc)])  # (nloc, ne, nq)
-            self.dphi = np.array([b.basis[i][0].grad[0] for i in range(nloc)])
-            self.dx = b.dx  # (ne, nq)
-            self.edofs = b.element_dofs  # (nloc, ne) scalar dofs
-            self.nscalar = b.N
-            self.s_dof = b.doflocs[0]  # reference arc length of each scalar dof
-            self.s_quad = b.mapping.F(b.X)[0]  # (ne, nq)
-        else:
-            self._gauss_tables(vertices, intorder)
+        t = tables(vertices.tobytes(), element, intorder)
+        self.element, self.nf, self.basis = element, nf, t.basis
+        self.phi, self.dphi, self.dx, self.edofs = t.phi, t.dphi, t.dx, t.edofs
+        self.s_dof, self.slope, self.s_quad = t.s_dof, t.slope, t.s_quad
+        self.nscalar = t.s_dof.size
+        values = np.flatnonzero(~self.slope)
+        #: scalar dofs that are point values, ordered along s (the output points of a solution)
+        self.value_dofs = values[np.argsort(self.s_dof[values], kind="stable")]
+        elem, nodal = t.basis.elem, t.basis.nodal_dofs
+        rows = [r for r, name in enumerate(elem.dofnames[: elem.nodal_dofs]) if name == "u_x"]
+        #: (value dof, slope dof) of each vertex of an element with slopes (Hermite), else empty
+        self.slope_pairs = (nodal[0], nodal[rows[0]]) if rows else (np.zeros(0, int), np.zeros(0, int))
         self._vertices = vertices.copy()
         self.n = self.nscalar * nf
         self.weighted = np.stack([self.phi, self.dphi]) * self.dx[None, None]  # (2, nloc, ne, nq)
@@ -144,31 +116,10 @@ class Discretisation:
         self.gdofs = gd  # (ne, nloc*nf), local order (i, c)
         self.set_free(np.ones(self.n, dtype=bool))
 
-    def _gauss_tables(self, v: np.ndarray, intorder: int) -> None:
-        """Basis tables of scikit-fem's 1D P1/P2 with an ``intorder`` Gauss rule, built directly.
-
-        Same numbering as scikit-fem (vertices first, then mid-points; local order
-        v0, v1, mid) and the same rule (intorder // 2 + 1 Gauss points), at a
-        fraction of the set-up cost; checked against scikit-fem in the tests.
-        """
-        ne = v.size - 1
-        x, w = _gauss(intorder // 2 + 1)
-        t, w = 0.5 * (x + 1.0), 0.5 * w
-        h = np.diff(v)[:, None]
-        if self.element == "P2":
-            ref = np.array([2 * t * t - 3 * t + 1, 2 * t * t - t, 4 * t * (1 - t)])
-            dref = np.array([4 * t - 3, 4 * t - 1, 4 - 8 * t])
-            self.edofs = np.array([np.arange(ne), np.arange(1, ne + 1), v.size + np.arange(ne)])
-            self.s_dof = np.concatenate([v, 0.5 * (v[:-1] + v[1:])])
-        else:
-            ref, dref = np.array([1 - t, t]), np.array([-np.ones_like(t), np.ones_like(t)])
-            self.edofs = np.array([np.arange(ne), np.arange(1, ne + 1)])
-            self.s_dof = v.copy()
-        self.phi = np.broadcast_to(ref[:, None, :], (ref.shape[0], ne, t.size)).copy()
-        self.dphi = dref[:, None, :] / h[None]
-        self.dx = w[None, :] * h
-        self.nscalar = self.s_dof.size
-        self.s_quad = v[:-1, None] + t[None, :] * h
+    def affine(self, a: float, b: float) -> np.ndarray:
+        """Scalar dofs of the field a + b s (values at point dofs, b at derivative dofs): exact
+        in every element here, since each holds the affine fields."""
+        return np.where(self.slope, b, a + b * self.s_dof)
 
     @property
     def ne(self) -> int:
@@ -181,31 +132,45 @@ class Discretisation:
     def moved(self, vertices: np.ndarray) -> Discretisation:
         """A copy on moved vertices (same topology), by rescaling the affine 1D basis tables.
 
-        phi is unchanged, phi' and dx scale with each element's length: cheap
-        enough to differentiate the residual with respect to vertex positions.
+        With r = h_new/h_old per element: phi is unchanged, phi' scales by 1/r and dx by r,
+        so the assembly tables [phi, phi'] dx (x) [phi, phi'] scale by (r, 1, 1, 1/r): cheap
+        enough to move the mesh at every Newton iteration (the bend's contact section).
         """
+        if self.slope.any():  # a global element (Hermite): its shape functions do not just rescale
+            raise ValueError(f"moved: only affine-mapped elements, not {self.element}")
         new = object.__new__(Discretisation)
         new.__dict__.update(self.__dict__)
         vertices = np.asarray(vertices, float)
-        ratio = (np.diff(vertices) / np.diff(self._vertices))[:, None]
+        h_new = np.diff(vertices)
+        r = (h_new / np.diff(self._vertices))[:, None]
         new._vertices = vertices
-        new.dphi = self.dphi / ratio[None]
-        new.dx = self.dx * ratio
-        new.s_quad = vertices[:-1, None] + (self.s_quad - self._vertices[:-1, None]) * ratio
-        nv = vertices.size
-        new.s_dof = (
-            np.concatenate([vertices, 0.5 * (vertices[:-1] + vertices[1:])])
-            if self.element == "P2"
-            else vertices.copy()
-        )
-        assert new.s_dof.size == self.nscalar and nv == self._vertices.size
-        new.weighted = np.stack([new.phi, new.dphi]) * new.dx[None, None]
-        new.both = np.stack([new.phi, new.dphi])
+        new.dphi = self.dphi / r[None]
+        new.dx = self.dx * r
+        new.s_quad = vertices[:-1, None] + (self.s_quad - self._vertices[:-1, None]) * r
+        new.s_dof = np.empty(self.nscalar)  # each dof keeps its place in its element
+        new.s_dof[self.edofs] = vertices[:-1] + self._local() * h_new
+        one = np.ones_like(r)
+        new.weighted = self.weighted * np.stack([r, one])[:, None]  # (2, 1, ne, 1)
+        new.both = self.both * np.stack([one, 1.0 / r])[:, None]
+        ne, nq = self.dx.shape
+        kl = np.stack([r, one, one, 1.0 / r], axis=1)[:, None, :, :]  # (ne, 1, 4, 1)
+        T = self._tables().reshape(ne, nq, 4, -1) * kl
+        new._T = (new.weighted, T.reshape(ne, nq * 4, -1))
+        P = self._point_table().reshape(ne, nq, 2, -1) * np.stack([one, 1.0 / r], axis=1)[:, None, :, :]
+        new._P = (new.dphi, P.reshape(ne, nq * 2, -1))
         return new
 
+    def _local(self) -> np.ndarray:
+        """Local coordinate in [0, 1] of each element dof (nloc, ne): where a moved mesh puts it."""
+        cached = self.__dict__.get("_t")
+        if cached is None:
+            v = self._vertices
+            cached = self._t = (self.s_dof[self.edofs] - v[:-1]) / np.diff(v)
+        return cached
+
     def vertex_dof(self, index: int) -> int:
-        """Scalar dof of mesh vertex ``index`` (P1/P2 vertices come first in scikit-fem)."""
-        return int(index)
+        """Scalar dof of the value at mesh vertex ``index`` (scikit-fem's first nodal dof)."""
+        return int(self.basis.nodal_dofs[0, index])
 
     def set_free(self, free: np.ndarray) -> None:
         """Which dofs are free: the band pattern now, the CSR pattern when first used.
@@ -221,8 +186,31 @@ class Discretisation:
         index[self.free] = np.arange(nfree)
         local = index[self.gdofs]
         self.keep_mask = ((local[:, :, None] >= 0) & (local[:, None, :] >= 0)).ravel()
-        self._index, self._pattern = index, None
+        self._index, self._pattern, self._blocks = index, None, {}
         self._band_pattern(index, nfree)
+
+    def block_pattern(self, dofs: np.ndarray) -> BlockPattern:
+        """The :class:`BlockPattern` of blocks on ``dofs`` (k, m) under the current free set
+        (remembered per mesh and free set: the systems of a scene share them)."""
+        dofs = np.atleast_2d(dofs)
+        key = (dofs.shape, dofs.tobytes())
+        hit = self._blocks.get(key)
+        if hit is None:
+            hit = self._blocks[key] = self._block_pattern(dofs)
+        return hit
+
+    def _block_pattern(self, dofs: np.ndarray) -> BlockPattern:
+        k, m = dofs.shape
+        idx = self._index[dofs]
+        ii = np.broadcast_to(idx[:, :, None], (k, m, m)).ravel()
+        jj = np.broadcast_to(idx[:, None, :], (k, m, m)).ravel()
+        keep = (ii >= 0) & (jj >= 0)
+        rows, cols = ii[keep], jj[keep]
+        pos, u = self.band_position, self.band_u
+        if rows.size and np.max(np.abs(pos[rows] - pos[cols])) > u:
+            raise ValueError("block_pattern: the blocks do not fit in the band (not node-local)")
+        flat = (u + pos[rows] - pos[cols]) * self.band_order.size + pos[cols]
+        return BlockPattern(dofs, keep, rows, cols, flat)
 
     @property
     def pattern(self) -> Pattern:
@@ -255,6 +243,12 @@ class Discretisation:
         u = max(u, 3 * nf - 1)  # node-local point blocks fit in any case
         self.band_u, self.band_order, self.band_position = u, order, position
         self.band_flat = (u + rows - cols) * nfree + cols  # index into ab.ravel()
+        # the same for every entry of the element matrices in their natural layout (e, i, j, c, d)
+        # of :meth:`element_blocks`, entries on a fixed dof sent to one slot past the band
+        nloc = self.edofs.shape[0]
+        full = np.full((self.ne, nloc, nf, nloc, nf), (2 * u + 1) * nfree)
+        full.reshape(self.ne, m * m)[self.keep_mask.reshape(self.ne, m * m)] = self.band_flat
+        self.band_all = np.ascontiguousarray(full.transpose(0, 1, 3, 2, 4)).ravel()
 
     def interpolate(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Field values and s-derivatives at the quadrature points, each (nf, ne, nq)."""
@@ -276,19 +270,6 @@ class Discretisation:
             cached = self._P = (self.dphi, np.ascontiguousarray(table.reshape(ne, nq * 2, -1)))
         return cached[1]
 
-    def element_matrices(self, H: np.ndarray) -> np.ndarray:
-        """Element matrices (ne, nloc*nf, nloc*nf), local order (i, c), from the pointwise Hessian.
-
-        K_e = sum_q sum_(k,l) T_(kl)(q) (x) H_(kl)(q): a batched matmul with the tables
-        T = [phi, phi'] dx [phi, phi']^T precomputed once per mesh (no einsum path search).
-        """
-        ne, nq, nf = self.ne, H.shape[1], self.nf
-        T = self._tables()  # (ne, nq*4, nloc*nloc)
-        H4 = H.reshape(ne, nq, 2, nf, 2, nf).transpose(0, 1, 2, 4, 3, 5).reshape(ne, nq * 4, nf * nf)
-        K = np.matmul(T.transpose(0, 2, 1), H4)  # (ne, nloc*nloc, nf*nf)
-        nloc = self.phi.shape[0]
-        return K.reshape(ne, nloc, nloc, nf, nf).transpose(0, 1, 3, 2, 4).reshape(ne, nloc * nf, nloc * nf)
-
     def _tables(self) -> np.ndarray:
         T = self.__dict__.get("_T")
         if T is None or T[0] is not self.weighted:
@@ -299,11 +280,23 @@ class Discretisation:
             self._T = T
         return T[1]
 
-    def banded(self, Ke: np.ndarray, symmetric: bool) -> Banded:
-        """The free-dof tangent in band storage from element matrices (one bincount)."""
+    def element_blocks(self, H: np.ndarray) -> np.ndarray:
+        """Element matrices from the pointwise Hessian, in the layout of the product (ne, nloc, nloc,
+        nf, nf).
+
+        K_e = sum_q sum_(k,l) T_(kl)(q) (x) H_(kl)(q): a batched matmul with the tables
+        T = [phi, phi'] dx [phi, phi']^T precomputed once per mesh (no einsum path search).
+        """
+        ne, nq, nf = self.ne, H.shape[1], self.nf
+        H4 = H.reshape(ne, nq, 2, nf, 2, nf).transpose(0, 1, 2, 4, 3, 5).reshape(ne, nq * 4, nf * nf)
+        return np.matmul(self._tables().transpose(0, 2, 1), H4)
+
+    def tangent(self, H: np.ndarray, symmetric: bool) -> Banded:
+        """The free-dof tangent in band storage from the pointwise Hessian (one product, one bincount)."""
         n, u = self.band_order.size, self.band_u
-        ab = np.bincount(self.band_flat, weights=Ke.ravel()[self.keep_mask], minlength=(2 * u + 1) * n)
-        out = Banded(ab.reshape(2 * u + 1, n), u, self.band_order, symmetric)
+        size = (2 * u + 1) * n
+        ab = np.bincount(self.band_all, weights=self.element_blocks(H).ravel(), minlength=size + 1)
+        out = Banded(ab[:size].reshape(2 * u + 1, n), u, self.band_order, symmetric)
         out.position = self.band_position
         return out
 

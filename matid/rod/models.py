@@ -30,10 +30,10 @@ import scipy.sparse.linalg as spla
 from matid.physics import full, planar
 from matid.physics import kinematics as kin
 from matid.physics.jet import Jet
-from matid.rod import compiled
 from matid.rod.fem import Discretisation
 
 PLANAR, FULL = "planar", "full"
+_DIAG4 = np.arange(4)
 FIELDS = {PLANAR: ("x", "z", "theta"), FULL: ("x", "y", "z", "q0", "q1", "q2", "q3")}
 
 
@@ -104,28 +104,29 @@ class RodSystem:
     c_u: float = 1.0
     fixed: tuple[int, ...] | None = None  # fixed global dofs; default: clamp at s = 0
     analytic: bool = True  # planar: closed-form derivatives (False: jets, the cross-check)
-    banded: bool = False  # tangent in band storage (fem.Banded: LAPACK Cholesky/LU) instead of CSR
+    banded: bool = False  # tangent in band storage (band.Banded: LAPACK Cholesky/LU) instead of CSR
     mixed: bool = False  # mixed-integration-point tangent in Newton (see mixed_update)
     terms: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self._stress = self._strain = None
         #: point stresses (ne, nq, ns) for the mixed tangent's first iteration (a warm start
-        #: from a coarser mesh's recovered stresses), and C e(u) at the points of the last
-        #: compiled Newton (the converged state's stresses, for the next warm start)
+        #: from a coarser mesh's recovered stresses)
         self.stress_start: np.ndarray | None = None
-        self.point_stress: np.ndarray | None = None
         self.props, self.mu, roundoff = _fields(self.disc, self.rod)
         self._roundoff = (self.props, roundoff)
         nf = self.disc.nf
         free = np.ones(self.disc.n, dtype=bool)
-        free[list(range(nf)) if self.fixed is None else list(self.fixed)] = False
+        clamp = self.disc.vertex_dof(0) * nf + np.arange(nf)  # values only (Hermite: slopes stay free)
+        free[clamp if self.fixed is None else list(self.fixed)] = False
         self.disc.set_free(free)  # a shared (cached) mesh keeps its patterns when the set is the same
         self.index = self.disc._index  # free dof number of each dof, -1 where fixed
         self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
         magnets = [(s_m, m) for s_m, m in self.rod.magnets]
         verts = self.disc.vertices
-        self.magnet_nodes = [(int(np.argmin(np.abs(verts - s_m))), m) for s_m, m in magnets]
+        self.magnet_nodes = [
+            (self.disc.vertex_dof(int(np.argmin(np.abs(verts - s_m)))), m) for s_m, m in magnets
+        ]
         self.terms = ["bending", "shear", "extension"] + (
             ["twist", "unity penalty"] if self.model == FULL else []
         )
@@ -133,22 +134,26 @@ class RodSystem:
             self.terms.append("magnetic")
         if any(self.rod.kappa_ref):
             self.terms.append("precurvature")
+        self._node_patterns()
 
     # -- states -------------------------------------------------------------
     def reference(self) -> np.ndarray:
         """Straight rod along the axis, identity rotation."""
         U = np.zeros((self.disc.nscalar, self.disc.nf))
-        U[:, 1 if self.model == PLANAR else 2] = self.disc.s_dof
+        U[:, 1 if self.model == PLANAR else 2] = self.disc.affine(0.0, 1.0)
         if self.model == FULL:
-            U[:, 3] = 1.0
+            U[:, 3] = self.disc.affine(1.0, 0.0)
         return U.ravel()
 
     def _reference(self) -> np.ndarray:
-        """:meth:`reference`, cached per mesh (the fixed dofs of :meth:`expand`)."""
-        cached = self.__dict__.get("_ref")
-        if cached is None or cached[0] is not self.disc:
-            cached = self._ref = (self.disc, self.reference())
-        return cached[1]
+        """:meth:`reference`, cached per mesh and model (the fixed dofs of :meth:`expand`); read-only."""
+        cache = self.disc.__dict__.setdefault("_references", {})
+        hit = cache.get(self.model)
+        if hit is None or hit[0] is not self.disc.s_dof:  # a moved mesh shares the dict, not s_dof
+            U = self.reference()
+            U.flags.writeable = False
+            hit = cache[self.model] = (self.disc.s_dof, U)
+        return hit[1]
 
     # -- energy density -------------------------------------------------------
     def density(self, u: list, du: list, lam: float):
@@ -177,31 +182,26 @@ class RodSystem:
         return w
 
     def energy_derivatives(self, U: np.ndarray, lam: float, tangent: bool = True):
-        vals, ders = self.disc.interpolate(U)
-        closed_form = self.model == PLANAR or self.variant == kin.NORMALISED
-        if self.analytic and closed_form:  # the jets below are the cross-check (tests)
-            rod = self.rod
-            mu = self.mu if "magnetic" in self.terms else None
-            out = (planar if self.model == PLANAR else full).derivatives(
-                vals,
-                ders,
-                lam,
-                self.props,
-                rod.kappa_ref,
-                mu,
-                rod.B,
-                rod.f,
-                tangent,
-                stress=self._stress,
-                want_strain=self.mixed,
-            )
-            if self.mixed and tangent:
-                self._strain = out[2]
-            return out[0], out[1]
-        variables = Jet.variables(np.concatenate([vals, ders]), hessian=tangent)
-        nf = self.disc.nf
-        w = self.density(variables[:nf], variables[nf:], lam)
-        return w.g, w.h
+        """Pointwise gradient and Hessian of the density: the closed forms of
+        :mod:`matid.physics.planar` and :mod:`matid.physics.full`; the jets of :meth:`density`
+        only when ``analytic`` is off (their test oracle)."""
+        rod = self.rod
+        mu = self.mu if "magnetic" in self.terms else None
+        options = {"stress": self._stress, "want_strain": self.mixed}
+        if not self.analytic:
+            variables = Jet.variables(np.concatenate(self.disc.interpolate(U)), hessian=tangent)
+            nf = self.disc.nf
+            w = self.density(variables[:nf], variables[nf:], lam)
+            return w.g, w.h
+        z = self.disc.point_values(U)
+        args = (z, lam, self.props, rod.kappa_ref, mu, rod.B, rod.f, tangent)
+        if self.model == PLANAR:
+            out = planar.derivatives(*args, **options)
+        else:
+            out = full.derivatives(*args, variant=self.variant, c_u=self.c_u, **options)
+        if self.mixed and tangent:
+            self._strain = out[2]
+        return out[0], out[1]
 
     # -- mixed-integration-point Newton (independent stresses at the quadrature points) ----------
     def mixed_reset(self) -> None:
@@ -210,8 +210,6 @@ class RodSystem:
 
     def converged_stress(self) -> np.ndarray | None:
         """C e(u) (ne, nq, ns) at the points of the last Newton evaluation (mixed systems)."""
-        if self.point_stress is not None:
-            return self.point_stress
         return None if self._strain is None else self._strain[0]
 
     def hold_stress(self) -> None:
@@ -251,36 +249,49 @@ class RodSystem:
             cached = self._roundoff = (self.props, _roundoff_floor(self.props))
         return cached[1]
 
-    # -- point terms (tip loads, lumped magnets) --------------------------------
+    # -- point terms (tip loads, lumped magnets, the nodal unity penalty) -------------------
+    def _node_patterns(self) -> None:
+        """Dofs and tangent patterns of the node-local terms, built once per system."""
+        disc, nf = self.disc, self.disc.nf
+        self._tip = np.arange(self.tip * nf, self.tip * nf + nf)
+        local = np.array([2]) if self.model == PLANAR else 3 + np.arange(4)  # theta, or q
+        nodes = np.array([node for node, _ in self.magnet_nodes], int)
+        self._magnet_dofs = nodes[:, None] * nf + local[None, :]
+        self._magnet_m = np.array([m for _, m in self.magnet_nodes], float)
+        self._patterns = {"magnets": disc.block_pattern(self._magnet_dofs) if self.magnet_nodes else None}
+        if self.model == FULL:
+            self._patterns["moment"] = disc.block_pattern(self._tip[3:])
+            self._gauge_dofs = disc.value_dofs[:, None] * nf + 3 + np.arange(4)[None, :]
+            self._patterns["gauge"] = disc.block_pattern(self._gauge_dofs)
+            values, slopes = disc.slope_pairs  # Hermite: (q, q') at each vertex
+            self._slope_dofs = np.concatenate([values[:, None] * nf, slopes[:, None] * nf], axis=1)[
+                :, [0, 0, 0, 0, 1, 1, 1, 1]
+            ] + np.tile(3 + np.arange(4), 2)
+            self._patterns["slopes"] = disc.block_pattern(self._slope_dofs) if values.size else None
+
     def point_terms(self, U: np.ndarray, lam: float) -> tuple[np.ndarray, list]:
-        """Residual of the point loads (all dofs) and their tangent blocks [(dofs, matrix)]."""
-        nf = self.disc.nf
+        """Residual of the point loads (all dofs) and their tangent blocks [(pattern, blocks)]."""
         R = np.zeros(self.disc.n)
         blocks = []
-        tip = np.arange(self.tip * nf, self.tip * nf + nf)
-        rod = self.rod
+        tip, rod = self._tip, self.rod
         if self.model == PLANAR:
-            R[tip[0]] -= lam * rod.tip_force[0]
-            R[tip[1]] -= lam * rod.tip_force[2]
-            R[tip[2]] -= lam * rod.tip_moment[1]
-            for node, m in self.magnet_nodes:
-                th = U[node * nf + 2]
-                # -m (sin th Bx + cos th Bz): derivative and second derivative in theta
-                R[node * nf + 2] -= lam * m * (np.cos(th) * rod.B[0] - np.sin(th) * rod.B[2])
-                k = lam * m * (np.sin(th) * rod.B[0] + np.cos(th) * rod.B[2])
-                blocks.append((np.array([node * nf + 2]), np.array([[k]])))
+            R[tip] -= lam * np.array([rod.tip_force[0], rod.tip_force[2], rod.tip_moment[1]])
+            if self.magnet_nodes:  # -m (sin th Bx + cos th Bz): first and second derivative in theta
+                th, m = U[self._magnet_dofs[:, 0]], lam * self._magnet_m
+                R[self._magnet_dofs[:, 0]] -= m * (np.cos(th) * rod.B[0] - np.sin(th) * rod.B[2])
+                k = m * (np.sin(th) * rod.B[0] + np.cos(th) * rod.B[2])
+                blocks.append((self._patterns["magnets"], k))
             return R, blocks
         R[tip[:3]] -= lam * np.asarray(rod.tip_force)
         if any(rod.tip_moment):
-            g, h = _moment_work(U[tip[3:]], np.asarray(rod.tip_moment))
+            g, h = full.dead_moment(U[tip[3:]], rod.tip_moment)
             R[tip[3:]] -= lam * g
-            blocks.append((tip[3:], -lam * h))
-        for node, m in self.magnet_nodes:
-            dofs = np.arange(node * nf + 3, node * nf + 7)
-            qj = Jet.variables(U[dofs].reshape(4, 1))
-            e = kin.magnetic_energy(lam * m, kin.d3(qj, self.variant), rod.B)
-            R[dofs] += e.g[0]
-            blocks.append((dofs, e.h[0]))
+            blocks.append((self._patterns["moment"], -lam * h))
+        if self.magnet_nodes:
+            g, h = full.magnet(U[self._magnet_dofs], rod.B, self.variant)
+            m = lam * self._magnet_m
+            R[self._magnet_dofs] += m[:, None] * g
+            blocks.append((self._patterns["magnets"], m[:, None, None] * h))
         return R, blocks
 
     def gauge_terms(self, U: np.ndarray) -> tuple[np.ndarray, list]:
@@ -290,58 +301,66 @@ class RodSystem:
         that null direction. Applied per node its stiffness does not shrink with
         the element size, so load terms coupling into |q| (a dead tip moment)
         cannot swamp it; the physical solution is the same for any c_u > 0.
+        The nodes are the point values of q (not the Hermite's slopes).
         """
-        nf = self.disc.nf
-        Q = U.reshape(-1, nf)[:, 3:]
-        e = np.sum(Q * Q, axis=1) - 1.0
-        R = np.zeros_like(U).reshape(-1, nf)
-        R[:, 3:] = 2.0 * self.c_u * e[:, None] * Q
-        H = self.c_u * (2.0 * e[:, None, None] * np.eye(4) + 4.0 * Q[:, :, None] * Q[:, None, :])
-        dofs = np.arange(Q.shape[0])[:, None] * nf + 3 + np.arange(4)[None, :]
-        return R.ravel(), [(dofs, H)]
+        dofs = self._gauge_dofs
+        Q = U[dofs]
+        e = np.einsum("na,na->n", Q, Q) - 1.0
+        R = np.zeros_like(U)
+        R[dofs] = (2.0 * self.c_u) * e[:, None] * Q
+        H = (4.0 * self.c_u) * (Q[:, :, None] * Q[:, None, :])
+        H[:, _DIAG4, _DIAG4] += (2.0 * self.c_u) * e[:, None]
+        blocks = [(self._patterns["gauge"], H)]
+        if self._patterns["slopes"] is not None:
+            Rs, Hs = self._slope_gauge(U)
+            R += Rs
+            blocks.append((self._patterns["slopes"], Hs))
+        return R, blocks
 
-    @property
-    def kernel_served(self) -> bool:
-        """Whether :mod:`matid.rod.compiled` serves this system (asked once per system)."""
-        ok = self.__dict__.get("_compiled")
-        if ok is None:
-            ok = self._compiled = compiled.supported(self)
-        return ok
-
-    def compiled_newton(self, x0: np.ndarray, lam: float, **options):
-        """:func:`matid.rod.newton.newton` in one compiled call (:mod:`matid.rod.compiled`), or None
-        when this system is not one it serves."""
-        return compiled.newton(self, x0, lam, **options) if self.kernel_served else None
-
-    def load_derivative(self, X: np.ndarray) -> np.ndarray | None:
-        """dR/dlam = R(X, 1) - R(X, 0) from the kernel, or None (then newton.tangent evaluates)."""
-        return compiled.load_derivative(self, X) if self.kernel_served else None
+    def _slope_gauge(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """c_u/2 (q.q')^2 at each vertex of an element with slopes (the Hermite): d|q|^2/ds = 0
+        there, the slopes' share of the null direction |q| (the values' is the penalty above)."""
+        dofs = self._slope_dofs
+        Y = U[dofs]  # (k, 8): q, q'
+        q, p = Y[:, :4], Y[:, 4:]
+        w = np.einsum("ka,ka->k", q, p)
+        R = np.zeros_like(U)
+        R[dofs] = self.c_u * w[:, None] * Y[:, [4, 5, 6, 7, 0, 1, 2, 3]]
+        swapped = Y[:, [4, 5, 6, 7, 0, 1, 2, 3]]  # d(q.q')/d(q, q') = (q', q)
+        H = self.c_u * (swapped[:, :, None] * swapped[:, None, :])
+        H[:, _DIAG4, _DIAG4 + 4] += self.c_u * w[:, None]
+        H[:, _DIAG4 + 4, _DIAG4] += self.c_u * w[:, None]
+        return R, H
 
     # -- residual and tangent on the free dofs ---------------------------------
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):
-        """Residual on the free dofs and, with ``tangent``, its Jacobian (CSR)."""
+        """Residual on the free dofs and, with ``tangent``, its Jacobian (banded or CSR)."""
         U = self.expand(X) if U is None else U
         g, H = self.energy_derivatives(U, lam, tangent)
         self.last_points = (U, g, H)  # pointwise derivatives of this evaluation (bend: dR/dsigma)
         if self.banded:
             R = self.disc.residual(g)
-            K = self.disc.banded(self.disc.element_matrices(H), self.symmetric) if tangent else None
+            K = self.disc.tangent(H, self.symmetric) if tangent else None
         else:
             R, K = self.disc.assemble(g, H)
         Rp, blocks = self.point_terms(U, lam)
-        R = R + Rp
+        R += Rp
         if self.model == FULL and self.variant == kin.NORMALISED:
             Rg, gblocks = self.gauge_terms(U)
-            R = R + Rg
-            blocks = blocks + gblocks
+            R += Rg
+            blocks += gblocks
         if not tangent:
             return R[self.disc.free], None
         if self.banded:
-            rows, cols, vals = self._triplets(blocks)
-            if vals.size:
-                K.add_blocks(rows, cols, vals)
+            for pattern, values in blocks:
+                K.add(pattern, values)
             return R[self.disc.free], K
-        return R[self.disc.free], K + self._blocks_matrix(blocks, K.shape)
+        for pattern, values in blocks:
+            shape = K.shape
+            K = K + sp.csr_matrix(
+                (values.reshape(-1)[pattern.keep], (pattern.rows, pattern.cols)), shape=shape
+            )
+        return R[self.disc.free], K
 
     @property
     def symmetric(self) -> bool:
@@ -383,28 +402,6 @@ class RodSystem:
             return None
         return int(np.sum(lu.U.diagonal() <= 0.0))
 
-    def _blocks_matrix(self, blocks: list, shape: tuple[int, int]) -> sp.csr_matrix:
-        """Sum of dense blocks (dofs of shape (..., m), matrices (..., m, m)) on the free dofs."""
-        rows, cols, vals = self._triplets(blocks)
-        if not vals.size:
-            return sp.csr_matrix(shape)
-        return sp.csr_matrix((vals, (rows, cols)), shape=shape)
-
-    def _triplets(self, blocks: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(rows, cols, values) in free-dof numbering of blocks (dofs (..., m), matrices (..., m, m))."""
-        rows, cols, vals = [], [], []
-        for dofs, block in blocks:
-            dofs = np.atleast_2d(dofs)
-            block = block.reshape(dofs.shape[0], dofs.shape[1], dofs.shape[1])
-            idx = self.index[dofs]
-            ii = np.broadcast_to(idx[:, :, None], block.shape)
-            jj = np.broadcast_to(idx[:, None, :], block.shape)
-            ok = (ii >= 0) & (jj >= 0)
-            rows.append(ii[ok]), cols.append(jj[ok]), vals.append(block[ok])
-        if not rows:
-            return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
-        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
-
     def expand(self, X: np.ndarray) -> np.ndarray:
         U = self._reference().copy()
         U[self.disc.free] = X
@@ -432,20 +429,3 @@ def _roundoff_floor(props: dict[str, np.ndarray]) -> float:
     """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
     stiff = max(float(np.max(v)) for v in props.values())
     return 1e-15 * max(stiff, 1.0)
-
-
-def _moment_work(q: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Generalised force of a dead moment M on q and its Jacobian.
-
-    dphi = 2 (q0 dv - dq0 v + v x dv)/|q|^2, so Q0 = -2 M.v/|q|^2 and
-    Qv = 2 (q0 M + M x v)/|q|^2.
-    """
-    qj = Jet.variables(q.reshape(4, 1))
-    q0, v = qj[0], qj[1:]
-    inv = 1.0 / kin.norm2(qj)
-    Mxv = [M[1] * v[2] - M[2] * v[1], M[2] * v[0] - M[0] * v[2], M[0] * v[1] - M[1] * v[0]]
-    Q = [-2.0 * (M[0] * v[0] + M[1] * v[1] + M[2] * v[2]) * inv]
-    Q += [2.0 * (q0 * M[i] + Mxv[i]) * inv for i in range(3)]
-    g = np.array([c.v[0] for c in Q])
-    jac = np.array([c.g[0] for c in Q])
-    return g, jac

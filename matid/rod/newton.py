@@ -74,8 +74,12 @@ def newton(
     xtol: float = 1e-10,
     max_iter: int = 16,
     max_step: float = 0.5,
+    first: tuple[np.ndarray, object] | None = None,
 ) -> tuple[np.ndarray, int, object]:
     """Solve R(x; lam) = 0 from x0 by pure Newton. Returns (x, iterations, factorised tangent).
+
+    ``first``: (R, factorised tangent) at (x0, lam) already evaluated (a stability probe of
+    :func:`definite`): the first iteration uses them instead of evaluating again.
 
     Converged when the Newton correction is below ``xtol`` (scaled unknowns are
     O(1)), or below the system's round-off floor (``system.roundoff``, eps times
@@ -88,25 +92,22 @@ def newton(
     load step is halved by :func:`follow`.
     """
     floor = min(max(xtol, float(getattr(system, "roundoff", 0.0))), FLOOR_CAP)
-    compiled = getattr(system, "compiled_newton", None)
-    if compiled is not None:  # the same iteration in one compiled call (matid.rod.kernel)
-        options = {"xtol": xtol, "max_iter": max_iter, "max_step": max_step, "floor": floor}
-        out = compiled(x0, lam, mixed_above=MIXED_ABOVE, **options)
-        if out is not None:
-            return _compiled_result(out, max_iter)
-    measure = getattr(system, "step_size", None) or (lambda d: float(np.max(np.abs(d))) if d.size else 0.0)
+    measure = getattr(system, "step_size", None) or _max_abs
     x = x0.copy()
     sizes: list[float] = []
     mixed = getattr(system, "mixed_update", None)
     if mixed is not None:
         getattr(system, "mixed_begin", system.mixed_reset)()
     for it in range(1, max_iter + 1):
-        R, K = system.evaluate(x, lam)
-        if not np.all(np.isfinite(R)):
-            raise NewtonFailure("residual is not finite")
-        lu = _factor(K)
+        if first is not None and it == 1:
+            R, lu = first
+        else:
+            R, K = system.evaluate(x, lam)
+            if not _finite(R):
+                raise NewtonFailure("residual is not finite")
+            lu = _factor(K)
         dx = lu.solve(-R)
-        if not np.all(np.isfinite(dx)):
+        if not _finite(dx):
             raise NewtonFailure("Newton correction is not finite")
         size = measure(dx)
         if size <= xtol or (size <= floor and sizes and size > 0.1 * sizes[-1]):
@@ -123,6 +124,15 @@ def newton(
     raise NewtonFailure(f"no convergence in {max_iter} iterations (correction {size:.3g})")
 
 
+def _max_abs(d: np.ndarray) -> float:
+    return float(np.abs(d).max()) if d.size else 0.0
+
+
+def _finite(v: np.ndarray) -> bool:
+    """No NaN or infinity in v (one dot product: any NaN, infinity or overflow makes it non-finite)."""
+    return bool(np.isfinite(v @ v))
+
+
 def _stagnation(size: float, first: float) -> RoundoffStagnation:
     return RoundoffStagnation(
         f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
@@ -131,25 +141,8 @@ def _stagnation(size: float, first: float) -> RoundoffStagnation:
     )
 
 
-def _compiled_result(out: tuple, max_iter: int) -> tuple[np.ndarray, int, object]:
-    """(x, iterations, factor) of a compiled Newton (matid.rod.compiled), or its failure raised."""
-    from matid.rod import compiled as kernel  # the statuses, without importing numba
-
-    status, x, it, size, first, factor, info = out
-    if status == kernel.CONVERGED:
-        return x, it, factor
-    raise {
-        kernel.SINGULAR: NewtonFailure(f"singular tangent (zero pivot {info})"),
-        kernel.NOT_FINITE_R: NewtonFailure("residual is not finite"),
-        kernel.NOT_FINITE_DX: NewtonFailure("Newton correction is not finite"),
-        kernel.DIVERGING: NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}"),
-        kernel.STAGNATION: _stagnation(size, first),
-        kernel.MAX_ITER: NewtonFailure(f"no convergence in {max_iter} iterations (correction {size:.3g})"),
-    }[status]
-
-
 def _factor(K) -> object:
-    if hasattr(K, "factor"):  # fem.Banded: LAPACK banded Cholesky, or LU when not positive definite
+    if hasattr(K, "factor"):  # band.Banded: LAPACK banded Cholesky, or LU when not positive definite
         try:
             return K.factor()
         except np.linalg.LinAlgError as exc:
@@ -164,7 +157,7 @@ def tangent(system: System, x: np.ndarray, lam: float, lu: object) -> np.ndarray
     """dx/dlam on the equilibrium path: K dx/dlam = -dR/dlam.
 
     Every load of the rod scenes is linear in lam, so dR/dlam = R(x, 1) - R(x, 0) exactly
-    (``system.load_derivative(x)`` when it offers it, e.g. compiled).
+    (``system.load_derivative(x)`` when it offers it).
     """
     load = getattr(system, "load_derivative", None)
     dR = load(x) if load is not None else None
@@ -197,25 +190,20 @@ def definite(system: System, x: np.ndarray, lam: float) -> bool | None:
     """Whether the tangent at (x, lam) is positive definite (its banded Cholesky succeeds), as
     the first Newton iteration there factorises it; None when the system cannot tell
     (unsymmetric or unbanded tangent, non-finite residual)."""
-    compiled = getattr(system, "compiled_newton", None)
-    if compiled is not None:
-        options = {"xtol": 0.0, "max_iter": 1, "max_step": 0.0, "floor": 0.0}
-        out = compiled(x, lam, mixed_above=MIXED_ABOVE, **options)
-        if out is not None:
-            from matid.rod import compiled as kernel  # the statuses, without importing numba
+    return _probe(system, x, lam)[0]
 
-            status, factor = out[0], out[5]
-            if status == kernel.SINGULAR:
-                return False
-            return None if status in (kernel.NOT_FINITE_R, kernel.NOT_FINITE_DX) else factor.positive_definite
+
+def _probe(system: System, x: np.ndarray, lam: float) -> tuple[bool | None, tuple | None]:
+    """(:func:`definite`, (R, factorised tangent) when it has them: Newton's first iteration)."""
     getattr(system, "mixed_begin", getattr(system, "mixed_reset", lambda: None))()
     R, K = system.evaluate(x, lam)
-    if not hasattr(K, "factor") or not np.all(np.isfinite(R)):
-        return None
+    if not hasattr(K, "factor") or not _finite(R):
+        return None, None
     try:
-        return K.factor().positive_definite
+        factor = K.factor()
     except np.linalg.LinAlgError:  # an exactly singular tangent
-        return False
+        return False, None
+    return factor.positive_definite, (R, factor)
 
 
 def definite_step(
@@ -231,14 +219,22 @@ def definite_step(
     lost at lam = 1, then 7 + 5 from lam = 0.5). One factorisation per halving finds the
     same step without them.
     """
+    return _definite_step(system, x, lam0, target, step, min_step)[0]
+
+
+def _definite_step(system, x, lam0, target, step, min_step) -> tuple[float, tuple | None]:
+    """(:func:`definite_step`, (lam, R, factor) of its last probe when Newton may start from it)."""
     for _ in range(MAX_DEFINITE_HALVINGS):
         if step < 2.0 * min_step:
             break
         lam_try = target if abs(target - lam0) <= step else lam0 + np.sign(target - lam0) * step
-        if lam_try == lam0 or definite(system, x, lam_try) is not False:
+        if lam_try == lam0:
             break
+        ok, first = _probe(system, x, lam_try)
+        if ok is not False:
+            return step, None if first is None else (lam_try, *first)
         step *= 0.5
-    return step
+    return step, None
 
 
 def follow(
@@ -265,17 +261,19 @@ def follow(
     info = info or NewtonInfo()
     opts = newton_options or {}
     budget = max(MIN_ITERATIONS, int(WORK_BUDGET / max(x.size, 1)))
-    lam, step = lam0, first_step
+    lam, step, probe = lam0, first_step, None
     if definite_start and len(targets):
-        step = definite_step(system, x, lam0, targets[0], step, min_step)
+        step, probe = _definite_step(system, x, lam0, targets[0], step, min_step)
     slope: np.ndarray | None = None  # dx/dlam at the last converged state (tangent predictor)
     for target in targets:
         while lam != target:
             direction = 1.0 if target > lam else -1.0
             lam_try = target if abs(target - lam) <= step else lam + direction * step
             guess = x if slope is None else x + slope * (lam_try - lam)
+            first = probe[1:] if probe is not None and probe[0] == lam_try and slope is None else None
+            probe = None  # the probe was at the start: only the first attempt may use it
             try:
-                x_new, its, lu = newton(system, guess, lam_try, **opts)
+                x_new, its, lu = newton(system, guess, lam_try, first=first, **opts)
                 _check_admissible(system, x_new, lam_try, lu)
             except RoundoffStagnation as exc:
                 raise ConvergenceError(str(exc), load_factor=lam) from exc

@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import math
 import stat
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from matid.errors import DataError
+from matid.io.toml import parse_toml
 from matid.rod.accuracy import MAX_ELEMENTS
 from matid.units import UnitError, to_si, vector_to_si
 
@@ -142,11 +142,7 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene TOML; every problem is a DataError naming the file and key."""
     path = Path(path)
-    text = read_small_file(path, "scene file")
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DataError(f"not valid TOML: {exc}", file=path) from exc
+    raw = parse_toml(read_small_file(path, "scene file"), path)  # nesting, control characters, lengths
     try:
         return scene_from_dict(raw, root=path.parent)
     except DataError:

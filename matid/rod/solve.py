@@ -29,9 +29,11 @@ from matid.rod.scenes import Scene, plane_of
 #: floor. (Multiplying every term by 1e6 x the stiffest gave 1e14 on a slender
 #: rod: Newton then took corrections of 0.1 for round-off - found by matid bench.)
 RIGID_FACTOR = 1e6
-#: Quadrature order per element: 2 = two-point Gauss. Measured (bench): the
-#: three-point rule locks on slender rods, two-point Gauss does not.
+#: Quadrature order per element: 2 = two-point Gauss. Measured (bench): P2 with the
+#: three-point rule locks on slender rods, with two-point Gauss it does not. The cubic
+#: Hermite needs three points (two leave its tangent singular: no solve converges).
 DEFAULT_INTORDER = 2
+INTORDER = {"P2": DEFAULT_INTORDER, "P1": 2, "Hermite": 4}
 DEFAULT_ELEMENTS = 16
 #: Mixed-integration-point Newton per model (see RodSystem.mixed_update).
 MIXED = {PLANAR: True, FULL: True}
@@ -179,7 +181,7 @@ def equilibrium(
     t0 = time.perf_counter()
     chosen, e_a, rod, at = _prepare(scene, model)
     ne = elements or scene.elements or DEFAULT_ELEMENTS
-    order = intorder or (DEFAULT_INTORDER if element == "P2" else 2)
+    order = intorder or INTORDER[element]
     disc = mesh(ne, at, 3 if chosen == PLANAR else 7, element, order)
     system = RodSystem(
         disc,
@@ -261,12 +263,12 @@ class Equilibrium:
         """(vertices, nodal values sorted by s) for a warm start on another mesh (P2 only)."""
         if self.disc.element != "P2":
             return None
-        return self.disc.vertices.copy(), self.U[np.argsort(self.disc.s_dof)]
+        return self.disc.vertices.copy(), self.U[self.disc.value_dofs]
 
     def tip(self) -> np.ndarray:
         """(tip position / L, tip d3): the Solution's last row (to round-off), without building it."""
-        n = self.disc.vertices.size  # the last vertex (vertex dofs come first)
-        position, _, d3 = _frames(self.model, self.U[n - 1 : n], self.e_a, 1.0)
+        n = self.disc.vertex_dof(self.disc.vertices.size - 1)  # the tip's values
+        position, _, d3 = _frames(self.model, self.U[n : n + 1], self.e_a, 1.0)
         return np.concatenate([position[0], d3[0]])
 
 
@@ -398,7 +400,7 @@ def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.n
 
 def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms, **fields) -> Solution:
     L = scene.rod.length
-    order = np.argsort(disc.s_dof)
+    order = disc.value_dofs
     s, U = disc.s_dof[order] * L, U[order]
     position, d1, d3 = _frames(chosen, U, e_a, L)
     if not (np.isfinite(position).all() and np.isfinite(d1).all()):

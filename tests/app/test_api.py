@@ -1,4 +1,4 @@
-"""The Python API (matid.fit, matid.load_study, FitResult): the README's notebook session, run as written."""
+"""The Python API (matid.fit, matid.load_study, FitResult): the guide's notebook session, run as written."""
 
 from __future__ import annotations
 
@@ -22,23 +22,23 @@ from tests import ROOT
 from tests.app.test_cli import small_study
 from tests.io.test_results import bending_study
 
-README = ROOT / "README.md"
+GUIDE = ROOT / "docs" / "guide.md"
 
 
 def notebook_session() -> str:
-    """The Python block under the README heading 'From Python: a notebook session'."""
-    text = README.read_text(encoding="utf-8")
+    """The Python block under the user guide's heading 'From Python: a notebook session'."""
+    text = GUIDE.read_text(encoding="utf-8")
     section = text.split("## From Python: a notebook session", 1)[1]
     match = re.search(r"```python\n(.*?)```", section, re.S)
-    assert match, "README lost its notebook session"
+    assert match, "docs/guide.md lost its notebook session"
     return match.group(1)
 
 
 @pytest.fixture(scope="module")
 def session(tmp_path_factory):
-    """Run the README's session in a folder whose data/example is a small study (T1's bending and torsion).
+    """Run the guide's session in a folder whose data/example is a small study (T1's bending and torsion).
 
-    The code is the README's, unchanged; only the study behind "data/example" is smaller
+    The code is the guide's, unchanged; only the study behind "data/example" is smaller
     than the demo, to keep the test fast.
     """
     cwd = tmp_path_factory.mktemp("notebook")
@@ -49,7 +49,7 @@ def session(tmp_path_factory):
     try:
         os.chdir(cwd)
         with contextlib.redirect_stdout(out):
-            exec(compile(notebook_session(), "README.md", "exec"), namespace)
+            exec(compile(notebook_session(), "docs/guide.md", "exec"), namespace)
     finally:
         os.chdir(before)
     return namespace, out.getvalue(), cwd

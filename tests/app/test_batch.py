@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import io
+import signal
 import statistics
 import threading
 from pathlib import Path
@@ -15,6 +16,7 @@ import pytest
 from matid.app import pipeline
 from matid.app.batch import Progress, StudyOutcome, run_batch
 from matid.app.cli import main
+from tests import fuzzhostile
 from tests.app.test_cli import CSV_HEADER, OUTPUTS, small_study
 from tests.io.test_results import E_T_WARNING, add_warnings, bending_study, drop_test
 
@@ -181,3 +183,42 @@ def test_progress_bar_on_a_terminal_and_lines_otherwise():
     Progress(1, quiet=True, stream=quiet)(StudyOutcome("x", "lot_x", 0))
     assert quiet.getvalue() == ""
     assert threading.active_count() == threads  # no tqdm monitor left behind
+
+
+@pytest.fixture(scope="module")
+def four(tmp_path_factory):
+    """Four quick studies (bending and torsion of T1), for batches stopped half-way."""
+    root = tmp_path_factory.mktemp("four")
+    for name in ("s1", "s2", "s3", "s4"):
+        bending_study(root / name)
+    return [str(root / n) for n in ("s1", "s2", "s3", "s4")]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("sig", "code"), [(signal.SIGTERM, 143), (signal.SIGINT, 130), (signal.SIGKILL, -9)])
+def test_a_stopped_batch_leaves_no_process_and_publishes_nothing_more(four, tmp_path, sig, code):
+    """Signal sent once the first study is published: the batch ends within 5 s with 128 + signal
+    (SIGKILL: the parent just dies), no process of it is alive 5 s later, nothing under --out changes
+    after the signal, and no study folder is half-written. Before: SIGTERM or SIGKILL of the parent left
+    the pool fitting and publishing the queued studies; SIGINT took 34-48 s and published them all."""
+    out = tmp_path / "out"
+    argv = ["fit", *four, "--out", str(out), "--jobs", "2", "--quiet"]
+    result = fuzzhostile.run_signalled(argv, out, sig, on_publish=True, batch=True)
+    assert result["sent"], "the batch ended before its first study was published"
+    assert result["code"] == code, result["message"]
+    assert fuzzhostile.signal_problem(result, sig) is None
+    assert not (out / "summary.csv").exists()  # an interrupted batch writes no summary
+
+
+def test_escape_codes_in_folder_names_never_reach_the_terminal_raw(tmp_path, monkeypatch):
+    """A study folder named with ESC/BEL (its name is the batch's study name) and one that fails:
+    every line printed has them escaped, and summary.csv / summary.xlsx hold them as text."""
+    light_report(monkeypatch)
+    good, bad = bending_study(tmp_path / "=ok\x1b[31m"), small_study(tmp_path / "bell\x07")
+    (bad / "torsion_T1_L60.csv").unlink()
+    code, stdout, err = run(["fit", str(good), str(bad), "--out", str(tmp_path / "out"), "--jobs", "1"])
+    assert code == 2, err
+    assert "\x1b" not in stdout + err and "\x07" not in stdout + err
+    assert "\\x1b[31m" in stdout + err and "\\x07" in err
+    cells = fuzzhostile.formula_cells(tmp_path / "out")
+    assert cells == [] and "=ok" in (tmp_path / "out" / "summary.csv").read_text(encoding="utf-8")

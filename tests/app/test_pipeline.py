@@ -118,7 +118,7 @@ def test_demo_records_every_input_file(demo):
 def test_demo_records_run_and_versions(demo):
     assert datetime.fromisoformat(demo.started).tzinfo is not None
     assert demo.runtime_s > 0
-    expected = {"matid", "numpy", "scipy", "scikit-fem", "pint", "matplotlib", "python"}
+    expected = {"matid", "numpy", "scipy", "lmfit", "scikit-fem", "pint", "matplotlib", "python"}
     assert set(demo.versions) == expected
 
 

@@ -129,27 +129,3 @@ def test_console_script_runs(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "tip at (25.0256, 0, 8.71892) mm" in proc.stdout
     assert json.loads((tmp_path / "solution.json").read_text())["elements"] == 20
-
-
-@pytest.mark.parametrize("env, expected", [(None, False), ("1", True)])
-def test_one_shot_solve_uses_the_numpy_path_unless_asked(tmp_path, monkeypatch, env, expected):
-    """One scene per process: loading numba and its cache (~1 s) costs more than it saves."""
-    from matid.rod import compiled
-
-    seen = []
-    supported = compiled.supported
-
-    def spy(system):
-        seen.append(compiled.ENABLED)
-        return supported(system)
-
-    monkeypatch.setattr(compiled, "supported", spy)
-    monkeypatch.setattr(compiled, "ENABLED", True)
-    if env is None:
-        monkeypatch.delenv("MATID_JIT", raising=False)
-    else:
-        monkeypatch.setenv("MATID_JIT", env)
-    code, _, err = run(["solve", str(EXAMPLES / "magnetic_cantilever.toml"), "--out", str(tmp_path / "o")])
-    assert code == 0, err
-    assert seen and set(seen) == {expected}
-    assert compiled.ENABLED is True  # the process's setting is back after the command

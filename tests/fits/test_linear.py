@@ -11,8 +11,10 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from matid.errors import DataError, FitError
-from matid.fits.linear import bending_torque, fit_bending, fit_torsion, linear_range, magnet_torque
+from matid.fits.bending import bending_torque, fit_bending, magnet_torque
+from matid.fits.branch import linear_range
 from matid.fits.stats import ar1_noise
+from matid.fits.torsion import fit_torsion
 from matid.io import study
 from matid.io.ingest.read import Measurement, Table
 
@@ -162,9 +164,10 @@ def test_linear_range_stops_near_the_onset(power, change, late):
     y = torsion_curve(x, onset, power=power, change=change)
     y = y + rng.normal(0.0, 0.003 * np.abs(y).max(), x.size)
     mask = linear_range(x, y)
-    cutoff = np.abs(x[mask]).max()
-    assert onset <= cutoff <= late * onset  # the departure must grow to the noise level first
-    assert np.all(mask == (np.abs(x) <= cutoff))  # a window |x| <= cutoff, both directions
+    low, high = x[mask].min(), x[mask].max()
+    # found at each end by itself (no symmetry assumed); the departure must grow to the noise first
+    assert onset <= -low <= late * onset and onset <= high <= late * onset
+    assert np.all(mask == ((x >= low) & (x <= high)))  # one stretch
     slope = np.dot(x[mask], y[mask]) / np.dot(x[mask], x[mask])
     assert slope == pytest.approx(E_T, rel=0.01)
 
@@ -345,15 +348,36 @@ def test_window_leaves_rows_out_and_says_why():
         fit_torsion([empty], specimen="T1")
 
 
-def test_a_curve_fitted_as_a_line_is_named_and_widened():
-    """Bending has no linear-range search: a curved record keeps its rows but is flagged."""
+def test_a_curve_in_bending_is_cut_to_its_linear_range_and_said():
+    """A torque curved from the start (1 + 0.2 theta): the fit keeps the rows the line
+    describes, E_b is the initial slope, and the warning says how few rows that is."""
     theta = np.linspace(0.0, 1.0, 300)
     torque = E_B * theta / 0.03 * (1.0 + 0.2 * theta) + 1e-6 * np.random.default_rng(11).normal(size=300)
     run = measurement("magnetic_bending", "c.csv", {"free_length": 0.03}, tip_angle=theta, torque=torque)
     fit = fit_bending([run], specimen="T1")
+    est = fit.estimate("E_b")
+    assert est.value == pytest.approx(E_B, rel=0.02)  # d torque / d(theta / L) at theta = 0
+    (warning,) = est.warnings
+    assert warning.startswith("c.csv: only") and "of 300 loading points are in the linear range" in warning
+    assert est.extra["warning_kinds"] == ("little_linear",)
+    beyond = fit.info["left_out"]["c.csv"]["beyond the linear range"]
+    assert beyond == 300 - est.n_points > 150
+    assert fit.info["rows_left_out"]["c.csv"]["beyond the linear range"] == [[est.n_points, 299]]
+
+
+def test_a_curve_fitted_as_a_line_in_a_window_is_named_and_widened():
+    """The same curve inside a window: exactly the window's rows are fitted, and the misfit is named."""
+    theta = np.linspace(0.0, 1.0, 300)
+    torque = E_B * theta / 0.03 * (1.0 + 0.2 * theta) + 1e-6 * np.random.default_rng(11).normal(size=300)
+    window = {"tip_angle": (0.0, 1.0)}
+    run = measurement(
+        "magnetic_bending", "c.csv", {"free_length": 0.03}, window, tip_angle=theta, torque=torque
+    )
+    fit = fit_bending([run], specimen="T1")
     (warning,) = fit.estimate("E_b").warnings
     assert warning.startswith("the line torque = c + E_b theta / L does not describe the data")
     assert fit.info["lack_of_fit"]["misfit"] and fit.info["interval_widening"] > 3
+    assert fit.estimate("E_b").n_points == 300
 
 
 @pytest.mark.parametrize("phi, low, high", [(0.0, 90, 98), (0.95, 85, 100)])

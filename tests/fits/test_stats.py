@@ -98,3 +98,12 @@ def test_lack_of_fit_flags_a_curve_fitted_by_a_line_only():
     assert set(bad.as_info()) >= {"reduced_chi2", "noise", "lag1_autocorrelation", "misfit"}
     few = st.lack_of_fit(r[:8], 2)
     assert not few.decided and not few.misfit
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.5, 0.8, 0.97])
+def test_mean_variance_factor_is_the_variance_of_a_block_mean(rho):
+    """Against the dense AR(1) correlation matrix: Var(mean of m) = sd^2 / m * factor."""
+    for m in (1, 2, 7, 60):
+        i = np.arange(m)
+        dense = float(np.sum(rho ** np.abs(i[:, None] - i[None, :]))) / m**2
+        assert st.mean_variance_factor(np.array([m]), rho)[0] / m == pytest.approx(dense, rel=1e-12)

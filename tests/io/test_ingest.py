@@ -480,18 +480,6 @@ def test_all_loads_negative_suggest_negate(tmp_path):
     np.testing.assert_allclose(table["force"], [-0.001, 0.5, 1.0, 1.5])
 
 
-def test_negative_deflection_on_loading_branch_names_the_row(tmp_path):
-    path = write(tmp_path, "deflection [mm],force [N]\n0,0\n0.1,0.5\n-0.05,0.7\n0.3,1.5\n0.2,1.0\n")
-    with pytest.raises(DataError, match=where(path, row=4, column="deflection") + "negative deflection"):
-        read_table(path, "three_point_bend")
-
-
-def test_torque_against_twist_suggests_negate(tmp_path):
-    path = write(tmp_path, "twist_angle [deg],torque [N mm]\n0,0\n10,-1\n20,-2\n")
-    with pytest.raises(DataError, match=where(path, column="torque") + ".*opposite signs"):
-        read_table(path, "torsion")
-
-
 def test_preamble_without_hash_and_message_says_how_it_was_read(tmp_path):
     text = '"Sample ID:","T1"\nMTS793|BTW|ENG\nLoad,Crosshead\nN,mm\n0,0\n0.5,0.1\nx,0.2\n'
     path = write(tmp_path, text)

@@ -6,7 +6,6 @@ import pytest
 
 from matid.bench import scenes as S
 from matid.physics import kinematics as kin
-from matid.rod import compiled
 from matid.rod.models import PLANAR, RodSystem
 from matid.rod.newton import definite, definite_step, follow
 from matid.rod.scenes import scene_from_dict
@@ -58,19 +57,6 @@ def test_a_field_beyond_the_straight_rods_stability_limit_is_detected():
     assert definite(system, x0, 0.5) is True
     assert definite_step(system, x0, 0.0, 1.0, 1.0, 1e-6) == 0.5
     assert definite_step(system, x0, 0.0, 0.5, 1.0, 1e-6) == 1.0  # a stable target: unchanged
-
-
-def test_the_numpy_path_answers_as_the_kernel(monkeypatch):
-    scene = S.magnetic(6.4, 120.0)
-    lams = (0.25, 0.5, 0.7, 0.8, 1.0, 2.0)
-    kernel = [definite(_system(scene), _start(_system(scene)), lam) for lam in lams]
-    monkeypatch.setattr(compiled, "ENABLED", False)
-    system = _system(scene)
-    options = {"xtol": 0.0, "max_iter": 1, "max_step": 0.0, "floor": 0.0, "mixed_above": 0.0}
-    assert system.compiled_newton(_start(system), 1.0, **options) is None  # the numpy path runs
-    numpy_path = [definite(system, _start(system), lam) for lam in lams]
-    assert numpy_path == kernel
-    assert kernel[1] is True and kernel[-1] is False
 
 
 def test_halvings_are_bounded():

@@ -23,11 +23,14 @@ The fit (:func:`fit_extension`) is a joint weighted least-squares fit over all r
 one specimen in log-parameters ``log(k / k_start)`` (positive, well scaled). Starts come
 from variable projection: for fixed tau the model is linear in (k1, eta), so a grid of
 tau over the observed window is solved by non-negative least squares and the best
-local minima seed a Levenberg-Marquardt least squares.
+local minima seed lmfit's Levenberg-Marquardt (``leastsq``); the 95 % profile intervals
+are ``lmfit.conf_interval``, on which matid adds the AR(1) sandwich, lack of fit and
+identifiability.
 
 The parts: runs in SI (:mod:`matid.fits.extension.runs`), the least squares
 (:mod:`matid.fits.extension.lsq`), standard errors and intervals
-(:mod:`matid.fits.extension.stats`), identifiability and cautions
+(:mod:`matid.fits.extension.stats`), the bin means of long records
+(:mod:`matid.fits.extension.reduce`), identifiability and cautions
 (:mod:`matid.fits.extension.checks`); this module assembles the estimates.
 """
 
@@ -89,18 +92,38 @@ def _estimate(parameter, name, k, se, ci, n, fixed, warn=()) -> Estimate:
     )
 
 
+def _plotted(run: _Run, model: np.ndarray) -> dict[str, np.ndarray]:
+    """What a plot of the run draws: every row, or on a long record (residuals as bin means,
+    :mod:`matid.fits.extension.reduce`) the bin means of the used rows, model alike."""
+    if run.reduce.starts is None:
+        return {"time_s": run.t, "strain": run.eps, "force_N": run.force, "model_N": model, "used": run.used}
+    means = run.reduce.means
+    out = {
+        "time_s": means(run.t),
+        "strain": means(run.eps),
+        "force_N": means(run.force),
+        "model_N": means(model),
+    }
+    return {**out, "used": np.ones(out["time_s"].size, dtype=bool)}
+
+
 def _series(runs: Sequence[_Run], models: Sequence[np.ndarray]) -> tuple[Series, ...]:
-    return tuple(
-        Series(f"{run.name}, strain rate {run.rate:.3g} 1/s", run.eps, run.force, f, run.used)
-        for run, f in zip(runs, models, strict=True)
-    )
+    out = []
+    for run, f in zip(runs, models, strict=True):
+        p = _plotted(run, f)
+        label = f"{run.name}, strain rate {run.rate:.3g} 1/s"
+        if run.reduce.starts is not None:
+            label += f" ({run.reduce.size} bin means of {int(run.used.sum())} rows)"
+        out.append(Series(label, p["strain"], p["force_N"], p["model_N"], p["used"]))
+    return tuple(out)
 
 
 def _info(runs, models, k, sigma, nfree: int) -> dict[str, object]:
     """Fit summary. reduced_chi2 is measured against the model-free (second-difference)
     noise, not the residual noise used as weights, so values well above 1 flag misfit.
     ``plot_data["force_time"]`` holds, per run, time, measured and model force and the
-    rows used, for a force-against-time figure of ramp-hold and relaxation runs."""
+    rows used, for a force-against-time figure of ramp-hold and relaxation runs (bin means
+    on a long record: :func:`_plotted`)."""
     chi2 = sum(
         float(np.sum(((f - run.force)[run.used] / run.noise) ** 2))
         for f, run in zip(models, runs, strict=True)
@@ -114,7 +137,7 @@ def _info(runs, models, k, sigma, nfree: int) -> dict[str, object]:
         "left_out": {run.name: dict(run.left_out) for run in runs if run.left_out},
         "plot_data": {
             "force_time": {
-                run.name: {"time_s": run.t, "force_N": run.force, "model_N": f, "used": run.used}
+                run.name: {key: v for key, v in _plotted(run, f).items() if key != "strain"}
                 for run, f in zip(runs, models, strict=True)
             }
         },
@@ -125,7 +148,9 @@ def _prony(runs, sigma, k, fixed_k):
     """The Prony comparison: (choice or None, extra estimates, E_e warning, sls warning)."""
     if fixed_k:
         return None, (), None, None
-    data = [prony.Data(r.t, r.eps, r.force, r.used, float(s)) for r, s in zip(runs, sigma, strict=True)]
+    data = [
+        prony.Data(r.t, r.eps, r.force, r.used, float(s), r.reduce) for r, s in zip(runs, sigma, strict=True)
+    ]
     choice = prony.choose(data)
     if choice is None or choice.best == 1:
         return choice, (), None, None
@@ -151,17 +176,17 @@ def fit_extension(
     if len(fixed_k) == 3:
         raise FitError(f"specimen {specimen}: k1, k2 and eta are all fixed; nothing to fit")
     runs = _unique([_run(m) for m in measurements])
-    runs, result, ref, sigma = _solve(runs, fixed_k)
-    result, unc = _covariance_fit(runs, sigma, result, ref, fixed_k)
-    k = _values(result, ref)
-    se, cov = _sandwich(result, runs, sigma, ref, _stderr(result, unc, ref))
-    corr = _correlation(unc)
+    runs, minimizer, result, ref, sigma = _solve(runs, fixed_k)
+    minimizer, result = _covariance_fit(runs, sigma, minimizer, result, ref, fixed_k)
+    k = _values(result.params, ref)
+    se, cov = _sandwich(result, runs, sigma, ref, _stderr(result, ref))
+    corr = _correlation(result)
     reasons = _unidentifiable(k, se, corr, runs, fixed_k)
     correlated = cov is not None and cov.rho > 0
     dof = cov.dof if cov is not None else result.nfree
-    ci = _intervals(result, unc, runs, sigma, ref, se, profile=not reasons and not correlated, dof=dof)
-    n = int(result.ndata)
-    lof, misfit = _misfit(result, runs, cov)
+    ci = _intervals(minimizer, result, ref, se, profile=not reasons and not correlated, dof=dof)
+    n = sum(int(run.used.sum()) for run in runs)
+    lof, misfit = _misfit(result, runs, sigma, ref, cov)
     choice, prony_estimates, prony_e_e, prony_sls = _prony(runs, sigma, k, fixed_k)
     why = [f"k2 and eta are not identifiable from the rates given: {'; '.join(reasons)}"] if reasons else []
     sls_warn = [w for w in (misfit, prony_sls) if w]
@@ -178,7 +203,7 @@ def fit_extension(
         *prony_estimates,
     )
     models = _models(runs, k)
-    info = _info(runs, models, k, sigma, result.nfree)
+    info = _info(runs, models, k, sigma, n - result.nvarys)
     info["lack_of_fit"] = lof.as_info()
     info["n_effective"] = cov.n_eff if cov is not None else float(n)
     info["interval_widening"] = float(np.max(cov.inflation)) if cov is not None else 1.0

@@ -10,8 +10,9 @@ n = 1 is the standard linear solid (k0 = sls_k1, k1 = sls_k2, tau1 = sls_eta / s
 Each arm is the SLS arm of :func:`matid.physics.sls.sls_force` with unit stiffness,
 so for fixed taus the force is linear in (k0, k_1..k_n).
 
-Fit (:func:`fit_prony`): variable projection. The outer least squares moves log tau_i;
-the inner one solves (k0, k_i) >= 0 by NNLS on the rows used, each run weighted by its
+Fit (:func:`fit_prony`): variable projection. The outer least squares (lmfit
+``least_squares`` on bounded ``Parameters``) moves log tau_i; the inner one solves
+(k0, k_i) >= 0 by NNLS on the rows used, each run weighted by its
 noise sigma_j. The covariance of (log k0, log k_i, log tau_i) is the AR(1) sandwich of
 :mod:`matid.fits.stats` on the numerical Jacobian.
 
@@ -35,10 +36,13 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import lmfit
 import numpy as np
 from scipy import optimize
+from scipy import stats as sstats
 
 from matid.fits import stats
+from matid.fits.extension.reduce import Reduction
 from matid.io.results import Estimate
 from matid.physics.sls import History, sls_force
 
@@ -50,17 +54,23 @@ BIC_MARGIN = 10.0
 
 @dataclass(frozen=True)
 class Data:
-    """One run for the fit: all rows (the history), the rows used, and the run's noise sd."""
+    """One run for the fit: all rows (the history), the rows used, the run's noise sd, and
+    how its rows become residuals (``rows``; default one per used row)."""
 
     t: np.ndarray
     eps: np.ndarray
     force: np.ndarray
     used: np.ndarray
     sigma: float
+    rows: Reduction | None = None
 
     @functools.cached_property
     def history(self) -> History:
         return History(self.t, self.eps)
+
+    @functools.cached_property
+    def reduce(self) -> Reduction:
+        return Reduction(self.used) if self.rows is None else self.rows
 
 
 def arm(t: np.ndarray, eps: np.ndarray, tau: float) -> np.ndarray:
@@ -94,8 +104,8 @@ def _basis(data: Sequence[Data], taus, arms: Arms) -> tuple[np.ndarray, np.ndarr
             if key not in arms:
                 arms[key] = d.history.force(0.0, 1.0, tau)  # = arm(d.t, d.eps, tau)
             block.append(arms[key])
-        cols.append(np.column_stack(block)[d.used] / d.sigma)
-        rhs.append(d.force[d.used] / d.sigma)
+        cols.append(d.reduce(np.column_stack(block)) / d.sigma)
+        rhs.append(d.reduce(d.force) / d.sigma)
     return np.vstack(cols), np.concatenate(rhs)
 
 
@@ -130,6 +140,7 @@ class PronyFit:
     residual: np.ndarray
     n: int
     covariance: stats.Covariance | None
+    rows: int | None = None  # rows fitted, when the n residuals are bin means of more rows
 
     @property
     def rss(self) -> float:
@@ -192,26 +203,38 @@ def _starts(data: Sequence[Data], n_terms: int) -> list[np.ndarray]:
     return starts
 
 
+def _tau_params(start: np.ndarray, bounds: tuple[float, float]) -> lmfit.Parameters:
+    """lmfit parameters log tau_1..n, bounded to the observed window widened 100x each side."""
+    out = lmfit.Parameters()
+    for i, value in enumerate(np.clip(start, *bounds), start=1):
+        out.add(f"log_tau{i}", value=float(value), min=bounds[0], max=bounds[1])
+    return out
+
+
+def _outer(params: lmfit.Parameters, data, arms: Arms) -> np.ndarray:
+    """Weighted residuals at these taus with the stiffnesses projected out (NNLS)."""
+    return _inner(data, np.sort(np.array(list(params.valuesdict().values()))), arms)[1]
+
+
 def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
-    """The n-arm fit with the least weighted RSS, or None when an arm vanishes (k_i = 0)."""
+    """The n-arm fit with the least weighted RSS, or None when an arm vanishes (k_i = 0).
+
+    lmfit's ``least_squares`` (trust region reflective, within the bounds) on log tau;
+    the stiffnesses are projected out by NNLS in each evaluation (variable projection).
+    """
     low = min(float(np.median(np.diff(d.t))) for d in data) / 100.0
     high = max(float(d.t[-1] - d.t[0]) for d in data) * 100.0
     bounds = (math.log(low), math.log(high))
     best = None
     arms: Arms = {}
     for start in _starts(data, n_terms):
+        minimizer = lmfit.Minimizer(_outer, _tau_params(start, bounds), fcn_args=(data, arms))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sol = optimize.least_squares(
-                lambda lt: _inner(data, np.sort(lt), arms)[1],
-                np.clip(start, *bounds),
-                bounds=bounds,
-                x_scale=1.0,
-                diff_step=1e-4,
-            )
-        if best is None or sol.cost < best.cost:
-            best = sol
-    log_taus = np.sort(best.x)
+            result = minimizer.minimize(method="least_squares", x_scale=1.0, diff_step=1e-4)
+        if best is None or result.chisqr < best.chisqr:
+            best = result
+    log_taus = np.sort(np.array(list(best.params.valuesdict().values())))
     coef, resid = _inner(data, log_taus, arms)
     if np.any(coef <= 0) or np.any(np.diff(log_taus) < 1e-3):
         return None  # a vanished or duplicated arm: this n says nothing beyond n - 1
@@ -224,11 +247,14 @@ def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
         resid,
         resid.size,
         _cov(data, x, n_terms),
+        sum(int(d.used.sum()) for d in data),
     )
 
 
 def _cov(data, x: np.ndarray, n_terms: int) -> stats.Covariance | None:
-    """AR(1) sandwich covariance of the log-parameters on a central-difference Jacobian."""
+    """AR(1) sandwich covariance of the log-parameters on a central-difference Jacobian, on
+    every used row (also where the fit itself ran on bin means: the rows carry the AR(1)
+    structure the sandwich models)."""
     r0 = _model_residual(data, x, n_terms)
     h = 1e-5
     jac = np.column_stack(
@@ -282,7 +308,13 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
     # effective sample size of the richest fit (its residuals are the closest to the noise;
     # the SLS's own would count a misfit as correlated noise), else noise wander buys arms
     cov = fits[max(fits)].covariance
-    n_eff = cov.n_eff if cov is not None else float(fits[1].n)
+    richest = fits[max(fits)]
+    segments = [d.reduce.size for d in data]
+    n_eff = (
+        stats.effective_n(richest.residual, segments, richest.n_params)
+        if cov is not None
+        else float(fits[1].n)
+    )
     # a model the data do not determine (an arm far faster than the sampling: singular
     # covariance) is no evidence against the SLS, and would leave E_e without an interval
     best = 1
@@ -298,7 +330,7 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
 def _estimate(name: str, value: float, se: float | None, dof: float, n: int, warnings_=()) -> Estimate:
     ci = None
     if se is not None and math.isfinite(se) and value > 0:
-        tq = stats.t_ppf(0.975, max(dof, 1.0))
+        tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
         ci = stats.wald_log_interval(value, se, tq)
     se = se if se is not None and math.isfinite(se) else None
     return Estimate(name, value, se, ci, n, "prony", tuple(warnings_), {"ci_method": "t-log" if ci else None})
@@ -321,7 +353,7 @@ def preferred(choice: Choice, sls_k1: float, longest_run: float) -> tuple[tuple[
             "prony_k0 includes whatever relaxes more slowly; add a longer hold to confirm it",
         )
     estimates = tuple(
-        _estimate(name, value, se[name], dof, fit.n, k0_warn if name == "prony_k0" else ())
+        _estimate(name, value, se[name], dof, fit.rows or fit.n, k0_warn if name == "prony_k0" else ())
         for name, value in values.items()
     )
     arms = f"a {fit.n_terms}-arm Prony (generalised Maxwell) model"

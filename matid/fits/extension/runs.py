@@ -18,6 +18,7 @@ import numpy as np
 
 from matid.errors import DataError, FitError
 from matid.fits import stats
+from matid.fits.extension.reduce import Reduction, reduction
 from matid.physics.sls import History
 
 if TYPE_CHECKING:
@@ -40,10 +41,16 @@ class _Run:
     window: np.ndarray  # rows inside the test's window
     used: np.ndarray  # rows whose residuals enter the fit (the model runs over all rows)
     left_out: Mapping[str, int] = field(default_factory=dict)  # reason -> rows
+    rho: float = 0.0  # AR(1) correlation of the noise: the weights of bin means (reduce)
 
     @functools.cached_property
     def history(self) -> History:
         return History(self.t, self.eps)
+
+    @functools.cached_property
+    def reduce(self) -> Reduction:
+        """Rows -> residuals: the used rows, as bin means on a long record (:mod:`.reduce`)."""
+        return reduction(self.t, self.eps, self.used, self.rate, self.rho)
 
     @property
     def duration(self) -> float:

@@ -33,6 +33,8 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+import scipy.stats
+
 from matid.fits.shear.torsion import (
     CONTACT_N,
     CONTACT_REF,
@@ -42,7 +44,6 @@ from matid.fits.shear.torsion import (
     value_range,
     young_modulus,
 )
-from matid.fits.stats import chi2_sf
 from matid.io.results import Estimate
 from matid.io.study import Specimen
 
@@ -179,7 +180,7 @@ def consistency(per_span: Sequence[tuple[float, float, float]], joint: float) ->
     for _, value, sd in per_span:
         chi2 += (math.log(value / joint) / max(sd, SPAN_SD_FLOOR)) ** 2
     dof = len(per_span) - 1
-    p = chi2_sf(chi2, dof)
+    p = float(scipy.stats.chi2.sf(chi2, dof))
     info = {"chi2": chi2, "dof": dof, "p": p}
     if p >= CONSISTENCY_P:
         return info, None

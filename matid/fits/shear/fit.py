@@ -6,13 +6,16 @@ For every loading-branch point i of every bend test of a specimen (span S_k),
 
 minimised over log E_s (and log E_b with ``fit_E_b``), E_b and E_e taken from
 the specimen's own fits or [[fixed]] entries (physics.md section 6). F_rod is
-the nose force of :class:`matid.rod.bend.BendModel`, followed along the
-measured deflections by continuation and warm-started from the previous
-iterate; its Jacobian dF/dE_s comes from the linearised equilibrium (one
-back-substitution per point), not from differences of solver output
-(:mod:`matid.fits.shear.problem`: the residuals, the Jacobian, and
-Levenberg-Marquardt; for centreline data the Jacobian at fixed centreline
-deflection, :mod:`matid.fits.shear.centreline`).
+the nose force of :class:`matid.rod.bend.BendModel`, followed by continuation
+along knots (a few of the measured deflections, chosen by a tolerance on the
+interpolation error, below a tenth of the noise over sqrt(rows)) and
+interpolated to every row, warm-started from the previous iterate; its Jacobian
+dF/dE_s comes from the linearised equilibrium (one back-substitution per knot),
+not from differences of solver output (:mod:`matid.fits.shear.problem`: the
+knots, the interpolation, the residuals, the Jacobian, and scipy's
+least_squares, not lmfit, and why; for centreline data the Jacobian at fixed
+centreline deflection, :mod:`matid.fits.shear.centreline`). A fit costs the
+knots, not the rows (17-33 knots for 3000 rows).
 
 The start is the classic Timoshenko estimate from the small-deflection
 compliance C = d/F:  C = S^3/(48 E_b) + S/(4 E_s).
@@ -41,17 +44,18 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.stats
 
 from matid.errors import DataError, FitError
 from matid.fits.shear.checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
 from matid.fits.shear.problem import Problem, least_squares
 from matid.fits.shear.torsion import agreement
 from matid.fits.shear.window import Cut, check_plausible, cut
-from matid.fits.stats import Covariance, ar1_covariance, lack_of_fit, t_ppf
+from matid.fits.stats import Covariance, ar1_covariance, lack_of_fit
 from matid.io.ingest.read import Measurement
 from matid.io.results import Estimate, Series, TestFit
 from matid.io.study import Specimen
-from matid.rod.bend import BendGeometry, BendPath
+from matid.rod.bend import BendGeometry
 
 #: The FE error must stay below this fraction of the statistical standard error
 #: (or below FE_ERROR_FLOOR, for noise-free data whose standard error is zero).
@@ -93,7 +97,7 @@ def bend_data(m: Measurement, specimen: Specimen, E_b: float) -> BendData:
     window = m.in_window()
     if not np.any(F[window] > 0):
         check_plausible(d[window], F[window], span=geometry.span, E_b=E_b, file=m.test.file)
-    c = cut(d, F, window)
+    c = cut(d, F, window, windowed=bool(m.test.window))
     dl, Fl = d[c.used] - c.d0, F[c.used]
     if dl.size < 3 or dl[-1] <= 0:
         raise FitError(f"{m.test.file.name}: fewer than 3 loading points with positive deflection")
@@ -151,26 +155,34 @@ def _statistics(r: np.ndarray, J: np.ndarray, segments) -> tuple[np.ndarray, flo
     """Covariance of the log parameters under AR(1)-correlated residuals within each file
     (:func:`matid.fits.stats.ar1_covariance`; the textbook one when rho is not significant)."""
     dof = max(r.size - J.shape[1], 1)
-    cov = ar1_covariance(J, r, segments)
+    try:
+        cov = ar1_covariance(J, r, segments)
+    except np.linalg.LinAlgError as exc:  # J^T J singular: the fitted stiffnesses cannot be told apart
+        raise FitError(
+            f"E_s least squares: the bend data do not determine the fitted stiffnesses ({exc})"
+        ) from exc
     return cov.cov, float(np.sqrt(float(r @ r) / dof)), cov
 
 
 def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) -> tuple[float, list]:
     """Richardson estimate of the relative error of E_s from a solve at half the elements.
 
-    The coarse solve runs on every third point of each curve (and its last):
-    enough to map the force error into E_s, a third of the cost. Returns the
+    The coarse solve runs on every third knot of each curve (and its last), where the fine
+    forces are solved too: enough to map the force error into E_s, a third of the cost. Returns the
     error and the two mesh levels as (elements, estimated error of E_s, run time
     of one cold solve of all curves) - the coarse time scaled to all points.
     """
     r, J = problem.evaluate(x)
-    picks = [np.unique(np.r_[np.arange(0, b.d.size, 3), b.d.size - 1]) for b in data]
+    picks = [k[np.unique(np.r_[np.arange(0, k.size, 3), k.size - 1])] for k in problem.knots]
     sub = [replace(b, d=b.d[k], F=b.F[k]) for b, k in zip(data, picks, strict=True)]
     elements = max(problem.models[0].elements // 2, 2)
-    coarse = Problem(sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=elements, jacobian=False)
+    every_row = [np.arange(k.size) for k in picks]  # the coarse forces at the picked knots, solved
+    coarse = Problem(
+        sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=elements, jacobian=False, knots=every_row
+    )
     coarse.nose = [n[k] for n, k in zip(problem.nose, picks, strict=True)]  # centreline: the fine mesh's
     r_coarse, _ = coarse.evaluate(x)
-    scale = sum(b.d.size for b in data) / sum(b.d.size for b in sub)
+    scale = sum(k.size for k in problem.knots) / sum(b.d.size for b in sub)
     offsets = np.cumsum([0] + [b.d.size for b in data[:-1]])
     rows = np.concatenate([o + k for o, k in zip(offsets, picks, strict=True)])
     dF = (r[rows] - r_coarse) / (2.0**ORDER - 1.0)  # error of the fine forces at those points
@@ -198,6 +210,8 @@ def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progre
     while True:
         problem = Problem(data, E_b, E_e, fit_E_b=fit_E_b, elements=n)
         x = least_squares(problem, x)
+        while problem.refine(x):  # the knots chosen at the start miss the tolerance here
+            x = least_squares(problem, x)
         r, J = problem.evaluate(x)
         cov, sigma, full = _statistics(r, J, [b.d.size for b in data])
         fe, tried = _fe_error(problem, x, data, E_e, fit_E_b)
@@ -233,10 +247,17 @@ def fit_three_point_bend(
     ``model_form``: relative compliance uncertainty of the rod model against a
     continuum (default :func:`matid.fits.shear.checks.model_form_variance`; 0 for
     data of the rod model itself).
+    ``fixed``: the specimen's [[fixed]] values (SI), held as the lmfit fits hold a
+    ``vary=False`` parameter: a fixed E_b is not fitted with ``fit_E_b`` (its value
+    comes, like E_e's, through ``known``); a fixed E_s leaves nothing to fit.
     """
     t0 = time.perf_counter()
     if not measurements:
         raise FitError("no three-point-bend tests to fit")
+    fixed = fixed or {}
+    if "E_s" in fixed:
+        raise FitError(f"specimen {specimen.id}: E_s is fixed; nothing to fit")
+    fit_E_b = fit_E_b and "E_b" not in fixed
     E_b_est = _held(known, "E_b", specimen.id)
     E_e_est = _held(known, "E_e", specimen.id)
     every = [bend_data(m, specimen, E_b_est.value) for m in measurements]
@@ -258,7 +279,7 @@ def fit_three_point_bend(
     mf = model_form_variance(data, E_b_est.value, check.info, float(np.exp(out.x[0])), model_form)
     var_log += mf["var_log"]
     m = out.r.size
-    t = t_ppf(0.975, out.covariance.dof)
+    t = float(scipy.stats.t.ppf(0.975, out.covariance.dof))
     sd_log = float(np.sqrt(var_log))
     E_b = float(np.exp(out.x[1])) if fit_E_b else E_b_est.value
     shares = [shear_share(b.geometry.span, E_b, E_s) for b in data]
@@ -303,6 +324,7 @@ def fit_three_point_bend(
         "runtime_s": round(time.perf_counter() - t0, 4),
         "rod_solves": out.solves,
         "levels": out.levels,  # error against run time of every mesh level tried
+        "interpolation": _interpolation(out.problem),
     }
     est = _log_estimate("E_s", E_s, sd_log, t, m, fe, ())
     if check.widen > 1:
@@ -321,7 +343,7 @@ def fit_three_point_bend(
         specimen=specimen.id,
         tests=tuple(b.measurement.test for b in every),
         estimates=tuple(estimates),
-        series=tuple(_series(b, path) for b, path in zip(data, out.problem.paths, strict=True))
+        series=tuple(_series(b, force) for b, force in zip(data, out.problem.force, strict=True))
         + tuple(_series(b, None) for b in left_out),
         x_label="deflection [m]",
         y_label="force [N]",
@@ -350,8 +372,9 @@ def _per_span(data, out: Outcome, E_b: float, E_e: float, spans) -> list[dict]:
         # started at the joint E_s from the joint fit's paths of these tests (warm), on its mesh
         idx = [k for k, b in enumerate(data) if b.geometry.span == S]
         group = [data[k] for k in idx]
-        problem = Problem(group, E_b, E_e, fit_E_b=False, elements=out.elements)
         joint = out.problem
+        knots = [joint.knots[k] for k in idx]
+        problem = Problem(group, E_b, E_e, fit_E_b=False, elements=out.elements, knots=knots)
         problem.paths = [joint.paths[k] for k in idx]
         problem.nose = [joint.nose[k].copy() for k in idx]
         problem.nose_rate = [joint.nose_rate[k] for k in idx]
@@ -387,16 +410,29 @@ def _propagated_variance(out: Outcome, E_b: Estimate, E_e: Estimate, fit_E_b: bo
     return var, held
 
 
-def _series(b: BendData, path: BendPath | None) -> Series:
+def _series(b: BendData, force: np.ndarray | None) -> Series:
     """The whole file, with the model at the rows in the fit (none for a test left out)."""
     d = np.asarray(b.measurement.table["deflection"])
     y_fit = np.full(d.size, np.nan)
-    used = b.loading if path is not None else np.zeros(d.size, dtype=bool)
-    if path is not None:
-        y_fit[np.nonzero(b.loading)[0]] = path.force  # loading rows are increasing in d (bend_window)
+    used = b.loading if force is not None else np.zeros(d.size, dtype=bool)
+    if force is not None:
+        y_fit[np.nonzero(b.loading)[0]] = force  # loading rows are increasing in d (bend_window)
     where = "centreline" if b.centreline else "nose"
     label = f"{b.measurement.test.file.name} (span {1e3 * b.geometry.span:g} mm, {where})"
     return Series(label, d, np.asarray(b.measurement.table["force"]), y_fit, used)
+
+
+def _interpolation(problem: Problem) -> list[dict]:
+    """Per test: rows, knots (solved points), and the interpolation error's estimate and bound [N]."""
+    return [
+        {
+            "rows": int(b.d.size),
+            "knots": int(k.size),
+            "error_N": float(np.max(e)),
+            "tolerance_N": float(t),
+        }
+        for b, k, e, t in zip(problem.data, problem.knots, problem.error, problem.tolerance, strict=True)
+    ]
 
 
 def _correlation(cov: np.ndarray) -> dict[str, float]:
@@ -432,7 +468,8 @@ def _plot_data(data, out: Outcome, r10: np.ndarray) -> dict:
     """Arrays the report draws: Timoshenko-only curves, +10 % E_s curves, the deformed shape."""
     E_s, E_b = out.problem.params(out.x)
     curves, start = [], 0
-    for b, path, model in zip(data, out.problem.paths, out.problem.models, strict=True):
+    problem = out.problem
+    for b, force, path, model in zip(data, problem.force, problem.paths, problem.models, strict=True):
         n = b.d.size
         curves.append(
             {
@@ -440,7 +477,7 @@ def _plot_data(data, out: Outcome, r10: np.ndarray) -> dict:
                 "span": b.geometry.span,
                 "d": b.d,
                 "F": b.F,
-                "model": path.force,
+                "model": force,
                 "timoshenko": timoshenko_force(b.d, b.geometry.span, E_b, E_s),
                 "plus10": r10[start : start + n] + b.F,
                 "shape": model.shape(path),

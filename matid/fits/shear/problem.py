@@ -1,9 +1,28 @@
 """The E_s fit's least-squares problem: residuals and Jacobian from the bend model, and the solver.
 
+The bend is solved on knots, a subset of each test's rows, and interpolated to every
+row in the measured coordinate q (nose travel, or the centreline deflection):
+
+    F(q)      cubic Hermite through F_j and the path tangent dF/dq_j at the knots,
+    dF/dp(q)  cubic spline (not-a-knot) through dF/dp_j,  p in E_s, E_b, E_e.
+
+Both are O(h^4). The interpolation error at the rows is estimated by |Hermite - spline|
+of F (the spline's own error, about ten times the Hermite's: an upper bound, measured),
+and knots are added (the row nearest each failing interval's middle) until it is below
+
+    tol = INTERPOLATION_FRACTION sigma / sqrt(n)   (floor INTERPOLATION_FLOOR max |F|)
+
+with sigma the rows' noise (:func:`matid.fits.stats.difference_noise`) and n the rows:
+a bias that small moves E_s by about a tenth of its standard error at most. The knots
+are chosen at the first evaluation and held through Levenberg-Marquardt (the residual
+stays one smooth function of x); :meth:`Problem.refine` checks them at the solution.
+A fit costs knots, not rows: up to 2 START_KNOTS - 1 rows, every distinct row is a knot
+(the per-row solve, exact).
+
 :class:`Problem` solves every bend test's path at given (log E_s[, log E_b]) and
 keeps each evaluation with its paths, the warm starts of the next.
-:func:`least_squares` is Levenberg-Marquardt on those log stiffnesses, stopping on
-the Gauss-Newton step it would take next. See :mod:`matid.fits.shear.fit` for the model.
+:func:`least_squares` minimises over those log stiffnesses with scipy's least_squares
+and the solver's Jacobian. See :mod:`matid.fits.shear.fit` for the model.
 """
 
 from __future__ import annotations
@@ -13,13 +32,81 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy import optimize
+from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from matid.errors import ConvergenceError, FitError
 from matid.fits.shear import centreline as bend_centreline
+from matid.fits.stats import difference_noise
 from matid.rod.bend import BendModel, BendPath
 
 if TYPE_CHECKING:
     from matid.fits.shear.fit import BendData
+
+#: Knots of the first solve of a test; up to 2 START_KNOTS - 1 rows (one refinement of every
+#: interval) every distinct row is a knot.
+START_KNOTS = 17
+#: The interpolation error stays below this fraction of sigma / sqrt(n) (see the module docstring),
+INTERPOLATION_FRACTION = 0.1
+#: or below this fraction of the largest force (noise-free data).
+INTERPOLATION_FLOOR = 1e-8
+
+
+def start_knots(q: np.ndarray) -> np.ndarray:
+    """Row indices of the first knots: every distinct row, or for more than 2 START_KNOTS - 1
+    of them the distinct rows nearest START_KNOTS values evenly spread over [q_0, q_end]."""
+    first = np.unique(q, return_index=True)[1]  # first row of each distinct value, increasing q
+    if first.size <= 2 * START_KNOTS - 1:
+        return first
+    qu = q[first]
+    targets = np.linspace(qu[0], qu[-1], START_KNOTS)
+    pos = np.clip(np.searchsorted(qu, targets), 1, qu.size - 1)
+    nearest = np.where(targets - qu[pos - 1] <= qu[pos] - targets, pos - 1, pos)
+    return first[np.unique(nearest)]
+
+
+def refine(q: np.ndarray, knots: np.ndarray, error: np.ndarray, tol: float) -> np.ndarray | None:
+    """The knots with the distinct row nearest the middle of every interval whose error at a
+    row exceeds tol added; None when no interval needs (or can take) another knot."""
+    qk = q[knots]
+    interval = np.clip(np.searchsorted(qk, q, side="right") - 1, 0, max(qk.size - 2, 0))
+    first = np.unique(q, return_index=True)[1]
+    added = []
+    for j in np.unique(interval[error > tol]):
+        inside = first[(q[first] > qk[j]) & (q[first] < qk[j + 1])]
+        if inside.size:
+            added.append(inside[np.argmin(np.abs(q[inside] - 0.5 * (qk[j] + qk[j + 1])))])
+    return np.sort(np.r_[knots, added]).astype(int) if added else None
+
+
+def interpolate(qk: np.ndarray, F, slope, dF: dict, q: np.ndarray) -> tuple[np.ndarray, dict, np.ndarray]:
+    """(F, dF/dp, estimated error of F) at the rows q from the knots qk (module docstring).
+
+    Rows on a knot take its values exactly.
+    """
+    if qk.size == 1:
+        ones = np.ones(q.size)
+        return F[0] * ones, {p: v[0] * ones for p, v in dF.items()}, np.zeros(q.size)
+    force = CubicHermiteSpline(qk, F, slope)(q)
+    error = np.abs(force - CubicSpline(qk, F)(q))
+    names = list(dF)
+    table = CubicSpline(qk, np.column_stack([dF[p] for p in names]))(q) if names else None
+    pos = np.minimum(np.searchsorted(qk, q), qk.size - 1)
+    on = qk[pos] == q
+    force[on], error[on] = F[pos[on]], 0.0
+    rows = {}
+    for i, p in enumerate(names):
+        rows[p] = table[:, i]
+        rows[p][on] = dF[p][pos[on]]
+    return force, rows, error
+
+
+def tolerance(F: np.ndarray) -> float:
+    """Allowed interpolation error [N] of one test's rows (module docstring)."""
+    noise = difference_noise(F)
+    return max(
+        INTERPOLATION_FRACTION * noise / np.sqrt(F.size), INTERPOLATION_FLOOR * float(np.max(np.abs(F)))
+    )
 
 
 class Problem:
@@ -27,8 +114,11 @@ class Problem:
 
     Each evaluation is kept with its paths (a fit makes a handful): returning to an
     earlier x costs nothing, and the paths of the last x asked for are ``paths``,
-    the warm starts of the next solve. ``dforce[k]``: dF/dp of test k at its rows
-    (for centreline tests at fixed centreline deflection, :mod:`matid.fits.shear.centreline`).
+    the warm starts of the next solve. ``paths[k]`` is solved at the knots of test k
+    (``knots[k]``, row indices); ``force[k]`` and ``dforce[k]`` (dF/dp) are at its rows,
+    interpolated (module docstring; for centreline tests at fixed centreline deflection,
+    :mod:`matid.fits.shear.centreline`), ``error[k]`` the estimated interpolation error
+    at the rows and ``tolerance[k]`` its bound.
     """
 
     def __init__(
@@ -40,19 +130,26 @@ class Problem:
         fit_E_b: bool,
         elements: int,
         jacobian: bool = True,
+        knots: Sequence[np.ndarray | None] | None = None,
     ):
         self.data, self.E_b, self.E_e, self.fit_E_b = data, E_b, E_e, fit_E_b
         self.jacobian = jacobian or any(b.centreline for b in data)  # False: residuals only (J is None)
         self.models = [BendModel(b.geometry, elements=elements) for b in data]
+        self.knots: list[np.ndarray | None] = list(knots) if knots is not None else [None] * len(data)
+        self.tolerance = [tolerance(b.F) for b in data]
         self.paths: list[BendPath | None] = [None] * len(data)
+        self.force: list[np.ndarray | None] = [None] * len(data)
         self.dforce: list[dict | None] = [None] * len(data)
+        self.error: list[np.ndarray | None] = [None] * len(data)
         self.nose = [b.d.copy() for b in data]  # nose travel of the model at each row
-        self.nose_rate: list[tuple | None] = [None] * len(data)  # (E_s, E_b, dn/dE_s, dn/dE_b)
+        self.nose_rate: list[tuple | None] = [None] * len(data)  # (E_s, E_b, dn/dE_s, dn/dE_b) at the knots
         self.centre: list[bend_centreline.Centreline | None] = [None] * len(data)
         self.evaluations: dict[bytes, tuple] = {}
         self.solves = 0
         self.newton_iterations = 0
         self.cold_runtime_s: float | None = None  # one solve of every curve from scratch
+
+    _KEPT = ("paths", "force", "dforce", "error", "nose", "nose_rate")
 
     def params(self, x: np.ndarray) -> tuple[float, float]:
         E_s = float(np.exp(x[0]))
@@ -62,21 +159,17 @@ class Problem:
         key = np.asarray(x, float).tobytes()
         kept = self.evaluations.get(key)
         if kept is not None:
-            r, J, paths, dforce, nose, rates = kept
-            self.paths, self.dforce, self.nose, self.nose_rate = (
-                list(paths),
-                list(dforce),
-                list(nose),
-                list(rates),
-            )
+            r, J, state = kept
+            for name, value in zip(self._KEPT, state, strict=True):
+                setattr(self, name, list(value))
             return r, J
         t0 = time.perf_counter()
         E_s, E_b = self.params(x)
         names = ("E_s", "E_b", "E_e") if self.jacobian else ()  # back-substitutions on the factorisation
         res, jac = [], []
-        for k, (b, model) in enumerate(zip(self.data, self.models, strict=True)):
-            path = self._path(k, b, model, E_b, E_s, names)
-            res.append(path.force - b.F)
+        for k, b in enumerate(self.data):
+            self._rows(k, E_b, E_s, names)
+            res.append(self.force[k] - b.F)
             if self.jacobian:
                 dF = self.dforce[k]
                 cols = [dF["E_s"] * E_s] + ([dF["E_b"] * E_b] if self.fit_E_b else [])
@@ -84,28 +177,55 @@ class Problem:
         r, J = np.concatenate(res), (np.vstack(jac) if self.jacobian else None)
         if self.cold_runtime_s is None:
             self.cold_runtime_s = time.perf_counter() - t0
-        self.evaluations[key] = (
-            r,
-            J,
-            list(self.paths),
-            list(self.dforce),
-            list(self.nose),
-            list(self.nose_rate),
-        )
+        self.evaluations[key] = (r, J, tuple(list(getattr(self, name)) for name in self._KEPT))
         return r, J
 
-    def _path(self, k: int, b: BendData, model: BendModel, E_b: float, E_s: float, names) -> BendPath:
-        """The solved path at the rows of test k: at the measured nose travel, or for centreline
-        data at the nose travel whose centreline deflection is the measured one.
+    def refine(self, x: np.ndarray) -> bool:
+        """Knots added where the interpolation error at x exceeds its tolerance (the knots
+        were chosen at the first evaluation); True when any were, and x must be fitted again."""
+        self.evaluate(x)
+        changed = False
+        for k, b in enumerate(self.data):
+            finer = refine(b.d, self.knots[k], self.error[k], self.tolerance[k])
+            if finer is not None:
+                self._move_knots(k, finer)
+                changed = True
+        if changed:
+            self.evaluations.clear()
+        return changed
 
-        Centreline: Newton's method on the nose travel of each row, n <- n + (d - c(n)) / (dc/dn),
+    def _move_knots(self, k: int, knots: np.ndarray) -> None:
+        self.knots[k] = knots
+        self.paths[k] = self.nose_rate[k] = None  # states at other deflections: no warm start
+
+    def _rows(self, k: int, E_b: float, E_s: float, names) -> None:
+        """Force and dF/dp at the rows of test k; at its first evaluation the knots are chosen
+        (refined until the interpolation error is below the tolerance)."""
+        b, fresh = self.data[k], self.knots[k] is None
+        if fresh:
+            self.knots[k] = start_knots(b.d)
+        while True:
+            qk = b.d[self.knots[k]]
+            path, F, slope, dF = self._path(k, b, self.models[k], E_b, E_s, names)
+            force, rows, error = interpolate(qk, F, slope, dF, b.d)
+            finer = refine(b.d, self.knots[k], error, self.tolerance[k]) if fresh else None
+            if finer is None:
+                break
+            self._move_knots(k, finer)
+        self.force[k], self.dforce[k], self.error[k] = force, rows, error
+
+    def _path(self, k: int, b: BendData, model: BendModel, E_b: float, E_s: float, names):
+        """(path, F, dF/dq, dF/dp) at the knots of test k: at the measured nose travel, or for
+        centreline data at the nose travel whose centreline deflection is the measured one.
+
+        Centreline: Newton's method on the nose travel of each knot, n <- n + (c - c(n)) / (dc/dn),
         started from the last evaluation's nose travel moved by dn/dp (first order).
         """
+        knots = self.knots[k]
         if not b.centreline:
-            path = self._solve_path(k, model, E_b, E_s, names, self.nose[k])
-            self.dforce[k] = path.dforce
-            return path
-        nose = self.nose[k]
+            path = self._solve_path(k, model, E_b, E_s, names, b.d[knots])
+            return path, path.force, path.dforce_dd, path.dforce
+        target, nose = b.d[knots], self.nose[k][knots]
         if self.nose_rate[k] is not None:
             E_s0, E_b0, dn_s, dn_b = self.nose_rate[k]
             nose = np.maximum.accumulate(np.maximum(nose + dn_s * (E_s - E_s0) + dn_b * (E_b - E_b0), 0.0))
@@ -113,15 +233,15 @@ class Problem:
             self.centre[k] = bend_centreline.Centreline(model)
         for _ in range(8):
             path = self._solve_path(k, model, E_b, E_s, names, nose)
-            self.nose[k] = nose
             c, slope, grads = bend_centreline.centreline_path(self.centre[k], path)
-            if np.all(np.abs(c - b.d) <= 1e-9 * b.d[-1]):
-                self.dforce[k], dn = bend_centreline.at_fixed_centreline(model, path, E_b, slope, grads)
+            if np.all(np.abs(c - target) <= 1e-9 * target[-1]):
+                dF, dn = bend_centreline.at_fixed_centreline(model, path, E_b, slope, grads)
                 self.nose_rate[k] = (E_s, E_b, dn["E_s"], dn["E_b"])
-                return path
+                self.nose[k] = np.interp(b.d, target, nose)
+                return path, path.force, path.dforce_dd / slope, dF
             if not np.all(slope > 0):
                 break
-            nose = np.maximum.accumulate(np.maximum(nose + (b.d - c) / slope, 0.0))
+            nose = np.maximum.accumulate(np.maximum(nose + (target - c) / slope, 0.0))
         raise FitError(
             f"{b.measurement.test.file.name}: the centreline deflection of the model did not match"
         )
@@ -134,65 +254,47 @@ class Problem:
         return path
 
     def sensitivity(self, name: str) -> np.ndarray:
-        """dF/dp at the last evaluation for any stiffness, stacked over tests."""
+        """dF/dp at the rows at the last evaluation for any stiffness, stacked over tests."""
         return np.concatenate([dF[name] for dF in self.dforce])
 
 
-#: Levenberg-Marquardt stops when its Gauss-Newton step in (log E_s[, log E_b]) is below
-#: XTOL (1 + |x|) (MINPACK's xtol = 1e-9, used before with scipy's least_squares) or below
-#: STAT_FRACTION of each parameter's standard error s sqrt((J^T J)^-1_ii): Gauss-Newton
-#: converges quadratically here, so the estimate then moves by less than 1e-4 of its standard
-#: error (0.0025 % of a 95 % interval's width) and no solve is spent to refine it further.
-XTOL = 1e-9
-STAT_FRACTION = 1e-4
+#: The log stiffnesses stay within LOG_BOUND of their start (a factor of ~1e8 either way, as the
+#: extension fit's log-parameters): bounds on E_s > 0 and E_b > 0 as the other fits set them.
+LOG_BOUND = 18.0
 MAX_EVALUATIONS = 60
 
 
 def least_squares(problem: Problem, x0: np.ndarray) -> np.ndarray:
-    """Levenberg-Marquardt on the log stiffnesses; returns x with the problem's paths at x.
+    """The log stiffnesses minimising the residuals, by ``scipy.optimize.least_squares``
+    (trust-region reflective, bounds LOG_BOUND about x0); returns x with the problem's paths at x.
 
-    The residual is nearly linear in log E_s: Gauss-Newton (no damping) converges in
-    3-5 evaluations. Marquardt damping (diag(J^T J)) only after a step that raised the
-    cost. Convergence is read off the Gauss-Newton step predicted at the last
-    evaluation, so no model solve is spent to confirm it (scipy's least_squares spent
-    two per fit: a trial step of 1e-11 and the solve at its best point again).
+    Why not lmfit, as the other fits: each residual evaluation here is a finite-element path
+    solve, and the Jacobian comes with it from the solver's own sensitivities (one
+    back-substitution per knot, :mod:`matid.rod.bend`); lmfit's least-squares wrapper would
+    difference the residuals instead (a path solve per parameter per step) and holds no solver
+    state between evaluations, while the paths kept by :class:`Problem` warm-start the next
+    solve and serve the Jacobian at the same x for free. The residuals are scaled by the
+    largest force (scipy's gtol is absolute); the minimum does not move. Gauss-Newton converges
+    in 3-5 evaluations: the residual is nearly linear in log E_s.
     """
-    x = np.asarray(x0, float).copy()
+    x0 = np.asarray(x0, float)
+    scale = max(float(np.max(np.abs(b.F))) for b in problem.data) or 1.0
     try:
-        r, J = problem.evaluate(x)
-        cost, mu = float(r @ r), 0.0
-        for _ in range(MAX_EVALUATIONS):
-            A, g = J.T @ J, J.T @ r
-            scale = np.diag(A).copy()
-            if not (np.all(np.isfinite(A)) and np.all(scale > 0)):
-                raise FitError("E_s least squares: the model force does not depend on the fitted stiffness")
-            newton_step = np.linalg.solve(A, -g)
-            tol = XTOL * (XTOL + float(np.linalg.norm(x)))
-            dof = max(r.size - x.size, 1)
-            sd = np.sqrt(cost / dof * np.diag(np.linalg.inv(A)))
-            if float(np.linalg.norm(newton_step)) <= tol or np.all(np.abs(newton_step) <= STAT_FRACTION * sd):
-                return _at(problem, x)
-            step = newton_step if mu == 0.0 else np.linalg.solve(A + mu * np.diag(scale), -g)
-            r_new, J_new = problem.evaluate(x + step)
-            cost_new = float(r_new @ r_new)
-            if np.isfinite(cost_new) and cost_new <= cost:
-                x, r, J, cost = x + step, r_new, J_new, cost_new
-                mu = 0.0 if mu <= 1e-3 else 0.1 * mu
-            elif float(np.linalg.norm(step)) <= 10 * tol:  # at the cost's round-off: x is the minimum
-                return _at(problem, x)
-            else:
-                mu = max(1e-3, 10.0 * mu)
+        out = optimize.least_squares(
+            lambda x: problem.evaluate(x)[0] / scale,
+            x0,
+            jac=lambda x: problem.evaluate(x)[1] / scale,
+            bounds=(x0 - LOG_BOUND, x0 + LOG_BOUND),
+            method="trf",
+            max_nfev=MAX_EVALUATIONS,
+        )
     except ConvergenceError as exc:
         raise FitError(f"the bend model did not converge during the fit: {exc}") from exc
-    except np.linalg.LinAlgError as exc:  # J^T J singular: the fitted stiffnesses cannot be told apart
-        raise FitError(
-            f"E_s least squares: the bend data do not determine the fitted stiffnesses ({exc})"
-        ) from exc
-    raise FitError(f"E_s least squares did not converge in {MAX_EVALUATIONS} evaluations")
-
-
-def _at(problem: Problem, x: np.ndarray) -> np.ndarray:
-    if not np.all(np.isfinite(x)):
+    if out.status == 0:
+        raise FitError(f"E_s least squares did not converge in {MAX_EVALUATIONS} evaluations")
+    if not np.all(np.isfinite(out.x)):
         raise FitError("E_s least squares did not converge: the estimate is not finite")
-    problem.evaluate(x)  # the paths at the solution (kept: no solve)
-    return x
+    if np.any(out.active_mask != 0):
+        raise FitError("E_s least squares ended at a bound: the bend data do not determine the stiffness")
+    problem.evaluate(out.x)  # the paths at the solution (kept: no solve)
+    return out.x

@@ -1,18 +1,25 @@
 """Which rows of a three-point bend enter the E_s fit, and why the others do not.
 
-A bend record is cut in three steps, each shown in the report (``Series.used``
+A bend record is cut in four steps, each shown in the report (``Series.used``
 and ``info["rows_left_out"]``):
 
-1. ``window`` of the test (docs/contract.md section 7, ``Measurement.in_window``).
+1. ``window`` of the test (docs/contract.md sections 7 and 10,
+   ``Measurement.in_window``). A window replaces the automatic range: steps 3
+   and 4 are skipped and exactly its rows on the loading branch enter.
 2. The **loading branch** ends at the peak force: rows after it (yield,
    fracture, or unloading at falling deflection) are left out. Rows before the
    peak at a deflection not above every earlier one (a crosshead reversal) are
    left out too.
-3. The **toe** (slack taken up at low force) is compensated as ASTM D790
-   (section 12.1) does: the tangent of steepest slope of the loading curve is
-   extended to zero force; its deflection intercept d0 becomes the zero of
-   deflection (d <- d - d0) and rows at d <= d0 are left out. It is applied
-   only when a toe is there (:func:`toe_offset`) and d0 > 0.
+3. The **toe** (slack taken up at low force, or rows before contact) is
+   compensated as ASTM D790 (section 12.1) does: the tangent of steepest slope
+   of the loading curve is extended to zero force; its deflection intercept d0
+   becomes the zero of deflection (d <- d - d0) and rows at d <= d0 are left
+   out. It is applied only when a toe is there (:func:`toe_offset`) and d0 > 0.
+4. **Yield**: the force falling below the line of the initial stretch before
+   the peak (a plastic hinge, a kink) is found as the upper onset of the linear
+   range of :mod:`matid.fits.branch`; rows beyond it are left out when the
+   departure is downwards (a stiffening, as the rod's on round rollers, is
+   what the model describes and stays).
 
 Before any solver runs, :func:`check_plausible` rejects data that make the
 specimen absurd: an initial compliance d/F below the pure-bending compliance
@@ -27,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from matid.errors import DataError, FitError
+from matid.fits import branch
 
 #: A toe is compensated when the initial slope is below this fraction of the typical early slope.
 TOE_SLOPE_RATIO = 0.5
@@ -77,31 +85,56 @@ def toe_offset(d: np.ndarray, F: np.ndarray) -> float:
     return float(d0) if d0 > 0 else 0.0
 
 
-def cut(d: np.ndarray, F: np.ndarray, window: np.ndarray) -> Cut:
-    """The rows of a bend record that enter the fit (module docstring, steps 1-3)."""
+def _loading(d: np.ndarray, F: np.ndarray, used: np.ndarray, reasons: dict[str, int]) -> np.ndarray:
+    """The used rows up to the peak force with a deflection above every earlier row (step 2)."""
+    idx = np.nonzero(used)[0]
+    if not idx.size:
+        return used
+    peak = idx[int(np.argmax(F[idx]))]
+    after = used & (np.arange(d.size) > peak)
+    if after.any():
+        reasons["after the peak force (yield, fracture or unloading)"] = int(after.sum())
+    used = used & ~after
+    earlier = np.r_[-np.inf, np.maximum.accumulate(np.where(used, d, -np.inf))[:-1]]
+    back = used & (d <= earlier)
+    if back.any():
+        reasons["deflection not above every earlier row (reversal)"] = int(back.sum())
+    return used & ~back
+
+
+def _yield(d: np.ndarray, F: np.ndarray, used: np.ndarray, reasons: dict[str, int]) -> np.ndarray:
+    """The used rows without those past a downward departure from the line (step 4)."""
+    idx = np.nonzero(used)[0]
+    if idx.size <= 2 * branch.LINEAR_RANGE_MIN_POINTS:
+        return used
+    inside, curvature = branch.departure(d[idx], F[idx])
+    if curvature >= 0:
+        return used
+    top = float(np.max(d[idx][inside]))
+    past = used & (d > top)
+    reasons[f"past yield (force below the line beyond {1e3 * top:.4g} mm)"] = int(past.sum())
+    return used & ~past
+
+
+def cut(d: np.ndarray, F: np.ndarray, window: np.ndarray, *, windowed: bool = False) -> Cut:
+    """The rows of a bend record that enter the fit (module docstring, steps 1-4).
+
+    ``windowed``: the test has a window, which replaces the automatic toe and yield cuts.
+    """
     reasons: dict[str, int] = {}
     used = window.copy()
     if (~window).any():
         reasons["outside the test's window"] = int((~window).sum())
-    idx = np.nonzero(used)[0]
-    if idx.size:
-        peak = idx[int(np.argmax(F[idx]))]
-        after = used & (np.arange(d.size) > peak)
-        if after.any():
-            reasons["after the peak force (yield, fracture or unloading)"] = int(after.sum())
-        used &= ~after
-        earlier = np.r_[-np.inf, np.maximum.accumulate(np.where(used, d, -np.inf))[:-1]]
-        back = used & (d <= earlier)
-        if back.any():
-            reasons["deflection not above every earlier row (reversal)"] = int(back.sum())
-        used &= ~back
+    used = _loading(d, F, used, reasons)
+    if windowed:
+        return Cut(used, 0.0, reasons)
     idx = np.nonzero(used)[0]
     d0 = toe_offset(d[idx], F[idx]) if idx.size else 0.0
     if d0 > 0:
         toe = used & (d <= d0)
         reasons[f"toe (slack) before the ASTM D790 zero at {1e3 * d0:.4g} mm"] = int(toe.sum())
         used &= ~toe
-    return Cut(used, d0, reasons)
+    return Cut(_yield(d, F, used, reasons), d0, reasons)
 
 
 def check_plausible(d: np.ndarray, F: np.ndarray, *, span: float, E_b: float, file) -> None:

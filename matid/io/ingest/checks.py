@@ -36,7 +36,8 @@ def check(
     path: Path,
     negate: Sequence[str] = (),
 ) -> None:
-    """Bounds, then signs, then (three-point bend) the loading branch."""
+    """Bounds, then signs. The torsion sign and the bend's loading branch are checked by the
+    fits on the rows they fit (a window or the automatic range; docs/contract.md section 10)."""
     used = TEST_COLUMNS[kind]
     for name, quantity in used.items():
         if name in values:
@@ -44,10 +45,6 @@ def check(
     for name in POSITIVE.get(kind, ()):
         if name in values:
             _positive(values[name], name, written[name], path, negate)
-    if kind == "torsion" and "torque" in values and "twist_angle" in values:
-        _same_sign(values["torque"], values["twist_angle"], written, path)
-    if kind == "three_point_bend" and "deflection" in values:
-        _loading_branch(values["deflection"], rows, written["deflection"], path)
 
 
 def _bounded(v: np.ndarray, quantity: str, rows: Sequence[int], column: str, path: Path) -> None:
@@ -75,33 +72,5 @@ def _positive(v: np.ndarray, name: str, column: str, path: Path, negate: Sequenc
             f"all values of {name} are negative (largest magnitude {-peak:.6g} in SI); matid expects "
             f"{name} positive in this test; {fix}",
             file=path,
-            column=column,
-        )
-
-
-def _same_sign(torque: np.ndarray, twist: np.ndarray, written: Mapping[str, str], path: Path) -> None:
-    product = torque * twist
-    total = float(np.sum(np.abs(product)))
-    if total > 0 and float(np.sum(product)) < -0.5 * total:
-        raise DataError(
-            "torque and twist_angle have opposite signs in most rows; the torque must turn the way the "
-            'tube is twisted: add negate = ["torque"] (or ["twist_angle"]) to the [[test]]',
-            file=path,
-            column=written["torque"],
-        )
-
-
-def _loading_branch(d: np.ndarray, rows: Sequence[int], column: str, path: Path) -> None:
-    """Nose travel up to the largest deflection must not be negative (physics: from first contact)."""
-    peak = int(np.argmax(d))
-    bad = np.flatnonzero(d[: peak + 1] < 0)
-    if bad.size:
-        k = int(bad[0])
-        raise DataError(
-            f"negative deflection {d[k]:.6g} m on the loading branch (rows up to the largest deflection "
-            f"at row {rows[peak]}); deflection is counted from first contact: shift or trim the data, "
-            "or use window = { deflection = [...] }",
-            file=path,
-            row=rows[k],
             column=column,
         )

@@ -43,13 +43,14 @@ from matid.io.ingest.columns import (  # noqa: F401 - KNOWN, REQUIRED, canonical
     header,
 )
 from matid.io.ingest.detect import Layout, decode, detect, lines_of, number, preamble, split
+from matid.io.limits import MAX_CSV_BYTES, MAX_CSV_ROWS
 from matid.io.study import TEST_COLUMNS, Study, Test, bounded_text
 from matid.io.views import PicklesViews
 from matid.units import DIMENSIONS, UnitError, si_factor
 
 MIN_ROWS = 3
-#: Largest file read: a bigger one is not a bench test (and /dev/zero never ends).
-MAX_BYTES = 100 * 2**20
+#: Largest file read, most lines (docs/limits.md): checked on the bytes, before anything is parsed.
+MAX_BYTES, MAX_ROWS = MAX_CSV_BYTES, MAX_CSV_ROWS
 
 
 @dataclass(frozen=True, eq=False)
@@ -239,6 +240,9 @@ def _read_bytes(path: Path) -> bytes:
         raise DataError(f"cannot read file: {exc.strerror}", file=path) from exc
     if len(raw) > MAX_BYTES:
         raise DataError(f"file grew beyond {MAX_BYTES // 2**20} MiB while being read", file=path)
+    lines = max(raw.count(b"\n"), raw.count(b"\r"))  # line breaks: LF, CRLF or CR alone (UTF-16 too)
+    if lines > MAX_ROWS:
+        raise DataError(f"file has {lines} lines, more than MAX_CSV_ROWS = {MAX_ROWS} matid reads", file=path)
     return raw
 
 

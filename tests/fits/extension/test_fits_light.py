@@ -1,69 +1,28 @@
-"""The fitting stack without lmfit and scipy.stats: distribution functions from scipy.special,
-the SLS covariance and profile-likelihood interval checked against independent computations,
-and the import of matid.app.pipeline kept free of lmfit, scipy.stats and pandas."""
+"""The SLS fit on lmfit: its covariance and profile interval checked against independent
+computations, the joint Minimizer fit against an lmfit ``Model`` of the same runs, the
+sandwich Jacobian at a bound, and the CLI's import kept free of lmfit, scipy.stats and pandas."""
 
 from __future__ import annotations
 
-import dataclasses
 import json
+import math
 import subprocess
 import sys
 
+import lmfit
 import numpy as np
 import pytest
-from scipy import optimize, signal, stats
+from scipy import optimize, stats
 
-from matid.fits import stats as mstats
-from matid.fits.extension.lsq import _LOG_BOUND, _ORDER, _least_squares, _residual, _solve
-from matid.fits.extension.profile import jacobian, profile_limits, uncertainty
+from matid.fits.extension.lsq import _LOG_BOUND, _ORDER, _models, _solve, _values, residual
 from matid.fits.extension.runs import _run, _unique
+from matid.fits.extension.stats import _profile, jacobian
 from tests.fits.extension.test_viscoelastic import TAU, ramps
 
-X = [-1.0, -1e-12, 0.0, 1e-8, 0.01, 0.3, 1.0, 2.5, 7.0, 30.0, 300.0, np.inf, np.nan]
-DOF = [0.0, 0.5, 1.0, 2.0, 3.7, 10.0, 123.0, 1e5, np.inf]
-Q = [1e-9, 0.025, 0.3, 0.5, 0.9, 0.95, 0.975, 0.999999]
 
-
-def _same(a: float, b: float) -> bool:
-    return (np.isnan(a) and np.isnan(b)) or a == pytest.approx(b, rel=1e-12, abs=1e-300)
-
-
-@pytest.mark.parametrize("dof", DOF)
-def test_chi2_and_t_match_scipy_stats(dof):
-    for x in X:
-        if not (np.isinf(x) and np.isinf(dof)):  # chi2 with infinite dof: never asked for
-            assert _same(mstats.chi2_sf(x, dof), float(stats.chi2.sf(x, dof))), (x, dof)
-    for q in Q:
-        assert _same(mstats.t_ppf(q, dof), float(stats.t.ppf(q, dof))), (q, dof)
-
-
-@pytest.mark.parametrize("dfn", [0.0, 1.0, 2.0, 3.5, 40.0])
-@pytest.mark.parametrize("dfd", DOF[:-1])  # finite dfd: every caller's is
-def test_f_matches_scipy_stats(dfn, dfd):
-    for x in X:
-        assert _same(mstats.f_sf(x, dfn, dfd), float(stats.f.sf(x, dfn, dfd))), (x, dfn, dfd)
-        assert _same(mstats.f_cdf(x, dfn, dfd), float(stats.f.cdf(x, dfn, dfd))), (x, dfn, dfd)
-
-
-def test_norm_cdf_matches_scipy_stats():
-    for x in [-40.0, -8.0, -1.96, -0.1, 0.0, 0.4, 3.0, 40.0, np.inf, -np.inf, np.nan]:
-        assert _same(mstats.norm_cdf(x), float(stats.norm.cdf(x))), x
-
-
-@pytest.mark.parametrize("rho", [0.0, 0.3, 0.95, mstats.RHO_MAX])
-def test_ar1_filter_is_lfilter(rho):
-    block = np.random.default_rng(3).normal(size=(500, 3))
-    expected = signal.lfilter([1.0], [1.0, -rho], block, axis=0)
-    np.testing.assert_allclose(mstats._ar1_filter(block, rho), expected, rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(mstats._ar1_filter(block[:, 0], rho), expected[:, 0], rtol=1e-12, atol=1e-12)
-
-
-def test_import_of_the_pipeline_leaves_out_lmfit_scipy_stats_and_pandas():
-    heavy = ["lmfit", "scipy.stats", "pandas"]
-    code = (
-        "import sys, json, matid.app.pipeline; "
-        f"print(json.dumps([m for m in {heavy!r} if m in sys.modules]))"
-    )
+def test_import_of_the_cli_leaves_out_lmfit_scipy_stats_and_pandas():
+    heavy = ["lmfit", "scipy.stats", "pandas", "matid.fits"]
+    code = f"import sys, json, matid.app.cli; print(json.dumps([m for m in {heavy!r} if m in sys.modules]))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert json.loads(done.stdout) == []
 
@@ -71,90 +30,109 @@ def test_import_of_the_pipeline_leaves_out_lmfit_scipy_stats_and_pandas():
 @pytest.fixture(scope="module")
 def sls_fit():
     runs = _unique([_run(m) for m in ramps([10 * TAU, TAU, 0.1 * TAU], np.random.default_rng(7))])
-    runs, result, ref, sigma = _solve(runs, {})
-    return runs, result, ref, sigma
+    return _solve(runs, {})
+
+
+def _x(params: lmfit.Parameters) -> np.ndarray:
+    return np.array([params[name].value for name in _ORDER])
+
+
+def _residual_at(x, runs, sigma, ref) -> np.ndarray:
+    """The weighted residuals at log-parameters x, written out without lmfit."""
+    k = {name: ref[name] * math.exp(v) for name, v in zip(_ORDER, x, strict=True)}
+    models = _models(runs, k)
+    return np.concatenate([(f - r.force)[r.used] / s for f, r, s in zip(models, runs, sigma, strict=True)])
 
 
 def test_covariance_is_inverse_normal_matrix_times_reduced_chi2(sls_fit):
-    runs, result, ref, sigma = sls_fit
-    jac = jacobian(result, runs, sigma, ref)
+    runs, _, result, ref, sigma = sls_fit
+    h = 1e-6
+    jac = np.column_stack(
+        [
+            (
+                _residual_at(_x(result.params) + h * e, runs, sigma, ref)
+                - _residual_at(_x(result.params) - h * e, runs, sigma, ref)
+            )
+            / (2 * h)
+            for e in np.eye(3)
+        ]
+    )
     expected = np.linalg.inv(jac.T @ jac) * result.chisqr / result.nfree
     np.testing.assert_allclose(result.covar, expected, rtol=1e-4)
-    unc = uncertainty(result)
-    assert unc.errorbars
+    assert result.errorbars
     se = np.sqrt(np.diag(expected))
-    assert unc.stderr["k2"] == pytest.approx(se[1], rel=1e-4)
-    assert unc.correl["k2"]["eta"] == pytest.approx(expected[1, 2] / (se[1] * se[2]), abs=1e-4)
+    assert result.params["k2"].stderr == pytest.approx(se[1], rel=1e-4)
+    assert result.params["k2"].correl["eta"] == pytest.approx(expected[1, 2] / (se[1] * se[2]), abs=1e-4)
 
 
 def test_profile_limits_are_where_the_f_test_reaches_95_percent(sls_fit):
-    """At each limit the others, refitted by a different optimiser (trust region), give
-    chi2 / chi2_best - 1 = F_0.95(1, nfree) / nfree."""
-    runs, result, ref, sigma = sls_fit
-    limits = profile_limits(result, uncertainty(result), ["k2", "eta"], runs, sigma, ref)
+    """At each limit of lmfit's conf_interval the others, refitted by a different optimiser
+    (trust region), give chi2 / chi2_best - 1 = F_0.95(1, nfree) / nfree."""
+    runs, minimizer, result, ref, sigma = sls_fit
+    limits = _profile(minimizer, result, ref, ["k2", "eta"])
+    assert set(limits) == {"k2", "eta"}
     target = float(stats.f.ppf(0.95, 1, result.nfree)) / result.nfree
-    for name, (low, high) in limits.items():
-        i = ("k1", "k2", "eta").index(name)
-        assert low < result.x[i] < high
+    best = _x(result.params)
+    for name, si in limits.items():
+        i = _ORDER.index(name)
+        low, high = (math.log(v / ref[name]) for v in si)
+        assert low < best[i] < high
         for value in (low, high):
             others = [j for j in range(3) if j != i]
 
             def fun(v, value=value, i=i, others=others):
-                x = result.x.copy()
+                x = best.copy()
                 x[i], x[others] = value, v
-                return _residual(x, runs, sigma, ref)
+                return _residual_at(x, runs, sigma, ref)
 
-            sol = optimize.least_squares(fun, result.x[others], method="trf", xtol=1e-14, ftol=1e-14)
+            sol = optimize.least_squares(fun, best[others], method="trf", xtol=1e-14, ftol=1e-14)
             ratio = 2 * sol.cost / result.chisqr - 1.0
             assert ratio == pytest.approx(target, rel=1e-3), (name, value)
 
 
-@pytest.mark.parametrize("budget", [5, 40, None])
-def test_least_squares_keeps_lmfits_evaluation_budget_and_messages(sls_fit, budget):
-    """lmfit's leastsq (the fit this replaces) evaluated the residuals at most max_nfev =
-    2000 (nvarys + 1) times, then stopped the fit as failed, with its own messages."""
-    lmfit = pytest.importorskip("lmfit")
-    runs, _, ref, sigma = sls_fit
-    x0 = np.array([0.3, -0.4, 0.5])  # away from the optimum: more than 5 evaluations
+def test_joint_minimizer_fit_is_an_lmfit_model_fit_of_the_stacked_runs(sls_fit):
+    """The same runs as one lmfit Model (model force on the used rows, weights 1 / sigma of
+    each run) give the same values, standard errors and correlations."""
+    runs, _, result, ref, sigma = sls_fit
 
-    calls = []
+    def force(runs, k1, k2, eta):
+        k = _values(lmfit.create_params(k1=k1, k2=k2, eta=eta), ref)
+        return np.concatenate([f[r.used] for f, r in zip(_models(runs, k), runs, strict=True)])
 
-    def residual(params):
-        x = np.array([params[name].value for name in _ORDER])
-        calls.append(x)
-        return _residual(x, runs, sigma, ref)
-
-    params = lmfit.Parameters()
-    for name, value in zip(_ORDER, x0, strict=True):
-        params.add(name, value=value, min=-_LOG_BOUND, max=_LOG_BOUND)
-    theirs = lmfit.Minimizer(residual, params, nan_policy="raise").minimize(method="leastsq", max_nfev=budget)
-    ours = _least_squares(x0, _ORDER, runs, sigma, ref, **({} if budget is None else {"budget": budget}))
-    assert (ours.success, ours.message) == (theirs.success, theirs.message)
-    assert (ours.covar is None) == (theirs.covar is None)
-    if theirs.success:
-        np.testing.assert_array_equal(ours.x, [theirs.params[name].value for name in _ORDER])
-    else:  # stopped where it was about to evaluate: lmfit reads that point from freed memory
-        assert theirs.aborted and len(calls) == budget + 3
+    model = lmfit.Model(force, independent_vars=["runs"])
+    data = np.concatenate([r.force[r.used] for r in runs])
+    weights = np.concatenate([np.full(int(r.used.sum()), 1.0 / s) for r, s in zip(runs, sigma, strict=True)])
+    params = model.make_params(
+        **{name: {"value": 0.0, "min": -_LOG_BOUND, "max": _LOG_BOUND} for name in _ORDER}
+    )
+    theirs = model.fit(data, params, runs=runs, weights=weights, coerce_farray=False)
+    assert theirs.success
+    for name in _ORDER:
+        assert theirs.params[name].value == pytest.approx(result.params[name].value, abs=1e-6)
+        assert theirs.params[name].stderr == pytest.approx(result.params[name].stderr, rel=1e-3)
+    assert theirs.params["k2"].correl["eta"] == pytest.approx(result.params["k2"].correl["eta"], abs=1e-4)
+    # a Model's residual is (data - model) weights; matid's (model - data) / sigma
+    np.testing.assert_allclose(-theirs.residual, result.residual, rtol=1e-5, atol=1e-6)
 
 
 @pytest.mark.parametrize("offset", [5e-7, 3e-6])
-def test_jacobian_at_a_bound_is_lmfits(sls_fit, offset):
-    """The sandwich's Jacobian was taken on lmfit Parameters bounded at +-18, which clip a
-    step past the bound: a log-parameter that ends within a step of it (k1 -> 0) keeps those
-    numbers."""
-    lmfit = pytest.importorskip("lmfit")
-    runs, result, ref, sigma = sls_fit
-    x = result.x.copy()
-    x[0] = -_LOG_BOUND + offset
-    fit = dataclasses.replace(result, x=x)
-    params = lmfit.Parameters()
-    for name, value in zip(_ORDER, x, strict=True):
-        params.add(name, value=value, min=-_LOG_BOUND, max=_LOG_BOUND)
-    columns = []
-    for name in fit.free:  # as matid did with lmfit (74c4d56, extension_stats._sandwich)
-        up, down = params.copy(), params.copy()
-        up[name].value += 1e-6
-        down[name].value -= 1e-6
-        at = [np.array([p[n].value for n in _ORDER]) for p in (up, down)]
-        columns.append((_residual(at[0], runs, sigma, ref) - _residual(at[1], runs, sigma, ref)) / 2e-6)
-    np.testing.assert_array_equal(jacobian(fit, runs, sigma, ref), np.column_stack(columns))
+def test_sandwich_jacobian_stops_at_the_bound(sls_fit, offset):
+    """A log-parameter within a step of its bound (k1 -> 0) is differenced between the bound
+    and one step inside (as the bounded lmfit Parameter clips the step): over two steps."""
+    runs, _, result, ref, sigma = sls_fit
+    params = result.params.copy()
+    params["k1"].value = -_LOG_BOUND + offset
+    x = _x(params)
+    h = 1e-6
+    expected = []
+    for i in range(3):
+        up, down = x.copy(), x.copy()
+        up[i] = min(up[i] + h, _LOG_BOUND)
+        down[i] = max(down[i] - h, -_LOG_BOUND)
+        expected.append((_residual_at(up, runs, sigma, ref) - _residual_at(down, runs, sigma, ref)) / (2 * h))
+    np.testing.assert_allclose(
+        jacobian(params, runs, sigma, ref), np.column_stack(expected), rtol=1e-12, atol=1e-9
+    )
+    np.testing.assert_allclose(
+        residual(params, runs, sigma, ref), _residual_at(x, runs, sigma, ref), rtol=1e-13
+    )
