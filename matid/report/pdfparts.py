@@ -105,29 +105,32 @@ def para(text: object, size: float = 8.5, **kwargs) -> Paragraph:
 
 
 class Heading(Paragraph):
-    """A heading; with an outline ``key`` it adds a bookmark and an outline entry at ``level``
-    when drawn (so the outline follows the pages as laid out)."""
+    """A heading paragraph; with an outline ``key`` it adds a bookmark and an outline entry at
+    ``level`` where it is drawn (so the outline follows the pages as laid out). Made by
+    :func:`heading`; constructed as a Paragraph, since platypus makes the parts of a split one so."""
 
-    def __init__(
-        self,
-        text: str,
-        size: float,
-        *,
-        key: str | None = None,
-        level: int = 0,
-        colour: colors.Color | None = None,
-    ) -> None:
-        base = style(size, bold=True, keep=True, space=0.35 * size)
-        if colour is not None:
-            base = ParagraphStyle(f"{base.name}-{colour}", parent=base, textColor=colour)
-        super().__init__(markup(text), base)
-        self.title, self.key, self.level = str(text), key, level
+    key: str | None = None
+    level: int = 0
+    title: str = ""
+
+    def split(self, availWidth, availHeight):  # noqa: N803 -- platypus' names
+        parts = super().split(availWidth, availHeight)
+        if parts:  # the outline entry goes with the first part
+            parts[0].key, parts[0].level, parts[0].title = self.key, self.level, self.title
+        return parts
 
     def draw(self) -> None:
         if self.key is not None:
             self.canv.bookmarkHorizontal(self.key, 0, self.height)
             self.canv.addOutlineEntry(self.title, self.key, level=self.level, closed=False)
         super().draw()
+
+
+def heading(text: str, size: float, *, key: str | None = None, level: int = 0) -> Heading:
+    """A bold heading of ``size`` points, kept with what follows it; in the outline under ``key``."""
+    made = Heading(markup(text), style(size, bold=True, keep=True, space=0.35 * size))
+    made.title, made.key, made.level = str(text), key, level
+    return made
 
 
 def space(points: float) -> Spacer:
@@ -291,5 +294,5 @@ def assemble(story: Sequence[Flowable | Together]) -> list[Flowable]:
 
 def figure(title: str | None, image: Image, caption: str, *, size: float = 7.5) -> Together:
     """A figure kept on one page with its title above and its caption below."""
-    parts = [Heading(title, 9.5)] if title else []
+    parts = [heading(title, 9.5)] if title else []
     return Together([*parts, image, space(2), para(caption, size, muted=True, space=6)])

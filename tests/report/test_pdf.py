@@ -191,3 +191,14 @@ def test_the_report_uses_no_private_name_of_a_dependency():
                 if not (isinstance(node.value, ast.Name) and node.value.id in ("self", "cls")):
                     found.append(f"{path.name}:{node.lineno}: .{node.attr}")
     assert not found
+
+
+@pytest.mark.parametrize("name", ["x" * 2000, "word " * 600], ids=["one word", "many words"])
+def test_a_heading_taller_than_a_page_is_split_and_keeps_its_outline_entry(name):
+    """A study name of 2000 characters (the longest a study.toml value may be) is the first page's
+    heading: platypus splits it across pages (its parts are made as paragraphs)."""
+    base = make_result(kinds=("torsion",))
+    study = Study(name, base.study.source, base.study.specimens, base.study.tests)
+    pdf = render_report(StudyResult(study, base.inputs, base.fits))["report.pdf"]
+    assert _squeezed(name) in _squeezed(_text(pdf))
+    assert [title for depth, title in _outline(pdf) if depth == 0][0] == "Summary of stiffnesses"
