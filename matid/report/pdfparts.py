@@ -42,6 +42,7 @@ AMBER = (colors.HexColor("#fff4d6"), colors.HexColor("#e0a800"))
 GREY = (colors.HexColor("#f3f4f6"), colors.HexColor("#8a94a6"))
 GREEN = (colors.HexColor("#eaf6ec"), colors.HexColor("#3d9a4b"))
 PAD = 3.0  # points of cell padding, left and right
+WORD_SHARE = 0.4  # the most of a table's width one column may claim to keep its longest word whole
 
 
 @contextlib.contextmanager
@@ -148,7 +149,8 @@ def column_widths(
     header: Sequence[str], rows: Sequence[Sequence[str]], fonts: Sequence[str], size: float, available: float
 ) -> list[float]:
     """Column widths in points: each column's natural width (its widest line) when they fit in
-    ``available``; else each gets its longest word, and the rest of the width is shared out
+    ``available``; else each gets its longest word (at most :data:`WORD_SHARE` of the width:
+    a checksum or a path is split rather), and the rest of the width is shared out
     equally, no column beyond its natural width (narrow columns stay whole, long texts wrap).
     Where even the longest words do not fit, all shrink alike (platypus then splits them)."""
     natural, least = [], []
@@ -156,7 +158,7 @@ def column_widths(
         cells = [(header[j], SANS_BOLD), *((str(row[j]), font) for row in rows)]
         natural.append(max(text_width(c, f, size) for c, f in cells) + 2 * PAD + 1)
         words = [text_width(w, f, size) for c, f in cells for w in c.split()] or [0.0]
-        least.append(min(natural[-1], max(words) + 2 * PAD + 1))
+        least.append(min(natural[-1], max(words) + 2 * PAD + 1, WORD_SHARE * available))
     if sum(natural) <= available:
         return natural
     if sum(least) >= available:
@@ -202,6 +204,7 @@ def table(
         data,
         colWidths=widths,
         repeatRows=1,
+        splitInRow=1,  # a row taller than a page (a long reason) continues on the next
         hAlign="LEFT",
         style=_table_style(numeric, mono, size, len(data)),
     )
@@ -258,7 +261,7 @@ def box(
         ("TOPPADDING", (0, 0), (-1, 0), 5),
         ("BOTTOMPADDING", (0, -1), (-1, -1), 5),
     ]
-    return Table(rows, colWidths=[width], hAlign="LEFT", style=TableStyle(commands))
+    return Table(rows, colWidths=[width], hAlign="LEFT", splitInRow=1, style=TableStyle(commands))
 
 
 # -- figures ------------------------------------------------------------------------------------
