@@ -87,7 +87,8 @@ def derivatives(vals, ders, lam, props, kappa_ref, mu, B, f, tangent=True, *, st
     C = np.stack(
         [props["E_b"], props["E_b"], props["E_t"], props["E_s"], props["E_s"], props["E_e"]], axis=-1
     )
-    ref = np.array([lam * kappa_ref[0], lam * kappa_ref[1], lam * kappa_ref[2], 0.0, 0.0, 1.0])
+    ref = np.zeros(np.shape(kappa_ref)[:-1] + (6,))  # kappa_ref: a 3-vector, or P + (3,) per point
+    ref[..., :3], ref[..., 5] = lam * np.asarray(kappa_ref, float), 1.0
     s = np.empty(P + (nF,))
     s[..., :6] = C * (e[..., :6] - ref)
     if mu is not None:
@@ -117,3 +118,25 @@ def derivatives(vals, ders, lam, props, kappa_ref, mu, B, f, tangent=True, *, st
     HS[..., idx, idx] -= 2.0 * se[..., None]
     H += HS * inv[..., None, None]
     return (g, H, strain) if want_strain else (g, H)
+
+
+def directed_magnetic(g, H, vals, lam, mu_a, B) -> None:
+    """Add the magnetisation off d3 to (g, H) of :func:`derivatives` in place (contract section 9).
+
+    U = -lam sum_i (mu a)_i d_i.B = -lam e, e = F/n2 with F = q^T M q and
+    M = sum_i (mu a)_i sum_j B_j Q_ji: grad e = (2 M q - 2 e q)/n2,
+    Hess e = (2 M - 2 grad e q^T - 2 q grad e^T - 2 e I)/n2 (q-block of the 14 variables).
+    ``mu_a``: P + (3,) moment per length times direction, director frame; H may be None.
+    """
+    q = np.moveaxis(vals[3:], 0, -1)
+    inv = 1.0 / np.sum(q * q, axis=-1)
+    M = np.einsum("...i,j,jiab->...ab", mu_a, np.asarray(B, float), Q)
+    Mq = np.einsum("...ab,...b->...a", M, q)
+    e = np.einsum("...a,...a->...", q, Mq) * inv
+    ge = 2.0 * (Mq - e[..., None] * q) * inv[..., None]
+    g[..., QS] -= lam * ge
+    if H is None:
+        return
+    outer = ge[..., :, None] * q[..., None, :]
+    he = 2 * (M - outer - np.swapaxes(outer, -1, -2) - e[..., None, None] * np.eye(4)) * inv[..., None, None]
+    H[..., QS, QS] -= lam * he

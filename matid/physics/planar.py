@@ -36,7 +36,7 @@ def derivatives(vals, ders, lam, props, kappa_ref, mu, B, f, tangent=True, *, st
     g[..., 0], g[..., 1] = -lam * f[0], -lam * f[2]
     g[..., 2] = -n1 * nu3 + n3 * nu1
     g[..., 3], g[..., 4] = n1 * c + n3 * s, -n1 * s + n3 * c
-    g[..., 5] = Eb * (dth - lam * kappa_ref[1])
+    g[..., 5] = Eb * (dth - lam * np.asarray(kappa_ref)[..., 1])  # a 3-vector, or P + (3,)
     if mu is not None:
         mu = lam * mu
         g[..., 2] -= mu * (c * B[0] - s * B[2])

@@ -47,6 +47,7 @@ class Segment:
     E_t: float
     E_s: float
     E_e: float
+    kappa_ref: tuple[float, float, float] | None = None  # this piece's precurvature; None: the rod's
 
 
 @dataclass(frozen=True)
@@ -68,6 +69,31 @@ class ScaledRod:
     tip_force: tuple[float, ...] = (0.0, 0.0, 0.0)
     tip_moment: tuple[float, ...] = (0.0, 0.0, 0.0)
     magnets: tuple[tuple[float, float], ...] = ()  # (s, moment)
+    #: magnetisation off d3 (contract section 9), direction a in the director frame:
+    #: lumped (s, moment, a) and distributed (from, to, moment per length, a)
+    directed_magnets: tuple[tuple[float, float, tuple[float, float, float]], ...] = ()
+    directed_mu: tuple[tuple[float, float, float, tuple[float, float, float]], ...] = ()
+    #: dead loads at interior points (s, force, moment); planar: (transverse, -, axial), (-, M, -)
+    point_loads: tuple[tuple[float, tuple[float, ...], tuple[float, ...]], ...] = ()
+
+    def kappa_ref_at(self, s: np.ndarray) -> np.ndarray | None:
+        """kappa_ref at points s (P + (3,)) when a segment has its own, else None (the rod's, uniform)."""
+        if not any(seg.kappa_ref is not None for seg in self.segments):
+            return None
+        out = np.broadcast_to(np.asarray(self.kappa_ref, float), s.shape + (3,)).copy()
+        for seg in self.segments:
+            if seg.kappa_ref is not None:
+                out[(s >= seg.start) & (s < seg.end)] = seg.kappa_ref
+        return out
+
+    def directed_mu_at(self, s: np.ndarray) -> np.ndarray | None:
+        """Sum of mu a (director frame) of the off-axis magnetised pieces at points s (P + (3,)), or None."""
+        if not self.directed_mu:
+            return None
+        out = np.zeros(s.shape + (3,))
+        for start, end, value, a in self.directed_mu:
+            out += np.where((s >= start) & (s <= end), value, 0.0)[..., None] * np.asarray(a, float)
+        return out
 
     def stiffness_at(self, s: np.ndarray) -> dict[str, np.ndarray]:
         out = {
@@ -90,7 +116,8 @@ class ScaledRod:
 
     @property
     def has_field(self) -> bool:
-        return any(self.B) and (bool(self.mu) or bool(self.magnets))
+        magnetised = self.mu or self.magnets or self.directed_mu or self.directed_magnets
+        return any(self.B) and bool(magnetised)
 
 
 @dataclass
@@ -131,8 +158,16 @@ class RodSystem:
         )
         if self.rod.has_field:
             self.terms.append("magnetic")
-        if any(self.rod.kappa_ref):
+        #: per-segment precurvature and off-axis magnetisation at the points, point loads at nodes
+        self.kappa = self.rod.kappa_ref_at(self.disc.s_quad)
+        self.mu_directed = self.rod.directed_mu_at(self.disc.s_quad) if self.rod.has_field else None
+        node = lambda s_p: int(np.argmin(np.abs(verts - s_p)))  # noqa: E731
+        self.directed_nodes = [(node(s_m), m, np.asarray(a)) for s_m, m, a in self.rod.directed_magnets]
+        self.point_nodes = [(node(s_p), np.asarray(F), np.asarray(M)) for s_p, F, M in self.rod.point_loads]
+        if any(self.rod.kappa_ref) or self.kappa is not None:
             self.terms.append("precurvature")
+        if self.point_nodes:
+            self.terms.append("point loads")
 
     # -- states -------------------------------------------------------------
     def reference(self) -> np.ndarray:
@@ -156,7 +191,8 @@ class RodSystem:
         if self.model == PLANAR:
             x, z, th = u
             k2, nu1, nu3 = kin.planar_strains(du[0], du[1], th, du[2])
-            w = kin.planar_strain_energy(k2, nu1, nu3, p["E_b"], p["E_s"], p["E_e"], lam * rod.kappa_ref[1])
+            kref = lam * (rod.kappa_ref[1] if self.kappa is None else self.kappa[..., 1])
+            w = kin.planar_strain_energy(k2, nu1, nu3, p["E_b"], p["E_s"], p["E_e"], kref)
             if "magnetic" in self.terms:
                 w = w + kin.magnetic_energy(
                     lam * self.mu, [kin.jet.sin(th), 0.0, kin.jet.cos(th)], [rod.B[0], 0.0, rod.B[2]]
@@ -166,12 +202,17 @@ class RodSystem:
             return w
         r, q, dr, dq = u[:3], u[3:], du[:3], du[3:]
         kappa, nu = kin.strains(dr, q, dq, self.variant)
-        kref = [lam * k for k in rod.kappa_ref]
+        kref = [lam * (k if self.kappa is None else self.kappa[..., i]) for i, k in enumerate(rod.kappa_ref)]
         w = kin.strain_energy(kappa, nu, p["E_b"], p["E_t"], p["E_s"], p["E_e"], kref)
         if self.variant == kin.RAW:  # the paper's integrated penalty; normalised: see gauge_terms
             w = w + kin.unity_penalty(q, self.c_u)
         if "magnetic" in self.terms:
             w = w + kin.magnetic_energy(lam * self.mu, kin.d3(q, self.variant), rod.B)
+        if self.mu_directed is not None:
+            w = w + sum(
+                kin.magnetic_energy(lam * self.mu_directed[..., j], pointing(q, self.variant, j), rod.B)
+                for j in range(3)
+            )
         if any(rod.f):
             w = w - lam * (rod.f[0] * r[0] + rod.f[1] * r[1] + rod.f[2] * r[2])
         return w
@@ -187,7 +228,7 @@ class RodSystem:
                 ders,
                 lam,
                 self.props,
-                rod.kappa_ref,
+                rod.kappa_ref if self.kappa is None else self.kappa,
                 mu,
                 rod.B,
                 rod.f,
@@ -197,6 +238,8 @@ class RodSystem:
             )
             if self.mixed and tangent:
                 self._strain = out[2]
+            if self.mu_directed is not None:  # magnetisation off d3 (contract section 9)
+                full.directed_magnetic(out[0], out[1], vals, lam, self.mu_directed, rod.B)
             return out[0], out[1]
         variables = Jet.variables(np.concatenate([vals, ders]), hessian=tangent)
         nf = self.disc.nf
@@ -263,6 +306,8 @@ class RodSystem:
             R[tip[0]] -= lam * rod.tip_force[0]
             R[tip[1]] -= lam * rod.tip_force[2]
             R[tip[2]] -= lam * rod.tip_moment[1]
+            for node, F, M in self.point_nodes:  # dead loads in the plane: potential -F.r - M theta
+                R[node * nf : node * nf + 3] -= lam * np.array([F[0], F[2], M[1]])
             for node, m in self.magnet_nodes:
                 th = U[node * nf + 2]
                 # -m (sin th Bx + cos th Bz): derivative and second derivative in theta
@@ -281,7 +326,25 @@ class RodSystem:
             e = kin.magnetic_energy(lam * m, kin.d3(qj, self.variant), rod.B)
             R[dofs] += e.g[0]
             blocks.append((dofs, e.h[0]))
+        self._designer_point_terms(U, lam, R, blocks)
         return R, blocks
+
+    def _designer_point_terms(self, U: np.ndarray, lam: float, R: np.ndarray, blocks: list) -> None:
+        """Off-axis magnets (-m (R a).B) and interior dead loads (contract section 9), full model."""
+        nf, B = self.disc.nf, self.rod.B
+        for node, m, a in self.directed_nodes:
+            dofs = np.arange(node * nf + 3, node * nf + 7)
+            qj = Jet.variables(U[dofs].reshape(4, 1))
+            e = sum(kin.magnetic_energy(lam * m * a[j], pointing(qj, self.variant, j), B) for j in range(3))
+            R[dofs] += e.g[0]
+            blocks.append((dofs, e.h[0]))
+        for node, F, M in self.point_nodes:
+            R[node * nf : node * nf + 3] -= lam * F
+            if any(M):
+                dofs = np.arange(node * nf + 3, node * nf + 7)
+                g, h = _moment_work(U[dofs], M)
+                R[dofs] -= lam * g
+                blocks.append((dofs, -lam * h))
 
     def gauge_terms(self, U: np.ndarray) -> tuple[np.ndarray, list]:
         """Unity penalty c_u/2 (|q|^2 - 1)^2 at every node (normalised variant).
@@ -304,8 +367,9 @@ class RodSystem:
     def kernel_served(self) -> bool:
         """Whether :mod:`matid.rod.compiled` serves this system (asked once per system)."""
         ok = self.__dict__.get("_compiled")
-        if ok is None:
-            ok = self._compiled = compiled.supported(self)
+        if ok is None:  # the kernel has none of the terms of contract section 9
+            designer = self.kappa is not None or self.mu_directed is not None or self.directed_nodes
+            ok = self._compiled = not (designer or self.point_nodes) and compiled.supported(self)
         return ok
 
     def compiled_newton(self, x0: np.ndarray, lam: float, **options):
@@ -345,8 +409,9 @@ class RodSystem:
 
     @property
     def symmetric(self) -> bool:
-        """The tangent is a Hessian, except with a dead tip moment in 3D (no potential)."""
-        return not (self.model == FULL and any(self.rod.tip_moment))
+        """The tangent is a Hessian, except with a dead moment in 3D (no potential)."""
+        point_moment = any(any(M) for _, _, M in self.rod.point_loads)
+        return not (self.model == FULL and (any(self.rod.tip_moment) or point_moment))
 
     def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
         """Why a converged state is no answer, or None: a saddle of the potential is not an equilibrium
@@ -368,11 +433,13 @@ class RodSystem:
         pivoting (checked: perm_r == perm_c) computes K = L D L^T, and every
         pivot of D is positive iff K is (for a positive definite K this
         elimination is backward stable, so a pivot <= 0 is no round-off).
-        None when the tangent is not symmetric or the test cannot be made.
+        With a dead moment in 3D (no potential, physics.md section 8) the test is made on the
+        symmetrised tangent (K + K^T)/2, the second variation of the virtual work.
+        None when the test cannot be made.
         """
-        if self.model == FULL and any(self.rod.tip_moment):
-            return None  # a dead moment in 3D has no potential: the tangent is unsymmetric
         _, K = self.evaluate(X, lam)
+        if not self.symmetric:
+            K = symmetric_part(K)
         try:
             lu = spla.splu(
                 K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
@@ -412,6 +479,27 @@ class RodSystem:
 
     def reduce(self, U: np.ndarray) -> np.ndarray:
         return U[self.disc.free].copy()
+
+
+def pointing(q, variant: str, j: int) -> list:
+    """The director d_j (j = 0, 1, 2) from q, raw or from q/|q| (a magnetisation along it)."""
+    R = kin.directors(q)
+    col = [R[0][j], R[1][j], R[2][j]]
+    if variant == kin.RAW:
+        return col
+    inv = 1.0 / kin.norm2(q)
+    return [c * inv for c in col]
+
+
+def symmetric_part(K) -> sp.csr_matrix:
+    """(K + K^T)/2 in free-dof numbering (CSR) of a CSR or band-stored (fem.Banded) tangent."""
+    if hasattr(K, "ab"):  # band storage ab[u + i - j, j] = K[i, j], band position -> free dof
+        n, u = K.shape[0], K.u
+        offsets = list(range(-u, u + 1))
+        diagonals = [K.ab[u + k, max(0, -k) : min(n, n - k)] for k in offsets]
+        band = sp.diags(diagonals, [-k for k in offsets], shape=(n, n), format="coo")
+        K = sp.csr_matrix((band.data, (K.order[band.row], K.order[band.col])), shape=(n, n))
+    return ((K + K.T) * 0.5).tocsr()
 
 
 def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
