@@ -94,8 +94,11 @@ class Forward:
     def sensitivity(self, eq: Equilibrium) -> np.ndarray:
         """dd3(L)/dB (3 x 3) at a converged state, from its tangent (module docstring)."""
         _, _, rod, _ = _prepare(eq.scene, FULL)
-        field = lambda B: RodSystem(eq.disc, dataclasses.replace(rod, B=B), model=FULL, c_u=c_u, banded=True)  # noqa: E731
         c_u = default_penalty(rod, kin.NORMALISED)
+
+        def field(B) -> RodSystem:
+            return RodSystem(eq.disc, dataclasses.replace(rod, B=B), model=FULL, c_u=c_u, banded=True)
+
         system = field(rod.B)
         X = system.reduce(eq.U.ravel())
         factor = system.evaluate(X, 1.0)[1].factor()
@@ -111,23 +114,22 @@ class Forward:
 def aim(scene: Scene, *, elements: int | None = None) -> AimResult:
     """The field of magnitude scene.aim.field_magnitude turning the tip's d3 closest to the target.
 
-    Raises ConvergenceError when the closest direction reached misses the target by more than
-    AIM_TOL (naming it and the field), or when a forward solve fails.
+    The continuation starts from the field along the target; when that misses, from the
+    START_TRIES fields among the CANDIDATES (26 directions of a cube's faces, edges and
+    corners) that put the tip nearest to the target. Raises ConvergenceError when the closest
+    direction reached misses the target by more than AIM_TOL (naming it and the field).
     """
     t0 = time.perf_counter()
     target, magnitude = np.asarray(scene.aim.tip_direction), scene.aim.field_magnitude
     n = elements or scene.elements or DEFAULT_ELEMENTS
     forward = Forward(scene, n)
-    b = target.copy()
-    d3 = forward.at(magnitude * b).tip()[3:]
-    start = d3.copy()
-    stages = max(1, int(np.ceil(angle(start, target) / MAX_TURN)))
-    for k in range(1, stages + 1):
-        b, d3 = _stage(forward, b, magnitude, slerp(start, target, k / stages))
-        if angle(d3, slerp(start, target, k / stages)) > AIM_TOL:
-            b, d3 = _stage(forward, b, magnitude, target)  # the closest to the target itself
-            break
-    error = angle(d3, target)
+    best = _continue(forward, target, magnitude, target)
+    if best[0] > AIM_TOL:
+        for b in _nearest_starts(forward, target, magnitude)[:START_TRIES]:
+            best = min(best, _continue(forward, b, magnitude, target), key=lambda r: r[0])
+            if best[0] <= AIM_TOL:
+                break
+    error, b, d3 = best
     result = AimResult(magnitude * b, d3, error, forward.solves, time.perf_counter() - t0, n)
     if error > AIM_TOL:
         raise ConvergenceError(
@@ -137,6 +139,46 @@ def aim(scene: Scene, *, elements: int | None = None) -> AimResult:
             closest=result,
         )
     return result
+
+
+#: Field directions tried when the field along the target is no start: a cube's 26 directions.
+CANDIDATES = [
+    (np.array(v, float) - 1.0) / np.linalg.norm(np.array(v, float) - 1.0)
+    for v in np.ndindex(3, 3, 3)
+    if v != (1, 1, 1)
+]
+START_TRIES = 3
+
+
+def _nearest_starts(forward: Forward, target: np.ndarray, magnitude: float) -> list[np.ndarray]:
+    """The CANDIDATES sorted by the angle of their tip to the target (cold solves; failures left out)."""
+    scored = []
+    for b in CANDIDATES:
+        forward.last = None
+        try:
+            scored.append((angle(forward.at(magnitude * b).tip()[3:], target), tuple(b)))
+        except ConvergenceError:
+            continue
+    return [np.array(b) for _, b in sorted(scored)]
+
+
+def _continue(forward: Forward, b: np.ndarray, magnitude: float, target: np.ndarray) -> tuple:
+    """(error, field direction, tip d3): continuation from the field b along the great circle from
+    its tip direction to the target, then the fit to the target itself where a stage misses."""
+    forward.last = None
+    try:
+        start = forward.at(magnitude * b).tip()[3:]
+    except ConvergenceError:
+        return (np.inf, b, np.full(3, np.nan))
+    d3 = start
+    stages = max(1, int(np.ceil(angle(start, target) / MAX_TURN)))
+    for k in range(1, stages + 1):
+        goal = slerp(start, target, k / stages)
+        b, d3 = _stage(forward, b, magnitude, goal)
+        if angle(d3, goal) > AIM_TOL:
+            b, d3 = _stage(forward, b, magnitude, target)  # the closest to the target itself
+            break
+    return (angle(d3, target), b, d3)
 
 
 def _stage(

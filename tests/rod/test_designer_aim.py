@@ -37,15 +37,18 @@ def test_aim_example_is_the_planar_closed_form() -> None:
     assert angle(forward.tip["d3"], scene.aim.tip_direction) < 1e-4
 
 
-@pytest.mark.parametrize("name", ["point_load", "curved_tip"])
+@pytest.mark.parametrize("name", ["point_load", "curved_tip", "magnet_direction"])
 def test_aim_in_3d_reaches_the_target_in_a_forward_solve(name: str) -> None:
-    """A 3D target on 3D scenes; the field found, solved forward, points the tip there."""
+    """A 3D target on 3D scenes, reachable by construction (the tip in a field B0 that aim is not
+    told); the field found, solved forward, points the tip there."""
     scene = load_scene(EXAMPLES / f"{name}.toml")
     if not scene.loads.magnets:
         scene = dataclasses.replace(
             scene, loads=dataclasses.replace(scene.loads, magnets=((scene.rod.length, 0.0125),))
         )
-    target = np.array([0.3, -0.4, 1.0]) / np.linalg.norm([0.3, -0.4, 1.0])
+    B0 = 0.15 * np.array([-0.5, -0.6, 0.4]) / np.linalg.norm([-0.5, -0.6, 0.4])
+    target = np.array(_forward(scene, B0).tip["d3"])
+    assert angle(target, [0, 0, 1]) > 0.2  # a target off the unloaded tip's direction
     scene = dataclasses.replace(scene, aim=Aim(tuple(target), 0.15))
     found = aim(scene)
     assert found.error_rad < 1e-8
