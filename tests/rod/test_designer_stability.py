@@ -9,7 +9,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from matid.rod.api import solve
-from matid.rod.scenes import scene_from_dict
+from matid.rod.scenes import load_scene, scene_from_dict
+from tests import ROOT
 
 L, E_B, MOMENT, Q = 0.03, 6.5e-5, 0.0125, 5.8
 PSI = math.radians(174.0)  # the field nearly antiparallel to the axis: the straight rod buckles
@@ -46,3 +47,13 @@ def test_the_twist_free_scene_reaches_the_same_state() -> None:
     planar, full = solve(_saddle_scene(0.0)), solve(_saddle_scene(1e-6))
     assert planar.model == "planar"
     assert abs(planar.tip["d3"][2] - full.tip["d3"][2]) < 1e-5
+
+
+def test_the_example_is_the_saddle_scene() -> None:
+    """examples/scenes/tip_twist_stability.toml is the scene above: the same stable tip."""
+    example = solve(load_scene(ROOT / "examples" / "scenes" / "tip_twist_stability.toml"))
+    B = np.array(example.scene.loads.B)
+    assert abs(np.linalg.norm(B) * MOMENT * L / E_B - Q) < 1e-12
+    assert abs(math.atan2(B[0], B[2]) - PSI) < 1e-12
+    tilt = math.acos(np.clip(example.tip["d3"][2], -1, 1))
+    assert abs(tilt - brentq(lambda t: t - Q * math.sin(PSI - t), 2.0, PSI)) < 0.01
