@@ -94,3 +94,29 @@ def test_matid_agrees_with_the_reference_in_3d(scene) -> None:
     for key in ("d1", "d3"):
         assert np.max(np.abs(np.array(sol.tip[key]) - ref[key])) < 1e-6
     assert np.max(np.abs(ref["d3"] - [0, 0, 1])) > 0.03  # a scene that moves the tip
+
+
+def test_planar_designer_scene_runs_the_planar_model_and_agrees() -> None:
+    """In-plane point load, an in-plane curved tip and a magnet along -d3 stay planar: the planar
+    model, the full model and the reference agree (the -d3 magnet is the +d3 one in -B)."""
+    raw = {
+        "rod": ROD,
+        "segment": [{"from": "20 mm", "to": "30 mm", "precurvature": ["0 1/m", "-30 1/m", "0 1/m"]}],
+        "point_load": [{"at": "10 mm", "force": ["2e-3 N", "0 N", "-1e-3 N"], "moment": [0, "1e-4 N m", 0]}],
+        "magnet": [{"at": "30 mm", "moment": "0.0125 A m^2", "direction": [0, 0, -1]}],
+        "field": {"B": ["60 mT", "0 mT", "-20 mT"]},
+        "tolerance": 1e-9,
+    }
+    scene = scene_from_dict(raw)
+    planar, full = solve(scene), solve(scene, model="full")
+    flipped = dict(
+        raw, magnet=[{"at": "30 mm", "moment": "0.0125 A m^2"}], field={"B": ["-60 mT", "0 mT", "20 mT"]}
+    )
+    plus = solve(scene_from_dict(flipped))
+    ref = reference.solve(scene)
+    assert planar.model == "planar" and full.model == "full"
+    L = scene.rod.length
+    for sol in (planar, full, plus):
+        assert np.max(np.abs(np.array(sol.tip["position"]) - ref["position"])) < 1e-6 * L
+        assert np.max(np.abs(np.array(sol.tip["d3"]) - ref["d3"])) < 1e-6
+    assert np.max(np.abs(ref["d3"] - [0, 0, 1])) > 0.1
