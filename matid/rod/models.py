@@ -423,6 +423,11 @@ class RodSystem:
         if getattr(factor, "positive_definite", None) is True:
             return None
         if self.negative_modes(X, lam):
+            if not self.symmetric:
+                return (
+                    "no stable equilibrium assured: with a dead moment in 3D (no potential) the "
+                    "symmetrised tangent is not positive definite (physics.md section 8)"
+                )
             return "unstable equilibrium (the tangent stiffness is not positive definite: buckling or snap)"
         return None
 
@@ -433,22 +438,22 @@ class RodSystem:
         pivoting (checked: perm_r == perm_c) computes K = L D L^T, and every
         pivot of D is positive iff K is (for a positive definite K this
         elimination is backward stable, so a pivot <= 0 is no round-off).
-        With a dead moment in 3D (no potential, physics.md section 8) the test is made on the
-        symmetrised tangent (K + K^T)/2, the second variation of the virtual work.
+        With a dead moment in 3D (no potential): :meth:`dead_moment_modes`.
         None when the test cannot be made.
         """
         _, K = self.evaluate(X, lam)
         if not self.symmetric:
-            K = symmetric_part(K)
-        try:
-            lu = spla.splu(
-                K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-            )
-        except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
-            return 1
-        if not np.array_equal(lu.perm_r, lu.perm_c):
-            return None
-        return int(np.sum(lu.U.diagonal() <= 0.0))
+            return self.dead_moment_modes(X, lam, K)
+        return ldl_negative(K)
+
+    def dead_moment_modes(self, X: np.ndarray, lam: float, K) -> int | None:
+        """Stability with dead moments in 3D (physics.md section 8), which have no potential: the
+        test of the symmetrised tangent (K + K^T)/2, i.e. positive second-order work of every
+        perturbation (Hill's criterion: sufficient, coordinate-free). Measured: it rejects the
+        saddle of a magnet in a reversed field (two negative eigenvalues, so det K > 0 there: a
+        sign change of det K would miss it), and pure dead tip moments above ~2.2 E_b/L in
+        3D (det K > 0 there too: stability is then not assured, rather than assumed)."""
+        return ldl_negative(symmetric_part(K))
 
     def _blocks_matrix(self, blocks: list, shape: tuple[int, int]) -> sp.csr_matrix:
         """Sum of dense blocks (dofs of shape (..., m), matrices (..., m, m)) on the free dofs."""
@@ -491,15 +496,35 @@ def pointing(q, variant: str, j: int) -> list:
     return [c * inv for c in col]
 
 
+def ldl_negative(K) -> int | None:
+    """Non-positive pivots of a symmetric K (CSR or band-stored) by SuperLU's L D L^T without
+    off-diagonal pivoting (:meth:`RodSystem.negative_modes`); None when SuperLU pivoted."""
+    try:
+        lu = spla.splu(
+            K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+        )
+    except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
+        return 1
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        return None
+    return int(np.sum(lu.U.diagonal() <= 0.0))
+
+
 def symmetric_part(K) -> sp.csr_matrix:
     """(K + K^T)/2 in free-dof numbering (CSR) of a CSR or band-stored (fem.Banded) tangent."""
+    K = free_csr(K)
+    return ((K + K.T) * 0.5).tocsr()
+
+
+def free_csr(K) -> sp.csr_matrix:
+    """A CSR or band-stored (fem.Banded) tangent as CSR in free-dof numbering, in O(n u)."""
     if hasattr(K, "ab"):  # band storage ab[u + i - j, j] = K[i, j], band position -> free dof
         n, u = K.shape[0], K.u
         offsets = list(range(-u, u + 1))
         diagonals = [K.ab[u + k, max(0, -k) : min(n, n - k)] for k in offsets]
         band = sp.diags(diagonals, [-k for k in offsets], shape=(n, n), format="coo")
         K = sp.csr_matrix((band.data, (K.order[band.row], K.order[band.col])), shape=(n, n))
-    return ((K + K.T) * 0.5).tocsr()
+    return sp.csr_matrix(K)
 
 
 def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray, float]:

@@ -3,11 +3,14 @@ symmetrised tangent, so a saddle of the field's energy is never returned."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
+import pytest
 from scipy.optimize import brentq
 
+from matid.errors import ConvergenceError
 from matid.rod.api import solve
 from matid.rod.scenes import load_scene, scene_from_dict
 from tests import ROOT
@@ -57,3 +60,28 @@ def test_the_example_is_the_saddle_scene() -> None:
     assert abs(math.atan2(B[0], B[2]) - PSI) < 1e-12
     tilt = math.acos(np.clip(example.tip["d3"][2], -1, 1))
     assert abs(tilt - brentq(lambda t: t - Q * math.sin(PSI - t), 2.0, PSI)) < 0.01
+
+
+def _dead_moment_scene(factor: float):
+    M = [c * factor * E_B / L for c in (1.0, 1.0, 0.5)]
+    return scene_from_dict(
+        {"rod": {"length": L, "E_b": E_B, "E_t": 4.4e-5, "E_s": 21.0, "E_e": 120.0}, "tip": {"moment": M}}
+    )
+
+
+def test_a_dead_3d_moment_with_positive_second_order_work_is_solved() -> None:
+    """|M| = 1.5 E_b/L, twisting and bending: the symmetrised tangent is positive definite, the
+    state agrees with the independent reference (tests/rod/reference.py)."""
+    from tests.rod import reference
+
+    scene = dataclasses.replace(_dead_moment_scene(1.0), tolerance=1e-8)
+    sol, ref = solve(scene), reference.solve(scene, steps=16)
+    assert np.max(np.abs(np.array(sol.tip["position"]) - ref["position"])) < 1e-6 * L
+    assert np.max(np.abs(np.array(sol.tip["d3"]) - ref["d3"])) < 1e-6
+
+
+def test_a_dead_3d_moment_beyond_positive_second_order_work_exits_naming_the_load_factor() -> None:
+    """|M| = 3 E_b/L: stability is lost to the symmetrised test at load factor ~0.75; the error
+    says so and names the load factor (stable states only, contract section 9)."""
+    with pytest.raises(ConvergenceError, match=r"symmetrised tangent.*load factor 0\.75"):
+        solve(_dead_moment_scene(2.0))
