@@ -8,7 +8,7 @@ import numpy as np
 
 from matid.rod.api import solve
 from matid.rod.checks import LINEAR_RANGE
-from matid.rod.output import solution_json
+from matid.rod.output import shape_png, shape_title, solution_json
 from matid.rod.scenes import load_scene, scene_from_dict
 from tests import ROOT
 
@@ -30,8 +30,10 @@ def test_a_huge_shear_strain_is_a_warning() -> None:
     sol = solve(_shear_scene(1e-5))
     warnings = solution_json(sol)["warnings"]
     assert any("|nu - e3|" in w for w in warnings), warnings
+    assert "WARNING: strain outside" in shape_title(sol)
+    assert shape_png(sol, dpi=30)[:4] == b"\x89PNG"
     quiet = solve(_shear_scene(21.0))  # the same scene with a real tube's E_s: no warning
-    assert solution_json(quiet)["warnings"] == []
+    assert solution_json(quiet)["warnings"] == [] and "WARNING" not in shape_title(quiet)
 
 
 def test_a_tight_bend_of_a_thick_tube_is_a_warning() -> None:
