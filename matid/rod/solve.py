@@ -239,7 +239,7 @@ def probe_start(rod: ScaledRod, model: str) -> bool:
     """
     if model != PLANAR or not rod.has_field:
         return False
-    if any(rod.kappa_ref):
+    if any(rod.kappa_ref) or any(seg.kappa_ref is not None for seg in rod.segments):
         return True  # d3 turns along the unloaded rod: test
     moments = [m for _, _, m in rod.mu] + [m for _, m in rod.magnets]
     return any(m * rod.B[2] < 0.0 for m in moments)
