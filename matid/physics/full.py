@@ -114,7 +114,6 @@ def derivatives(
     M = W[3:7, 60:64] if mu is not None else None
     gn2 = np.zeros((n, 11))
     gn2[:, YQ] = 2.0 * q
-    ge = a[:, :, None] * gF + (a1 * F)[:, :, None] * gn2[:, None, :]
     C = np.empty((n, 6))
     C[:, 0] = C[:, 1] = props["E_b"].ravel()
     C[:, 2], C[:, 3], C[:, 5] = props["E_t"].ravel(), props["E_s"].ravel(), props["E_e"].ravel()
@@ -131,7 +130,7 @@ def derivatives(
     g[:, 3:] = _gradient(s, a, a1, F, gF, gn2, penalty)
     if not tangent:
         return g.reshape(shape + (14,)), None
-    ge6 = ge[:, :6, :]
+    ge6 = a[:, :6, None] * gF[:, :6] + (a1[:, :6] * F[:, :6])[:, :, None] * gn2[:, None, :]
     Cge = C[:, :, None] * ge6
     strain = None
     if want_strain:
