@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -75,7 +76,7 @@ def long(n: int, dt: float, checkout: str) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         study = make_study(Path(tmp) / "study", n=n, dt=dt)
         env = {**os.environ, "PYTHONPATH": checkout}
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
         done = subprocess.run(
             [sys.executable, "-m", "matid", "fit", str(study), "--out", str(Path(tmp) / "out"), "--quiet"],
             cwd=checkout,
@@ -84,7 +85,11 @@ def long(n: int, dt: float, checkout: str) -> None:
             text=True,
         )
         wall = time.perf_counter() - start
-    print(f"matid fit on {n} rows: exit {done.returncode}, wall {wall:.1f} s, load {os.getloadavg()[0]:.1f}")
+        used = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu_s = used.ru_utime + used.ru_stime - cpu.ru_utime - cpu.ru_stime
+    load = os.getloadavg()[0]
+    print(f"matid fit on {n} rows: exit {done.returncode}, wall {wall:.1f} s, cpu {cpu_s:.1f} s", end="")
+    print(f", load {load:.1f}")
     if done.returncode:
         print(done.stderr[-2000:])
 
