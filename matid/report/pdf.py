@@ -28,12 +28,12 @@ from matid.report.pdfparts import (
     MUTED,
     RULE,
     SANS,
-    Heading,
     Together,
     assemble,
     binary_streams,
     box,
     figure,
+    heading,
     para,
     picture,
     register_fonts,
@@ -113,10 +113,30 @@ def _section_rule() -> HRFlowable:
 
 
 def _first_page(report: Report) -> list[Flowable]:
+    """The study and its run, the summary table, the warnings and the material moduli."""
+    story = [*_title(report), space(8), heading("Summary of stiffnesses", 14, key="summary"), _section_rule()]
+    summary = (
+        f"Values in {report.units} units, as in stiffness.json and stiffness.csv, rounded to two "
+        "significant figures of the standard error; 95 % confidence interval from-to; "
+        "⚠ [n] points to warning n below the table."
+    )
+    story += [para(summary, 8, muted=True, space=4), _table(report.summary, size=6.5), space(8)]
+    story += _warnings(report)
+    if report.moduli:
+        moduli = (
+            "E = E_e / A, E = E_b / I and G = E_t / J of the tube section (diameters of the study, "
+            "taken as exact)."
+        )
+        story += [heading("Material moduli", 14, key="moduli"), _section_rule()]
+        story += [para(moduli, 8, muted=True, space=4), _table(report.moduli, size=6.5)]
+    return story
+
+
+def _title(report: Report) -> list[Flowable]:
     software = ", ".join([f"matid {report.matid_version}", *(f"{k} {v}" for k, v in report.versions)])
     story: list[Flowable] = [
         para("Stiffness identification report", 10, muted=True, space=2),
-        Heading(report.study, 18),
+        heading(report.study, 18),
     ]
     for key, value in (
         ("Temperature", report.temperature),
@@ -129,31 +149,6 @@ def _first_page(report: Report) -> list[Flowable]:
     if report.sections:
         parts = "; ".join(f"{s.title} ({s.parameters})" for s in report.sections)
         story += [space(4), para(f"Sections: {parts}; Provenance", 8.5)]
-    story += [space(8), Heading("Summary of stiffnesses", 14, key="summary"), _section_rule()]
-    story.append(
-        para(
-            f"Values in {report.units} units, as in stiffness.json and stiffness.csv, rounded to two "
-            "significant figures of the standard error; 95 % confidence interval from-to; "
-            "⚠ [n] points to warning n below the table.",
-            8,
-            muted=True,
-            space=4,
-        )
-    )
-    story += [_table(report.summary, size=6.5), space(8), *_warnings(report)]
-    if report.moduli:
-        story += [
-            Heading("Material moduli", 14, key="moduli"),
-            _section_rule(),
-            para(
-                "E = E_e / A, E = E_b / I and G = E_t / J of the tube section (diameters of the study, "
-                "taken as exact).",
-                8,
-                muted=True,
-                space=4,
-            ),
-            _table(report.moduli, size=6.5),
-        ]
     return story
 
 
@@ -164,10 +159,10 @@ def _warnings(report: Report) -> list[Flowable]:
     if count:
         items = [f"could not be fitted: {line}" for line in report.failures]
         items += [f"[{n.number}] {n.where}: {n.text}" for n in report.notes]
-        title = Heading(f"{count} warning{'s' if count != 1 else ''}", 11, key="warnings")
+        title = heading(f"{count} warning{'s' if count != 1 else ''}", 11, key="warnings")
         story = [box(title, items, AMBER, width=WIDTH)]
     else:
-        title = Heading("No warnings", 11, key="warnings")
+        title = heading("No warnings", 11, key="warnings")
         story = [box(title, ["Every fit completed without a warning."], GREEN, width=WIDTH)]
     if report.pending:
         title = para("Not yet fitted (by design, not an error)", 8.5, bold=True)
@@ -181,7 +176,7 @@ def _warnings(report: Report) -> list[Flowable]:
 def _section(section: Section, images: Images) -> list[Flowable]:
     story: list[Flowable] = [
         PageBreak(),
-        Heading(f"{section.title} ({section.parameters})", 14, key=section.anchor),
+        heading(f"{section.title} ({section.parameters})", 14, key=section.anchor),
         _section_rule(),
     ]
     for block in section.blocks:
@@ -191,7 +186,7 @@ def _section(section: Section, images: Images) -> list[Flowable]:
 
 def _block(section: Section, block: Block, images: Images) -> list[Flowable]:
     story: list[Flowable] = [
-        Heading(f"{section.title}, specimen {block.specimen}", 11.5, key=block.anchor, level=1)
+        heading(f"{section.title}, specimen {block.specimen}", 11.5, key=block.anchor, level=1)
     ]
     for status, line in block.messages:
         colours = AMBER if status == "failed" else GREY
@@ -200,13 +195,13 @@ def _block(section: Section, block: Block, images: Images) -> list[Flowable]:
         image = images.plots[block.anchor]
         story.append(figure(None, _picture(image.png, FIT_HEIGHT), image.caption))
     if block.parameters and block.parameters.rows:
-        story += [Heading("Parameters", 9.5), _table(block.parameters), space(6)]
+        story += [heading("Parameters", 9.5), _table(block.parameters), space(6)]
     if block.warnings:
         items = [f"[{n}] {w}" for n, w in enumerate(block.warnings, 1)]
         story += [box(para("Warnings of this fit", 8.5, bold=True), items, AMBER, width=WIDTH), space(6)]
     story += [para(note, 7.5, muted=True, space=4) for note in block.fe_notes]
     if block.correlation:
-        story += [Heading("Correlation of the estimates", 9.5), _table(block.correlation), space(6)]
+        story += [heading("Correlation of the estimates", 9.5), _table(block.correlation), space(6)]
     story += [_drawing(image) for image in images.drawings.get(block.anchor, [])]
     story += _info(block.info)
     for extra in block.extras:
@@ -215,7 +210,7 @@ def _block(section: Section, block: Block, images: Images) -> list[Flowable]:
         else:
             story += [_failed(extra.title, str(extra.error)), space(6)]
     if block.tests:
-        story.append(Heading("Tests", 9.5))
+        story.append(heading("Tests", 9.5))
         story += [_test(test) for test in block.tests]
     return [*story, space(10)]
 
@@ -239,7 +234,7 @@ def _info(info) -> list[Flowable]:
     """The fit's details: quantities in a two-column table, nested values as small tables after it."""
     if not info:
         return []
-    story: list[Flowable] = [Heading("Fit window and details", 9.5)]
+    story: list[Flowable] = [heading("Fit window and details", 9.5)]
     plain = tuple((label, value) for label, value in info if not isinstance(value, Nested))
     if plain:
         story += [table(("item", "value"), plain, (False, False), width=WIDTH), space(4)]
@@ -278,7 +273,7 @@ def _test(test: TestView) -> Together:
 def _provenance(report: Report) -> list[Flowable]:
     story: list[Flowable] = [
         PageBreak(),
-        Heading("Provenance", 14, key="provenance"),
+        heading("Provenance", 14, key="provenance"),
         _section_rule(),
         para("Every input file with its full SHA-256 checksum.", 8.5, space=4),
     ]

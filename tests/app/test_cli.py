@@ -397,9 +397,16 @@ def test_console_script_is_run_which_exits_with_mains_code(monkeypatch):
     assert exc.value.code == 3
 
 
-def test_demo_runs_without_a_stdout(tmp_path, monkeypatch):
+def test_demo_runs_without_a_stdout_in_one_process(tmp_path, monkeypatch):
     # Python sets sys.stdout to None when it starts with the descriptor closed (`matid demo >&-`,
-    # some daemons): print writes nothing, and the outputs are still written
+    # some daemons): print writes nothing, and the outputs are still written. No other process
+    # renders anything (a SIGTERM to matid leaves nothing behind)
+    def refuse(*args, **kwargs):
+        raise AssertionError("matid demo started another process")
+
+    monkeypatch.setattr(os, "fork", refuse)
+    monkeypatch.setattr(subprocess.Popen, "__init__", refuse)
+    monkeypatch.setattr("multiprocessing.process.BaseProcess.start", refuse)
     monkeypatch.setattr(sys, "stdout", None)
     assert main(["demo", "--quiet", "--out", str(tmp_path / "out")]) == 0
     assert (tmp_path / "out" / "report.pdf").is_file()

@@ -19,7 +19,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from matid.app.cli import main
-from matid.io.results import InputFile, StudyResult
+from matid.io.results import Failure, InputFile, StudyResult
 from matid.io.study import Specimen, Study
 from matid.report import render_report
 from matid.report.pdfparts import SANS, column_widths, register_fonts, text_width
@@ -191,3 +191,24 @@ def test_the_report_uses_no_private_name_of_a_dependency():
                 if not (isinstance(node.value, ast.Name) and node.value.id in ("self", "cls")):
                     found.append(f"{path.name}:{node.lineno}: .{node.attr}")
     assert not found
+
+
+@pytest.mark.parametrize("name", ["x" * 2000, "word " * 600], ids=["one word", "many words"])
+def test_a_heading_taller_than_a_page_is_split_and_keeps_its_outline_entry(name):
+    """A study name of 2000 characters (the longest a study.toml value may be) is the first page's
+    heading: platypus splits it across pages (its parts are made as paragraphs)."""
+    base = make_result(kinds=("torsion",))
+    study = Study(name, base.study.source, base.study.specimens, base.study.tests)
+    pdf = render_report(StudyResult(study, base.inputs, base.fits))["report.pdf"]
+    assert _squeezed(name) in _squeezed(_text(pdf))
+    assert [title for depth, title in _outline(pdf) if depth == 0][0] == "Summary of stiffnesses"
+
+
+@pytest.mark.parametrize("reason", ["x" * 5000, "reason " * 800], ids=["one word", "many words"])
+def test_a_table_row_taller_than_a_page_continues_on_the_next(reason):
+    """A failure's reason in the summary table's last column, taller than a page (and one word
+    wider than the table): the row is split across pages, the long word across lines."""
+    base = make_result(kinds=("torsion",))
+    result = StudyResult(base.study, base.inputs, base.fits, failures=(Failure("torsion", "T2", reason),))
+    pdf = render_report(result)["report.pdf"]
+    assert _squeezed(reason) in _squeezed(_text(pdf))
