@@ -16,8 +16,8 @@ starting with a formula lead or an XLSX sheet holds a formula (``<f>``), when a 
 outside the study was read, and, for signals, when the run does not end within
 :data:`STOP_S` of the signal, exits with a code other than 0-2, 130, 143 or by the signal,
 leaves a process of its session alive :data:`STOP_S` later, changes its output folder
-after the signal (or, for a killed parent, after its death), or leaves a study's folder
-half-written.
+after the signal (or, for a killed parent, after its death; compared with a snapshot taken
+as soon as the signal is sent), or leaves a study's folder half-written.
 """
 
 from __future__ import annotations
@@ -133,9 +133,9 @@ def run_signalled(argv: list[str], out: Path, sig: int, *, after: float | None =
             break
         time.sleep(0.02)
     sent = proc.poll() is None
-    before = snapshot(out)
     if sent:
         proc.send_signal(sig)
+    before = snapshot(out)  # right after the signal: a publication the signal found half-way may land
     try:
         code: int | str = proc.wait(STOP_S if sent else 600)
     except subprocess.TimeoutExpired:

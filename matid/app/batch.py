@@ -18,8 +18,10 @@ sentinel of :func:`multiprocessing.parent_process`, readable once the parent die
 even by SIGKILL) or the batch is stopped (a shared :class:`multiprocessing.Event`),
 and a worker checks the event again just before it publishes. SIGINT (Ctrl-C) and,
 while a batch runs in the main thread, SIGTERM (:class:`Terminated`) stop it: the
-event is set, the queued studies cancelled, the workers awaited, temporary folders
-they left removed, and the interrupt raised on (exit 130 / 143). Studies that
+event is set, the pool's processes killed (:func:`multiprocessing.active_children`,
+less the children this process had before), the queued studies cancelled,
+temporary folders the workers left removed, and the interrupt raised on (exit 130
+/ 143). Studies that
 finished keep their folders; no summary is written for an interrupted batch.
 """
 
@@ -220,6 +222,7 @@ def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyO
     context.set_forkserver_preload(["matid.app.pipeline", "matid.report"])  # imported once, in the server
     stop = context.Event()
     outcomes: dict[int, StudyOutcome] = {}
+    others = set(multiprocessing.active_children())  # this process's children that are not the pool's
     pool = ProcessPoolExecutor(jobs, mp_context=context, initializer=_start_worker, initargs=(stop,))
     try:
         futures = {pool.submit(fit_one, *task): i for i, task in enumerate(tasks)}
@@ -232,7 +235,9 @@ def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyO
             done(outcomes[i])
     except BaseException:  # SIGINT, SIGTERM (Terminated), or a failing progress callback
         stop.set()
-        pool.shutdown(wait=True, cancel_futures=True)  # the workers end within WATCH_S
+        for worker in set(multiprocessing.active_children()) - others:
+            worker.kill()  # now: a worker half-way through a publication must not finish it
+        pool.shutdown(wait=True, cancel_futures=True)
         _tidy([Path(task[1]) for task in tasks])
         raise
     pool.shutdown(wait=True)
