@@ -7,7 +7,7 @@ process, in a local process pool (``--jobs``) or on a Dask cluster
 :func:`matid.app.pipeline.write_outputs`; then :func:`run_batch` writes
 ``DIR/summary.csv``, ``DIR/summary.xlsx`` and the comparison page
 ``DIR/summary.html`` (:mod:`matid.app.compare`). One failed study does not stop the
-others; the exit code of the batch is the worst of the studies' (0 < 1 < 2 < 3).
+others; the exit code of the batch is the worst of the studies' (0 < 1 < 2 < 3 < 4).
 
 On a Dask cluster the workers read the study folders and write into DIR by the
 same paths as this process: the cluster must share that file system.
@@ -21,8 +21,8 @@ while a batch runs in the main thread, SIGTERM (:class:`Terminated`) stop it: th
 event is set, the pool's processes killed (:func:`multiprocessing.active_children`,
 less the children this process had before), the queued studies cancelled,
 temporary folders the workers left removed, and the interrupt raised on (exit 130
-/ 143). Studies that
-finished keep their folders; no summary is written for an interrupted batch.
+/ 143). Studies that finished keep their folders; no summary is written for an
+interrupted batch.
 """
 
 from __future__ import annotations
