@@ -116,6 +116,13 @@ def _number(text: str) -> bool:
     return True
 
 
+def _default_sigint() -> None:
+    """In the child: SIGINT as a terminal sends it. A shell without job control starts a background
+    job with SIGINT ignored, and Python then installs no KeyboardInterrupt handler: a fuzz run started
+    with ``&`` would find every SIGINT ignored."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def run_signalled(argv: list[str], out: Path, sig: int, *, after: float | None = None,
                   on_publish: bool = False, batch: bool = False) -> dict:  # fmt: skip
     # batch: ``out`` holds study folders (each checked whole); else the caller checks ``out`` itself
@@ -124,7 +131,8 @@ def run_signalled(argv: list[str], out: Path, sig: int, *, after: float | None =
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     clock = time.monotonic()
     proc = subprocess.Popen([sys.executable, "-m", "matid", *argv], cwd=ROOT, env=env, start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            preexec_fn=_default_sigint)  # fmt: skip
     first = snapshot(out)
     while proc.poll() is None and time.monotonic() - clock < 600:
         if (after is not None and time.monotonic() - clock >= after) or (
