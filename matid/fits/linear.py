@@ -38,7 +38,6 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-import lmfit
 import numpy as np
 
 from matid.errors import DataError, FitError
@@ -235,13 +234,17 @@ def tared_line(x: np.ndarray, slope: float = 1.0, offset: float = 0.0) -> np.nda
     return offset + slope * x
 
 
-def _lines(n_files: int) -> list[lmfit.Model]:
-    """One :func:`tared_line` Model per file, parameters prefixed ``f<i>_``."""
+def _lines(n_files: int):
+    """One :func:`tared_line` lmfit Model per file, parameters prefixed ``f<i>_``."""
+    import lmfit  # lazily: importing the pipeline stays light
+
     return [lmfit.Model(tared_line, prefix=f"f{f}_") for f in range(n_files)]
 
 
-def _parameters(n_files: int, offsets: bool, slope: float) -> lmfit.Parameters:
+def _parameters(n_files: int, offsets: bool, slope: float):
     """The shared slope and one offset per file, held at 0 (``vary=False``) without offsets."""
+    import lmfit
+
     params = lmfit.Parameters()
     params.add("slope", value=slope)
     for f in range(n_files):
@@ -250,7 +253,7 @@ def _parameters(n_files: int, offsets: bool, slope: float) -> lmfit.Parameters:
     return params
 
 
-def _residual(params: lmfit.Parameters, models, xs, ys, w) -> np.ndarray:
+def _residual(params, models, xs, ys, w) -> np.ndarray:
     """Weighted residuals ``w_f (y - c_f - E x)`` of every file, concatenated in file order."""
     return np.concatenate(
         [wf * (y - m.eval(params, x=x)) for m, x, y, wf in zip(models, xs, ys, w, strict=True)]
@@ -275,6 +278,8 @@ def _solve(xs, ys, offsets: bool):
 
     ``coef`` is (slope, offset of each file) as lmfit found them.
     """
+    import lmfit
+
     scale = float(np.max(np.abs(np.concatenate(ys)))) or 1.0
     sigma = [stats.difference_noise(y) or 1e-9 * scale for y in ys]
     models = _lines(len(xs))
