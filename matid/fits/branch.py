@@ -34,12 +34,20 @@ such a line describes; they are found in two steps, each row left out with its r
    c. While curvature is still significant inside, the end whose removal leaves the
       straighter stretch (p larger by ``TRIM_PREFERENCE``) is trimmed, else the end away
       from the first recorded row, down to ``min_points``.
+
+:func:`select` applies this to one file, or, when its test has a ``window``, takes
+exactly the window's rows instead (docs/contract.md section 10); a :class:`Record`
+keeps the mask of the rows left out for each reason, for the report.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
 import numpy as np
 
+from matid.errors import DataError
 from matid.fits import stats
 
 #: Significance level of the curvature and onset tests.
@@ -302,3 +310,116 @@ def departure(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float]:
     design = _hinges(u, -np.inf, hi)[:, [0, 1, 3]]
     coef, *_ = np.linalg.lstsq(design, y[ok], rcond=None)
     return mask, float(np.sign(coef[2]))
+
+
+# --------------------------------------------------------------------------- records
+
+
+@dataclass(frozen=True)
+class Record:
+    """One file of a linear test: x and y of every row, the rows used, and why rows are out.
+
+    ``excluded`` maps a reason ("outside the window", "not finite", "unloading ...",
+    "hold ...", "before the linear range ...", "beyond the linear range") to the mask of
+    the rows left out for it; ``flipped`` is True when y was negated by :func:`orient`.
+    """
+
+    name: str
+    x: np.ndarray
+    y: np.ndarray
+    used: np.ndarray
+    excluded: dict[str, np.ndarray] = field(default_factory=dict)
+    flipped: bool = False
+
+    @property
+    def left_out(self) -> dict[str, int]:
+        """Rows left out, counted by reason."""
+        return {reason: int(mask.sum()) for reason, mask in self.excluded.items()}
+
+    def leave_out(self, keep: np.ndarray, reason: str) -> Record:
+        """The record with the used rows outside ``keep`` left out for ``reason``."""
+        dropped = self.used & ~np.asarray(keep, dtype=bool)
+        if not dropped.any():
+            return self
+        excluded = dict(self.excluded)
+        excluded[reason] = excluded.get(reason, np.zeros(self.x.size, dtype=bool)) | dropped
+        return replace(self, used=self.used & ~dropped, excluded=excluded)
+
+    def rows_left_out(self) -> dict[str, list[list[int]]]:
+        """reason -> [first, last] data-row ranges (0-based) left out for it."""
+        out = {}
+        for reason, mask in self.excluded.items():
+            edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+            out[reason] = [[int(a), int(b) - 1] for a, b in zip(edges[::2], edges[1::2], strict=True)]
+        return out
+
+
+def record(name: str, x: np.ndarray, y: np.ndarray, window: np.ndarray) -> Record:
+    """A record with the rows outside ``window`` and the non-finite rows left out."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    rec = Record(name, x, y, np.ones(x.size, dtype=bool))
+    rec = rec.leave_out(np.asarray(window, dtype=bool), "outside the window")
+    return rec.leave_out(np.isfinite(x) & np.isfinite(y), "not finite")
+
+
+def automatic(rec: Record) -> Record:
+    """The record cut to its loading branch's linear range (:mod:`matid.fits.branch`)."""
+    idx = np.flatnonzero(rec.used)
+    for reason, mask in branch(rec.x[idx], rec.y[idx]).items():
+        keep = np.ones(rec.x.size, dtype=bool)
+        keep[idx[mask]] = False
+        rec = rec.leave_out(keep, reason)
+    idx = np.flatnonzero(rec.used)
+    if idx.size == 0:
+        return rec
+    inside = np.zeros(rec.x.size, dtype=bool)
+    inside[idx] = linear_range(rec.x[idx], rec.y[idx])
+    x0, xs = rec.x[idx[0]], rec.x[inside]
+    near = np.abs(rec.x - x0) < np.min(np.abs(xs - x0), initial=np.inf)
+    rec = rec.leave_out(inside | ~near, BEFORE)
+    return rec.leave_out(inside, BEYOND)
+
+
+def select(
+    name: str,
+    x: np.ndarray,
+    y: np.ndarray,
+    window: np.ndarray,
+    ranges: Mapping[str, tuple[float, float]],
+    *,
+    file,
+) -> Record:
+    """The rows of one file that enter a line fit.
+
+    With a ``window`` (``ranges``: the test's column -> (low, high), SI) exactly its
+    finite rows, at least LINEAR_RANGE_MIN_POINTS of them (else DataError naming the
+    window); without one, the loading branch's linear range (:func:`automatic`).
+    """
+    rec = record(name, x, y, window)
+    if not ranges:
+        if not rec.used.any():
+            raise DataError("no row with finite values", file=file)
+        return automatic(rec)
+    if rec.used.sum() < LINEAR_RANGE_MIN_POINTS:
+        text = ", ".join(f"{column} = [{lo:.6g}, {hi:.6g}]" for column, (lo, hi) in ranges.items())
+        raise DataError(
+            f"the window {{{text}}} (SI) holds {int(rec.used.sum())} rows with finite values; a line "
+            f"with an offset needs at least {LINEAR_RANGE_MIN_POINTS}: widen the window",
+            file=file,
+        )
+    return rec
+
+
+def left_out_info(records: Sequence[Record]) -> dict[str, dict[str, int]]:
+    """file -> reason -> rows left out (files with none omitted)."""
+    return {r.name: dict(r.left_out) for r in records if r.left_out}
+
+
+def rows_info(records: Sequence[Record]) -> dict[str, dict[str, list[list[int]]]]:
+    """file -> reason -> [first, last] row ranges left out (files with none omitted)."""
+    return {r.name: r.rows_left_out() for r in records if r.excluded}
+
+
+def range_info(records: Sequence[Record]) -> dict[str, list[float]]:
+    """file -> [x_min, x_max] of the rows fitted."""
+    return {r.name: [float(np.min(r.x[r.used])), float(np.max(r.x[r.used]))] for r in records if r.used.any()}

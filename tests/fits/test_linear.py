@@ -365,7 +365,7 @@ def test_a_curve_in_bending_is_cut_to_its_linear_range_and_said():
     assert est.extra["warning_kinds"] == ("little_linear",)
     assert sum(fit.info["left_out"]["c.csv"].values()) == 300 - est.n_points > 150
     first = int(np.argmax(fit.series[0].used))
-    assert fit.info["rows_left_out"]["c.csv"]["beyond the linear range"] == [[first + est.n_points, 299]]
+    assert fit.info["left_out_rows"]["c.csv"]["beyond the linear range"] == [[first + est.n_points, 299]]
 
 
 def test_a_curve_fitted_as_a_line_in_a_window_is_named_and_widened():

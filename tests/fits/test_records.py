@@ -351,3 +351,15 @@ def test_any_start_direction_tare_hold_and_return(start, direction, tare, hold, 
     assert not used[200 + hold + 1 :].any()  # the return
     if hold >= HOLD_ROWS:
         assert not used[200:].any()  # the hold
+
+
+def test_warnings_carry_their_kind():
+    """Each warning of a line fit has a machine-readable kind, in the order of the texts."""
+    phi, torque, _, L = load_return(n_up=200, n_down=0)
+    window = {"twist_angle": (0.5, 0.535)}  # 7 rows, torque recorded with the other sign
+    test = study_mod.Test("torsion", "T1", Path("k.csv"), {"length": L}, window=window)
+    table = Table(Path("k.csv"), {"twist_angle": phi[:200], "torque": -torque[:200]}, {}, {}, "")
+    est = fit_torsion([Measurement(test, table)], specimen="T1").estimate("E_t")
+    assert len(est.warnings) == len(est.extra["warning_kinds"])
+    assert est.extra["warning_kinds"][:2] == ("sign_flipped", "few_rows")
+    assert "only 7 rows are fitted" in est.warnings[1]
