@@ -69,7 +69,9 @@ def refine(q: np.ndarray, knots: np.ndarray, error: np.ndarray, tol: float) -> n
     """The knots with the distinct row nearest the middle of every interval whose error at a
     row exceeds tol added; None when no interval needs (or can take) another knot."""
     qk = q[knots]
-    interval = np.clip(np.searchsorted(qk, q, side="right") - 1, 0, max(qk.size - 2, 0))
+    if qk.size < 2:  # one distinct row: nothing between knots
+        return None
+    interval = np.clip(np.searchsorted(qk, q, side="right") - 1, 0, qk.size - 2)
     first = np.unique(q, return_index=True)[1]
     added = []
     for j in np.unique(interval[error > tol]):
