@@ -531,3 +531,56 @@ def test_long_metadata_value_is_truncated(tmp_path):
     text = "# note: " + "y" * 2_000_000 + "\n" + BEND_OK
     table = read_table(write(tmp_path, text), "three_point_bend")
     assert len(table.metadata["note"]) < 2100 and table.metadata["note"].endswith("[... truncated]")
+
+
+# --- single-spaced multi-word headers (issue 21, contract section 10) ----------------------------
+
+#: MTS Series 793 MultiPurpose TestWare "plain" specimen data file (space-delimited; its first line
+#: is MTS793|progName|language|version|iDelim (0: space)|decimal|...), as the 793 application manual
+#: describes it; channel names "Ch 1 Displacement" hold single spaces like the gaps between columns.
+MTS_PLAIN = Path(__file__).parent.parent / "corpus" / "mts793_plain_flexure.dat"
+
+
+def test_mts_plain_single_space_header_is_resolved_by_the_units_row():
+    mapping = {"deflection": "Ch 1 Displacement", "force": "Ch 1 Force"}
+    table = read_table(MTS_PLAIN, "three_point_bend", columns=mapping)
+    assert table.header_row == 4
+    assert dict(table.written) == {"deflection": "Ch 1 Displacement", "force": "Ch 1 Force", "time": "Time"}
+    assert dict(table.units) == {"deflection": "mm", "force": "kN", "time": "Sec"}
+    # The slope by hand: last and first data rows of the file, split on whitespace, mm and kN to SI.
+    rows = [line.split() for line in MTS_PLAIN.read_text().splitlines()[5:]]
+    hand = (float(rows[-1][1]) - float(rows[0][1])) * 1e3 / ((float(rows[-1][0]) - float(rows[0][0])) * 1e-3)
+    slope = np.polyfit(table["deflection"], table["force"], 1)[0]
+    assert slope == pytest.approx(hand, rel=0.02)
+    assert table.n_rows == len(rows) == 101
+
+
+@pytest.mark.parametrize(
+    ("header", "units", "names"),
+    [
+        ("Axial Force Axial Displacement Time", "N mm s", ["Axial Force", "Axial Displacement", "Time"]),
+        ("Time Axial Force Crosshead", "s N mm", ["Time", "Axial Force", "Crosshead"]),
+        ("Rotary Angle Rotary Torque", "deg N-m", ["Rotary Angle", "Rotary Torque"]),
+    ],
+)
+def test_single_spaced_names_follow_the_quantity_of_their_unit(header, units, names):
+    from matid.io.ingest.spaced import spaced_names
+
+    assert spaced_names(header.split(), len(units.split()), units.split()) == names
+
+
+def test_single_spaced_header_over_bracketed_units(tmp_path):
+    text = "Time [s] Axial Force [N] Crosshead [mm]\n0 0 0\n1 1.5 0.1\n2 3.0 0.2\n"
+    mapping = {"deflection": "Crosshead", "force": "Axial Force"}
+    table = read_table(write(tmp_path, text, "b.txt"), "three_point_bend", columns=mapping)
+    assert table.units["time"] == "s"
+    np.testing.assert_allclose(table["force"], [0, 1.5, 3.0])
+    np.testing.assert_allclose(table["deflection"], [0, 1e-4, 2e-4])
+
+
+def test_single_spaced_header_that_cannot_be_grouped_is_refused_not_guessed(tmp_path):
+    # Two unit-less 'Ch' channels: nothing tells which words belong to which name.
+    text = "Ch A Ch B Extra Word\nmm mm mm\n0 0 0\n1 1 1\n2 2 2\n"
+    path = write(tmp_path, text, "c.txt")
+    with pytest.raises(DataError, match=where(path, row=1) + "header row 1 has 6 words"):
+        read_table(path, "three_point_bend")
