@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from matid.errors import DataError
 from matid.io.ingest.read import REQUIRED, Table, load_measurements, read_table
@@ -584,3 +586,51 @@ def test_single_spaced_header_that_cannot_be_grouped_is_refused_not_guessed(tmp_
     path = write(tmp_path, text, "c.txt")
     with pytest.raises(DataError, match=where(path, row=1) + "header row 1 has 6 words"):
         read_table(path, "three_point_bend")
+
+
+# --- long records: the numbers parsed by pandas' C engine after detection ---------------------------
+
+_CELL = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e3, max_value=1e3)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    numbers=st.lists(st.tuples(_CELL, _CELL), min_size=3, max_size=30),
+    style=st.sampled_from([(",", "."), (";", ","), ("\t", "."), ("\t", ","), (" ", ".")]),
+    digits=st.sampled_from(["r", ".3f", ".17g", ".6e"]),
+)
+def test_numbers_are_the_doubles_python_reads_from_the_cells(tmp_path, numbers, style, digits):
+    delimiter, decimal = style
+    cells = [[repr(x) if digits == "r" else format(x, digits) for x in row] for row in numbers]
+    lines = [delimiter.join(c.replace(".", decimal) for c in row) for row in cells]
+    path = write(tmp_path, f"tip_angle [rad]{delimiter}torque [N m]\n" + "\n".join(lines) + "\n")
+    table = read_table(path, "magnetic_bending")
+    expected = np.array([[float(c) for c in row] for row in cells])
+    assert table["tip_angle"].tolist() == expected[:, 0].tolist()
+    assert table["torque"].tolist() == expected[:, 1].tolist()
+
+
+def test_blank_and_space_only_lines_keep_the_row_numbers_of_a_long_record(tmp_path):
+    rows = [f"{k * 0.001:.3f},{k * 0.5:.1f},{k * 1e-4:.4f}" for k in range(20_000)]
+    rows[7_000] = "   "
+    rows[12_000] = ""
+    rows[15_000] = ",,"
+    rows[18_000] = "18.000,x,1.8000"
+    path = write(tmp_path, "time [s],force [N],elongation [mm]\n" + "\n".join(rows) + "\n")
+    with pytest.raises(DataError, match=where(path, row=18_002, column="force") + "not a number: 'x'"):
+        read_table(path, "extension")
+    rows[18_000] = "18.000,9000.0,1.8000"
+    table = read_table(
+        write(tmp_path, "time [s],force [N],elongation [mm]\n" + "\n".join(rows) + "\n"), "extension"
+    )
+    assert table.n_rows == 20_000 - 3
+    assert table["force"][-1] == 19_999 * 0.5
+
+
+def test_a_record_in_utf16_with_a_bom_is_read_from_the_byte_after_its_preamble(tmp_path):
+    text = "Prüfung: T1 °C\nTime [s]\tForce [N]\tElongation [mm]\n" + "".join(
+        f"{k}\t{k},5\t0,{k:03d}\n" for k in range(1, 50)
+    )
+    table = read_table(write(tmp_path, text, encoding="utf-16"), "extension")
+    assert table.encoding == "utf-16" and table.n_rows == 49
+    np.testing.assert_array_equal(table["force"], np.arange(1, 50) + 0.5)

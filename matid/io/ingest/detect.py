@@ -27,6 +27,8 @@ DELIMITERS = ("\t", ";", ",", " ")
 DELIMITER_NAMES = {"\t": "tab", ";": "';'", ",": "','", " ": "runs of spaces"}
 #: Lines searched for the header, and preamble lines kept as metadata or text.
 MAX_PREAMBLE = 500
+#: Lines read by detection: the header's search range and the rows it looks at below a header.
+HEAD_LINES = MAX_PREAMBLE + 16
 MAX_LINES = 200
 #: Encodings charset-normalizer chooses among when a file is neither BOM-marked nor UTF-8.
 DETECTED = ["cp1252", "gb18030", "utf_16", "utf_16_le", "utf_16_be", "shift_jis"]
@@ -110,9 +112,15 @@ def _detected(raw: bytes) -> tuple[str, str]:
     return raw.decode("latin-1"), "latin-1"
 
 
-def lines_of(text: str) -> list[str]:
+def lines_of(text: str, limit: int | None = None) -> list[str]:
     """Lines split on line breaks only (``str.splitlines`` would also split on \\x0c, \\x85, ...
-    and shift the row numbers from what an editor shows); trailing blank lines dropped."""
+    and shift the row numbers from what an editor shows); trailing blank lines dropped.
+    With ``limit``, only the first ``limit`` lines (the head that layout detection reads)."""
+    if limit is not None:
+        for k, match in enumerate(_LINE_BREAK.finditer(text), start=1):
+            if k == limit:
+                text = text[: match.start()]
+                break
     lines = _LINE_BREAK.split(text)
     while lines and not lines[-1].strip():
         lines.pop()

@@ -55,7 +55,8 @@ QUANTITY_WORDS: dict[str, frozenset[str]] = {
     "strain": frozenset({"strain"}),
     "field": frozenset({"field", "flux", "induction"}),
 }
-_BRACKETED = re.compile(r".*[\[(][^\[\]()]*[\])]$")
+#: A name followed by its bracketed unit, which may hold spaces (``Torque [N m]``).
+_BRACKETED = re.compile(r"\S[^\[\]()]*?[\[(][^\[\]()]*[\])]")
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
 
 
@@ -80,10 +81,9 @@ def spaced_names(words: list[str], n: int, units: list[str] | None) -> list[str]
     if len(words) < n or n < 1:
         return None
     if units is None or len(units) != n:
-        ends = [i for i, w in enumerate(words) if _BRACKETED.match(w)]
-        if len(ends) != n or ends[-1] != len(words) - 1:
-            return None
-        return [" ".join(words[a + 1 : b + 1]) for a, b in zip([-1, *ends[:-1]], ends, strict=True)]
+        found = _BRACKETED.findall(" ".join(words))
+        same = "".join(found).replace(" ", "") == "".join(words)
+        return [f.strip() for f in found] if len(found) == n and same else None
     if math.comb(len(words) - 1, n - 1) > MAX_CUTS:
         return None
     kinds = [kinds_of(u) for u in units]
