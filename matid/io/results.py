@@ -62,11 +62,14 @@ class Estimate:
     method: str  # "sls", "linear", "cosserat-fe", "shear-coefficient", "fixed"
     warnings: tuple[str, ...] = ()
     extra: Mapping[str, object] = field(default_factory=dict, hash=False)
+    #: Why no value can be given, and what to measure instead ("": a value is given). A withheld
+    #: estimate's value is NaN and never printed (status ``not_identifiable``, contract section 10).
+    withheld: str = ""
 
     def __post_init__(self) -> None:
         if self.parameter not in PARAMETER_KINDS:
             raise ValueError(f"unknown parameter {self.parameter!r}")
-        if not math.isfinite(self.value):
+        if not math.isfinite(self.value) and not self.withheld:
             raise ValueError(f"{self.parameter}: value is not finite ({self.value})")
 
     @property
