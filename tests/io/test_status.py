@@ -8,6 +8,7 @@ import dataclasses
 import io
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import openpyxl
@@ -20,6 +21,7 @@ from matid.io.results import CSV_COLUMNS, Estimate, TestFit, stiffness_csv, stif
 from matid.io.status import INSEPARABLE_R, STRONG_R, Status, status
 from matid.io.study import load_study
 from matid.io.xlsx import stiffness_xlsx
+from matid.physics.moduli import Section, modulus
 from tests.app.test_cli import small_study
 
 
@@ -176,3 +178,46 @@ def test_a_check_status_whose_reason_is_no_warning_adds_it_to_the_warnings(slit)
     rows = {r["parameter"]: r for r in csv.DictReader(io.StringIO(stiffness_csv(result)))}
     assert rows["sls_eta"]["status"] == "check"
     assert "strongly correlated with sls_k1 (r = -0.970)" in rows["sls_eta"]["warnings"]
+
+
+# --- a second lab's slit-tube torsion record (corpus) -----------------------------------------------
+
+SLIT_RECORD = Path(__file__).parent.parent / "corpus" / "bluehill_slit_torsion.csv"
+SLIT_STUDY = f"""
+[study]
+name = "slit tube, second lab"
+
+[[specimen]]
+id = "S2"
+outer_diameter = "2.4 mm"
+inner_diameter = "1.6 mm"
+slit = true
+
+[[test]]
+kind = "torsion"
+specimen = "S2"
+file = "{SLIT_RECORD.as_posix()}"
+length = "60 mm"
+columns = {{ twist_angle = "Rotation", torque = "Torque" }}
+"""
+
+
+def test_slit_tube_record_gives_G_of_the_open_wall_and_no_E_s_torsion(tmp_path):
+    """G by hand: the slope of the record's last and first rows (csv module, deg and N.mm to SI)
+    times the gauge length, over the thin open wall's J = (1/3) 2 pi R_m t^3."""
+    (tmp_path / "study.toml").write_text(SLIT_STUDY)
+    study = load_study(tmp_path)
+    result = pipeline.run_study(study)
+    rows = [r for r in csv.reader(SLIT_RECORD.read_text().splitlines()[8:]) if r]
+    (_, a0, q0), (_, a1, q1) = rows[0], rows[-1]
+    slope = (float(q1) - float(q0)) * 1e-3 / math.radians(float(a1) - float(a0))
+    R_m, t = 1.0e-3, 0.4e-3
+    G_hand = slope * 60e-3 / (2 * math.pi * R_m * t**3 / 3)
+    E_t = next(f for f in result.fits if f.kind == "torsion").estimate("E_t")
+    G = modulus("E_t", E_t.value, E_t.stderr, section=study.specimen("S2").section)
+    assert G.value == pytest.approx(G_hand, rel=0.02)
+    closed = modulus("E_t", E_t.value, E_t.stderr, section=Section("tube", 2.4e-3, 1.6e-3))
+    assert closed.value < G.value / 10  # the closed-tube J would make G ~13x too small
+    table = {r["parameter"]: r for r in csv.DictReader(io.StringIO(stiffness_csv(result)))}
+    assert table["E_t"]["status"] == "ok"
+    assert table["E_s_torsion"]["status"] == "not_identifiable" and table["E_s_torsion"]["value"] == ""

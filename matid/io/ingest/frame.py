@@ -22,13 +22,16 @@ import io
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from matid.errors import DataError
 from matid.io.ingest.detect import Layout, number, split
 from matid.io.study import bounded_text
+
+if TYPE_CHECKING:  # pandas is imported when a record is read, so `import matid` stays light
+    import pandas as pd
 
 #: Codec that reads the file from its middle (no byte-order mark there), by the BOM at its start.
 _TAIL_CODECS = (
@@ -75,6 +78,8 @@ def locate(raw: bytes, text: str, layout: Layout) -> Start:
 
 def read_rows(raw: bytes, start: Start, layout: Layout, path: Path) -> Rows:
     """Parse the data rows of ``raw`` from ``start`` with pandas' C engine."""
+    import pandas as pd
+
     buffer = io.BytesIO(raw)  # shares raw's bytes; no copy of a long record
     buffer.seek(start.offset)
     try:
@@ -104,6 +109,8 @@ def read_rows(raw: bytes, start: Start, layout: Layout, path: Path) -> Rows:
 
 def _blank_as_na(series: pd.Series) -> pd.Series:
     """A text column with cells of spaces only as missing (a line of spaces is a blank row)."""
+    import pandas as pd
+
     if pd.api.types.is_numeric_dtype(series):
         return series
     text = series.astype("string").str.strip()
@@ -113,6 +120,8 @@ def _blank_as_na(series: pd.Series) -> pd.Series:
 def column(rows: Rows, index: int, name: str, *, required: bool) -> np.ndarray | None:
     """Column ``index`` as floats; a bad cell of a ``required`` column raises a DataError at its row,
     another column with a bad cell is None (dropped)."""
+    import pandas as pd
+
     frame = rows.frame
     series = frame[index] if index in frame.columns else pd.Series(np.nan, index=frame.index)
     if not pd.api.types.is_numeric_dtype(series):
