@@ -634,3 +634,17 @@ def test_a_record_in_utf16_with_a_bom_is_read_from_the_byte_after_its_preamble(t
     table = read_table(write(tmp_path, text, encoding="utf-16"), "extension")
     assert table.encoding == "utf-16" and table.n_rows == 49
     np.testing.assert_array_equal(table["force"], np.arange(1, 50) + 0.5)
+
+
+def test_rows_of_unequal_length_are_parsed_again_and_checked_like_a_short_file(tmp_path):
+    """pandas sizes a parse by its first row: a short first row or a trailing delimiter on some rows
+    only are parsed again as wide as the widest row; a row with more cells than the header is named."""
+    head = "time [s],force [N],strain [%]\n"
+    table = read_table(write(tmp_path, head + "0,0,0\n1,1,1,\n2,2,2\n"), "extension")
+    np.testing.assert_array_equal(table["force"], [0, 1, 2])
+    path = write(tmp_path, head + "0,0\n1,1,1\n2,2,2\n", "short.csv")
+    with pytest.raises(DataError, match=where(path, row=2) + "row has 2 cells, header has 3"):
+        read_table(path, "extension")
+    path = write(tmp_path, head + "0,0,0\n1,1,1,,,,\n2,2,2\n3,3,3,4\n", "wide.csv")
+    with pytest.raises(DataError, match=where(path, row=5) + "row has 4 cells, header has 3"):
+        read_table(path, "extension")

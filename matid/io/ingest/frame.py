@@ -77,25 +77,20 @@ def locate(raw: bytes, text: str, layout: Layout) -> Start:
 
 
 def read_rows(raw: bytes, start: Start, layout: Layout, path: Path) -> Rows:
-    """Parse the data rows of ``raw`` from ``start`` with pandas' C engine."""
+    """Parse the data rows of ``raw`` from ``start`` with pandas' C engine.
+
+    Rows of unequal length (a short first row, a trailing delimiter on some rows) are parsed
+    again with as many columns as the longest row has fields, after checking that no row holds
+    more cells than the header.
+    """
     import pandas as pd
 
-    buffer = io.BytesIO(raw)  # shares raw's bytes; no copy of a long record
-    buffer.seek(start.offset)
     try:
-        frame = pd.read_csv(
-            buffer,
-            sep=r"\s+" if layout.delimiter == " " else layout.delimiter,
-            header=None,
-            engine="c",
-            encoding=_tail_codec(raw, layout.encoding)[0],
-            decimal=start.decimal,
-            skip_blank_lines=False,
-            quotechar='"',
-        )
-    except pd.errors.EmptyDataError:
-        frame = pd.DataFrame()
-    except (pd.errors.ParserError, UnicodeDecodeError, ValueError):
+        frame = _parse(raw, start, layout, None)
+    except pd.errors.ParserError:
+        _first_bad_row(raw, layout, path)
+        frame = _parse(raw, start, layout, _widest(raw, layout))
+    except (UnicodeDecodeError, ValueError):
         _first_bad_row(raw, layout, path)
         raise
     if not all(pd.api.types.is_numeric_dtype(t) for t in frame.dtypes):
@@ -105,6 +100,38 @@ def read_rows(raw: bytes, start: Start, layout: Layout, path: Path) -> Rows:
         frame = frame[~blank]
     lines = frame.index + (layout.data_at + 1)  # a RangeIndex (no memory) when no row was blank
     return Rows(_check_width(frame, lines, raw, layout, path), lines, raw, layout, path)
+
+
+def _parse(raw: bytes, start: Start, layout: Layout, width: int | None) -> pd.DataFrame:
+    """``pandas.read_csv(engine="c")`` of the bytes from ``start``; ``width`` columns when given."""
+    import pandas as pd
+
+    buffer = io.BytesIO(raw)  # shares raw's bytes; no copy of a long record
+    buffer.seek(start.offset)
+    try:
+        return pd.read_csv(
+            buffer,
+            sep=r"\s+" if layout.delimiter == " " else layout.delimiter,
+            header=None,
+            names=None if width is None else range(width),
+            index_col=None if width is None else False,
+            engine="c",
+            encoding=_tail_codec(raw, layout.encoding)[0],
+            decimal=start.decimal,
+            skip_blank_lines=False,
+            quotechar='"',
+        )
+    except pd.errors.EmptyDataError:
+        return pd.DataFrame()
+
+
+def _widest(raw: bytes, layout: Layout) -> int:
+    """An upper bound of the fields of any data row (delimiters + 1, empty trailing cells counted)."""
+    text = raw.decode(layout.encoding, errors="replace")
+    rows = _LINE_BREAK.split(text[_line_start(text, layout.data_at) :])
+    if layout.delimiter == " ":
+        return max((len(r.split()) for r in rows), default=1)
+    return max((r.count(layout.delimiter) + 1 for r in rows), default=1)
 
 
 def _blank_as_na(series: pd.Series) -> pd.Series:
