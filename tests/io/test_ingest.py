@@ -648,3 +648,25 @@ def test_rows_of_unequal_length_are_parsed_again_and_checked_like_a_short_file(t
     path = write(tmp_path, head + "0,0,0\n1,1,1,,,,\n2,2,2\n3,3,3,4\n", "wide.csv")
     with pytest.raises(DataError, match=where(path, row=5) + "row has 4 cells, header has 3"):
         read_table(path, "extension")
+
+
+_HEADS = [("Time", "s"), ("Elapsed Time", "min"), ("Force", "kN"), ("Load", "N"), ("Displacement", "mm"),
+          ("Crosshead", "mm"), ("Rotation", "deg"), ("Angle", "rad"), ("Torque", "N-m"),
+          ("Strain", "%")]  # fmt: skip
+_QUALIFIERS = ["", "Axial", "Ch 1", "Ch 2", "Rotary", "Specimen", "Cell"]
+
+
+@given(
+    st.lists(
+        st.tuples(st.sampled_from(_QUALIFIERS), st.sampled_from(_HEADS)), min_size=2, max_size=5, unique=True
+    )
+)
+def test_single_spaced_names_qualifier_then_head_noun_are_recovered(columns):
+    """Names written as a qualifier and the noun of their quantity (how channel names read) over
+    their units: the words are cut back into exactly those names."""
+    from matid.io.ingest.spaced import spaced_names
+
+    names = [f"{q} {head}".strip() for q, (head, _) in columns]
+    units = [unit for _, (_, unit) in columns]
+    words = " ".join(names).split()
+    assert spaced_names(words, len(names), units) == names

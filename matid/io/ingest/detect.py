@@ -190,8 +190,7 @@ def header_names(lines: list[str], h: int, units_at: int | None, delimiter: str,
     if resolved is None and units is not None and len(units) == n and _units_like(units, n):
         raise Ambiguous(
             f"header row {h + 1} has {len(cells)} words separated by single spaces over {n} units; "
-            "the names cannot be told apart: export with tab or ',' delimiters, or name the "
-            "columns with columns = { ... } after re-exporting"
+            "the names cannot be told apart by their units: export with tab or ',' delimiters"
         )
     return cells if resolved is None else resolved
 

@@ -28,9 +28,10 @@ from itertools import combinations
 
 #: Largest number of cuttings tried (a longer header is not resolved).
 MAX_CUTS = 20_000
-#: Words that name a quantity, by the quantity kind of the unit under them (lowercase).
+#: Words that name a quantity (head nouns, not qualifiers like "Rotary", "Tip", "Elapsed"), by the
+#: quantity kind of the unit under them (lowercase).
 QUANTITY_WORDS: dict[str, frozenset[str]] = {
-    "time": frozenset({"time", "elapsed", "sec", "seconds", "running"}),
+    "time": frozenset({"time", "sec", "seconds"}),
     "length": frozenset(
         {
             "displacement",
@@ -46,11 +47,10 @@ QUANTITY_WORDS: dict[str, frozenset[str]] = {
             "lvdt",
             "length",
             "deformation",
-            "gauge",
         }
     ),  # fmt: skip
     "force": frozenset({"force", "load"}),
-    "angle": frozenset({"angle", "rotation", "twist", "rotary", "angular", "tip"}),
+    "angle": frozenset({"angle", "rotation", "twist"}),
     "torque": frozenset({"torque", "moment"}),
     "strain": frozenset({"strain"}),
     "field": frozenset({"field", "flux", "induction"}),
