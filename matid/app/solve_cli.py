@@ -9,8 +9,6 @@ import: the solver, pint and matplotlib load when a command runs.
 from __future__ import annotations
 
 import argparse
-import contextlib
-import os
 import sys
 from pathlib import Path
 

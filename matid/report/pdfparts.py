@@ -122,37 +122,9 @@ class Heading(Paragraph):
 
     def draw(self) -> None:
         if self.key is not None:
-            outline_entry(self.canv, self.title, self.key, self.level, self.height)
+            self.canv.bookmarkHorizontal(self.key, 0, self.height)
+            self.canv.addOutlineEntry(self.title, self.key, level=self.level, closed=False)
         super().draw()
-
-    def split(self, availWidth: float, availHeight: float) -> list:
-        """A heading taller than the space left (a very long study name) splits as a plain
-        paragraph (platypus rebuilds split parts by the class's constructor); its outline entry
-        stays with the first part."""
-        parts = Paragraph(self.text, self.style).split(availWidth, availHeight)
-        if parts and self.key is not None:
-            return [OutlineMark(self.title, self.key, self.level), *parts]
-        return parts
-
-
-def outline_entry(canv, title: str, key: str, level: int, height: float) -> None:
-    """A bookmark at the top of a flowable and its entry in the PDF outline."""
-    canv.bookmarkHorizontal(key, 0, height)
-    canv.addOutlineEntry(title, key, level=level, closed=False)
-
-
-class OutlineMark(Flowable):
-    """An outline entry without text (the first part of a split :class:`Heading`)."""
-
-    def __init__(self, title: str, key: str, level: int) -> None:
-        super().__init__()
-        self.title, self.key, self.level = title, key, level
-
-    def wrap(self, availWidth: float, availHeight: float) -> tuple[float, float]:
-        return 0.0, 0.0
-
-    def draw(self) -> None:
-        outline_entry(self.canv, self.title, self.key, self.level, 0.0)
 
 
 def heading(text: str, size: float, *, key: str | None = None, level: int = 0) -> Heading:
