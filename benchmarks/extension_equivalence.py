@@ -21,6 +21,13 @@ and warnings, correlations within 1e-4; it prints the worst difference of each k
 Measured 2026-11-23, lmfit 1.3.4 (commit 44616b7) against the scipy.optimize port (branch
 nolmfit): 57 fits, same calls, errors, methods and warnings; worst differences value 0,
 stderr 0, t and t-log intervals 0, profile interval 1.2e-12 of its width, correlation 3e-16.
+
+Measured 2026-11-26, back on lmfit 1.3.4 (branch lmfit) against the lmfit era (74c4d56,
+dumped with this script's TESTS of that layout): 57 common fits bit-identical (value,
+stderr, t, t-log and profile intervals, correlations: worst difference 0). The era has
+no record of one newer test, and "extra exact" differs from the era at 1747a33 already
+(9c8ca1c: the difference noise's fallback). Test records are keyed by file name and test
+(``_test_key``), so dumps from before and after the layout of style.md pair up.
 """
 
 from __future__ import annotations

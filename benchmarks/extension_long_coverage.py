@@ -6,6 +6,10 @@ Each trial: one ramp (4 s) and hold of ``rows`` rows at 0.5 s (default 6000: abo
 solve_ivp of a standard linear solid (k1 = 40 N, k2 = 25 N, tau = 10 s) and of a 2-arm
 Prony solid (tests/fits/extension/relaxation.py), AR(1) noise phi = 0.8, sd 4 mN. Prints,
 per parameter, the share of trials whose 95 % interval holds the true value.
+
+Measured 2026-11-26 (branch lmfit, load ~13 on 2 cores), 40 trials of 6000 rows: SLS
+sls_k1 38/40, sls_k2 39/40, sls_eta 37/40 (3.1 s per fit); 2-arm Prony prony_k0 37/40,
+prony_k1 39/40, prony_tau1 38/40, prony_k2 37/40, prony_tau2 36/40 (1.5 s per fit).
 """
 
 from __future__ import annotations

@@ -9,12 +9,22 @@ module attribute is wrapped before the pipeline imports it) and of the whole
 ``run_study``. ``long N DT CHECKOUT`` times ``matid fit`` (reading, fits, report: the
 user's wall time) on a ramp + hold relaxation of N rows at step DT written by
 tests/fits/extension/relaxation.py (a solve_ivp record in an Instron Bluehill export).
+
+Measured 2026-11-26 on 2 cores at load 11-13 (shared machine), old = 1747a33 (scipy
+port, no lmfit), new = branch lmfit:
+
+- demo, best of 5 interleaved: extension fits CPU 0.52 s old, 0.68 s new (wall 1.62 /
+  2.05 s); lmfit's overhead per Minimizer and Parameters copy (asteval, deepcopy).
+- ``long 90000 0.05``: new exit 0, 27.7 s and 24.7 s wall, 6.8 s and 7.1 s CPU (fits on
+  bin means, report included); old exit 3 (KeyError 'time') after 137.6 s wall, 34.3 s
+  CPU.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -75,7 +85,7 @@ def long(n: int, dt: float, checkout: str) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         study = make_study(Path(tmp) / "study", n=n, dt=dt)
         env = {**os.environ, "PYTHONPATH": checkout}
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
         done = subprocess.run(
             [sys.executable, "-m", "matid", "fit", str(study), "--out", str(Path(tmp) / "out"), "--quiet"],
             cwd=checkout,
@@ -84,7 +94,11 @@ def long(n: int, dt: float, checkout: str) -> None:
             text=True,
         )
         wall = time.perf_counter() - start
-    print(f"matid fit on {n} rows: exit {done.returncode}, wall {wall:.1f} s, load {os.getloadavg()[0]:.1f}")
+        used = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu_s = used.ru_utime + used.ru_stime - cpu.ru_utime - cpu.ru_stime
+    load = os.getloadavg()[0]
+    print(f"matid fit on {n} rows: exit {done.returncode}, wall {wall:.1f} s, cpu {cpu_s:.1f} s", end="")
+    print(f", load {load:.1f}")
     if done.returncode:
         print(done.stderr[-2000:])
 

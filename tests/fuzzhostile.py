@@ -16,8 +16,8 @@ starting with a formula lead or an XLSX sheet holds a formula (``<f>``), when a 
 outside the study was read, and, for signals, when the run does not end within
 :data:`STOP_S` of the signal, exits with a code other than 0-2, 130, 143 or by the signal,
 leaves a process of its session alive :data:`STOP_S` later, changes its output folder
-after the signal (or, for a killed parent, after its death), or leaves a study's folder
-half-written.
+after the signal (or, for a killed parent, after its death; compared with a snapshot taken
+as soon as the signal is sent), or leaves a study's folder half-written.
 """
 
 from __future__ import annotations
@@ -116,6 +116,13 @@ def _number(text: str) -> bool:
     return True
 
 
+def _default_sigint() -> None:
+    """In the child: SIGINT as a terminal sends it. A shell without job control starts a background
+    job with SIGINT ignored, and Python then installs no KeyboardInterrupt handler: a fuzz run started
+    with ``&`` would find every SIGINT ignored."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def run_signalled(argv: list[str], out: Path, sig: int, *, after: float | None = None,
                   on_publish: bool = False, batch: bool = False) -> dict:  # fmt: skip
     # batch: ``out`` holds study folders (each checked whole); else the caller checks ``out`` itself
@@ -124,7 +131,8 @@ def run_signalled(argv: list[str], out: Path, sig: int, *, after: float | None =
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     clock = time.monotonic()
     proc = subprocess.Popen([sys.executable, "-m", "matid", *argv], cwd=ROOT, env=env, start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            preexec_fn=_default_sigint)  # fmt: skip
     first = snapshot(out)
     while proc.poll() is None and time.monotonic() - clock < 600:
         if (after is not None and time.monotonic() - clock >= after) or (
@@ -133,9 +141,9 @@ def run_signalled(argv: list[str], out: Path, sig: int, *, after: float | None =
             break
         time.sleep(0.02)
     sent = proc.poll() is None
-    before = snapshot(out)
     if sent:
         proc.send_signal(sig)
+    before = snapshot(out)  # right after the signal: a publication the signal found half-way may land
     try:
         code: int | str = proc.wait(STOP_S if sent else 600)
     except subprocess.TimeoutExpired:

@@ -9,6 +9,7 @@ import: the solver, pint and matplotlib load when a command runs.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from matid.app.options import _common, _fraction, _positive_int
@@ -79,6 +80,8 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     atomic_write(json_path, doc)
     atomic_write(png_path, png)
     print(solve_summary(sol))
+    for warning in sol.extra.get("warnings", []):
+        print(f"warning: {warning}", file=sys.stderr)
     if not args.quiet:
         print(f"outputs:\n  {json_path}\n  {png_path}")
     return 0
@@ -99,6 +102,9 @@ def solve_summary(sol) -> str:
     else:
         x, y, z = (v * 1e3 for v in sol.tip["position"])
         what = f"tip at ({x:.6g}, {y:.6g}, {z:.6g}) mm"
+        if "aim" in sol.extra:
+            B = ", ".join(f"{b * 1e3:.6g}" for b in sol.scene.loads.B)
+            what += f"; aimed: B = ({B}) mT, tip {sol.extra['aim']['tip_direction_error_rad']:.2g} rad off"
     return (
         f"{sol.scene.kind}: {sol.model} model, {sol.elements} {sol.element} elements: {what}; "
         f"{sol.newton_iterations} Newton iterations, {sol.runtime_s:.3g} s"

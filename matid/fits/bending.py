@@ -23,7 +23,7 @@ import numpy as np
 import scipy.stats
 
 from matid.errors import DataError, FitError
-from matid.fits import linear
+from matid.fits import branch, linear
 from matid.io.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
@@ -63,14 +63,14 @@ def bending_torque(table: Table, test: Test) -> np.ndarray:
     return magnet_torque(moment, table["field"], table["field_angle"], table["tip_angle"])
 
 
-def _record(m: Measurement) -> tuple[linear.Record, float]:
+def _record(m: Measurement) -> tuple[branch.Record, float]:
     """The file's fitted rows of x = tip_angle / free_length [rad/m], y = torque [N m], and L."""
     if "tip_angle" not in m.table:
         raise DataError("magnetic bending needs a 'tip_angle' column", file=m.table.path)
     length = float(m.test.params["free_length"])
     x = np.asarray(m.table["tip_angle"], dtype=float) / length
     y = bending_torque(m.table, m.test)
-    return linear.select(m.table.path.name, x, y, m.in_window(), m.test.window, file=m.table.path), length
+    return branch.select(m.table.path.name, x, y, m.in_window(), m.test.window, file=m.table.path), length
 
 
 def _per_length(records, lengths) -> tuple[dict[str, dict[str, float]], float | None]:
@@ -132,9 +132,9 @@ def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
             "free_lengths_m": sorted(set(lengths)),
             "r2": linear.r2(records, fit),
             "per_length_slopes": per_length,
-            "fitted_x_range": linear.range_info(records),
-            "left_out": linear.left_out_info(records),
-            "rows_left_out": linear.rows_info(records),
+            "fitted_x_range": branch.range_info(records),
+            "left_out": branch.left_out_info(records),
+            "left_out_rows": branch.rows_info(records),
             "sign_flipped": [r.name for r in records if r.flipped],
             **fit.info(),
         },

@@ -25,18 +25,30 @@ such a line describes; they are found in two steps, each row left out with its r
    b. Otherwise the onsets of departure at either end by segmented regression,
       ``y = c + a u + b_lo min(u - u_lo, 0)^2 + b_hi max(u - u_hi, 0)^2`` (C^1 departures:
       toe, backlash or tare below u_lo; yield, softening or stiffening above u_hi), u_lo
-      and u_hi by alternating scans of least residual sum of squares; a side whose term
-      is not significant (the same corrected F-test) stays at the end of the data. It
-      uses the shape of the whole curve, unlike window tests that admit rows past an onset.
+      and u_hi by alternating scans of least residual sum of squares (started from either
+      end, the better kept); a side whose term is not significant (the same corrected
+      F-test, at alpha / candidates: the onset is the best of many) stays at the end of
+      the data, and so does the start's side when it would hold more than ``TOE_SHARE``
+      of the rows (a curve bent from the start, not a toe). It uses the shape of the
+      whole curve, unlike window tests that admit rows past an onset.
    c. While curvature is still significant inside, the end whose removal leaves the
-      straighter stretch (larger p) is trimmed, down to ``min_points``.
+      straighter stretch (p larger by ``TRIM_PREFERENCE``) is trimmed, else the end away
+      from the first recorded row, down to ``min_points``.
+
+:func:`select` applies this to one file, or, when its test has a ``window``, takes
+exactly the window's rows instead (docs/contract.md section 10); a :class:`Record`
+keeps the mask of the rows left out for each reason, for the report.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
 import numpy as np
 import scipy.stats
 
+from matid.errors import DataError
 from matid.fits import stats
 
 #: Significance level of the curvature and onset tests.
@@ -179,18 +191,44 @@ def _rss(design: np.ndarray, y: np.ndarray) -> float:
     return float(np.sum((y - design @ coef) ** 2))
 
 
-def _onsets(u: np.ndarray, y: np.ndarray, order: np.ndarray, *, alpha: float, min_points: int, windows: int):
-    """(lo, hi) indices into the sorted u of the departures' onsets (module docstring, step b)."""
+def _descent(
+    u: np.ndarray, y: np.ndarray, lo: int, hi: int, *, high_first: bool, min_points: int, windows: int
+):
+    """Alternating scans of the onsets from (lo, hi), the upper one first or the lower one."""
     n = u.size
-    lo, hi = 0, n - 1
-    for _ in range(3):
-        his = np.unique(np.linspace(lo + min_points - 1, n - 1, min(n, windows)).astype(int))
-        hi = int(his[np.argmin([_rss(_hinges(u, u[lo], u[k]), y) for k in his])])
-        los = np.unique(np.linspace(0, hi - min_points + 1, min(n, windows)).astype(int))
-        lo = int(los[np.argmin([_rss(_hinges(u, u[k], u[hi]), y) for k in los])])
+    for k in range(6):
+        if (k % 2 == 0) == high_first:
+            his = np.unique(np.linspace(lo + min_points - 1, n - 1, min(n, windows)).astype(int))
+            hi = int(his[np.argmin([_rss(_hinges(u, u[lo], u[j]), y) for j in his])])
+        else:
+            los = np.unique(np.linspace(0, hi - min_points + 1, min(n, windows)).astype(int))
+            lo = int(los[np.argmin([_rss(_hinges(u, u[j], u[hi]), y) for j in los])])
+    return lo, hi
+
+
+def _onsets(u: np.ndarray, y: np.ndarray, order: np.ndarray, *, alpha: float, min_points: int, windows: int):
+    """(lo, hi) indices into the sorted u of the departures' onsets (module docstring, step b).
+
+    The scans start from either end (a one-sided hinge at the far end is a quadratic over
+    all the data and would trap a descent that began there); the better pair is kept.
+    """
+    n = u.size
+    pairs = [
+        _descent(u, y, 0, n - 1, high_first=first, min_points=min_points, windows=windows)
+        for first in (True, False)
+    ]
+    lo, hi = min(pairs, key=lambda p: _rss(_hinges(u, u[p[0]], u[p[1]]), y))
     full, noise = _hinges(u, u[lo], u[hi]), _noise_factor(u, y, order)
-    low = _extra_p(full[:, [0, 1, 3]], full, y, noise) < alpha
-    high = _extra_p(full[:, [0, 1, 2]], full, y, noise) < alpha
+    # each onset is the best of up to ``windows`` candidates: Bonferroni, or noise makes a side
+    strict = alpha / min(n, windows)
+    low = _extra_p(full[:, [0, 1, 3]], full, y, noise) < strict
+    high = _extra_p(full[:, [0, 1, 2]], full, y, noise) < strict
+    # a toe is a small part at the start of loading; "most of the record before the line"
+    # is a curve bent from the start, whose linear range trimming then finds at the start
+    if np.argmin(order) < n / 2:
+        low &= lo <= TOE_SHARE * n
+    else:
+        high &= hi >= (1.0 - TOE_SHARE) * n
     return (lo if low else 0), (hi if high else n - 1)
 
 
@@ -198,14 +236,29 @@ def _p(u, y, order, lo: int, hi: int) -> float:
     return _curvature_p(u[lo : hi + 1], y[lo : hi + 1], order[lo : hi + 1])
 
 
+#: At most this share of the loading rows may lie before the linear range on the start's side.
+TOE_SHARE = 0.5
+#: Trimming removes the end nearer the record's start only when that is this much straighter.
+TRIM_PREFERENCE = 10.0
+
+
 def _trim(
     u: np.ndarray, y: np.ndarray, order: np.ndarray, lo: int, hi: int, *, alpha: float, min_points: int
 ):
-    """Trim the end whose removal leaves the straighter stretch until no curvature is left."""
+    """Trim the end whose removal leaves the straighter stretch until no curvature is left.
+
+    When neither end is clearly straighter (a curve bent alike everywhere), the end away
+    from the first recorded row goes: the stiffness is the one at the start of loading.
+    """
+    first = int(np.argmin(order))  # the first recorded row, in the sorted order
     while hi - lo + 1 > min_points and _p(u, y, order, lo, hi) < alpha:
         step = min(max(1, (hi - lo + 1) // 50), hi - lo + 1 - min_points)
         left, right = _p(u, y, order, lo + step, hi), _p(u, y, order, lo, hi - step)
-        lo, hi = (lo + step, hi) if left > right else (lo, hi - step)
+        if abs(first - lo) <= abs(first - hi):  # the start is at the low end: keep it
+            trim_left = left > TRIM_PREFERENCE * right
+        else:
+            trim_left = TRIM_PREFERENCE * left >= right
+        lo, hi = (lo + step, hi) if trim_left else (lo, hi - step)
     return lo, hi
 
 
@@ -258,3 +311,116 @@ def departure(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float]:
     design = _hinges(u, -np.inf, hi)[:, [0, 1, 3]]
     coef, *_ = np.linalg.lstsq(design, y[ok], rcond=None)
     return mask, float(np.sign(coef[2]))
+
+
+# --------------------------------------------------------------------------- records
+
+
+@dataclass(frozen=True)
+class Record:
+    """One file of a linear test: x and y of every row, the rows used, and why rows are out.
+
+    ``excluded`` maps a reason ("outside the window", "not finite", "unloading ...",
+    "hold ...", "before the linear range ...", "beyond the linear range") to the mask of
+    the rows left out for it; ``flipped`` is True when y was negated by :func:`orient`.
+    """
+
+    name: str
+    x: np.ndarray
+    y: np.ndarray
+    used: np.ndarray
+    excluded: dict[str, np.ndarray] = field(default_factory=dict)
+    flipped: bool = False
+
+    @property
+    def left_out(self) -> dict[str, int]:
+        """Rows left out, counted by reason."""
+        return {reason: int(mask.sum()) for reason, mask in self.excluded.items()}
+
+    def leave_out(self, keep: np.ndarray, reason: str) -> Record:
+        """The record with the used rows outside ``keep`` left out for ``reason``."""
+        dropped = self.used & ~np.asarray(keep, dtype=bool)
+        if not dropped.any():
+            return self
+        excluded = dict(self.excluded)
+        excluded[reason] = excluded.get(reason, np.zeros(self.x.size, dtype=bool)) | dropped
+        return replace(self, used=self.used & ~dropped, excluded=excluded)
+
+    def rows_left_out(self) -> dict[str, list[list[int]]]:
+        """reason -> [first, last] data-row ranges (0-based) left out for it."""
+        out = {}
+        for reason, mask in self.excluded.items():
+            edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+            out[reason] = [[int(a), int(b) - 1] for a, b in zip(edges[::2], edges[1::2], strict=True)]
+        return out
+
+
+def record(name: str, x: np.ndarray, y: np.ndarray, window: np.ndarray) -> Record:
+    """A record with the rows outside ``window`` and the non-finite rows left out."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    rec = Record(name, x, y, np.ones(x.size, dtype=bool))
+    rec = rec.leave_out(np.asarray(window, dtype=bool), "outside the window")
+    return rec.leave_out(np.isfinite(x) & np.isfinite(y), "not finite")
+
+
+def automatic(rec: Record) -> Record:
+    """The record cut to its loading branch's linear range (:mod:`matid.fits.branch`)."""
+    idx = np.flatnonzero(rec.used)
+    for reason, mask in branch(rec.x[idx], rec.y[idx]).items():
+        keep = np.ones(rec.x.size, dtype=bool)
+        keep[idx[mask]] = False
+        rec = rec.leave_out(keep, reason)
+    idx = np.flatnonzero(rec.used)
+    if idx.size == 0:
+        return rec
+    inside = np.zeros(rec.x.size, dtype=bool)
+    inside[idx] = linear_range(rec.x[idx], rec.y[idx])
+    x0, xs = rec.x[idx[0]], rec.x[inside]
+    near = np.abs(rec.x - x0) < np.min(np.abs(xs - x0), initial=np.inf)
+    rec = rec.leave_out(inside | ~near, BEFORE)
+    return rec.leave_out(inside, BEYOND)
+
+
+def select(
+    name: str,
+    x: np.ndarray,
+    y: np.ndarray,
+    window: np.ndarray,
+    ranges: Mapping[str, tuple[float, float]],
+    *,
+    file,
+) -> Record:
+    """The rows of one file that enter a line fit.
+
+    With a ``window`` (``ranges``: the test's column -> (low, high), SI) exactly its
+    finite rows, at least LINEAR_RANGE_MIN_POINTS of them (else DataError naming the
+    window); without one, the loading branch's linear range (:func:`automatic`).
+    """
+    rec = record(name, x, y, window)
+    if not ranges:
+        if not rec.used.any():
+            raise DataError("no row with finite values", file=file)
+        return automatic(rec)
+    if rec.used.sum() < LINEAR_RANGE_MIN_POINTS:
+        text = ", ".join(f"{column} = [{lo:.6g}, {hi:.6g}]" for column, (lo, hi) in ranges.items())
+        raise DataError(
+            f"the window {{{text}}} (SI) holds {int(rec.used.sum())} rows with finite values; a line "
+            f"with an offset needs at least {LINEAR_RANGE_MIN_POINTS}: widen the window",
+            file=file,
+        )
+    return rec
+
+
+def left_out_info(records: Sequence[Record]) -> dict[str, dict[str, int]]:
+    """file -> reason -> rows left out (files with none omitted)."""
+    return {r.name: dict(r.left_out) for r in records if r.left_out}
+
+
+def rows_info(records: Sequence[Record]) -> dict[str, dict[str, list[list[int]]]]:
+    """file -> reason -> [first, last] row ranges left out (files with none omitted)."""
+    return {r.name: r.rows_left_out() for r in records if r.excluded}
+
+
+def range_info(records: Sequence[Record]) -> dict[str, list[float]]:
+    """file -> [x_min, x_max] of the rows fitted."""
+    return {r.name: [float(np.min(r.x[r.used])), float(np.max(r.x[r.used]))] for r in records if r.used.any()}

@@ -21,7 +21,8 @@ misfit in a warning.
 
 Which rows enter: the test's ``window`` when it has one (exactly its rows; too few is a
 DataError naming it), else the loading branch's linear range of
-:mod:`matid.fits.branch` (:func:`select`). Each row left out keeps its reason.
+:mod:`matid.fits.branch` (:func:`matid.fits.branch.select`). Each row left out keeps
+its reason.
 
 Sign: physics makes E > 0 (torque rises with twist, the magnet's torque with tip angle).
 A file whose slope on its fitted rows is clearly negative (t < -SIGN_T) has a flipped
@@ -36,15 +37,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
-import lmfit
 import numpy as np
 import scipy.stats
 
-from matid.errors import DataError, FitError
+from matid.errors import FitError
 from matid.fits import branch, stats
-from matid.fits.branch import LINEAR_RANGE_MIN_POINTS, linear_range
+from matid.fits.branch import Record
 
 #: Tare offsets are fitted when the Wald test of "all offsets zero" gives p below this.
 #: Large on purpose: a real offset dropped biases the slope, an absent one kept only costs
@@ -57,93 +57,6 @@ SIGN_T = 3.0
 
 
 # --------------------------------------------------------------------------- records
-
-
-@dataclass(frozen=True)
-class Record:
-    """One file of a linear test: x and y of every row, the rows used, and why rows are out.
-
-    ``excluded`` maps a reason ("outside the window", "not finite", "unloading ...",
-    "hold ...", "before the linear range ...", "beyond the linear range") to the mask of
-    the rows left out for it; ``flipped`` is True when y was negated by :func:`orient`.
-    """
-
-    name: str
-    x: np.ndarray
-    y: np.ndarray
-    used: np.ndarray
-    excluded: dict[str, np.ndarray] = field(default_factory=dict)
-    flipped: bool = False
-
-    @property
-    def left_out(self) -> dict[str, int]:
-        """Rows left out, counted by reason."""
-        return {reason: int(mask.sum()) for reason, mask in self.excluded.items()}
-
-    def leave_out(self, keep: np.ndarray, reason: str) -> Record:
-        """The record with the used rows outside ``keep`` left out for ``reason``."""
-        dropped = self.used & ~np.asarray(keep, dtype=bool)
-        if not dropped.any():
-            return self
-        excluded = dict(self.excluded)
-        excluded[reason] = excluded.get(reason, np.zeros(self.x.size, dtype=bool)) | dropped
-        return replace(self, used=self.used & ~dropped, excluded=excluded)
-
-    def rows_left_out(self) -> dict[str, list[list[int]]]:
-        """reason -> [first, last] data-row ranges (0-based) left out for it."""
-        out = {}
-        for reason, mask in self.excluded.items():
-            edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
-            out[reason] = [[int(a), int(b) - 1] for a, b in zip(edges[::2], edges[1::2], strict=True)]
-        return out
-
-
-def record(name: str, x: np.ndarray, y: np.ndarray, window: np.ndarray) -> Record:
-    """A record with the rows outside ``window`` and the non-finite rows left out."""
-    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-    rec = Record(name, x, y, np.ones(x.size, dtype=bool))
-    rec = rec.leave_out(np.asarray(window, dtype=bool), "outside the window")
-    return rec.leave_out(np.isfinite(x) & np.isfinite(y), "not finite")
-
-
-def automatic(rec: Record) -> Record:
-    """The record cut to its loading branch's linear range (:mod:`matid.fits.branch`)."""
-    idx = np.flatnonzero(rec.used)
-    for reason, mask in branch.branch(rec.x[idx], rec.y[idx]).items():
-        keep = np.ones(rec.x.size, dtype=bool)
-        keep[idx[mask]] = False
-        rec = rec.leave_out(keep, reason)
-    idx = np.flatnonzero(rec.used)
-    if idx.size == 0:
-        return rec
-    inside = np.zeros(rec.x.size, dtype=bool)
-    inside[idx] = linear_range(rec.x[idx], rec.y[idx])
-    x0, xs = rec.x[idx[0]], rec.x[inside]
-    near = np.abs(rec.x - x0) < np.min(np.abs(xs - x0), initial=np.inf)
-    rec = rec.leave_out(inside | ~near, branch.BEFORE)
-    return rec.leave_out(inside, branch.BEYOND)
-
-
-def select(name: str, x: np.ndarray, y: np.ndarray, window: np.ndarray, ranges, *, file) -> Record:
-    """The rows of one file that enter a line fit.
-
-    With a ``window`` (``ranges``: the test's column -> (low, high), SI) exactly its
-    finite rows, at least LINEAR_RANGE_MIN_POINTS of them (else DataError naming the
-    window); without one, the loading branch's linear range (:func:`automatic`).
-    """
-    rec = record(name, x, y, window)
-    if not ranges:
-        if not rec.used.any():
-            raise DataError("no row with finite values", file=file)
-        return automatic(rec)
-    if rec.used.sum() < LINEAR_RANGE_MIN_POINTS:
-        text = ", ".join(f"{column} = [{lo:.6g}, {hi:.6g}]" for column, (lo, hi) in ranges.items())
-        raise DataError(
-            f"the window {{{text}}} (SI) holds {int(rec.used.sum())} rows with finite values; a line "
-            f"with an offset needs at least {LINEAR_RANGE_MIN_POINTS}: widen the window",
-            file=file,
-        )
-    return rec
 
 
 def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
@@ -160,7 +73,7 @@ def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 class Warning:
     """A warning of a fit: its text and a machine-readable kind for the value's status."""
 
-    kind: str  # "sign_flipped", "zero_in_interval", "little_linear", "misfit", "slopes_disagree"
+    kind: str  # sign_flipped, zero_in_interval, few_rows, little_linear, misfit, slopes_disagree
     text: str
 
 
@@ -236,13 +149,17 @@ def tared_line(x: np.ndarray, slope: float = 1.0, offset: float = 0.0) -> np.nda
     return offset + slope * x
 
 
-def _lines(n_files: int) -> list[lmfit.Model]:
-    """One :func:`tared_line` Model per file, parameters prefixed ``f<i>_``."""
+def _lines(n_files: int):
+    """One :func:`tared_line` lmfit Model per file, parameters prefixed ``f<i>_``."""
+    import lmfit  # lazily: importing the pipeline stays light
+
     return [lmfit.Model(tared_line, prefix=f"f{f}_") for f in range(n_files)]
 
 
-def _parameters(n_files: int, offsets: bool, slope: float) -> lmfit.Parameters:
+def _parameters(n_files: int, offsets: bool, slope: float):
     """The shared slope and one offset per file, held at 0 (``vary=False``) without offsets."""
+    import lmfit
+
     params = lmfit.Parameters()
     params.add("slope", value=slope)
     for f in range(n_files):
@@ -251,7 +168,7 @@ def _parameters(n_files: int, offsets: bool, slope: float) -> lmfit.Parameters:
     return params
 
 
-def _residual(params: lmfit.Parameters, models, xs, ys, w) -> np.ndarray:
+def _residual(params, models, xs, ys, w) -> np.ndarray:
     """Weighted residuals ``w_f (y - c_f - E x)`` of every file, concatenated in file order."""
     return np.concatenate(
         [wf * (y - m.eval(params, x=x)) for m, x, y, wf in zip(models, xs, ys, w, strict=True)]
@@ -276,6 +193,8 @@ def _solve(xs, ys, offsets: bool):
 
     ``coef`` is (slope, offset of each file) as lmfit found them.
     """
+    import lmfit
+
     scale = float(np.max(np.abs(np.concatenate(ys)))) or 1.0
     sigma = [stats.difference_noise(y) or 1e-9 * scale for y in ys]
     models = _lines(len(xs))
@@ -370,10 +289,18 @@ def check_sign(fit: LineFit, parameter: str, quantity: str, against: str) -> lis
 MIN_LINEAR_SHARE = 0.5
 
 
+#: Fewer fitted rows than this in a file: its slope rests on little; the estimate says so.
+FEW_ROWS = 10
+
+
 def share_warnings(records: Sequence[Record]) -> list[Warning]:
-    """A warning for each file whose linear range holds under MIN_LINEAR_SHARE of its loading rows."""
+    """A warning for each file whose fitted rows are fewer than FEW_ROWS, or whose linear
+    range holds under MIN_LINEAR_SHARE of its loading rows."""
     out = []
     for r in records:
+        if r.used.sum() < FEW_ROWS:
+            text = f"{r.name}: only {int(r.used.sum())} rows are fitted; the slope rests on few points"
+            out.append(Warning("few_rows", text))
         beyond = sum(int(r.excluded[k].sum()) for k in (branch.BEFORE, branch.BEYOND) if k in r.excluded)
         loading = int(r.used.sum()) + beyond
         if beyond and r.used.sum() < MIN_LINEAR_SHARE * loading:
@@ -391,21 +318,6 @@ def misfit_warning(fit: LineFit, model: str, advice: str) -> list[Warning]:
 def warning_fields(warnings: Sequence[Warning]) -> tuple[tuple[str, ...], dict[str, object]]:
     """(texts for ``Estimate.warnings``, ``{"warning_kinds": kinds}`` for its extra)."""
     return tuple(w.text for w in warnings), {"warning_kinds": tuple(w.kind for w in warnings)}
-
-
-def left_out_info(records: Sequence[Record]) -> dict[str, dict[str, int]]:
-    """file -> reason -> rows left out (files with none omitted)."""
-    return {r.name: dict(r.left_out) for r in records if r.left_out}
-
-
-def rows_info(records: Sequence[Record]) -> dict[str, dict[str, list[list[int]]]]:
-    """file -> reason -> [first, last] row ranges left out (files with none omitted)."""
-    return {r.name: r.rows_left_out() for r in records if r.excluded}
-
-
-def range_info(records: Sequence[Record]) -> dict[str, list[float]]:
-    """file -> [x_min, x_max] of the rows fitted."""
-    return {r.name: [float(np.min(r.x[r.used])), float(np.max(r.x[r.used]))] for r in records if r.used.any()}
 
 
 def r2(records: Sequence[Record], fit: LineFit) -> float:

@@ -10,7 +10,7 @@ with an offset per file (:func:`matid.fits.linear.fit_lines`), on the rows of th
 (:mod:`matid.fits.branch`): a record may start at an absolute angle or a tare, hold,
 unload or go past its linear range. The sign check runs on the rows fitted. Rows left
 out are marked in the series and listed by reason in ``info["left_out"]`` (counts) and
-``info["rows_left_out"]`` (row ranges).
+``info["left_out_rows"]`` (row ranges).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from matid.errors import DataError, FitError
-from matid.fits import linear
+from matid.fits import branch, linear
 from matid.io.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
@@ -33,14 +33,14 @@ _ADVICE = (
 )
 
 
-def _record(m: Measurement) -> linear.Record:
+def _record(m: Measurement) -> branch.Record:
     """The file's fitted rows of x = twist_angle / length [rad/m], y = torque [N m]."""
     for column in ("twist_angle", "torque"):
         if column not in m.table:
             raise DataError(f"torsion needs a '{column}' column", file=m.table.path)
     x = np.asarray(m.table["twist_angle"], dtype=float) / float(m.test.params["length"])
     y = m.table["torque"]
-    return linear.select(m.table.path.name, x, y, m.in_window(), m.test.window, file=m.table.path)
+    return branch.select(m.table.path.name, x, y, m.in_window(), m.test.window, file=m.table.path)
 
 
 def fit_torsion(measurements: Sequence[Measurement], *, specimen: str) -> TestFit:
@@ -72,10 +72,10 @@ def fit_torsion(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
         y_label="torque [N m]",
         info={
             "linear_range": {r.name: float(np.max(np.abs(r.x[r.used]), initial=0.0)) for r in records},
-            "fitted_x_range": linear.range_info(records),
+            "fitted_x_range": branch.range_info(records),
             "excluded_points": int(n_all - fit.n),
-            "left_out": linear.left_out_info(records),
-            "rows_left_out": linear.rows_info(records),
+            "left_out": branch.left_out_info(records),
+            "left_out_rows": branch.rows_info(records),
             "sign_flipped": [r.name for r in records if r.flipped],
             "r2": linear.r2(records, fit),
             **fit.info(),

@@ -114,12 +114,12 @@ def derivatives(
     M = W[3:7, 60:64] if mu is not None else None
     gn2 = np.zeros((n, 11))
     gn2[:, YQ] = 2.0 * q
-    ge = a[:, :, None] * gF + (a1 * F)[:, :, None] * gn2[:, None, :]
     C = np.empty((n, 6))
     C[:, 0] = C[:, 1] = props["E_b"].ravel()
     C[:, 2], C[:, 3], C[:, 5] = props["E_t"].ravel(), props["E_s"].ravel(), props["E_e"].ravel()
     C[:, 4] = C[:, 3]
-    ref = np.array([lam * kappa_ref[0], lam * kappa_ref[1], lam * kappa_ref[2], 0.0, 0.0, 1.0])
+    ref = np.zeros((n, 6))  # kappa_ref: a 3-vector, or P + (3,) per point (per-segment precurvature)
+    ref[:, :3], ref[:, 5] = lam * kin.per_point(kappa_ref, n), 1.0
     s = np.empty((n, nF))
     s[:, :6] = C * (a[:, :6] * F[:, :6] - ref)
     if mu is not None:
@@ -130,7 +130,7 @@ def derivatives(
     g[:, 3:] = _gradient(s, a, a1, F, gF, gn2, penalty)
     if not tangent:
         return g.reshape(shape + (14,)), None
-    ge6 = ge[:, :6, :]
+    ge6 = a[:, :6, None] * gF[:, :6] + (a1[:, :6] * F[:, :6])[:, :, None] * gn2[:, None, :]
     Cge = C[:, :, None] * ge6
     strain = None
     if want_strain:
@@ -211,15 +211,23 @@ def _hessian(ge6, Cge, s, a, a1, power, n2, F, gF, gn2, dr, Qq, M, penalty, c_u)
     return H
 
 
-def magnet(q: np.ndarray, B, variant: str = kin.NORMALISED) -> tuple[np.ndarray, np.ndarray]:
+def directed_maps(B, directions: np.ndarray) -> np.ndarray:
+    """M_k (k, 4, 4) with q^T M_k q n2^p = (R(q) a_k).B for directions a_k (k, 3) in the director
+    frame (contract section 9): M_k = sum_ji B_j a_ki Q_ji; a = e3 gives the d3 map of eq. (9)."""
+    return np.einsum("j,ki,jiab->kab", np.asarray(B, float), np.asarray(directions, float), Q)
+
+
+def magnet(q: np.ndarray, B, variant: str = kin.NORMALISED, M: np.ndarray | None = None):
     """Gradient and Hessian in q (k, 4) of a unit lumped magnet's potential -d3(q).B, eq. (9):
-    -q^T M q n2^p with the chain rule of the module docstring (p = -1 normalised, 0 raw)."""
-    M = linear_maps(tuple(float(b) for b in B))[3:7, 60:64]
+    -q^T M q n2^p with the chain rule of the module docstring (p = -1 normalised, 0 raw).
+    ``M`` (k, 4, 4): per point, a magnet along another direction with its moment folded in
+    (:func:`directed_maps`); default the d3 map of B."""
+    M = linear_maps(tuple(float(b) for b in B))[3:7, 60:64] if M is None else M
     p = POWERS[variant][6]
     n2 = np.einsum("ka,ka->k", q, q)
     a, a1 = n2**p, p * n2 ** (p - 1.0)
     a2 = p * (p - 1.0) * n2 ** (p - 2.0)
-    Mq = q @ M
+    Mq = np.einsum("kab,kb->ka", np.broadcast_to(M, (q.shape[0], 4, 4)), q)
     F = np.einsum("ka,ka->k", Mq, q)
     gF, gn2 = 2.0 * Mq, 2.0 * q
     g = -(a[:, None] * gF + (a1 * F)[:, None] * gn2)
@@ -246,3 +254,15 @@ def dead_moment(q: np.ndarray, M) -> tuple[np.ndarray, np.ndarray]:
     n2 = float(q @ q)
     Q = L @ q / n2
     return Q, (L - 2.0 * np.outer(Q, q)) / n2
+
+
+def directed_magnetic(g: np.ndarray, H: np.ndarray | None, z: np.ndarray, lam: float, mu_a, B, variant):
+    """Add magnetisation off d3 to (g, H) of :func:`derivatives` in place (contract section 9):
+    U = -lam (R(q) mu a).B per point, mu a (P + (3,)) the moment per length times its direction
+    in the director frame; the gradient and Hessian are :func:`magnet`'s with M = directed_maps."""
+    q = z.reshape(-1, 14)[:, 3:7]
+    M = directed_maps(B, np.asarray(mu_a, float).reshape(-1, 3))
+    gq, Hq = magnet(q, B, variant, M=M)
+    g[..., 3:7] += lam * gq.reshape(g.shape[:-1] + (4,))
+    if H is not None:
+        H[..., 3:7, 3:7] += lam * Hq.reshape(H.shape[:-2] + (4, 4))

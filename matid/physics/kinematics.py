@@ -34,10 +34,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
+
 from matid.physics import jet
 
 #: Quaternion treatments of physics.md section 3.
 RAW, NORMALISED = "raw", "normalised"
+
+
+def per_point(value, n: int) -> np.ndarray:
+    """A rod-wide 3-vector (kappa_ref) or one per point (P + (3,)) as an (n, 3) array of the points."""
+    value = np.asarray(value, float)
+    return np.broadcast_to(value, (n, 3)) if value.ndim == 1 else value.reshape(n, 3)
 
 
 def directors(q: Sequence) -> list[list]:

@@ -22,13 +22,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from matid.physics import kinematics as kin
+
 
 def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None, want_strain=False):
     """(g, H) of the planar density at every point: shapes P + (6,), P + (6, 6).
 
     z: P + (6,) point values (x, z, t, x', z', t'); props: stiffness arrays (P);
     mu: magnetisation per length (P) or None; B, f: 3-vectors (x, -, z) in the plane;
-    kappa_ref: 3-vector (its second entry, about the plane normal, scaled by lam here).
+    kappa_ref: 3-vector or P + (3,) per point (its second entry, about the plane normal, scaled by
+    lam here).
     ``stress`` (P + (2,)): (n1, n3) for the geometric part of H (the mixed tangent);
     ``want_strain``: also return ((n1, n3) of the displacements, C J) for that update.
     """
@@ -45,7 +48,7 @@ def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None
     g[:, 2] = n3 * nu1 - n1 * nu3
     g[:, 3] = n1 * c + n3 * s
     g[:, 4] = n3 * c - n1 * s
-    g[:, 5] = Eb * (z[:, 5] - lam * kappa_ref[1])
+    g[:, 5] = Eb * (z[:, 5] - lam * kin.per_point(kappa_ref, n)[:, 1])
     if mu is not None:
         mu = lam * mu.ravel()
         g[:, 2] -= mu * (c * B[0] - s * B[2])

@@ -73,6 +73,10 @@ def solve(
         raise DataError(
             f"elements: at most {MAX_SCENE_ELEMENTS} (the automatic meshing's limit), got {elements}"
         )
+    if scene.aim is not None:  # the inverse problem (contract section 9): the field is solved for
+        from matid.rod.aim import solve_aimed
+
+        return solve_aimed(scene, elements=elements, model=model, variant=variant, element=element)
     chosen = resolve_model(scene, model)
     state: list = [None]  # the last mesh's Equilibrium: each finer mesh starts from it
 
@@ -96,7 +100,14 @@ def solve(
         "tolerance": None if fixed else scene.tolerance,
     }
     if isinstance(result, Equilibrium):  # the Solution is built once, with its estimate
-        return result.solution(discretization_error=est.error, extra={"error_estimate": estimate})
+        from matid.rod.checks import penalty_error, strain_warnings
+
+        error = est.error
+        if variant == kin.RAW:  # the paper's penalty has an error of its own (~1/c_u): included
+            estimate["penalty_error"] = penalty_error(result)
+            error += estimate["penalty_error"]
+        extra = {"error_estimate": estimate, "warnings": strain_warnings(result)}
+        return result.solution(discretization_error=error, extra=extra)
     return replace(result, discretization_error=est.error, extra={**result.extra, "error_estimate": estimate})
 
 

@@ -47,6 +47,7 @@ class Segment:
     E_t: float
     E_s: float
     E_e: float
+    kappa_ref: tuple[float, float, float] | None = None  # this piece's precurvature; None: the rod's
 
 
 @dataclass(frozen=True)
@@ -68,6 +69,31 @@ class ScaledRod:
     tip_force: tuple[float, ...] = (0.0, 0.0, 0.0)
     tip_moment: tuple[float, ...] = (0.0, 0.0, 0.0)
     magnets: tuple[tuple[float, float], ...] = ()  # (s, moment)
+    #: magnetisation off d3 (contract section 9), direction a in the director frame:
+    #: lumped (s, moment, a) and distributed (from, to, moment per length, a)
+    directed_magnets: tuple[tuple[float, float, tuple[float, float, float]], ...] = ()
+    directed_mu: tuple[tuple[float, float, float, tuple[float, float, float]], ...] = ()
+    #: dead loads at interior points (s, force, moment); planar: (transverse, -, axial), (-, M, -)
+    point_loads: tuple[tuple[float, tuple[float, ...], tuple[float, ...]], ...] = ()
+
+    def kappa_ref_at(self, s: np.ndarray) -> np.ndarray | None:
+        """kappa_ref at points s (P + (3,)) when a segment has its own, else None (the rod's, uniform)."""
+        if not any(seg.kappa_ref is not None for seg in self.segments):
+            return None
+        out = np.broadcast_to(np.asarray(self.kappa_ref, float), s.shape + (3,)).copy()
+        for seg in self.segments:
+            if seg.kappa_ref is not None:
+                out[(s >= seg.start) & (s < seg.end)] = seg.kappa_ref
+        return out
+
+    def directed_mu_at(self, s: np.ndarray) -> np.ndarray | None:
+        """Sum of mu a (director frame) of the off-axis magnetised pieces at points s (P + (3,)), or None."""
+        if not self.directed_mu:
+            return None
+        out = np.zeros(s.shape + (3,))
+        for start, end, value, a in self.directed_mu:
+            out += np.where((s >= start) & (s <= end), value, 0.0)[..., None] * np.asarray(a, float)
+        return out
 
     def stiffness_at(self, s: np.ndarray) -> dict[str, np.ndarray]:
         out = {
@@ -90,7 +116,8 @@ class ScaledRod:
 
     @property
     def has_field(self) -> bool:
-        return any(self.B) and (bool(self.mu) or bool(self.magnets))
+        magnetised = self.mu or self.magnets or self.directed_mu or self.directed_magnets
+        return any(self.B) and bool(magnetised)
 
 
 @dataclass
@@ -132,8 +159,16 @@ class RodSystem:
         )
         if self.rod.has_field:
             self.terms.append("magnetic")
-        if any(self.rod.kappa_ref):
+        #: per-segment precurvature and off-axis magnetisation at the points, point loads at nodes
+        self.kappa = self.rod.kappa_ref_at(self.disc.s_quad)
+        self.mu_directed = self.rod.directed_mu_at(self.disc.s_quad) if self.rod.has_field else None
+        node = lambda s_p: self.disc.vertex_dof(int(np.argmin(np.abs(verts - s_p))))  # noqa: E731
+        self.directed_nodes = [(node(s_m), m, np.asarray(a)) for s_m, m, a in self.rod.directed_magnets]
+        self.point_nodes = [(node(s_p), np.asarray(F), np.asarray(M)) for s_p, F, M in self.rod.point_loads]
+        if any(self.rod.kappa_ref) or self.kappa is not None:
             self.terms.append("precurvature")
+        if self.point_nodes:
+            self.terms.append("point loads")
         self._node_patterns()
 
     # -- states -------------------------------------------------------------
@@ -161,7 +196,8 @@ class RodSystem:
         if self.model == PLANAR:
             x, z, th = u
             k2, nu1, nu3 = kin.planar_strains(du[0], du[1], th, du[2])
-            w = kin.planar_strain_energy(k2, nu1, nu3, p["E_b"], p["E_s"], p["E_e"], lam * rod.kappa_ref[1])
+            kref = lam * (rod.kappa_ref[1] if self.kappa is None else self.kappa[..., 1])
+            w = kin.planar_strain_energy(k2, nu1, nu3, p["E_b"], p["E_s"], p["E_e"], kref)
             if "magnetic" in self.terms:
                 w = w + kin.magnetic_energy(
                     lam * self.mu, [kin.jet.sin(th), 0.0, kin.jet.cos(th)], [rod.B[0], 0.0, rod.B[2]]
@@ -171,12 +207,17 @@ class RodSystem:
             return w
         r, q, dr, dq = u[:3], u[3:], du[:3], du[3:]
         kappa, nu = kin.strains(dr, q, dq, self.variant)
-        kref = [lam * k for k in rod.kappa_ref]
+        kref = [lam * (k if self.kappa is None else self.kappa[..., i]) for i, k in enumerate(rod.kappa_ref)]
         w = kin.strain_energy(kappa, nu, p["E_b"], p["E_t"], p["E_s"], p["E_e"], kref)
         if self.variant == kin.RAW:  # the paper's integrated penalty; normalised: see gauge_terms
             w = w + kin.unity_penalty(q, self.c_u)
         if "magnetic" in self.terms:
             w = w + kin.magnetic_energy(lam * self.mu, kin.d3(q, self.variant), rod.B)
+        if self.mu_directed is not None:
+            w = w + sum(
+                kin.magnetic_energy(lam * self.mu_directed[..., j], pointing(q, self.variant, j), rod.B)
+                for j in range(3)
+            )
         if any(rod.f):
             w = w - lam * (rod.f[0] * r[0] + rod.f[1] * r[1] + rod.f[2] * r[2])
         return w
@@ -194,11 +235,14 @@ class RodSystem:
             w = self.density(variables[:nf], variables[nf:], lam)
             return w.g, w.h
         z = self.disc.point_values(U)
-        args = (z, lam, self.props, rod.kappa_ref, mu, rod.B, rod.f, tangent)
+        kappa_ref = rod.kappa_ref if self.kappa is None else self.kappa  # per point: per segment
+        args = (z, lam, self.props, kappa_ref, mu, rod.B, rod.f, tangent)
         if self.model == PLANAR:
             out = planar.derivatives(*args, **options)
         else:
             out = full.derivatives(*args, variant=self.variant, c_u=self.c_u, **options)
+            if self.mu_directed is not None:  # magnetisation off d3 (contract section 9)
+                full.directed_magnetic(out[0], out[1], z, lam, self.mu_directed, rod.B, self.variant)
         if self.mixed and tangent:
             self._strain = out[2]
         return out[0], out[1]
@@ -268,6 +312,20 @@ class RodSystem:
                 :, [0, 0, 0, 0, 1, 1, 1, 1]
             ] + np.tile(3 + np.arange(4), 2)
             self._patterns["slopes"] = disc.block_pattern(self._slope_dofs) if values.size else None
+            self._designer_patterns()
+
+    def _designer_patterns(self) -> None:
+        """Dofs, maps and patterns of off-axis magnets and interior dead moments (full model)."""
+        disc, nf = self.disc, self.disc.nf
+        q_dofs = lambda nodes: np.array([n * nf + 3 + np.arange(4) for n in nodes], int).reshape(-1, 4)  # noqa: E731
+        self._directed_dofs = q_dofs([node for node, _, _ in self.directed_nodes])
+        moments = np.array([m * np.asarray(a, float) for _, m, a in self.directed_nodes]).reshape(-1, 3)
+        self._directed_M = full.directed_maps(self.rod.B, moments)
+        self._patterns["directed"] = disc.block_pattern(self._directed_dofs) if self.directed_nodes else None
+        loaded = [(node, M) for node, _, M in self.point_nodes if any(M)]
+        self._moment_dofs = q_dofs([node for node, _ in loaded])
+        self._point_moments = np.array([M for _, M in loaded], float).reshape(-1, 3)
+        self._patterns["point moments"] = disc.block_pattern(self._moment_dofs) if loaded else None
 
     def point_terms(self, U: np.ndarray, lam: float) -> tuple[np.ndarray, list]:
         """Residual of the point loads (all dofs) and their tangent blocks [(pattern, blocks)]."""
@@ -281,6 +339,9 @@ class RodSystem:
                 R[self._magnet_dofs[:, 0]] -= m * (np.cos(th) * rod.B[0] - np.sin(th) * rod.B[2])
                 k = m * (np.sin(th) * rod.B[0] + np.cos(th) * rod.B[2])
                 blocks.append((self._patterns["magnets"], k))
+            nf = self.disc.nf
+            for node, F, M in self.point_nodes:  # dead loads in the plane: potential -F.r - M theta
+                R[node * nf : node * nf + 3] -= lam * np.array([F[0], F[2], M[1]])
             return R, blocks
         R[tip[:3]] -= lam * np.asarray(rod.tip_force)
         if any(rod.tip_moment):
@@ -292,7 +353,25 @@ class RodSystem:
             m = lam * self._magnet_m
             R[self._magnet_dofs] += m[:, None] * g
             blocks.append((self._patterns["magnets"], m[:, None, None] * h))
+        self._designer_point_terms(U, lam, R, blocks)
         return R, blocks
+
+    def _designer_point_terms(self, U: np.ndarray, lam: float, R: np.ndarray, blocks: list) -> None:
+        """Off-axis magnets (-m (R a).B: :func:`matid.physics.full.magnet` with their maps) and
+        interior dead loads (contract section 9), full model."""
+        if self.directed_nodes:
+            g, h = full.magnet(U[self._directed_dofs], self.rod.B, self.variant, M=self._directed_M)
+            R[self._directed_dofs] += lam * g
+            blocks.append((self._patterns["directed"], lam * h))
+        nf = self.disc.nf
+        for node, F, _ in self.point_nodes:
+            R[node * nf : node * nf + 3] -= lam * F
+        if self._patterns["point moments"] is not None:
+            pairs = [
+                full.dead_moment(U[d], M) for d, M in zip(self._moment_dofs, self._point_moments, strict=True)
+            ]
+            R[self._moment_dofs] -= lam * np.array([g for g, _ in pairs])
+            blocks.append((self._patterns["point moments"], -lam * np.array([h for _, h in pairs])))
 
     def gauge_terms(self, U: np.ndarray) -> tuple[np.ndarray, list]:
         """Unity penalty c_u/2 (|q|^2 - 1)^2 at every node (normalised variant).
@@ -364,8 +443,9 @@ class RodSystem:
 
     @property
     def symmetric(self) -> bool:
-        """The tangent is a Hessian, except with a dead tip moment in 3D (no potential)."""
-        return not (self.model == FULL and any(self.rod.tip_moment))
+        """The tangent is a Hessian, except with a dead moment in 3D (no potential)."""
+        point_moment = any(any(M) for _, _, M in self.rod.point_loads)
+        return not (self.model == FULL and (any(self.rod.tip_moment) or point_moment))
 
     def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
         """Why a converged state is no answer, or None: a saddle of the potential is not an equilibrium
@@ -377,6 +457,11 @@ class RodSystem:
         if getattr(factor, "positive_definite", None) is True:
             return None
         if self.negative_modes(X, lam):
+            if not self.symmetric:
+                return (
+                    "no stable equilibrium assured: with a dead moment in 3D (no potential) the "
+                    "symmetrised tangent is not positive definite (physics.md section 8)"
+                )
             return "unstable equilibrium (the tangent stiffness is not positive definite: buckling or snap)"
         return None
 
@@ -387,20 +472,22 @@ class RodSystem:
         pivoting (checked: perm_r == perm_c) computes K = L D L^T, and every
         pivot of D is positive iff K is (for a positive definite K this
         elimination is backward stable, so a pivot <= 0 is no round-off).
-        None when the tangent is not symmetric or the test cannot be made.
+        With a dead moment in 3D (no potential): :meth:`dead_moment_modes`.
+        None when the test cannot be made.
         """
-        if self.model == FULL and any(self.rod.tip_moment):
-            return None  # a dead moment in 3D has no potential: the tangent is unsymmetric
         _, K = self.evaluate(X, lam)
-        try:
-            lu = spla.splu(
-                K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-            )
-        except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
-            return 1
-        if not np.array_equal(lu.perm_r, lu.perm_c):
-            return None
-        return int(np.sum(lu.U.diagonal() <= 0.0))
+        if not self.symmetric:
+            return self.dead_moment_modes(X, lam, K)
+        return ldl_negative(K)
+
+    def dead_moment_modes(self, X: np.ndarray, lam: float, K) -> int | None:
+        """Stability with dead moments in 3D (physics.md section 8), which have no potential: the
+        test of the symmetrised tangent (K + K^T)/2, i.e. positive second-order work of every
+        perturbation (Hill's criterion: sufficient, coordinate-free). Measured: it rejects the
+        saddle of a magnet in a reversed field (two negative eigenvalues, so det K > 0 there: a
+        sign change of det K would miss it), and pure dead tip moments above ~2.2 E_b/L in
+        3D (det K > 0 there too: stability is then not assured, rather than assumed)."""
+        return ldl_negative(symmetric_part(K))
 
     def expand(self, X: np.ndarray) -> np.ndarray:
         U = self._reference().copy()
@@ -409,6 +496,47 @@ class RodSystem:
 
     def reduce(self, U: np.ndarray) -> np.ndarray:
         return U[self.disc.free].copy()
+
+
+def pointing(q, variant: str, j: int) -> list:
+    """The director d_j (j = 0, 1, 2) from q, raw or from q/|q| (a magnetisation along it)."""
+    R = kin.directors(q)
+    col = [R[0][j], R[1][j], R[2][j]]
+    if variant == kin.RAW:
+        return col
+    inv = 1.0 / kin.norm2(q)
+    return [c * inv for c in col]
+
+
+def ldl_negative(K) -> int | None:
+    """Non-positive pivots of a symmetric K (CSR or band-stored) by SuperLU's L D L^T without
+    off-diagonal pivoting (:meth:`RodSystem.negative_modes`); None when SuperLU pivoted."""
+    try:
+        lu = spla.splu(
+            K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+        )
+    except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
+        return 1
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        return None
+    return int(np.sum(lu.U.diagonal() <= 0.0))
+
+
+def symmetric_part(K) -> sp.csr_matrix:
+    """(K + K^T)/2 in free-dof numbering (CSR) of a CSR or band-stored (fem.Banded) tangent."""
+    K = free_csr(K)
+    return ((K + K.T) * 0.5).tocsr()
+
+
+def free_csr(K) -> sp.csr_matrix:
+    """A CSR or band-stored (fem.Banded) tangent as CSR in free-dof numbering, in O(n u)."""
+    if hasattr(K, "ab"):  # band storage ab[u + i - j, j] = K[i, j], band position -> free dof
+        n, u = K.shape[0], K.u
+        offsets = list(range(-u, u + 1))
+        diagonals = [K.ab[u + k, max(0, -k) : min(n, n - k)] for k in offsets]
+        band = sp.diags(diagonals, [-k for k in offsets], shape=(n, n), format="coo")
+        K = sp.csr_matrix((band.data, (K.order[band.row], K.order[band.col])), shape=(n, n))
+    return sp.csr_matrix(K)
 
 
 def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray, float]:

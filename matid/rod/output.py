@@ -36,6 +36,10 @@ def solution_json(sol: Solution) -> dict:
         "d3": _floats(sol.d3),
         "tip": {key: _floats(value) for key, value in sol.tip.items()},
     }
+    doc["field"] = {"B": _floats(sol.scene.loads.B)}  # the field used (solved for under [aim])
+    if "aim" in sol.extra:
+        doc["aim"] = dict(sol.extra["aim"])
+    doc["warnings"] = list(sol.extra.get("warnings", []))
     if sol.three_point_bend is not None:
         doc["three_point_bend"] = {key: _floats(value) for key, value in sol.three_point_bend.items()}
     if sol.discretization_error is not None:
@@ -66,11 +70,21 @@ def shape_png(sol: Solution, *, dpi: int = 120) -> bytes:
         _force_curve(axes[1], sol.three_point_bend)
     elif panels == 2:
         _centreline(axes[1], sol, 1, "y")
-    kind = sol.scene.kind.replace("_", " ")
-    fig.suptitle(f"{kind}: {sol.model} model, {sol.elements} {sol.element} elements")
+    warned = bool(sol.extra.get("warnings"))
+    fig.suptitle(shape_title(sol), color="C3" if warned else "black", fontsize=9 if warned else None)
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi)
     return buffer.getvalue()
+
+
+def shape_title(sol: Solution) -> str:
+    """The picture's title: scene, model, mesh; the first strain warning and how many more."""
+    kind = sol.scene.kind.replace("_", " ")
+    title = f"{kind}: {sol.model} model, {sol.elements} {sol.element} elements"
+    warnings = sol.extra.get("warnings", [])
+    if warnings:  # never silent (contract section 9)
+        title += f"\nWARNING: {warnings[0]}" + (f" (+{len(warnings) - 1} more)" if len(warnings) > 1 else "")
+    return title
 
 
 def _centreline(ax, sol: Solution, component: int, name: str) -> None:

@@ -40,6 +40,7 @@ class SegmentSpec:
     end: float
     overrides: dict = field(default_factory=dict, hash=False)  # E_b, E_t, E_s, E_e, outer_diameter
     rigid: bool = False
+    precurvature: Vector | None = None  # this segment's kappa_ref (director frame); None: the rod's
 
 
 @dataclass(frozen=True)
@@ -73,6 +74,25 @@ class Loads:
     tip_moment: Vector = ZERO
     magnets: tuple[tuple[float, float], ...] = ()  # (at, moment)
     magnetization: tuple[tuple[float, float, float], ...] = ()  # (from, to, per_length)
+    #: unit magnetisation directions in the director frame, one per magnet / magnetised piece
+    #: (contract section 9); empty: every one along d3
+    magnet_directions: tuple[Vector, ...] = ()
+    magnetization_directions: tuple[Vector, ...] = ()
+    point_loads: tuple[tuple[float, Vector, Vector], ...] = ()  # (at, dead force, dead moment)
+
+    def __post_init__(self) -> None:
+        for name, items in (("magnet", self.magnets), ("magnetization", self.magnetization)):
+            directions = getattr(self, f"{name}_directions")
+            if directions and len(directions) != len(items):
+                raise ValueError(f"{name}_directions: one direction per {name} ({len(items)})")
+            for a in directions:
+                if abs(math.hypot(*a) - 1.0) > 1e-9:
+                    raise ValueError(f"{name} direction {a} is not a unit vector")
+
+    def directions(self, name: str) -> tuple[Vector, ...]:
+        """The unit directions of the magnets (``name`` "magnet") or magnetised pieces, d3 by default."""
+        items = self.magnets if name == "magnet" else self.magnetization
+        return getattr(self, f"{name}_directions") or ((0.0, 0.0, 1.0),) * len(items)
 
 
 @dataclass(frozen=True)
@@ -90,6 +110,20 @@ class BendSetup:
 
 
 @dataclass(frozen=True)
+class Aim:
+    """Contract section 9: the tip's d3 wanted (lab frame, unit) and the field magnitude held (T)."""
+
+    tip_direction: Vector
+    field_magnitude: float
+
+    def __post_init__(self) -> None:
+        if abs(math.hypot(*self.tip_direction) - 1.0) > 1e-9:
+            raise ValueError(f"aim.tip_direction {self.tip_direction} is not a unit vector")
+        if not (math.isfinite(self.field_magnitude) and self.field_magnitude > 0):
+            raise ValueError(f"aim.field_magnitude must be positive and finite, got {self.field_magnitude}")
+
+
+@dataclass(frozen=True)
 class Scene:
     kind: str  # "cantilever" | "three_point_bend"
     rod: Rod
@@ -97,6 +131,7 @@ class Scene:
     bend: BendSetup | None = None
     elements: int | None = None
     tolerance: float = 1e-6
+    aim: Aim | None = None  # the inverse problem: the field direction is solved for
 
     def __post_init__(self) -> None:
         if self.kind not in ("cantilever", "three_point_bend"):
@@ -111,6 +146,10 @@ class Scene:
             raise ValueError(f"elements must be between 1 and {MAX_SCENE_ELEMENTS}, got {self.elements}")
         if not MIN_TOLERANCE <= self.tolerance < 1:
             raise ValueError(f"tolerance must be in [{MIN_TOLERANCE:g}, 1), got {self.tolerance:g}")
+        if self.aim is not None and self.kind != "cantilever":
+            raise ValueError("[aim] applies to cantilever scenes only")
+        if self.aim is not None and not (self.loads.magnets or self.loads.magnetization):
+            raise ValueError("[aim] needs a magnet or a magnetisation: a field turns nothing else")
 
 
 def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
@@ -121,8 +160,13 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     is planar with e_a = e1.
     """
     loads, rod = scene.loads, scene.rod
+    if not on_axis(loads):
+        return None  # a magnetisation off d3 twists the rod (contract section 9)
     forces = [np.asarray(v, float) for v in (loads.B, loads.distributed_force, loads.tip_force)]
+    forces += [np.asarray(f, float) for _, f, _ in loads.point_loads]
     moments = [np.asarray(v, float) for v in (loads.tip_moment, rod.precurvature)]
+    moments += [np.asarray(m, float) for _, _, m in loads.point_loads]
+    moments += [np.asarray(seg.precurvature, float) for seg in rod.segments if seg.precurvature]
     scale = max([np.abs(v).max() for v in forces + moments] + [1e-300])
     candidates = [v[:2] for v in forces] + [np.array([m[1], -m[0]]) for m in moments]  # n x e3
     direction = next((c / np.linalg.norm(c) for c in candidates if np.linalg.norm(c) > tol * scale), None)
@@ -134,6 +178,12 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
         if abs(c[0] * direction[1] - c[1] * direction[0]) > tol * max(scale, 1e-300):
             return None
     return (float(direction[0]), float(direction[1]), 0.0)
+
+
+def on_axis(loads: Loads) -> bool:
+    """Whether every magnetisation is along +-d3 (else the rod twists: the full model runs)."""
+    directions = loads.directions("magnet") + loads.directions("magnetization")
+    return all(a[0] == 0.0 and a[1] == 0.0 for a in directions)
 
 
 # -- loading -----------------------------------------------------------------
@@ -209,10 +259,12 @@ def _short(value: object) -> str:
 #: Keys of each scene table (docs/contract.md section 6); any other is a typo to report, not to ignore.
 TABLE_KEYS = {
     "rod": {"length", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "precurvature", "stiffness"},
-    "segment": {"from", "to", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "rigid"},
+    "segment": {"from", "to", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "rigid", "precurvature"},
     "load": {"distributed_force"},
-    "magnet": {"at", "moment"},
-    "magnetization": {"from", "to", "per_length"},
+    "magnet": {"at", "moment", "direction"},
+    "magnetization": {"from", "to", "per_length", "direction"},
+    "point_load": {"at", "force", "moment"},
+    "aim": {"tip_direction", "field_magnitude"},
     "field": {"B"},
     "tip": {"force", "moment"},
     "three_point_bend": {"span", "support_radius", "nose_radius", "deflection"},
@@ -287,6 +339,7 @@ def _rod(raw: dict, root: Path | None) -> Rod:
                 _q(seg, "to", "length", where),
                 overrides,
                 _bool(seg, "rigid", where),
+                _v(seg, "precurvature", "curvature", where) if "precurvature" in seg else None,
             )
         )
     return Rod(
@@ -358,6 +411,8 @@ SCENE_KEYS = {
     "field",
     "tip",
     "three_point_bend",
+    "point_load",
+    "aim",
 }
 
 
@@ -383,6 +438,7 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     for at, _ in magnets:
         if not 0 < at <= rod.length * (1 + 1e-12):
             raise ValueError(f"[[magnet]] at {at} m is not on the rod (0, {rod.length}] m")
+    point_loads = _point_loads(raw, rod.length)
     loads = Loads(
         B=_v(field_, "B", "field", "field"),
         distributed_force=_v(load, "distributed_force", "force_per_length", "load"),
@@ -390,6 +446,9 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
         tip_moment=_v(tip, "moment", "torque", "tip"),
         magnets=magnets,
         magnetization=magnetization,
+        magnet_directions=_directions(raw, "magnet"),
+        magnetization_directions=_directions(raw, "magnetization"),
+        point_loads=point_loads,
     )
     bend = None
     if "three_point_bend" in raw:
@@ -420,4 +479,49 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
         bend=bend,
         elements=elements,
         tolerance=float(tolerance),
+        aim=_aim(raw),
     )
+
+
+def _unit(value: object, where: str) -> Vector:
+    """A direction: three plain numbers, not all zero, normalised."""
+    if not isinstance(value, list) or len(value) != 3:
+        raise ValueError(f"{where}: expected three numbers [a1, a2, a3], got {_short(value)}")
+    if any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in value):
+        raise ValueError(f"{where}: expected plain numbers (a direction has no unit), got {_short(value)}")
+    a = np.asarray(value, float)
+    norm = float(np.linalg.norm(a))
+    if not (np.isfinite(a).all() and np.isfinite(norm) and norm > 0):
+        raise ValueError(f"{where}: a direction must be finite and not zero, got {_short(value)}")
+    return tuple(float(c) for c in a / norm)
+
+
+def _directions(raw: dict, key: str) -> tuple[Vector, ...]:
+    """The ``direction`` of each [[magnet]] / [[magnetization]] (director frame), d3 by default."""
+    return tuple(
+        _unit(t["direction"], f"[[{key}]] #{i + 1}.direction") if "direction" in t else (0.0, 0.0, 1.0)
+        for i, t in enumerate(_tables(raw, key))
+    )
+
+
+def _point_loads(raw: dict, length: float) -> tuple[tuple[float, Vector, Vector], ...]:
+    """[[point_load]]: a dead force and moment at a point of the rod (0, L]."""
+    out = []
+    for i, t in enumerate(_tables(raw, "point_load")):
+        where = f"[[point_load]] #{i + 1}"
+        at = _q(t, "at", "length", where)
+        if not 0 < at <= length * (1 + 1e-12):
+            raise ValueError(f"{where}: at {at} m is not on the rod (0, {length}] m")
+        if "force" not in t and "moment" not in t:
+            raise ValueError(f"{where}: give a force, a moment or both")
+        out.append((at, _v(t, "force", "force", where), _v(t, "moment", "torque", where)))
+    return tuple(out)
+
+
+def _aim(raw: dict) -> Aim | None:
+    if "aim" not in raw:
+        return None
+    t = _known(_table(raw["aim"], "[aim]"), "aim", "[aim]")
+    if "tip_direction" not in t:
+        raise ValueError("[aim]: missing 'tip_direction'")
+    return Aim(_unit(t["tip_direction"], "aim.tip_direction"), _q(t, "field_magnitude", "field", "aim"))

@@ -102,20 +102,39 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
                 "E_s": max(scaled["E_s"], RIGID_FACTOR),
                 "E_e": max(scaled["E_e"], RIGID_FACTOR),
             }
-        segments.append(Segment(seg.start / L, seg.end / L, **scaled))
+        kappa = None if seg.precurvature is None else moment(seg.precurvature, L)
+        segments.append(Segment(seg.start / L, seg.end / L, **scaled, kappa_ref=kappa))
+    magnets, mu, directed = directed_magnetisation(loads, L, Eb)
     return ScaledRod(
         E_t=base["E_t"],
         E_s=base["E_s"],
         E_e=base["E_e"],
         segments=tuple(segments),
         kappa_ref=moment(rod.precurvature, L),
-        mu=tuple((a / L, b / L, m * L**2 / Eb) for a, b, m in loads.magnetization),
+        mu=mu,
         B=vec(loads.B, 1.0),
         f=vec(loads.distributed_force, L**3 / Eb),
         tip_force=vec(loads.tip_force, L**2 / Eb),
         tip_moment=moment(loads.tip_moment, L / Eb),
-        magnets=tuple((at / L, m * L / Eb) for at, m in loads.magnets),
+        magnets=magnets,
+        directed_magnets=directed[0],
+        directed_mu=directed[1],
+        point_loads=tuple((at / L, vec(F, L**2 / Eb), moment(M, L / Eb)) for at, F, M in loads.point_loads),
     )
+
+
+def directed_magnetisation(loads, L: float, Eb: float) -> tuple:
+    """(magnets, mu, (directed magnets, directed mu)) scaled: a magnetisation along +-d3 is a signed
+    moment of the d3 terms, any other direction a term of its own (contract section 9)."""
+    magnets, mu, lumped, spread = [], [], [], []
+    for (at, m), a in zip(loads.magnets, loads.directions("magnet"), strict=True):
+        axial = a[0] == 0.0 and a[1] == 0.0
+        magnets.append((at / L, m * a[2] * L / Eb)) if axial else lumped.append((at / L, m * L / Eb, a))
+    for (s0, s1, m), a in zip(loads.magnetization, loads.directions("magnetization"), strict=True):
+        axial = a[0] == 0.0 and a[1] == 0.0
+        piece = (s0 / L, s1 / L, m * (a[2] if axial else 1.0) * L**2 / Eb)
+        mu.append(piece) if axial else spread.append(piece + (a,))
+    return tuple(magnets), tuple(mu), (tuple(lumped), tuple(spread))
 
 
 def default_penalty(rod: ScaledRod, variant: str) -> float:
@@ -139,6 +158,7 @@ def breaks(scene: Scene) -> tuple[float, ...]:
     points = [p for seg in scene.rod.segments for p in (seg.start, seg.end)]
     points += [at for at, _ in scene.loads.magnets]
     points += [p for a, b, _ in scene.loads.magnetization for p in (a, b)]
+    points += [at for at, _, _ in scene.loads.point_loads]
     return tuple(sorted({p / L for p in points}))
 
 
@@ -221,7 +241,7 @@ def probe_start(rod: ScaledRod, model: str) -> bool:
     """
     if model != PLANAR or not rod.has_field:
         return False
-    if any(rod.kappa_ref):
+    if any(rod.kappa_ref) or any(seg.kappa_ref is not None for seg in rod.segments):
         return True  # d3 turns along the unloaded rod: test
     moments = [m for _, _, m in rod.mu] + [m for _, m in rod.magnets]
     return any(m * rod.B[2] < 0.0 for m in moments)

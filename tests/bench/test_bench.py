@@ -181,6 +181,13 @@ def test_quick_bench_writes_json_html_and_plots(tmp_path):
     for scene in ("magnetic cantilever", "tip force", "circle"):
         assert orders[(scene, "P2", "2-point Gauss")] > 3.5  # fourth order at the tip (nodes for the circle)
         assert orders[(scene, "P1", "2-point Gauss")] < 1.0  # locked
+    # the cubic Hermite: converging on the circle (nothing stiff; order 4 asymptotically, ~3 over the
+    # quick levels 2-16) and side by side with P2 in error and run time
+    assert orders[("circle", "Hermite", "3-point Gauss")] > 2.5
+    pairs = doc["sections"]["convergence"]["p2_vs_hermite"]
+    assert {r["scene"] for r in pairs} == {"magnetic cantilever", "tip force", "circle"}
+    assert all(r["P2_runtime_s"] > 0 and r["Hermite_runtime_s"] > 0 for r in pairs)
+    assert "P2 and the cubic Hermite" in html
     rows = doc["sections"]["stability"]["rows"]
     assert len(rows) >= 10
     assert all(

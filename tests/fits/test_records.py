@@ -16,10 +16,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import matid
 from matid.errors import DataError
+from matid.fits.branch import HOLD_ROWS
 from matid.fits.shear import window as bend_window
+from matid.fits.shear.fit import bend_data
 from matid.fits.torsion import fit_torsion
 from matid.io import study as study_mod
 from matid.io.ingest.read import Measurement, Table, read_table
@@ -213,3 +217,149 @@ def test_flexural_coupon_past_yield_with_rows_before_contact():
     assert used_d.max() <= law.extra["yield_m"] + 0.1e-3  # nothing far past yield
     assert any(r.startswith("past yield") for r in c.reasons)
     assert any(r.startswith("toe") for r in c.reasons)
+
+
+# --------------------------------------------------------------------------- windows and checks
+
+
+def write(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def load_return(n_up: int = 200, n_down: int = 150, *, tare: float = 2e-3, seed: int = 5):
+    """Twist 0 -> 1 rad and back on a 50 mm tube, unloading stiffer (hysteresis), N m."""
+    E_t, L = 1.5e-4, 0.05
+    up, down = np.linspace(0.0, 1.0, n_up), np.linspace(1.0, 0.2, n_down)
+    top = E_t * 1.0 / L
+    torque = np.r_[E_t * up / L, top - 1.4 * E_t * (1.0 - down) / L] + tare
+    torque = torque + 2e-6 * np.random.default_rng(seed).normal(size=torque.size)
+    return np.r_[up, down], torque, E_t, L
+
+
+def test_window_replaces_the_automatic_range(tmp_path):
+    """Issue 21: the window was cut again by the automatic range (-34 %, or E_t <= 0). Now
+    exactly the window's rows are fitted, here the whole record up to the turn."""
+    phi, torque, E_t, L = load_return()
+    text = "Angle (rad),Torque (N m)\n" + "".join(
+        f"{a:.6f},{q:.8f}\n" for a, q in zip(phi, torque, strict=True)
+    )
+    path = write(tmp_path, "w.csv", text)
+    table = read_table(path, "torsion", columns={"twist_angle": "Angle", "torque": "Torque"})
+    window = {"twist_angle": (0.3, 1.0)}
+    test = study_mod.Test("torsion", "T1", Path("w.csv"), {"length": L}, window=window)
+    fit = fit_torsion([Measurement(test, table)], specimen="T1")
+    inside = (phi >= 0.3) & (phi <= 1.0)
+    assert np.array_equal(fit.series[0].used, inside)  # the unloading rows inside the window too
+    assert fit.info["left_out"] == {"w.csv": {"outside the window": int((~inside).sum())}}
+    # without the window the loading branch alone is fitted, unloading left out with its reason
+    plain = study_mod.Test("torsion", "T1", Path("w.csv"), {"length": L})
+    auto = fit_torsion([Measurement(plain, table)], specimen="T1")
+    assert auto.estimate("E_t").value == pytest.approx(E_t, rel=0.01)
+    assert auto.info["left_out"]["w.csv"]["unloading (x moves back towards its start)"] >= 140
+
+
+def test_window_with_too_few_rows_names_it():
+    phi, torque, _, L = load_return()
+    test = study_mod.Test(
+        "torsion", "T1", Path("few.csv"), {"length": L}, window={"twist_angle": (0.5, 0.51)}
+    )
+    table = Table(Path("few.csv"), {"twist_angle": phi, "torque": torque}, {}, {}, "")
+    with pytest.raises(
+        DataError, match=r"few.csv.*window \{twist_angle = \[0.5, 0.51\]\} \(SI\) holds \d rows"
+    ):
+        fit_torsion([Measurement(test, table)], specimen="T1")
+
+
+def test_an_angle_offset_is_not_a_sign_error(tmp_path):
+    """An absolute encoder reading -90 .. -30 deg while the torque rises from 0: torque and angle
+    have opposite signs on every row, which the reader took for a sign error (exit 2)."""
+    angle = np.linspace(-90.0, -30.0, 120)
+    torque = 1.5e-4 * np.radians(angle + 90.0) / 0.05 * 1e3  # N mm
+    text = "Angle (deg),Torque (N mm)\n" + "".join(
+        f"{a:.4f},{q:.6f}\n" for a, q in zip(angle, torque, strict=True)
+    )
+    path = write(tmp_path, "abs.csv", text)
+    table = read_table(path, "torsion", columns={"twist_angle": "Angle", "torque": "Torque"})
+    test = study_mod.Test("torsion", "T1", Path("abs.csv"), {"length": 0.05})
+    est = fit_torsion([Measurement(test, table)], specimen="T1").estimate("E_t")
+    assert est.value == pytest.approx(1.5e-4, rel=1e-3)
+    assert "sign_flipped" not in est.extra["warning_kinds"]
+
+
+def test_bend_window_excludes_rows_before_contact(tmp_path):
+    """Rows before contact at negative crosshead travel: the reader rejected the file although
+    its message recommended a window; now the window is honoured and the check runs on the rows
+    fitted, where a negative deflection is still an error."""
+    d = np.linspace(-0.2, 1.0, 61)  # mm
+    F = np.clip(d, 0.0, None) * 2.0  # N
+    path = write(
+        tmp_path,
+        "pre.csv",
+        "deflection [mm],force [N]\n" + "".join(f"{a:.4f},{f:.5f}\n" for a, f in zip(d, F, strict=True)),
+    )
+    table = read_table(path, "three_point_bend")
+    rig = {"span": 0.03, "specimen_length": 0.04, "support_radius": 2e-3, "nose_radius": 2e-3}
+    specimen = study_mod.Specimen("T1", 2.4e-3, 1.6e-3)
+
+    def data(window):
+        test = study_mod.Test("three_point_bend", "T1", path, rig, window=window)
+        return bend_data(Measurement(test, table), specimen, 1e-3)
+
+    b = data({"deflection": (0.05e-3, 1.0e-3)})
+    assert np.array_equal(b.loading, (d >= 0.05) & (d <= 1.0)) and b.cut.d0 == 0.0
+    with pytest.raises(DataError, match="pre.csv.*negative deflection"):
+        data({"deflection": (-0.1e-3, 1.0e-3)})
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    start=st.floats(-2.0, 2.0),
+    direction=st.sampled_from([1.0, -1.0]),
+    tare=st.floats(-0.5, 0.5),
+    hold=st.integers(0, 120),
+    back=st.floats(0.0, 1.0),
+    onset=st.floats(0.5, 1.0),
+    seed=st.integers(0, 2**16),
+)
+def test_any_start_direction_tare_hold_and_return(start, direction, tare, hold, back, onset, seed):
+    """A twist from any absolute angle in either direction, a tare, a hold at the top, a return
+    of any depth, softening past ``onset`` of the twist: E_t within 1 %, no row of the return
+    fitted, nor of a hold long enough to be one."""
+    E_t, L, turn = 1.5e-4, 0.05, 1.0
+    up = np.linspace(0.0, turn, 200)
+    down = np.linspace(turn, turn * (1.0 - back), max(int(150 * back), 1))
+    twist = np.r_[up, np.full(hold, turn), down]
+
+    def law(t):
+        excess = np.clip(t - onset * turn, 0.0, None)
+        return E_t * (t - excess**2 / (2 * (1 - onset * turn) + 1e-9) * 0.5) / L
+
+    top = law(turn)
+    torque = np.r_[law(up), np.full(hold, top), top - 1.3 * E_t * (turn - down) / L]
+    full = E_t * turn / L
+    torque = direction * (torque + tare * full) + 1e-3 * full * np.random.default_rng(seed).normal(
+        size=twist.size
+    )
+    angle = start + direction * twist
+    test = study_mod.Test("torsion", "T1", Path("h.csv"), {"length": L})
+    table = Table(Path("h.csv"), {"twist_angle": angle, "torque": torque}, {}, {}, "")
+    fit = fit_torsion([Measurement(test, table)], specimen="T1")
+    assert fit.estimate("E_t").value == pytest.approx(E_t, rel=0.01)
+    used = fit.series[0].used
+    assert not used[200 + hold + 1 :].any()  # the return
+    if hold >= HOLD_ROWS:
+        assert not used[200:].any()  # the hold
+
+
+def test_warnings_carry_their_kind():
+    """Each warning of a line fit has a machine-readable kind, in the order of the texts."""
+    phi, torque, _, L = load_return(n_up=200, n_down=0)
+    window = {"twist_angle": (0.5, 0.535)}  # 7 rows, torque recorded with the other sign
+    test = study_mod.Test("torsion", "T1", Path("k.csv"), {"length": L}, window=window)
+    table = Table(Path("k.csv"), {"twist_angle": phi[:200], "torque": -torque[:200]}, {}, {}, "")
+    est = fit_torsion([Measurement(test, table)], specimen="T1").estimate("E_t")
+    assert len(est.warnings) == len(est.extra["warning_kinds"])
+    assert est.extra["warning_kinds"][:2] == ("sign_flipped", "few_rows")
+    assert "only 7 rows are fitted" in est.warnings[1]

@@ -216,6 +216,14 @@ def _outer(params: lmfit.Parameters, data, arms: Arms) -> np.ndarray:
     return _inner(data, np.sort(np.array(list(params.valuesdict().values()))), arms)[1]
 
 
+def _budget(n_terms: int) -> int:
+    """Residual evaluations allowed to one outer fit: scipy's own default for trf (100 n
+    iterations' function evaluations) with the n more of each 2-point Jacobian. lmfit's
+    default (2000 (n + 1)) lets a model with a vanishing arm, which the data cannot
+    determine, wander for thousands of evaluations."""
+    return 100 * n_terms * (n_terms + 1)
+
+
 def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
     """The n-arm fit with the least weighted RSS, or None when an arm vanishes (k_i = 0).
 
@@ -231,7 +239,9 @@ def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
         minimizer = lmfit.Minimizer(_outer, _tau_params(start, bounds), fcn_args=(data, arms))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            result = minimizer.minimize(method="least_squares", x_scale=1.0, diff_step=1e-4)
+            result = minimizer.minimize(
+                method="least_squares", x_scale=1.0, diff_step=1e-4, max_nfev=_budget(n_terms)
+            )
         if best is None or result.chisqr < best.chisqr:
             best = result
     log_taus = np.sort(np.array(list(best.params.valuesdict().values())))

@@ -41,7 +41,7 @@ GROWTH = 0.02
 KINK = 0.25
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Reduction:
     """Rows of one run -> its residuals: the used rows, averaged over bins (``starts`` into the
     used rows; None: one residual per used row), each mean divided by its relative sd."""

@@ -52,14 +52,17 @@ def _stderr(result, ref: Mapping[str, float]) -> dict[str, float | None]:
 
 def jacobian(params: lmfit.Parameters, runs, sigma, ref) -> np.ndarray:
     """d residual / d x over the used rows for the varied x, by central differences of step
-    ``_STEP`` on copies of the lmfit Parameters (a step past a bound stops there, as the
+    ``_STEP`` on a copy of the lmfit Parameters (a step past a bound stops there, as the
     Parameter clips it)."""
-    columns, args = [], (runs, sigma, ref, True)
+    work, args, columns = params.copy(), (runs, sigma, ref, True), []
     for name in (n for n in _ORDER if params[n].vary):
-        up, down = params.copy(), params.copy()
-        up[name].value += _STEP
-        down[name].value -= _STEP
-        columns.append((residual(up, *args) - residual(down, *args)) / (2 * _STEP))
+        value = params[name].value
+        work[name].value = value + _STEP
+        up = residual(work, *args)
+        work[name].value = value - _STEP
+        down = residual(work, *args)
+        work[name].value = value
+        columns.append((up - down) / (2 * _STEP))
     return np.column_stack(columns)
 
 

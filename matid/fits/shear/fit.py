@@ -48,10 +48,10 @@ import scipy.stats
 
 from matid.errors import DataError, FitError
 from matid.fits.shear.checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
-from matid.fits.shear.problem import Problem, least_squares
+from matid.fits.shear.problem import Problem, fe_error, least_squares, span_fits, statistics
 from matid.fits.shear.torsion import agreement
 from matid.fits.shear.window import Cut, check_plausible, cut
-from matid.fits.stats import Covariance, ar1_covariance, lack_of_fit
+from matid.fits.stats import Covariance, lack_of_fit
 from matid.io.ingest.read import Measurement
 from matid.io.results import Estimate, Series, TestFit
 from matid.io.study import Specimen
@@ -63,7 +63,6 @@ FE_ERROR_FRACTION = 0.1
 FE_ERROR_FLOOR = 1e-6
 START_ELEMENTS = 16
 MAX_ELEMENTS = 256
-ORDER = 4.0  # measured P2 order of the bend force (bench)
 
 
 @dataclass
@@ -89,7 +88,7 @@ def bend_data(m: Measurement, specimen: Specimen, E_b: float) -> BendData:
     p = m.test.params
     try:
         geometry = BendGeometry(
-            p["span"], p["specimen_length"], p["support_radius"], p["nose_radius"], specimen.outer_diameter
+            p["span"], p["specimen_length"], p["support_radius"], p["nose_radius"], specimen.section.depth
         )
     except ValueError as exc:
         raise DataError(str(exc), file=m.test.file) from exc
@@ -151,58 +150,6 @@ class Outcome:
     covariance: Covariance | None = None  # AR(1) sandwich of matid.fits.stats (rho, n_eff, dof)
 
 
-def _statistics(r: np.ndarray, J: np.ndarray, segments) -> tuple[np.ndarray, float, Covariance]:
-    """Covariance of the log parameters under AR(1)-correlated residuals within each file
-    (:func:`matid.fits.stats.ar1_covariance`; the textbook one when rho is not significant)."""
-    dof = max(r.size - J.shape[1], 1)
-    try:
-        cov = ar1_covariance(J, r, segments)
-    except np.linalg.LinAlgError as exc:  # J^T J singular: the fitted stiffnesses cannot be told apart
-        raise FitError(
-            f"E_s least squares: the bend data do not determine the fitted stiffnesses ({exc})"
-        ) from exc
-    return cov.cov, float(np.sqrt(float(r @ r) / dof)), cov
-
-
-def _fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) -> tuple[float, list]:
-    """Richardson estimate of the relative error of E_s from a solve at half the elements.
-
-    The coarse solve runs on every third knot of each curve (and its last), where the fine
-    forces are solved too: enough to map the force error into E_s, a third of the cost. Returns the
-    error and the two mesh levels as (elements, estimated error of E_s, run time
-    of one cold solve of all curves) - the coarse time scaled to all points.
-    """
-    r, J = problem.evaluate(x)
-    picks = [k[np.unique(np.r_[np.arange(0, k.size, 3), k.size - 1])] for k in problem.knots]
-    sub = [replace(b, d=b.d[k], F=b.F[k]) for b, k in zip(data, picks, strict=True)]
-    elements = max(problem.models[0].elements // 2, 2)
-    every_row = [np.arange(k.size) for k in picks]  # the coarse forces at the picked knots, solved
-    coarse = Problem(
-        sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=elements, jacobian=False, knots=every_row
-    )
-    coarse.nose = [n[k] for n, k in zip(problem.nose, picks, strict=True)]  # centreline: the fine mesh's
-    r_coarse, _ = coarse.evaluate(x)
-    scale = sum(k.size for k in problem.knots) / sum(b.d.size for b in sub)
-    offsets = np.cumsum([0] + [b.d.size for b in data[:-1]])
-    rows = np.concatenate([o + k for o, k in zip(offsets, picks, strict=True)])
-    dF = (r[rows] - r_coarse) / (2.0**ORDER - 1.0)  # error of the fine forces at those points
-    dx, *_ = np.linalg.lstsq(J[rows], dF, rcond=None)
-    error = float(abs(dx[0]))
-    levels = [
-        {
-            "elements": coarse.models[0].elements,
-            "discretization_error": error * 2.0**ORDER,
-            "runtime_s": coarse.cold_runtime_s * scale,
-        },
-        {
-            "elements": problem.models[0].elements,
-            "discretization_error": error,
-            "runtime_s": problem.cold_runtime_s,
-        },
-    ]
-    return error, levels
-
-
 def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progress) -> Outcome:
     x = np.log([timoshenko_start(data, E_b)] + ([E_b] if fit_E_b else []))
     n = elements or START_ELEMENTS
@@ -213,8 +160,8 @@ def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progre
         while problem.refine(x):  # the knots chosen at the start miss the tolerance here
             x = least_squares(problem, x)
         r, J = problem.evaluate(x)
-        cov, sigma, full = _statistics(r, J, [b.d.size for b in data])
-        fe, tried = _fe_error(problem, x, data, E_e, fit_E_b)
+        cov, sigma, full = statistics(r, J, [b.d.size for b in data])
+        fe, tried = fe_error(problem, x, data, E_e, fit_E_b)
         levels += [lvl for lvl in tried if lvl["elements"] not in {m["elements"] for m in levels}]
         solves += problem.solves + len(data)
         if progress:
@@ -297,7 +244,7 @@ def fit_three_point_bend(
         "Check the window (toe, yield), the unit of the force, and the set-up (span, radii).",
     )
     warnings += [misfit] if misfit else []
-    per_span = _per_span(data, out, E_b, E_e_est.value, spans)
+    per_span = span_fits(out.problem, out.x, E_b, spans)
     extra_info = {"assessment": check.info, "per_span": per_span, "model_form": mf}
     extra_info["lack_of_fit"] = fit_check.as_info()
     extra_info["experiment_design"] = _design_note(specimen, known, E_b_est.value)
@@ -324,7 +271,7 @@ def fit_three_point_bend(
         "runtime_s": round(time.perf_counter() - t0, 4),
         "rod_solves": out.solves,
         "levels": out.levels,  # error against run time of every mesh level tried
-        "interpolation": _interpolation(out.problem),
+        "interpolation": out.problem.interpolation(),
     }
     est = _log_estimate("E_s", E_s, sd_log, t, m, fe, ())
     if check.widen > 1:
@@ -363,29 +310,6 @@ def _design_note(specimen: Specimen, known: Mapping[str, Estimate], E_b: float) 
     return "E_s to 5 %: " + summary(options, 0.05).splitlines()[-1]
 
 
-def _per_span(data, out: Outcome, E_b: float, E_e: float, spans) -> list[dict]:
-    """E_s of each span alone (E_b held at the joint value, the joint mesh), for the consistency test."""
-    if len(spans) < 2:
-        return []
-    rows = []
-    for S in spans:
-        # started at the joint E_s from the joint fit's paths of these tests (warm), on its mesh
-        idx = [k for k, b in enumerate(data) if b.geometry.span == S]
-        group = [data[k] for k in idx]
-        joint = out.problem
-        knots = [joint.knots[k] for k in idx]
-        problem = Problem(group, E_b, E_e, fit_E_b=False, elements=out.elements, knots=knots)
-        problem.paths = [joint.paths[k] for k in idx]
-        problem.nose = [joint.nose[k].copy() for k in idx]
-        problem.nose_rate = [joint.nose_rate[k] for k in idx]
-        x = least_squares(problem, out.x[:1])
-        r, J = problem.evaluate(x)
-        cov, _, _ = _statistics(r, J, [b.d.size for b in group])
-        sd = float(np.sqrt(cov[0, 0]))
-        rows.append({"span": S, "span_mm": 1e3 * S, "E_s": float(np.exp(x[0])), "sd_log": sd})
-    return rows
-
-
 def _log_estimate(name: str, value: float, sd_log: float, t: float, n: int, fe: dict, warnings) -> Estimate:
     """An estimate fitted in log space: stderr value * sd_log, interval value * exp(+-t sd_log)."""
     ci = (value * float(np.exp(-t * sd_log)), value * float(np.exp(t * sd_log)))
@@ -420,19 +344,6 @@ def _series(b: BendData, force: np.ndarray | None) -> Series:
     where = "centreline" if b.centreline else "nose"
     label = f"{b.measurement.test.file.name} (span {1e3 * b.geometry.span:g} mm, {where})"
     return Series(label, d, np.asarray(b.measurement.table["force"]), y_fit, used)
-
-
-def _interpolation(problem: Problem) -> list[dict]:
-    """Per test: rows, knots (solved points), and the interpolation error's estimate and bound [N]."""
-    return [
-        {
-            "rows": int(b.d.size),
-            "knots": int(k.size),
-            "error_N": float(np.max(e)),
-            "tolerance_N": float(t),
-        }
-        for b, k, e, t in zip(problem.data, problem.knots, problem.error, problem.tolerance, strict=True)
-    ]
 
 
 def _correlation(cov: np.ndarray) -> dict[str, float]:

@@ -22,13 +22,16 @@ A fit costs knots, not rows: up to 2 START_KNOTS - 1 rows, every distinct row is
 :class:`Problem` solves every bend test's path at given (log E_s[, log E_b]) and
 keeps each evaluation with its paths, the warm starts of the next.
 :func:`least_squares` minimises over those log stiffnesses with scipy's least_squares
-and the solver's Jacobian. See :mod:`matid.fits.shear.fit` for the model.
+and the solver's Jacobian; :func:`statistics` gives the covariance at the minimum,
+:func:`fe_error` the discretisation error of E_s (Richardson, half the elements) and
+:func:`span_fits` E_s of each span alone. See :mod:`matid.fits.shear.fit` for the model.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -37,7 +40,7 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from matid.errors import ConvergenceError, FitError
 from matid.fits.shear import centreline as bend_centreline
-from matid.fits.stats import difference_noise
+from matid.fits.stats import Covariance, ar1_covariance, difference_noise
 from matid.rod.bend import BendModel, BendPath
 
 if TYPE_CHECKING:
@@ -50,6 +53,7 @@ START_KNOTS = 17
 INTERPOLATION_FRACTION = 0.1
 #: or below this fraction of the largest force (noise-free data).
 INTERPOLATION_FLOOR = 1e-8
+ORDER = 4.0  # measured P2 order of the bend force (bench): the FE error's Richardson estimate
 
 
 def start_knots(q: np.ndarray) -> np.ndarray:
@@ -69,7 +73,9 @@ def refine(q: np.ndarray, knots: np.ndarray, error: np.ndarray, tol: float) -> n
     """The knots with the distinct row nearest the middle of every interval whose error at a
     row exceeds tol added; None when no interval needs (or can take) another knot."""
     qk = q[knots]
-    interval = np.clip(np.searchsorted(qk, q, side="right") - 1, 0, max(qk.size - 2, 0))
+    if qk.size < 2:  # one distinct row: nothing between knots
+        return None
+    interval = np.clip(np.searchsorted(qk, q, side="right") - 1, 0, qk.size - 2)
     first = np.unique(q, return_index=True)[1]
     added = []
     for j in np.unique(interval[error > tol]):
@@ -253,9 +259,95 @@ class Problem:
         self.newton_iterations += path.newton_iterations
         return path
 
+    def interpolation(self) -> list[dict]:
+        """Per test: rows, knots (solved points), and the interpolation error's estimate and bound [N]."""
+        return [
+            {
+                "rows": int(b.d.size),
+                "knots": int(k.size),
+                "error_N": float(np.max(e)),
+                "tolerance_N": float(t),
+            }
+            for b, k, e, t in zip(self.data, self.knots, self.error, self.tolerance, strict=True)
+        ]
+
     def sensitivity(self, name: str) -> np.ndarray:
         """dF/dp at the rows at the last evaluation for any stiffness, stacked over tests."""
         return np.concatenate([dF[name] for dF in self.dforce])
+
+
+def statistics(r: np.ndarray, J: np.ndarray, segments) -> tuple[np.ndarray, float, Covariance]:
+    """Covariance of the log parameters under AR(1)-correlated residuals within each file
+    (:func:`matid.fits.stats.ar1_covariance`; the textbook one when rho is not significant)."""
+    dof = max(r.size - J.shape[1], 1)
+    try:
+        cov = ar1_covariance(J, r, segments)
+    except np.linalg.LinAlgError as exc:  # J^T J singular: the fitted stiffnesses cannot be told apart
+        raise FitError(
+            f"E_s least squares: the bend data do not determine the fitted stiffnesses ({exc})"
+        ) from exc
+    return cov.cov, float(np.sqrt(float(r @ r) / dof)), cov
+
+
+def fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) -> tuple[float, list]:
+    """Richardson estimate of the relative error of E_s from a solve at half the elements.
+
+    The coarse solve runs on every third knot of each curve (and its last), where the fine
+    forces are solved too: enough to map the force error into E_s, a third of the cost. Returns the
+    error and the two mesh levels as (elements, estimated error of E_s, run time
+    of one cold solve of all curves) - the coarse time scaled to all points.
+    """
+    r, J = problem.evaluate(x)
+    picks = [k[np.unique(np.r_[np.arange(0, k.size, 3), k.size - 1])] for k in problem.knots]
+    sub = [replace(b, d=b.d[k], F=b.F[k]) for b, k in zip(data, picks, strict=True)]
+    elements = max(problem.models[0].elements // 2, 2)
+    every_row = [np.arange(k.size) for k in picks]  # the coarse forces at the picked knots, solved
+    coarse = Problem(
+        sub, problem.E_b, E_e, fit_E_b=fit_E_b, elements=elements, jacobian=False, knots=every_row
+    )
+    coarse.nose = [n[k] for n, k in zip(problem.nose, picks, strict=True)]  # centreline: the fine mesh's
+    r_coarse, _ = coarse.evaluate(x)
+    scale = sum(k.size for k in problem.knots) / sum(b.d.size for b in sub)
+    offsets = np.cumsum([0] + [b.d.size for b in data[:-1]])
+    rows = np.concatenate([o + k for o, k in zip(offsets, picks, strict=True)])
+    dF = (r[rows] - r_coarse) / (2.0**ORDER - 1.0)  # error of the fine forces at those points
+    dx, *_ = np.linalg.lstsq(J[rows], dF, rcond=None)
+    error = float(abs(dx[0]))
+    levels = [
+        {
+            "elements": coarse.models[0].elements,
+            "discretization_error": error * 2.0**ORDER,
+            "runtime_s": coarse.cold_runtime_s * scale,
+        },
+        {
+            "elements": problem.models[0].elements,
+            "discretization_error": error,
+            "runtime_s": problem.cold_runtime_s,
+        },
+    ]
+    return error, levels
+
+
+def span_fits(joint: Problem, x: np.ndarray, E_b: float, spans) -> list[dict]:
+    """E_s of each span alone (E_b held at the joint value, the joint mesh and knots), for the
+    consistency test; started at the joint x from the joint fit's paths of these tests (warm)."""
+    if len(spans) < 2:
+        return []
+    rows, data, elements = [], joint.data, joint.models[0].elements
+    for S in spans:
+        idx = [k for k, b in enumerate(data) if b.geometry.span == S]
+        group = [data[k] for k in idx]
+        knots = [joint.knots[k] for k in idx]
+        problem = Problem(group, E_b, joint.E_e, fit_E_b=False, elements=elements, knots=knots)
+        problem.paths = [joint.paths[k] for k in idx]
+        problem.nose = [joint.nose[k].copy() for k in idx]
+        problem.nose_rate = [joint.nose_rate[k] for k in idx]
+        x_span = least_squares(problem, x[:1])
+        r, J = problem.evaluate(x_span)
+        cov, _, _ = statistics(r, J, [b.d.size for b in group])
+        sd = float(np.sqrt(cov[0, 0]))
+        rows.append({"span": S, "span_mm": 1e3 * S, "E_s": float(np.exp(x_span[0])), "sd_log": sd})
+    return rows
 
 
 #: The log stiffnesses stay within LOG_BOUND of their start (a factor of ~1e8 either way, as the

@@ -111,8 +111,11 @@ def test_joint_minimizer_fit_is_an_lmfit_model_fit_of_the_stacked_runs(sls_fit):
         assert theirs.params[name].value == pytest.approx(result.params[name].value, abs=1e-6)
         assert theirs.params[name].stderr == pytest.approx(result.params[name].stderr, rel=1e-3)
     assert theirs.params["k2"].correl["eta"] == pytest.approx(result.params["k2"].correl["eta"], abs=1e-4)
-    # a Model's residual is (data - model) weights; matid's (model - data) / sigma
-    np.testing.assert_allclose(-theirs.residual, result.residual, rtol=1e-5, atol=1e-6)
+    # matid's residual is (model - data) / sigma; lmfit's Model residual is the same up to its
+    # sign convention, which changed after 1.3.0 (model - data there, data - model since)
+    own = (theirs.best_fit - data) * weights
+    np.testing.assert_allclose(own, result.residual, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(np.abs(theirs.residual), np.abs(own), rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("offset", [5e-7, 3e-6])

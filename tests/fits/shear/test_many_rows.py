@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from matid.errors import FitError
@@ -172,6 +172,7 @@ def test_centreline_record():
     st.lists(st.integers(0, 400), min_size=3, max_size=300),
     st.floats(1e-3, 1e3),
 )
+@example(steps=[0] * 10, scale=1.0)  # one distinct row
 def test_knots_are_distinct_rows_spanning_the_record(steps, scale):
     q = scale * np.cumsum(steps) / 400.0  # non-decreasing, repeated values allowed
     knots = start_knots(q)
@@ -184,6 +185,8 @@ def test_knots_are_distinct_rows_spanning_the_record(steps, scale):
         assert knots.size <= shear_problem.START_KNOTS
     error = np.where(np.arange(q.size) % 7 == 3, 1.0, 0.0)
     finer = refine(q, knots, error, 0.5)
+    if distinct.size == 1:
+        assert finer is None
     if finer is not None:
         assert np.all(np.diff(q[finer]) > 0) and set(knots) < set(finer)
         failing = {int(np.searchsorted(q[knots], q[i], side="right")) - 1 for i in np.nonzero(error > 0.5)[0]}

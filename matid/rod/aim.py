@@ -1,0 +1,247 @@
+"""Aim: the field direction that turns the tip's d3 to a target (contract section 9, physics.md 8).
+
+Given the target t (unit, lab frame) and |B|, the unknown is the field direction b on the
+unit sphere, charted around a centre c with p1, p2 orthonormal to it:
+
+    b(u) = (c + u1 p1 + u2 p2) / |c + u1 p1 + u2 p2|,   r(u) = d3(L; |B| b(u)) - t,
+
+three equations in two unknowns, solved in the least-squares sense (scipy's
+``least_squares``, trust region of radius MAX_TURN/2 at first): r = 0 where t is reachable,
+the closest direction reached where it is not. Each residual is a forward solve warm-started
+from the state of the last accepted iterate; the Jacobian comes from the forward tangent K
+at the converged state X:
+
+    dX/dB_k = -K^-1 dR/dB_k,   dR/dB_k = R(X; B = e_k) - R(X; B = 0)   (R is linear in B),
+
+one back-substitution per field component, then dd3/dB = dd3/dq_tip dq_tip/dB. The target is
+approached by continuation along the great circle from the tip direction at b = t, in steps of
+at most MAX_TURN, each stage started from the last field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from matid.errors import ConvergenceError
+from matid.physics import kinematics as kin
+from matid.physics.jet import Jet
+from matid.rod.models import FULL, RodSystem
+from matid.rod.scenes import Scene
+from matid.rod.solve import Equilibrium, _prepare, default_penalty, equilibrium
+
+#: Largest turn of the target per continuation stage (rad).
+MAX_TURN = 0.35
+#: A target is reached when the tip is within this angle of it (rad); the contract asks 1e-4.
+AIM_TOL = 1e-8
+DEFAULT_ELEMENTS = 16
+
+
+@dataclass(frozen=True)
+class AimResult:
+    B: np.ndarray  # the field (T, lab frame)
+    tip_direction: np.ndarray  # d3 at the tip it gives (on the aim's mesh)
+    error_rad: float  # angle between that d3 and the target
+    forward_solves: int
+    runtime_s: float
+    elements: int
+
+
+def angle(a: np.ndarray, b: np.ndarray) -> float:
+    """The angle between unit vectors, accurate near 0 and pi: 2 asin(|a - b|/2)."""
+    return float(2.0 * np.arcsin(min(1.0, 0.5 * np.linalg.norm(np.asarray(a) - np.asarray(b)))))
+
+
+def slerp(a: np.ndarray, b: np.ndarray, f: float) -> np.ndarray:
+    """The unit vector a fraction f of the way from a to b along their great circle."""
+    w = angle(a, b)
+    if w < 1e-12:
+        return np.asarray(b, float)
+    if abs(np.pi - w) < 1e-9:  # antipodal: any great circle; one through a vector normal to a
+        c = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+        c /= np.linalg.norm(c)
+        return np.cos(f * w) * np.asarray(a) + np.sin(f * w) * c
+    out = (np.sin((1 - f) * w) * np.asarray(a) + np.sin(f * w) * np.asarray(b)) / np.sin(w)
+    return out / np.linalg.norm(out)
+
+
+def _basis(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors orthonormal to c."""
+    p1 = np.cross(c, [1.0, 0.0, 0.0] if abs(c[0]) < 0.9 else [0.0, 1.0, 0.0])
+    p1 /= np.linalg.norm(p1)
+    return p1, np.cross(c, p1)
+
+
+class Forward:
+    """Forward solves of a scene at fields |B| b on one mesh, each warm-started from the last."""
+
+    def __init__(self, scene: Scene, elements: int):
+        self.scene, self.elements, self.solves = scene, elements, 0
+        self.last: Equilibrium | None = None
+
+    def at(self, B: np.ndarray) -> Equilibrium:
+        scene = dataclasses.replace(
+            self.scene, loads=dataclasses.replace(self.scene.loads, B=tuple(B)), aim=None
+        )
+        self.last = equilibrium(scene, elements=self.elements, model=FULL, start=self.last)
+        self.solves += 1
+        return self.last
+
+    def sensitivity(self, eq: Equilibrium) -> np.ndarray:
+        """dd3(L)/dB (3 x 3) at a converged state, from its tangent (module docstring)."""
+        _, _, rod, _ = _prepare(eq.scene, FULL)
+        c_u = default_penalty(rod, kin.NORMALISED)
+
+        def field(B) -> RodSystem:
+            return RodSystem(eq.disc, dataclasses.replace(rod, B=B), model=FULL, c_u=c_u, banded=True)
+
+        system = field(rod.B)
+        X = system.reduce(eq.U.ravel())
+        factor = system.evaluate(X, 1.0)[1].factor()
+        R0 = field((0.0, 0.0, 0.0)).evaluate(X, 1.0, tangent=False)[0]
+        dX = [factor.solve(-(field(tuple(e)).evaluate(X, 1.0, tangent=False)[0] - R0)) for e in np.eye(3)]
+        nf, tip = eq.disc.nf, system.tip
+        dofs = system.index[np.arange(tip * nf + 3, tip * nf + 7)]
+        d3 = kin.d3(Jet.variables(eq.U[tip, 3:].reshape(4, 1), hessian=False))
+        dd3_dq = np.array([c.g[0] for c in d3])  # (3, 4)
+        return dd3_dq @ np.array([dx[dofs] for dx in dX]).T
+
+
+def aim(scene: Scene, *, elements: int | None = None) -> AimResult:
+    """The field of magnitude scene.aim.field_magnitude turning the tip's d3 closest to the target.
+
+    The continuation starts from the field along the target; when that misses, from the
+    START_TRIES fields among the CANDIDATES (26 directions of a cube's faces, edges and
+    corners) that put the tip nearest to the target. Raises ConvergenceError when the closest
+    direction reached misses the target by more than AIM_TOL (naming it and the field).
+    """
+    t0 = time.perf_counter()
+    target, magnitude = np.asarray(scene.aim.tip_direction), scene.aim.field_magnitude
+    n = elements or scene.elements or DEFAULT_ELEMENTS
+    forward = Forward(scene, n)
+    best = _continue(forward, target, magnitude, target)
+    if best[0] > AIM_TOL:
+        for b in _nearest_starts(forward, target, magnitude)[:START_TRIES]:
+            best = min(best, _continue(forward, b, magnitude, target), key=lambda r: r[0])
+            if best[0] <= AIM_TOL:
+                break
+    error, b, d3 = best
+    result = AimResult(magnitude * b, d3, error, forward.solves, time.perf_counter() - t0, n)
+    if error > AIM_TOL:
+        raise ConvergenceError(
+            f"[aim]: no field of {magnitude:.6g} T turns the tip to {_fmt(target)}: the closest "
+            f"direction reached is d3 = {_fmt(d3)}, {np.degrees(error):.4g} deg off, with B = "
+            f"{_fmt(result.B)} T ({forward.solves} forward solves)",
+            closest=result,
+        )
+    return result
+
+
+#: Field directions tried when the field along the target is no start: a cube's 26 directions.
+CANDIDATES = [
+    (np.array(v, float) - 1.0) / np.linalg.norm(np.array(v, float) - 1.0)
+    for v in np.ndindex(3, 3, 3)
+    if v != (1, 1, 1)
+]
+START_TRIES = 3
+
+
+def _nearest_starts(forward: Forward, target: np.ndarray, magnitude: float) -> list[np.ndarray]:
+    """The CANDIDATES sorted by the angle of their tip to the target (cold solves; failures left out)."""
+    scored = []
+    for b in CANDIDATES:
+        forward.last = None
+        try:
+            scored.append((angle(forward.at(magnitude * b).tip()[3:], target), tuple(b)))
+        except ConvergenceError:
+            continue
+    return [np.array(b) for _, b in sorted(scored)]
+
+
+def _continue(forward: Forward, b: np.ndarray, magnitude: float, target: np.ndarray) -> tuple:
+    """(error, field direction, tip d3): continuation from the field b along the great circle from
+    its tip direction to the target, then the fit to the target itself where a stage misses."""
+    forward.last = None
+    try:
+        start = forward.at(magnitude * b).tip()[3:]
+    except ConvergenceError:
+        return (np.inf, b, np.full(3, np.nan))
+    d3 = start
+    stages = max(1, int(np.ceil(angle(start, target) / MAX_TURN)))
+    for k in range(1, stages + 1):
+        goal = slerp(start, target, k / stages)
+        b, d3 = _stage(forward, b, magnitude, goal)
+        if angle(d3, goal) > AIM_TOL:
+            b, d3 = _stage(forward, b, magnitude, target)  # the closest to the target itself
+            break
+    return (angle(d3, target), b, d3)
+
+
+def _stage(
+    forward: Forward, b: np.ndarray, magnitude: float, goal: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(field direction, tip d3) of the least-squares fit of the tip to ``goal``, charted at b."""
+    p1, p2 = _basis(b)
+    states: dict[bytes, Equilibrium] = {}
+
+    def direction(u: np.ndarray) -> tuple[np.ndarray, float]:
+        v = b + u[0] * p1 + u[1] * p2
+        return v / np.linalg.norm(v), float(np.linalg.norm(v))
+
+    def state(u: np.ndarray) -> Equilibrium:
+        key = np.asarray(u, float).tobytes()
+        if key not in states:
+            states[key] = forward.at(magnitude * direction(u)[0])
+        return states[key]
+
+    def residual(u: np.ndarray) -> np.ndarray:
+        try:
+            return state(u).tip()[3:] - goal
+        except ConvergenceError:  # no equilibrium there: worse than any |d3 - goal| <= 2, so the
+            return np.full(3, 2.0)  # trust region shrinks back towards the last state
+
+    def jacobian(u: np.ndarray) -> np.ndarray:
+        forward.last = state(u)  # an accepted iterate: the next trial starts from its state
+        bu, norm = direction(u)
+        db = np.column_stack([(p - bu * (bu @ p)) / norm for p in (p1, p2)])  # (3, 2)
+        return forward.sensitivity(state(u)) @ (magnitude * db)
+
+    fit = least_squares(
+        residual, np.zeros(2), jac=jacobian, x_scale=0.5 * MAX_TURN, xtol=1e-13, ftol=1e-13, gtol=1e-13
+    )
+    bu = direction(fit.x)[0]
+    return bu, state(fit.x).tip()[3:]
+
+
+def _fmt(v: np.ndarray) -> str:
+    return "(" + ", ".join(f"{c:.6g}" for c in np.asarray(v, float)) + ")"
+
+
+def solve_aimed(scene: Scene, **options):
+    """:func:`matid.rod.api.solve` of a scene with ``[aim]``: the field found by :func:`aim`, then the
+    forward solve of the scene in it (its mesh and error estimate as any scene's); the aim is
+    repeated on that mesh when its tip misses the target by more than AIM_TOL."""
+    from matid.rod.api import solve
+
+    found = aim(scene, elements=options.get("elements"))
+    forward = dataclasses.replace(scene, aim=None, loads=dataclasses.replace(scene.loads, B=tuple(found.B)))
+    sol = solve(forward, **options)
+    target = np.asarray(scene.aim.tip_direction)
+    error = angle(sol.tip["d3"], target)
+    solves, runtime = found.forward_solves, found.runtime_s
+    if error > AIM_TOL and sol.elements != found.elements:
+        again = aim(dataclasses.replace(scene, elements=sol.elements))
+        forward = dataclasses.replace(forward, loads=dataclasses.replace(scene.loads, B=tuple(again.B)))
+        sol = solve(forward, **{**options, "elements": sol.elements})
+        error, solves, runtime = (
+            angle(sol.tip["d3"], target),
+            solves + again.forward_solves,
+            runtime + again.runtime_s,
+        )
+    report = {"tip_direction_error_rad": error, "forward_solves": solves, "runtime_s": runtime}
+    aimed = dataclasses.replace(forward, aim=scene.aim)
+    return dataclasses.replace(sol, scene=aimed, extra={**sol.extra, "aim": report})
