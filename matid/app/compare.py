@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from matid.app.batch import STUDY_COLUMNS, SUMMARY_FIRST, StudyOutcome
+from matid.io.cells import escaped
 from matid.io.results import CSV_COLUMNS, PARAMETER_ORDER, atomic_write, csv_text
 
 SUMMARY_COLUMNS = [SUMMARY_FIRST, *CSV_COLUMNS]
@@ -84,7 +85,7 @@ def comparison_figure(stats: Sequence[dict]) -> bytes:
     fig = Figure(figsize=(7.5, height), layout="constrained")
     axes = fig.subplots(max(len(stats), 1), 1, squeeze=False)[:, 0]
     for ax, s in zip(axes, stats, strict=False):
-        labels = [f"{r['study']} / {r['specimen']}" for r in s["rows"]]
+        labels = [escaped(f"{r['study']} / {r['specimen']}") for r in s["rows"]]  # no control glyphs
         y = list(range(len(labels)))
         values = [float(r["value"]) for r in s["rows"]]
         low = [
