@@ -76,7 +76,8 @@ class FitResult:
         return not self.failures
 
     def table(self, units: str = "SI") -> pd.DataFrame:
-        """One row per specimen and parameter: the columns of ``stiffness.csv``, warnings last."""
+        """One row per specimen and parameter: the columns of ``stiffness.csv``, warnings then status
+        (``ok``, ``check``, ``not_identifiable``: no value, the reason in warnings; contract section 10)."""
         import pandas as pd
 
         from matid.io.results import CSV_COLUMNS, table_rows
@@ -98,7 +99,7 @@ class FitResult:
         """The summary table (value ± stderr, 95 % interval, unit, method) and the warnings."""
         rows = self.table()
         head = "".join(f"<th>{h}</th>" for h in ("specimen", "parameter", "value ± stderr", "95 % interval",
-                                                 "unit", "method", "warnings"))  # fmt: skip
+                                                 "unit", "method", "warnings", "status"))  # fmt: skip
         body = "".join(_html_row(r) for r in rows.to_dict("records"))
         warnings = "".join(f"<li>{html.escape(w)}</li>" for w in self.warnings)
         return (
@@ -117,5 +118,6 @@ def _html_row(row: dict) -> str:
     value = num(row["value"]) + ("" if row["stderr"] is None or row["stderr"] != row["stderr"]
                                  else f" ± {row['stderr']:.2g}")  # fmt: skip
     interval = "" if not num(row["ci95_low"]) else f"[{num(row['ci95_low'])}, {num(row['ci95_high'])}]"
-    cells = (row["specimen"], row["parameter"], value, interval, row["unit"], row["method"], row["warnings"])
+    cells = (row["specimen"], row["parameter"], value, interval, row["unit"], row["method"], row["warnings"],
+             row["status"])  # fmt: skip
     return "<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in cells) + "</tr>"

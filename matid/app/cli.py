@@ -288,7 +288,7 @@ def summary(result: StudyResult, *, units: str = "SI") -> str:
         for name, item in params.items():
             if name in _SUMMARY_SKIP:
                 continue
-            value = f"{item['value']:.5g}"
+            value = "not identifiable" if item["value"] is None else f"{item['value']:.5g}"
             if item["stderr"] is not None:
                 value += f" ± {item['stderr']:.2g}"
             rows.append((sid, name, value, item["unit"], item["method"]))

@@ -45,7 +45,7 @@ def statistics_by_parameter(rows: Sequence[dict]) -> list[dict[str, object]]:
     for name in PARAMETER_ORDER:
         if name in _COMPARE_SKIP:
             continue
-        mine = [r for r in rows if r["parameter"] == name]
+        mine = [r for r in rows if r["parameter"] == name and r["value"] is not None]  # not_identifiable
         if not mine:
             continue
         values = [float(r["value"]) for r in mine]

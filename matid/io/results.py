@@ -23,6 +23,7 @@ import numpy as np
 
 from matid import __version__
 from matid.io.cells import text_cell
+from matid.io.status import parameter_statuses, status_text
 from matid.io.study import Study, Test
 from matid.io.views import PicklesViews
 from matid.units import from_si
@@ -63,11 +64,14 @@ class Estimate:
     method: str  # "sls", "linear", "cosserat-fe", "shear-coefficient", "fixed"
     warnings: tuple[str, ...] = ()
     extra: Mapping[str, object] = field(default_factory=dict, hash=False)
+    #: Why no value can be given, and what to measure instead ("": a value is given). A withheld
+    #: estimate's value is NaN and never printed (status ``not_identifiable``, contract section 10).
+    withheld: str = ""
 
     def __post_init__(self) -> None:
         if self.parameter not in PARAMETER_KINDS:
             raise ValueError(f"unknown parameter {self.parameter!r}")
-        if not math.isfinite(self.value):
+        if not math.isfinite(self.value) and not self.withheld:
             raise ValueError(f"{self.parameter}: value is not finite ({self.value})")
 
     @property
@@ -190,21 +194,28 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
     """The ``stiffness.json`` document (docs/contract.md sections 4 and 7)."""
     specimens: dict[str, dict] = {}
     warns, windows = parameter_warnings(result), parameter_windows(result)
+    statuses = parameter_statuses(result)
     for sid, params in result.estimates().items():
         entry = {}
         for name, est in params.items():
             value, stderr, ci, unit = _convert(est, units)
+            verdict = statuses[(sid, name)]
+            if not verdict.printed:
+                value, stderr, ci = None, None, None
             item: dict[str, object] = {
                 "value": value,
                 "stderr": _clean(stderr),
                 "ci95": None if ci is None else [_clean(ci[0]), _clean(ci[1])],
+                "status": verdict.status,
+                "status_reason": verdict.reason,
+                "measure_instead": verdict.instead if not verdict.printed else "",
                 "unit": unit,
                 "n_points": est.n_points,
                 "method": est.method,
                 "warnings": warns.get((sid, name), []),
                 "window": windows.get((sid, name)),
             }
-            item.update({k: v for k, v in est.extra.items() if k != "specimen"})
+            item.update({k: v for k, v in est.extra.items() if k != "specimen" and k not in item})
             entry[name] = item
         specimens[sid] = entry
     return {
@@ -228,6 +239,7 @@ CSV_COLUMNS = [
     "n_points",
     "method",
     "warnings",
+    "status",
 ]
 #: Separator of the warnings of one parameter in the ``warnings`` column.
 WARNING_SEPARATOR = "; "
@@ -305,19 +317,27 @@ def _jsonable(value: object) -> object:
 
 
 def table_rows(result: StudyResult, units: str = "SI") -> list[dict[str, object]]:
-    """One row per specimen and parameter, keyed by :data:`CSV_COLUMNS` (numbers as float or None)."""
-    warns = parameter_warnings(result)
+    """One row per specimen and parameter, keyed by :data:`CSV_COLUMNS` (numbers as float or None).
+
+    A ``not_identifiable`` value has no number: value, stderr and interval are None and the
+    warnings say why and what to measure instead (docs/contract.md section 10).
+    """
+    warns, statuses = parameter_warnings(result), parameter_statuses(result)
     rows = []
     for sid, params in result.estimates().items():
         for name, est in params.items():
             value, stderr, ci, unit = _convert(est, units)
+            verdict = statuses[(sid, name)]
+            if not verdict.printed:
+                value, stderr, ci = None, None, None
             low, high = (None, None) if ci is None else (_clean(ci[0]), _clean(ci[1]))
+            text = WARNING_SEPARATOR.join(status_text(verdict, warns.get((sid, name), [])))
             rows.append(
                 dict(
                     zip(
                         CSV_COLUMNS,
                         [sid, name, value, _clean(stderr), low, high, unit, est.n_points, est.method,
-                         WARNING_SEPARATOR.join(warns.get((sid, name), []))],
+                         text, verdict.status],
                         strict=True,
                     )
                 )
@@ -350,7 +370,7 @@ def _csv_cell(value: object, number_format: str | None) -> object:
 
 
 def stiffness_csv(result: StudyResult, units: str = "SI") -> str:
-    """The ``stiffness.csv`` text: one row per specimen and parameter, warnings last."""
+    """The ``stiffness.csv`` text: one row per specimen and parameter, warnings then status last."""
     return csv_text(table_rows(result, units), CSV_COLUMNS)
 
 

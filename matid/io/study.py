@@ -23,6 +23,7 @@ from matid.io.limits import MAX_ENTRIES
 from matid.io.study_keys import MAX_TEXT, TEST_COLUMNS, bounded_text, nearest  # noqa: F401 - re-exported
 from matid.io.toml import load_toml, shown
 from matid.io.views import PicklesViews
+from matid.physics.moduli import Section
 from matid.units import PHYSICAL_BOUND, PLAUSIBLE_BARE, UnitError, to_si
 
 #: Keys whose strings are free text: any length (cut at MAX_TEXT), not bounded by MAX_VALUE_CHARS.
@@ -59,7 +60,7 @@ TEST_COMMON_KEYS = (
 TABLE_KEYS: dict[str, tuple[str, ...]] = {
     "": ("study", "specimen", "test", "fixed"),
     "study": ("name", "temperature", "allow_outside"),
-    "specimen": ("id", "outer_diameter", "inner_diameter", "poisson_ratio"),
+    "specimen": ("id", "outer_diameter", "inner_diameter", "poisson_ratio", *keys.SECTION_KEYS),
     "fixed": ("specimen", "parameter", "value"),
 }
 
@@ -77,22 +78,44 @@ PARAMETERS: dict[str, str] = {
 
 @dataclass(frozen=True)
 class Specimen:
-    """A tube specimen; diameters in m."""
+    """A specimen and its section (docs/contract.md section 10); lengths in m.
+
+    A tube gives ``outer_diameter`` and ``inner_diameter`` (0: a rod), an open
+    tube also ``slit = True``; a rectangular coupon gives ``width`` and ``height``
+    (height along the bending load) and no diameters.
+    """
 
     id: str
-    outer_diameter: float
+    outer_diameter: float = 0.0
     inner_diameter: float = 0.0
     #: Poisson's ratio for the shear coefficient of E_s from torsion (None: stated default range).
     poisson_ratio: float | None = None
+    width: float = 0.0
+    height: float = 0.0
+    slit: bool = False
 
     def __post_init__(self) -> None:
         if not self.id:
             raise ValueError("specimen id must not be empty")
-        if not (self.outer_diameter > self.inner_diameter >= 0.0):
+        rectangle = bool(self.width or self.height)
+        if not rectangle and not (self.outer_diameter > self.inner_diameter >= 0.0):
             raise ValueError(
                 f"specimen {self.id}: need outer_diameter > inner_diameter >= 0, got "
                 f"{self.outer_diameter} m and {self.inner_diameter} m"
             )
+        if rectangle and self.slit:
+            raise ValueError(f"specimen {self.id}: slit = true is a tube's key, not a rectangle's")
+        try:
+            self.section  # noqa: B018 - checks the section's own invariants
+        except ValueError as exc:
+            raise ValueError(f"specimen {self.id}: {exc}") from None
+
+    @property
+    def section(self) -> Section:
+        """The cross-section the moduli and E_s_torsion use."""
+        if self.width or self.height:
+            return Section("rectangle", width=self.width, height=self.height)
+        return Section("slit" if self.slit else "tube", self.outer_diameter, self.inner_diameter)
 
     @property
     def outer_radius(self) -> float:
@@ -310,20 +333,16 @@ def _specimen(source: Path, index: int, entry: dict) -> Specimen:
     if not sid:
         raise DataError(f"{where}: missing 'id'", file=source)
     sid = bounded_text(sid, 200)
-    outer = _quantity(source, f"specimen {sid}", entry, "outer_diameter", "length")
-    inner = (
-        _quantity(source, f"specimen {sid}", entry, "inner_diameter", "length")
-        if "inner_diameter" in entry
-        else 0.0
-    )
     nu = entry.get("poisson_ratio")
     if nu is not None and (isinstance(nu, bool) or not isinstance(nu, (int, float)) or not -1.0 < nu <= 0.5):
         raise DataError(
             f"specimen {sid}: poisson_ratio must be a number in (-1, 0.5], got '{shown(nu)}'",
             file=source,
         )
+    where = f"specimen {sid}"
+    dims = keys.section(source, where, entry, lambda key: _quantity(source, where, entry, key, "length"))
     try:
-        return Specimen(sid, outer, inner, None if nu is None else float(nu))
+        return Specimen(sid, poisson_ratio=None if nu is None else float(nu), **dims)
     except ValueError as exc:
         raise DataError(str(exc), file=source) from exc
 

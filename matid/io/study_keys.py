@@ -28,6 +28,9 @@ TEST_COLUMNS: dict[str, dict[str, str]] = {
     "three_point_bend": {"deflection": "length", "force": "force"},
 }
 
+#: Keys of a [[specimen]] that give a section other than a closed tube (docs/contract.md section 10).
+SECTION_KEYS = ("width", "height", "slit")
+
 TRUNCATED = " [... truncated]"
 
 
@@ -141,3 +144,28 @@ def data_file(source: Path, where: str, name: str, outside: bool = False) -> Pat
             file=source,
         )
     return path
+
+
+def section(source: Path, where: str, entry: dict, length: Callable[[str], float]) -> dict[str, object]:
+    """The section keys of a [[specimen]] as Specimen arguments: diameters (and ``slit``) or
+    ``width`` and ``height``; ``length(key)`` reads one length in SI."""
+    rectangle = [k for k in ("width", "height") if k in entry]
+    if rectangle:
+        clash = [k for k in ("outer_diameter", "inner_diameter", "slit") if k in entry]
+        if clash or len(rectangle) < 2:
+            why = f"also gives {clash[0]}" if clash else f"gives {rectangle[0]} without the other"
+            raise DataError(
+                f"{where}: a rectangular section needs both width and height and no diameters; it {why}",
+                file=source,
+            )
+        return {"width": length("width"), "height": length("height")}
+    slit = entry.get("slit", False)
+    if not isinstance(slit, bool):
+        raise DataError(
+            f"{where}: slit must be a boolean (true or false, unquoted), got {bounded_text(slit, 80)!r}",
+            file=source,
+        )
+    if slit and "inner_diameter" not in entry:
+        raise DataError(f"{where}: a slit (open) tube needs inner_diameter", file=source)
+    inner = length("inner_diameter") if "inner_diameter" in entry else 0.0
+    return {"outer_diameter": length("outer_diameter"), "inner_diameter": inner, "slit": slit}

@@ -1,9 +1,10 @@
 """``stiffness.xlsx`` and ``summary.xlsx``: the stiffness tables as spreadsheets (docs/contract.md 7, 8).
 
 Sheets of ``stiffness.xlsx``: ``stiffness`` (the rows of ``stiffness.csv``, numbers
-as numbers), ``warnings`` (specimen, what it concerns, the warning) and ``inputs``
-(file, sha256, rows used, rows read); text is written as text, never as a formula
-(:mod:`matid.io.cells`). openpyxl is imported only when a workbook is
+as numbers, the status of each value last: contract section 10), ``warnings``
+(specimen, what it concerns, the warning) and ``inputs`` (file, sha256, rows used,
+rows read); text is written as text, never as a formula (:mod:`matid.io.cells`).
+openpyxl is imported only when a workbook is
 written, so ``import matid`` stays light.
 """
 

@@ -10,6 +10,19 @@ so the material moduli are
 
     E = E_e / A  (from extension),    E = E_b / I  (from bending),    G = E_t / J  (torsion).
 
+Other sections (docs/contract.md section 10, :class:`Section`; Roark's Formulas for Stress
+and Strain, 7th ed., tables A.1 and 10.1):
+
+* a rectangle of width b and height h (h along the bending load): A = b h, I = b h^3 / 12,
+  and Saint-Venant's torsion constant of a rectangle, long side a >= short side c,
+
+      J = a c^3 / 3 [1 - (192 / pi^5) (c / a) sum_{n = 1, 3, 5, ...} tanh(n pi a / (2 c)) / n^5];
+
+* an open (slit) tube, the slit taken as of zero width: A and I those of the closed tube
+  (the slit removes no material from them), and the thin open section's torsion constant
+  J = (1/3) s t^3 with s = pi (R_o + R_i) the wall's mid-line length and t = R_o - R_i
+  the wall thickness (the closed tube's J is about 3 (R_m / t)^2 times larger).
+
 For one isotropic, linear material the two Young's moduli agree; their disagreement
 measures anisotropy, rate dependence (E_e is the long-term modulus of the standard linear
 solid), or a wrong section. The diameters are taken as exact: the standard error of a
@@ -23,8 +36,97 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 #: Section quantity each stiffness is divided by, and the modulus it gives.
 MODULUS_OF = {"E_e": ("area", "E"), "E_b": ("second_moment", "E"), "E_t": ("polar_moment", "G")}
+#: Section shapes (docs/contract.md section 10).
+SHAPES = ("tube", "slit", "rectangle")
+#: Terms of the rectangle's torsion series: the tail after n terms is below (c/a) 192/pi^5 / (4 n^4).
+SERIES_TERMS = 50
+
+
+@dataclass(frozen=True)
+class Section:
+    """A specimen's cross-section in m: a tube (``inner_diameter`` 0: a rod), an open ``slit``
+    tube, or a ``rectangle`` of ``width`` x ``height`` (height along the bending load)."""
+
+    shape: str
+    outer_diameter: float = 0.0
+    inner_diameter: float = 0.0
+    width: float = 0.0
+    height: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.shape not in SHAPES:
+            raise ValueError(f"section shape must be one of {', '.join(SHAPES)}, got {self.shape!r}")
+        if self.shape == "rectangle":
+            if not (0 < self.width < math.inf and 0 < self.height < math.inf):
+                raise ValueError(f"need width > 0 and height > 0, got {self.width} and {self.height}")
+            if self.outer_diameter or self.inner_diameter:
+                raise ValueError("a rectangular section has no diameters")
+            return
+        _check_radii(0.5 * self.outer_diameter, 0.5 * self.inner_diameter)
+        if self.width or self.height:
+            raise ValueError("a tube section has no width or height")
+        if self.shape == "slit" and not self.inner_diameter > 0:
+            raise ValueError("a slit (open) tube needs an inner_diameter > 0: a slit rod is not a section")
+
+    @property
+    def radii(self) -> tuple[float, float]:
+        return 0.5 * self.outer_diameter, 0.5 * self.inner_diameter
+
+    @property
+    def depth(self) -> float:
+        """Outer extent along the bending load [m] (the contact geometry of a bend)."""
+        return self.height if self.shape == "rectangle" else self.outer_diameter
+
+    @property
+    def A(self) -> float:
+        """Cross-section area [m^2]."""
+        return self.width * self.height if self.shape == "rectangle" else area(*self.radii)
+
+    @property
+    def I(self) -> float:  # noqa: E743 (the symbol of the formula)
+        """Second moment of area about the bending axis [m^4]."""
+        if self.shape == "rectangle":
+            return rectangle_second_moment(self.width, self.height)
+        return second_moment(*self.radii)
+
+    @property
+    def J(self) -> float:
+        """Saint-Venant torsion constant [m^4] (the polar moment only for a closed circular tube)."""
+        if self.shape == "rectangle":
+            return rectangle_torsion_constant(self.width, self.height)
+        if self.shape == "slit":
+            return open_tube_torsion_constant(*self.radii)
+        return polar_moment(*self.radii)
+
+    def describe(self) -> str:
+        if self.shape == "rectangle":
+            return f"rectangle {self.width * 1e3:.4g} mm x {self.height * 1e3:.4g} mm"
+        kind = "slit (open) tube" if self.shape == "slit" else "tube" if self.inner_diameter else "rod"
+        return f"{kind} {self.outer_diameter * 1e3:.4g}/{self.inner_diameter * 1e3:.4g} mm"
+
+
+def rectangle_second_moment(width: float, height: float) -> float:
+    """I = b h^3 / 12 of a rectangle bent along its height [m^4]."""
+    return width * height**3 / 12.0
+
+
+def rectangle_torsion_constant(width: float, height: float, terms: int = SERIES_TERMS) -> float:
+    """Saint-Venant's series J = a c^3/3 [1 - 192/pi^5 (c/a) sum_odd tanh(n pi a/2c)/n^5] [m^4]."""
+    a, c = max(width, height), min(width, height)
+    n = 2 * np.arange(terms) + 1
+    series = float(np.sum(np.tanh(n * math.pi * a / (2 * c)) / n**5))
+    return a * c**3 / 3.0 * (1.0 - 192.0 / math.pi**5 * (c / a) * series)
+
+
+def open_tube_torsion_constant(outer_radius: float, inner_radius: float) -> float:
+    """Thin open section of a slit tube: J = (1/3) s t^3, s = pi (R_o + R_i), t = R_o - R_i [m^4]."""
+    _check_radii(outer_radius, inner_radius)
+    t = outer_radius - inner_radius
+    return math.pi * (outer_radius + inner_radius) * t**3 / 3.0
 
 
 @dataclass(frozen=True)
@@ -73,14 +175,26 @@ def polar_moment(outer_radius: float, inner_radius: float = 0.0) -> float:
 
 
 def modulus(
-    source: str, stiffness: float, stderr: float | None, *, outer_radius: float, inner_radius: float = 0.0
+    source: str,
+    stiffness: float,
+    stderr: float | None,
+    *,
+    section: Section | None = None,
+    outer_radius: float | None = None,
+    inner_radius: float = 0.0,
 ) -> Modulus:
-    """E = E_e / A, E = E_b / I or G = E_t / J for ``source`` in ``MODULUS_OF`` (SI in, Pa out)."""
+    """E = E_e / A, E = E_b / I or G = E_t / J for ``source`` in ``MODULUS_OF`` (SI in, Pa out).
+
+    The section is ``section`` or, for a closed circular tube, its radii.
+    """
     if source not in MODULUS_OF:
         raise ValueError(f"no modulus from {source!r}; expected one of {', '.join(MODULUS_OF)}")
-    section_name, name = MODULUS_OF[source]
-    section = {"area": area, "second_moment": second_moment, "polar_moment": polar_moment}[section_name]
-    size = section(outer_radius, inner_radius)
+    if section is None:
+        if outer_radius is None:
+            raise ValueError("modulus needs a section or an outer radius")
+        section = Section("tube", 2.0 * outer_radius, 2.0 * inner_radius)
+    size = {"E_e": section.A, "E_b": section.I, "E_t": section.J}[source]
+    name = MODULUS_OF[source][1]
     return Modulus(name, source, stiffness / size, None if stderr is None else stderr / size)
 
 

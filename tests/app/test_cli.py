@@ -23,7 +23,7 @@ from matid.errors import ConvergenceError, FitError
 
 DEMO = Path(str(resources.files("matid.example")))
 OUTPUTS = {"report.html", "report.pdf", "stiffness.csv", "stiffness.json", "stiffness.xlsx"}
-CSV_HEADER = "specimen,parameter,value,stderr,ci95_low,ci95_high,unit,n_points,method,warnings"
+CSV_HEADER = "specimen,parameter,value,stderr,ci95_low,ci95_high,unit,n_points,method,warnings,status"
 SI_UNITS = {
     "E_b": "N m^2",
     "E_t": "N m^2",

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from matid.errors import DataError
 from matid.io.ingest.read import REQUIRED, Table, load_measurements, read_table
@@ -519,3 +521,118 @@ def test_long_metadata_value_is_truncated(tmp_path):
     text = "# note: " + "y" * 2_000_000 + "\n" + BEND_OK
     table = read_table(write(tmp_path, text), "three_point_bend")
     assert len(table.metadata["note"]) < 2100 and table.metadata["note"].endswith("[... truncated]")
+
+
+# --- single-spaced multi-word headers (issue 21, contract section 10) ----------------------------
+
+#: MTS Series 793 MultiPurpose TestWare "plain" specimen data file (space-delimited; its first line
+#: is MTS793|progName|language|version|iDelim (0: space)|decimal|...), as the 793 application manual
+#: describes it; channel names "Ch 1 Displacement" hold single spaces like the gaps between columns.
+MTS_PLAIN = Path(__file__).parent.parent / "corpus" / "mts793_plain_flexure.dat"
+
+
+def test_mts_plain_single_space_header_is_resolved_by_the_units_row():
+    mapping = {"deflection": "Ch 1 Displacement", "force": "Ch 1 Force"}
+    table = read_table(MTS_PLAIN, "three_point_bend", columns=mapping)
+    assert table.header_row == 4
+    assert dict(table.written) == {"deflection": "Ch 1 Displacement", "force": "Ch 1 Force", "time": "Time"}
+    assert dict(table.units) == {"deflection": "mm", "force": "kN", "time": "Sec"}
+    # The slope by hand: last and first data rows of the file, split on whitespace, mm and kN to SI.
+    rows = [line.split() for line in MTS_PLAIN.read_text().splitlines()[5:]]
+    hand = (float(rows[-1][1]) - float(rows[0][1])) * 1e3 / ((float(rows[-1][0]) - float(rows[0][0])) * 1e-3)
+    slope = np.polyfit(table["deflection"], table["force"], 1)[0]
+    assert slope == pytest.approx(hand, rel=0.02)
+    assert table.n_rows == len(rows) == 101
+
+
+@pytest.mark.parametrize(
+    ("header", "units", "names"),
+    [
+        ("Axial Force Axial Displacement Time", "N mm s", ["Axial Force", "Axial Displacement", "Time"]),
+        ("Time Axial Force Crosshead", "s N mm", ["Time", "Axial Force", "Crosshead"]),
+        ("Rotary Angle Rotary Torque", "deg N-m", ["Rotary Angle", "Rotary Torque"]),
+    ],
+)
+def test_single_spaced_names_follow_the_quantity_of_their_unit(header, units, names):
+    from matid.io.ingest.spaced import spaced_names
+
+    assert spaced_names(header.split(), len(units.split()), units.split()) == names
+
+
+def test_single_spaced_header_over_bracketed_units(tmp_path):
+    text = "Time [s] Axial Force [N] Crosshead [mm]\n0 0 0\n1 1.5 0.1\n2 3.0 0.2\n"
+    mapping = {"deflection": "Crosshead", "force": "Axial Force"}
+    table = read_table(write(tmp_path, text, "b.txt"), "three_point_bend", columns=mapping)
+    assert table.units["time"] == "s"
+    np.testing.assert_allclose(table["force"], [0, 1.5, 3.0])
+    np.testing.assert_allclose(table["deflection"], [0, 1e-4, 2e-4])
+
+
+def test_single_spaced_header_that_cannot_be_grouped_is_refused_not_guessed(tmp_path):
+    # Two unit-less 'Ch' channels: nothing tells which words belong to which name.
+    text = "Ch A Ch B Extra Word\nmm mm mm\n0 0 0\n1 1 1\n2 2 2\n"
+    path = write(tmp_path, text, "c.txt")
+    with pytest.raises(DataError, match=where(path, row=1) + "header row 1 has 6 words"):
+        read_table(path, "three_point_bend")
+
+
+# --- long records: the numbers parsed by pandas' C engine after detection ---------------------------
+
+_CELL = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e3, max_value=1e3)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    numbers=st.lists(st.tuples(_CELL, _CELL), min_size=3, max_size=30),
+    style=st.sampled_from([(",", "."), (";", ","), ("\t", "."), ("\t", ","), (" ", ".")]),
+    digits=st.sampled_from(["r", ".3f", ".17g", ".6e"]),
+)
+def test_numbers_are_the_doubles_python_reads_from_the_cells(tmp_path, numbers, style, digits):
+    delimiter, decimal = style
+    cells = [[repr(x) if digits == "r" else format(x, digits) for x in row] for row in numbers]
+    lines = [delimiter.join(c.replace(".", decimal) for c in row) for row in cells]
+    path = write(tmp_path, f"tip_angle [rad]{delimiter}torque [N m]\n" + "\n".join(lines) + "\n")
+    table = read_table(path, "magnetic_bending")
+    expected = np.array([[float(c) for c in row] for row in cells])
+    assert table["tip_angle"].tolist() == expected[:, 0].tolist()
+    assert table["torque"].tolist() == expected[:, 1].tolist()
+
+
+def test_blank_and_space_only_lines_keep_the_row_numbers_of_a_long_record(tmp_path):
+    rows = [f"{k * 0.001:.3f},{k * 0.5:.1f},{k * 1e-4:.4f}" for k in range(20_000)]
+    rows[7_000] = "   "
+    rows[12_000] = ""
+    rows[15_000] = ",,"
+    rows[18_000] = "18.000,x,1.8000"
+    path = write(tmp_path, "time [s],force [N],elongation [mm]\n" + "\n".join(rows) + "\n")
+    with pytest.raises(DataError, match=where(path, row=18_002, column="force") + "not a number: 'x'"):
+        read_table(path, "extension")
+    rows[18_000] = "18.000,9000.0,1.8000"
+    table = read_table(
+        write(tmp_path, "time [s],force [N],elongation [mm]\n" + "\n".join(rows) + "\n"), "extension"
+    )
+    assert table.n_rows == 20_000 - 3
+    assert table["force"][-1] == 19_999 * 0.5
+
+
+def test_a_record_in_utf16_with_a_bom_is_read_from_the_byte_after_its_preamble(tmp_path):
+    text = "Prüfung: T1 °C\nTime [s]\tForce [N]\tElongation [mm]\n" + "".join(
+        f"{k}\t{k},5\t0,{k:03d}\n" for k in range(1, 50)
+    )
+    table = read_table(write(tmp_path, text, encoding="utf-16"), "extension")
+    assert table.encoding == "utf-16" and table.n_rows == 49
+    np.testing.assert_array_equal(table["force"], np.arange(1, 50) + 0.5)
+
+
+def test_rows_of_unequal_length_are_parsed_again_and_checked_like_a_short_file(tmp_path):
+    """pandas sizes a parse by its first row: a short first row or a trailing delimiter on some rows
+    only are parsed again as wide as the widest row; a row with more cells than the header is named."""
+    head = "time [s],force [N],strain [%]\n"
+    table = read_table(write(tmp_path, head + "0,0,0\n1,1,1,\n2,2,2\n"), "extension")
+    np.testing.assert_array_equal(table["force"], [0, 1, 2])
+    path = write(tmp_path, head + "0,0\n1,1,1\n2,2,2\n", "short.csv")
+    with pytest.raises(DataError, match=where(path, row=2) + "row has 2 cells, header has 3"):
+        read_table(path, "extension")
+    path = write(tmp_path, head + "0,0,0\n1,1,1,,,,\n2,2,2\n3,3,3,4\n", "wide.csv")
+    with pytest.raises(DataError, match=where(path, row=5) + "row has 4 cells, header has 3"):
+        read_table(path, "extension")

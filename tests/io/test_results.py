@@ -83,7 +83,7 @@ def run(argv: list[str]) -> tuple[int, str, str]:
 
 def test_csv_warnings_column(warned):
     text = stiffness_csv(warned)
-    assert text.splitlines()[0] == CSV_HEADER and CSV_HEADER.endswith(",warnings")
+    assert text.splitlines()[0] == CSV_HEADER and CSV_HEADER.endswith(",warnings,status")
     rows = {r["parameter"]: r for r in csv.DictReader(io.StringIO(text))}
     for name in ("E_e", "sls_k1", "sls_k2", "sls_eta"):  # a fit's warning concerns all its parameters
         assert rows[name]["warnings"] == FIT_WARNING
@@ -160,4 +160,4 @@ def test_strict_without_warnings_exits_0(tmp_path, monkeypatch):
     study = small_study(tmp_path / "study")
     code, out, _ = run(["fit", str(study), "--out", str(tmp_path / "o"), "--quiet", "--strict"])
     assert code == 0 and "warnings: none" in out
-    assert Path(tmp_path / "o" / "stiffness.csv").read_text().splitlines()[1].endswith(",")
+    assert Path(tmp_path / "o" / "stiffness.csv").read_text().splitlines()[1].endswith(",,ok")

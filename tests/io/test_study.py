@@ -374,3 +374,50 @@ def test_kind_of_the_wrong_type_is_a_data_error(tmp_path, value):
     toml.write_text(text.replace('kind = "torsion"', f"kind = {value}", 1), encoding="utf-8")
     with pytest.raises(DataError, match="kind must be one of"):
         load_study(toml)
+
+
+# --- sections: rectangle and slit tube (contract section 10) ---------------------------------------
+
+RECTANGLE = 'id = "T2"\nwidth = "10 mm"\nheight = "4 mm"\npoisson_ratio = 0.35'
+SLIT = 'id = "T2"\nouter_diameter = "2.4 mm"\ninner_diameter = "1.6 mm"\nslit = true'
+
+
+def test_rectangular_and_slit_sections(tmp_path):
+    for text, shape in ((RECTANGLE, "rectangle"), (SLIT, "slit")):
+        head = HEAD.replace('id = "T2"\nouter_diameter = 0.003', text)
+        spec = load_study(write_study(tmp_path, head + TESTS)).specimen("T2")
+        assert spec.section.shape == shape
+    assert spec.slit and spec.section.J < spec.section.A**2  # an open wall is weak in torsion
+    rect = load_study(
+        write_study(tmp_path, HEAD.replace('id = "T2"\nouter_diameter = 0.003', RECTANGLE) + TESTS)
+    )
+    section = rect.specimen("T2").section
+    assert (section.width, section.height) == pytest.approx((10e-3, 4e-3))
+    assert section.I == pytest.approx(10e-3 * 4e-3**3 / 12)
+    assert load_study(write_study(tmp_path, HEAD + TESTS)).specimen("T1").section.shape == "tube"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (
+            'id = "T2"\nwidth = "10 mm"',
+            "needs both width and height and no diameters; it gives width without",
+        ),
+        (
+            'id = "T2"\nwidth = "1 mm"\nheight = "1 mm"\nouter_diameter = "1 mm"',
+            "it also gives outer_diameter",
+        ),
+        ('id = "T2"\nouter_diameter = "2 mm"\nslit = true', "a slit \\(open\\) tube needs inner_diameter"),
+        (
+            'id = "T2"\nouter_diameter = "2 mm"\ninner_diameter = "1 mm"\nslit = "yes"',
+            "slit must be a boolean",
+        ),
+        ('id = "T2"\nwidth = "0 mm"\nheight = "1 mm"', "width > 0 and height > 0"),
+        ('id = "T2"\nwidth = "1 kg"\nheight = "1 mm"', "width: 'kg' is not a unit of length"),
+    ],
+)
+def test_bad_sections_name_the_specimen_and_the_key(tmp_path, text, message):
+    path = write_study(tmp_path, HEAD.replace('id = "T2"\nouter_diameter = 0.003', text) + TESTS)
+    with expect(path, "specimen T2: .*" + message):
+        load_study(path)

@@ -8,7 +8,16 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from matid.physics.moduli import agreement, area, modulus, polar_moment, second_moment
+from matid.physics.moduli import (
+    Section,
+    agreement,
+    area,
+    modulus,
+    open_tube_torsion_constant,
+    polar_moment,
+    rectangle_torsion_constant,
+    second_moment,
+)
 
 
 def test_solid_rod_sections():
@@ -77,3 +86,102 @@ def test_bending_and_extension_moduli_agree_for_one_material(ro, share, E):
     )
     assert a.value == pytest.approx(E, rel=1e-9) and b.value == pytest.approx(E, rel=1e-9)
     assert agreement(a, b).agree
+
+
+# --- sections other than a closed tube (contract section 10) --------------------------------------
+
+#: Saint-Venant's torsion factor beta of J = beta a c^3 for a rectangle of sides a >= c, as tabulated
+#: (Timoshenko & Goodier, Theory of Elasticity, 3rd ed., table 10; Roark table 10.1 case 4): 3 digits.
+TORSION_BETA = {1.0: 0.141, 1.5: 0.196, 2.0: 0.229, 3.0: 0.263, 5.0: 0.291, 10.0: 0.312}
+
+
+@pytest.mark.parametrize(("ratio", "beta"), TORSION_BETA.items())
+def test_rectangle_torsion_constant_against_the_tabulated_factor(ratio, beta):
+    c = 2e-3
+    J = rectangle_torsion_constant(ratio * c, c)
+    assert J / (ratio * c * c**3) == pytest.approx(beta, abs=6e-4)
+    assert rectangle_torsion_constant(c, ratio * c) == J  # the series takes the long side as a
+
+
+def test_rectangular_coupon_gives_the_textbook_area_second_moment_and_modulus():
+    """A PLA flexural coupon 10 x 4 mm, E = 2 GPa: E_b = E b h^3 / 12 and E_e = E b h give E back."""
+    b, h, E = 10e-3, 4e-3, 2.0e9
+    sec = Section("rectangle", width=b, height=h)
+    assert sec.A == pytest.approx(b * h, rel=1e-15)
+    assert sec.I == pytest.approx(b * h**3 / 12, rel=1e-15)
+    assert sec.depth == h
+    assert modulus("E_b", E * b * h**3 / 12, None, section=sec).value == pytest.approx(E, rel=1e-12)
+    assert modulus("E_e", E * b * h, None, section=sec).value == pytest.approx(E, rel=1e-12)
+    # A round stand-in of the same depth (the report had only diameters) is ~4x off for E_b.
+    stand_in = modulus("E_b", E * b * h**3 / 12, None, outer_radius=h / 2)
+    assert stand_in.value / E > 4
+
+
+@given(
+    ro=st.floats(min_value=0.5e-3, max_value=5e-3),
+    wall=st.floats(min_value=0.005, max_value=0.1),
+)
+def test_slit_tube_is_the_thin_open_wall_of_its_unrolled_strip(ro, wall):
+    """J of a slit tube, (1/3) s t^3 (s = 2 pi R_m), against Saint-Venant's series of the strip s x t
+    it unrolls into, which is (1/3) s t^3 (1 - 0.630 t/s + ...): equal within 0.64 t/s."""
+    ri = ro * (1 - wall)
+    t, s = ro - ri, math.pi * (ro + ri)
+    J_open = open_tube_torsion_constant(ro, ri)
+    J_strip = rectangle_torsion_constant(s, t)
+    assert J_open == pytest.approx(s * t**3 / 3, rel=1e-12)
+    assert J_strip <= J_open and J_open == pytest.approx(J_strip, rel=0.64 * t / s)
+    slit = Section("slit", 2 * ro, 2 * ri)
+    closed = Section("tube", 2 * ro, 2 * ri)
+    assert (slit.A, slit.I) == (closed.A, closed.I)
+    # Closing the slit: J grows by ~3 (R_m / t)^2 for a thin wall (Roark table 10.1, cases 10 and 16).
+    R_m = 0.5 * (ro + ri)
+    assert closed.J / slit.J == pytest.approx(3 * (R_m / t) ** 2, rel=0.5 * wall + 0.01)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        (dict(shape="rectangle", width=1e-3, height=0.0), "width > 0 and height > 0"),
+        (dict(shape="rectangle", width=1e-3, height=1e-3, outer_diameter=1e-3), "no diameters"),
+        (dict(shape="slit", outer_diameter=2e-3), "needs an inner_diameter"),
+        (dict(shape="tube", outer_diameter=2e-3, width=1e-3), "no width or height"),
+        (dict(shape="hexagon", outer_diameter=2e-3), "one of tube, slit, rectangle"),
+    ],
+)
+def test_impossible_sections_say_why(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        Section(**kwargs)
+
+
+# --- E_s_torsion by section ------------------------------------------------------------------------
+
+
+def _torsion_estimate(value: float):
+    from matid.io.results import Estimate
+
+    return Estimate("E_t", value, 0.01 * value, (0.98 * value, 1.02 * value), 40, "linear")
+
+
+def test_slit_tube_gives_the_reason_instead_of_E_s_torsion():
+    from matid.fits.shear.torsion import e_s_torsion, reference_kGA
+    from matid.io.study import Specimen
+
+    slit = Specimen("S", 2.4e-3, 1.6e-3, slit=True)
+    est = e_s_torsion(_torsion_estimate(1e-4), slit)
+    assert est.withheld.startswith("E_s_torsion is not given for an open (slit) tube")
+    assert math.isnan(est.value) and est.stderr is None and est.ci95 is None
+    assert reference_kGA({"E_s_torsion": est}, slit) is None
+
+
+def test_rectangle_E_s_torsion_is_cowper_k_A_times_G_of_the_series():
+    from matid.fits.shear.torsion import e_s_torsion
+    from matid.io.study import Specimen
+
+    b, h, nu, G = 10e-3, 4e-3, 0.35, 0.75e9
+    coupon = Specimen("C", width=b, height=h, poisson_ratio=nu)
+    J = rectangle_torsion_constant(b, h)
+    assert J / (b * h**3) == pytest.approx((0.229 + 0.263) / 2, abs=0.01)  # between a/c = 2 and 3
+    est = e_s_torsion(_torsion_estimate(G * J), coupon)
+    k = 10 * (1 + nu) / (12 + 11 * nu)  # Cowper (1966), rectangle
+    assert est.value == pytest.approx(k * G * b * h, rel=1e-12)
+    assert not est.withheld and est.extra["section"].startswith("rectangle")

@@ -89,7 +89,7 @@ def bend_data(m: Measurement, specimen: Specimen, E_b: float) -> BendData:
     p = m.test.params
     try:
         geometry = BendGeometry(
-            p["span"], p["specimen_length"], p["support_radius"], p["nose_radius"], specimen.outer_diameter
+            p["span"], p["specimen_length"], p["support_radius"], p["nose_radius"], specimen.section.depth
         )
     except ValueError as exc:
         raise DataError(str(exc), file=m.test.file) from exc

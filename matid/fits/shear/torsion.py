@@ -11,6 +11,12 @@ tube the shear modulus of torsion is that of transverse shear, so
 
     E_s_torsion = k(nu, a, b) A E_t / J,   A = pi (a^2 - b^2),  J = pi/2 (a^4 - b^4).
 
+Other sections (contract section 10, :class:`matid.physics.moduli.Section`): a
+rectangular coupon uses Cowper's (1966) rectangle coefficient k = 10 (1 + nu) /
+(12 + 11 nu) with A = b h and Saint-Venant's series J; an open (slit) tube has no
+closed-tube shear coefficient (its transverse shear is coupled to twist about a
+shear centre off the axis), so E_s_torsion is withheld with the reason.
+
 **Reference k G A** for the identifiability of E_s, independent of the bend
 fit: E_s_torsion when there is a torsion test, else k(nu) E_e / (2 (1 + nu))
 (isotropic wall, G = E/(2(1+nu)), E = E_e/A), as a range over nu.
@@ -58,10 +64,38 @@ def hutchinson_k(nu: float, a: float, b: float = 0.0) -> float:
     return 6.0 * (a2 + b2) ** 2 * (1.0 + nu) ** 2 / den
 
 
+#: Why an open section gives no E_s_torsion, and what to measure instead.
+OPEN_SECTION = (
+    "E_s_torsion is not given for an open (slit) tube: the shear coefficient k of a closed tube does "
+    "not apply to it (transverse shear and twist are coupled about a shear centre off the axis), and "
+    "its torsion is that of a thin open wall; measure E_s in a three-point bend with centreline "
+    'deflection (deflection_at = "centreline") instead'
+)
+
+
+def cowper_k(nu: float) -> float:
+    """Cowper's (1966) shear coefficient of a rectangle, 10 (1 + nu) / (12 + 11 nu)."""
+    return 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu)
+
+
+def shear_coefficient(nu: float, specimen: Specimen) -> float | None:
+    """k of the specimen's section: Hutchinson's hollow circle, Cowper's rectangle, None when open."""
+    shape = specimen.section.shape
+    if shape == "slit":
+        return None
+    if shape == "rectangle":
+        return cowper_k(nu)
+    a, b = specimen.section.radii
+    return hutchinson_k(nu, a, b)
+
+
 def section(specimen: Specimen) -> tuple[float, float, float, float]:
-    """(a, b, A, J) of the tube section [m, m, m^2, m^4]."""
-    a, b = 0.5 * specimen.outer_diameter, 0.5 * specimen.inner_diameter
-    return a, b, math.pi * (a * a - b * b), 0.5 * math.pi * (a**4 - b**4)
+    """(a, b, A, J) [m, m, m^2, m^4]: outer and inner half-depth along the bend load (a
+    rectangle: h/2 and 0, the solid rod of its depth for the contact's order of magnitude),
+    area and torsion constant of the specimen's section."""
+    sec = specimen.section
+    a, b = (0.5 * sec.height, 0.0) if sec.shape == "rectangle" else sec.radii
+    return a, b, sec.A, sec.J
 
 
 def nu_range(specimen: Specimen) -> tuple[float, float]:
@@ -70,8 +104,7 @@ def nu_range(specimen: Specimen) -> tuple[float, float]:
 
 
 def _k_range(specimen: Specimen) -> tuple[float, float]:
-    a, b, _, _ = section(specimen)
-    ks = [hutchinson_k(nu, a, b) for nu in np.linspace(*nu_range(specimen), 11)]
+    ks = [shear_coefficient(nu, specimen) for nu in np.linspace(*nu_range(specimen), 11)]
     return min(ks), max(ks)
 
 
@@ -81,7 +114,13 @@ def e_s_torsion(E_t: Estimate, specimen: Specimen) -> Estimate:
     With nu given, k is exact; otherwise k is taken at the geometric mean of its
     range over ``NU_RANGE`` and the half range h (in log) is treated as uniform:
     stderr adds h/sqrt(3), the 95 % interval adds 0.95 h, in quadrature with E_t's.
+    An open section gives no number: the estimate is withheld with :data:`OPEN_SECTION`.
     """
+    if shear_coefficient(0.3, specimen) is None:
+        return Estimate(
+            "E_s_torsion", math.nan, None, None, n_points=E_t.n_points, method="shear-coefficient",
+            withheld=OPEN_SECTION, extra={"section": specimen.section.describe()},
+        )  # fmt: skip
     _, _, A, J = section(specimen)
     k_lo, k_hi = _k_range(specimen)
     k = math.sqrt(k_lo * k_hi)
@@ -96,7 +135,8 @@ def e_s_torsion(E_t: Estimate, specimen: Specimen) -> Estimate:
         "k_range": [k_lo, k_hi],
         "poisson_ratio": specimen.poisson_ratio,
         "nu_range": list(nu_range(specimen)),
-        "formula": "k(nu, a, b) A E_t / J, Hutchinson (2001) hollow circle",
+        "formula": _FORMULA[specimen.section.shape],
+        "section": specimen.section.describe(),
     }
     return Estimate(
         "E_s_torsion",
@@ -108,6 +148,12 @@ def e_s_torsion(E_t: Estimate, specimen: Specimen) -> Estimate:
         warnings=warnings,
         extra=extra,
     )
+
+
+_FORMULA = {
+    "tube": "k(nu, a, b) A E_t / J, Hutchinson (2001) hollow circle",
+    "rectangle": "k(nu) A E_t / J, Cowper (1966) rectangle, J of Saint-Venant's series",
+}
 
 
 def with_E_s_torsion(fit: TestFit, specimen: Specimen) -> TestFit:
@@ -127,14 +173,16 @@ def value_range(lo: float, hi: float, spec: str = "g") -> str:
 def reference_kGA(known: Mapping[str, Estimate], specimen: Specimen) -> tuple[float, float, str] | None:
     """(low, high, source) of k G A from torsion or extension (module docstring); None without either."""
     est = known.get("E_s_torsion")
-    if est is not None and est.ci95:
+    if est is not None and est.ci95 and not est.withheld:
         return est.ci95[0], est.ci95[1], f"E_s_torsion = {est.value:.4g} N"
     E_e = known.get("E_e")
     if E_e is None:
         return None
-    a, b, _, _ = section(specimen)
+    if shear_coefficient(0.3, specimen) is None:
+        return None
     values = [
-        hutchinson_k(nu, a, b) * E_e.value / (2 * (1 + nu)) for nu in np.linspace(*nu_range(specimen), 11)
+        shear_coefficient(nu, specimen) * E_e.value / (2 * (1 + nu))
+        for nu in np.linspace(*nu_range(specimen), 11)
     ]
     lo, hi = nu_range(specimen)
     return min(values), max(values), f"E_e = {E_e.value:.4g} N with nu {value_range(lo, hi)} (isotropic wall)"
@@ -161,6 +209,8 @@ def local_compliance(specimen: Specimen, E: float) -> tuple[float, float]:
 
 def agreement(E_s: Estimate, E_s_torsion: Estimate) -> str:
     """Whether the bend and torsion estimates of E_s agree within their combined uncertainty (2 sd, log)."""
+    if E_s_torsion.withheld:
+        return f"no comparison with torsion: {E_s_torsion.withheld}"
     sd = [(e.stderr or 0.0) / e.value for e in (E_s, E_s_torsion)]
     combined = math.hypot(*sd)
     diff = math.log(E_s.value / E_s_torsion.value)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from matid.errors import DataError
-from matid.io.ingest.detect import Layout, names
+from matid.io.ingest.detect import Layout, header_names, names
 from matid.io.study import TEST_COLUMNS, bounded_text
 
 #: Known columns and the quantity kind of their unit.
@@ -78,7 +78,7 @@ def header(
 ) -> list[Column]:
     """Columns from the header row (and units row), the test's ``columns`` and ``units`` applied."""
     header_row = layout.header_at + 1
-    cells = names(lines[layout.header_at], layout.delimiter, layout.n_cells) or []
+    cells = header_names(lines, layout.header_at, layout.units_at, layout.delimiter, layout.n_cells) or []
     written = [_name_and_unit(c) for c in cells]
     units = [(unit, header_row) for _, unit in written]
     if layout.units_at is not None:

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from matid.errors import DataError
+from matid.io.ingest.spaced import spaced_names
 from matid.io.study_keys import MAX_TEXT, bounded_text
 
 #: Delimiters tried, in order of preference on a tie; " " means runs of whitespace.
@@ -26,6 +27,8 @@ DELIMITERS = ("\t", ";", ",", " ")
 DELIMITER_NAMES = {"\t": "tab", ";": "';'", ",": "','", " ": "runs of spaces"}
 #: Lines searched for the header, and preamble lines kept as metadata or text.
 MAX_PREAMBLE = 500
+#: Lines read by detection: the header's search range and the rows it looks at below a header.
+HEAD_LINES = MAX_PREAMBLE + 16
 MAX_LINES = 200
 #: Encodings charset-normalizer chooses among when a file is neither BOM-marked nor UTF-8.
 DETECTED = ["cp1252", "gb18030", "utf_16", "utf_16_le", "utf_16_be", "shift_jis"]
@@ -109,9 +112,15 @@ def _detected(raw: bytes) -> tuple[str, str]:
     return raw.decode("latin-1"), "latin-1"
 
 
-def lines_of(text: str) -> list[str]:
+def lines_of(text: str, limit: int | None = None) -> list[str]:
     """Lines split on line breaks only (``str.splitlines`` would also split on \\x0c, \\x85, ...
-    and shift the row numbers from what an editor shows); trailing blank lines dropped."""
+    and shift the row numbers from what an editor shows); trailing blank lines dropped.
+    With ``limit``, only the first ``limit`` lines (the head that layout detection reads)."""
+    if limit is not None:
+        for k, match in enumerate(_LINE_BREAK.finditer(text), start=1):
+            if k == limit:
+                text = text[: match.start()]
+                break
     lines = _LINE_BREAK.split(text)
     while lines and not lines[-1].strip():
         lines.pop()
@@ -165,6 +174,28 @@ def names(line: str, delimiter: str, n: int) -> list[str] | None:
         return None
 
 
+class Ambiguous(ValueError):
+    """A header of single-spaced words over a units row that the words cannot be matched to."""
+
+
+def header_names(lines: list[str], h: int, units_at: int | None, delimiter: str, n: int) -> list[str] | None:
+    """Cells of header line ``h`` for ``n`` data cells; single-spaced names resolved by
+    :func:`matid.io.ingest.spaced.spaced_names` with the units row. Raises :class:`Ambiguous`
+    when a units row of ``n`` cells stands under more words than that that cannot be grouped."""
+    cells = names(lines[h], delimiter, n)
+    if delimiter != " " or cells is None or len(cells) <= n:
+        return cells
+    units = None if units_at is None else names(lines[units_at], delimiter, n)
+    resolved = spaced_names(cells, n, units)
+    if resolved is None and units is not None and len(units) == n and _units_like(units, n):
+        raise Ambiguous(
+            f"header row {h + 1} has {len(cells)} words separated by single spaces over {n} units; "
+            "the names cannot be told apart: export with tab or ',' delimiters, or name the "
+            "columns with columns = { ... } after re-exporting"
+        )
+    return cells if resolved is None else resolved
+
+
 def _is_data(line: str, delimiter: str) -> int:
     """Cell count of a numeric row (at least two cells and most of them numbers), else 0."""
     try:
@@ -188,7 +219,7 @@ def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layou
         if len(after) < 2 or not (n := _is_data(lines[after[1]], delimiter)):
             return None
         units_at, after = after[0], after[1:]
-    header = names(lines[h], delimiter, n)
+    header = header_names(lines, h, units_at, delimiter, n)
     # Trailing columns may be empty in the data (a remark column): the header may be wider.
     if header is None or not n <= len(header) <= 2 * n or any(is_number(c, delimiter != ",") for c in header):
         return None
@@ -222,7 +253,10 @@ def detect(lines: list[str], path: Path, encoding: str) -> Layout:
     for h in range(min(len(lines), MAX_PREAMBLE)):
         if not lines[h].strip() or lines[h].lstrip().startswith("#"):
             continue
-        found = [c for d in DELIMITERS if (c := _candidate(lines, h, d, encoding)) is not None]
+        try:
+            found = [c for d in DELIMITERS if (c := _candidate(lines, h, d, encoding)) is not None]
+        except Ambiguous as exc:
+            raise DataError(str(exc), file=path, row=h + 1) from None
         if found:
             return max(found, key=lambda c: c.n_cells)
     raise DataError(

@@ -19,9 +19,7 @@ read (encoding, delimiter, header row).
 
 from __future__ import annotations
 
-import csv
 import hashlib
-import math
 import os
 import stat
 from collections.abc import Mapping
@@ -42,7 +40,9 @@ from matid.io.ingest.columns import (  # noqa: F401 - KNOWN, REQUIRED, canonical
     check_required,
     header,
 )
-from matid.io.ingest.detect import Layout, decode, detect, lines_of, number, preamble, split
+from matid.io.ingest.detect import HEAD_LINES, Layout, decode, detect, lines_of, preamble
+from matid.io.ingest.frame import Rows, Start, locate, read_rows
+from matid.io.ingest.frame import column as frame_column
 from matid.io.limits import MAX_CSV_BYTES, MAX_CSV_ROWS
 from matid.io.study import TEST_COLUMNS, Study, Test, bounded_text
 from matid.io.views import PicklesViews
@@ -140,14 +140,18 @@ def read_table(
     path = Path(path)
     raw = _read_bytes(path)
     text, used = decode(raw, path, encoding)
-    lines = lines_of(text)
+    lines = lines_of(text, HEAD_LINES)
     if not lines:
         raise DataError("empty file", file=path)
     if all(not ln.strip() or ln.lstrip().startswith("#") for ln in lines):
         raise DataError("no header row (only '#' metadata lines)", file=path)
     layout = detect(lines, path, used)
+    start = locate(raw, text, layout)
+    del text  # a long record's numbers are parsed from raw; its text is not kept
     try:
-        return _table(path, raw, lines, layout, kind, dict(columns or {}), dict(units or {}), tuple(negate))
+        return _table(
+            path, raw, start, lines, layout, kind, dict(columns or {}), dict(units or {}), tuple(negate)
+        )
     except DataError as exc:
         raise DataError(
             f"{exc.detail} ({layout.describe()})", file=path, row=exc.row, column=exc.column
@@ -157,6 +161,7 @@ def read_table(
 def _table(
     path: Path,
     raw: bytes,
+    start: Start,
     lines: list[str],
     layout: Layout,
     kind: str,
@@ -170,14 +175,17 @@ def _table(
     cols = header(lines, layout, kind, mapping, overrides, path)
     check_required(cols, kind, path, row=layout.header_at + 1)
     used = TEST_COLUMNS[kind]
-    rows = _data_rows(lines, layout, path)
+    rows = read_rows(raw, start, layout, path)
+    if len(rows.lines) < MIN_ROWS:
+        last = int(rows.lines[-1]) if len(rows.lines) else layout.data_at + 1
+        raise DataError(f"only {len(rows.lines)} data rows, need at least {MIN_ROWS}", file=path, row=last)
     values: dict[str, np.ndarray] = {}
     for c in cols:
-        v = _convert(c, used, rows, layout.decimal_comma, path)
+        v = _convert(c, used, rows, path)
         if v is not None:
             values[c.name] = -v if c.name in negate else v
     written = {c.name: c.written for c in cols if c.name in values}
-    ingest_checks.check(values, kind, [r for r, _ in rows], written, path, negate)
+    ingest_checks.check(values, kind, rows.lines, written, path, negate)
     return Table(
         path=path,
         columns=values,
@@ -246,39 +254,11 @@ def _read_bytes(path: Path) -> bytes:
     return raw
 
 
-def _data_rows(lines: list[str], layout: Layout, path: Path) -> list[tuple[int, list]]:
-    """(row number, cells) of every data line; blank lines (and lines of delimiters) skipped."""
-    rows = []
-    n = layout.n_cells
-    for i in range(layout.data_at, len(lines)):
-        try:
-            cells = split(lines[i], layout.delimiter)
-        except csv.Error:
-            raise DataError(
-                f"a cell is longer than {csv.field_size_limit()} characters", file=path, row=i + 1
-            ) from None
-        if not cells:
-            continue
-        if len(cells) > n:
-            raise DataError(f"row has {len(cells)} cells, header has {n}", file=path, row=i + 1)
-        # Short rows (empty trailing cells) are padded with None: an error only where a used column lacks it.
-        rows.append((i + 1, cells + [None] * (n - len(cells))))
-    if len(rows) < MIN_ROWS:
-        last = rows[-1][0] if rows else layout.data_at + 1
-        raise DataError(f"only {len(rows)} data rows, need at least {MIN_ROWS}", file=path, row=last)
-    return rows
-
-
-def _convert(
-    column: Column,
-    used: Mapping[str, str],
-    rows: list[tuple[int, list[str]]],
-    decimal_comma: bool,
-    path: Path,
-) -> np.ndarray | None:
-    """The column in SI; None for a column the test does not use that is not all numbers."""
+def _convert(column: Column, used: Mapping[str, str], rows: Rows, path: Path) -> np.ndarray | None:
+    """The column in SI; None for a column the test does not use that is not all finite numbers."""
     if column.name not in used:
-        return _convert_other(column, rows, decimal_comma)
+        values = frame_column(rows, column.index, column.written, required=False)
+        return None if values is None else values * _soft_factor(column)
     try:
         factor = si_factor(column.unit, used[column.name])
     except UnitError as exc:
@@ -289,26 +269,7 @@ def _convert(
             row=column.unit_row or None,
             column=column.written,
         ) from exc
-    values = np.empty(len(rows))
-    for k, (line_no, cells) in enumerate(rows):
-        if cells[column.index] is None:
-            n = sum(c is not None for c in cells)
-            raise DataError(f"row has {n} cells, header has {len(cells)}", file=path, row=line_no)
-        values[k] = _cell(cells[column.index], decimal_comma, path, line_no, column.written)
-    return values * factor
-
-
-def _convert_other(
-    column: Column, rows: list[tuple[int, list[str]]], decimal_comma: bool
-) -> np.ndarray | None:
-    """A column the test does not use: floats if every cell is a finite number, else None (dropped)."""
-    try:
-        values = [number(cells[column.index] or "", decimal_comma) for _, cells in rows]
-    except ValueError:
-        return None
-    if not all(math.isfinite(v) for v in values):
-        return None
-    return np.asarray(values) * _soft_factor(column)
+    return frame_column(rows, column.index, column.written, required=True) * factor
 
 
 def _soft_factor(column: Column) -> float:
@@ -322,17 +283,3 @@ def _soft_factor(column: Column) -> float:
         except UnitError:
             continue
     return 1.0
-
-
-def _cell(text: str, decimal_comma: bool, path: Path, row: int, column: str) -> float:
-    if not text:
-        raise DataError("empty cell", file=path, row=row, column=column)
-    try:
-        value = number(text, decimal_comma)
-    except ValueError:
-        raise DataError(
-            f"not a number: '{bounded_text(text, 80)}'", file=path, row=row, column=column
-        ) from None
-    if not math.isfinite(value):
-        raise DataError(f"NaN or infinite value '{text}'", file=path, row=row, column=column)
-    return value

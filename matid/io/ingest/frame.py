@@ -1,0 +1,268 @@
+"""The numbers of an export, read by pandas' C engine once the layout is known (contract 7, 10).
+
+:mod:`matid.io.ingest.detect` finds encoding, delimiter, header and units row on
+the first lines; the data rows, from the first one to the end of the file, are
+then parsed by ``pandas.read_csv(engine="c")`` with the detected delimiter
+(runs of spaces as ``\\s+``), decimal mark and encoding, from the byte where the
+first data row starts. Blank rows stay in the parse and are dropped after it,
+so row k of the parse is file line ``data_at + k + 1`` and every message names
+the line an editor shows. pandas' default converter gives the double Python's
+``float`` gives for the cell (tests/io/test_ingest.py checks it on random cells).
+
+A cell pandas does not read as a number (text, an empty cell of a used column,
+a decimal comma in a ``.`` file) is looked at alone, by the same rule as a short
+file: :func:`matid.io.ingest.detect.number`, so the message is the same.
+"""
+
+from __future__ import annotations
+
+import codecs
+import csv
+import io
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from matid.errors import DataError
+from matid.io.ingest.detect import Layout, number, split
+from matid.io.study import bounded_text
+
+if TYPE_CHECKING:  # pandas is imported when a record is read, so `import matid` stays light
+    import pandas as pd
+
+#: Codec that reads the file from its middle (no byte-order mark there), by the BOM at its start.
+_TAIL_CODECS = (
+    (codecs.BOM_UTF32_LE, "utf-32-le"),
+    (codecs.BOM_UTF32_BE, "utf-32-be"),
+    (codecs.BOM_UTF8, "utf-8"),
+    (codecs.BOM_UTF16_LE, "utf-16-le"),
+    (codecs.BOM_UTF16_BE, "utf-16-be"),
+)
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+
+
+@dataclass(frozen=True, eq=False)
+class Rows:
+    """The data rows as parsed: ``frame`` columns 0..n-1 (blank rows dropped), and each row's
+    1-based file line; ``raw`` is the file, to quote a line in a message."""
+
+    frame: pd.DataFrame
+    lines: pd.Index
+    raw: bytes
+    layout: Layout
+    path: Path
+
+    def text(self) -> str:
+        """The decoded file (for messages only: decoded again, not kept)."""
+        return self.raw.decode(self.layout.encoding, errors="replace")
+
+
+@dataclass(frozen=True)
+class Start:
+    """Where the data rows start in the file's bytes, and their decimal mark."""
+
+    offset: int
+    decimal: str
+
+
+def locate(raw: bytes, text: str, layout: Layout) -> Start:
+    """The byte offset of the first data row and the decimal mark, from the decoded ``text``
+    (which the caller may then drop: the rows are parsed from ``raw``)."""
+    start = _line_start(text, layout.data_at)
+    codec, bom = _tail_codec(raw, layout.encoding)
+    return Start(bom + len(text[:start].encode(codec)), _decimal(text, start, layout))
+
+
+def read_rows(raw: bytes, start: Start, layout: Layout, path: Path) -> Rows:
+    """Parse the data rows of ``raw`` from ``start`` with pandas' C engine.
+
+    Rows of unequal length (a short first row, a trailing delimiter on some rows) are parsed
+    again with as many columns as the longest row has fields, after checking that no row holds
+    more cells than the header.
+    """
+    import pandas as pd
+
+    try:
+        frame = _parse(raw, start, layout, None)
+    except pd.errors.ParserError:
+        _first_bad_row(raw, layout, path)
+        frame = _parse(raw, start, layout, _widest(raw, layout))
+    except (UnicodeDecodeError, ValueError):
+        _first_bad_row(raw, layout, path)
+        raise
+    if not all(pd.api.types.is_numeric_dtype(t) for t in frame.dtypes):
+        frame = frame.apply(_blank_as_na)
+    blank = frame.isna().all(axis=1).to_numpy()
+    if blank.any():
+        frame = frame[~blank]
+    lines = frame.index + (layout.data_at + 1)  # a RangeIndex (no memory) when no row was blank
+    return Rows(_check_width(frame, lines, raw, layout, path), lines, raw, layout, path)
+
+
+def _parse(raw: bytes, start: Start, layout: Layout, width: int | None) -> pd.DataFrame:
+    """``pandas.read_csv(engine="c")`` of the bytes from ``start``; ``width`` columns when given."""
+    import pandas as pd
+
+    buffer = io.BytesIO(raw)  # shares raw's bytes; no copy of a long record
+    buffer.seek(start.offset)
+    try:
+        return pd.read_csv(
+            buffer,
+            sep=r"\s+" if layout.delimiter == " " else layout.delimiter,
+            header=None,
+            names=None if width is None else range(width),
+            index_col=None if width is None else False,
+            engine="c",
+            encoding=_tail_codec(raw, layout.encoding)[0],
+            decimal=start.decimal,
+            skip_blank_lines=False,
+            quotechar='"',
+        )
+    except pd.errors.EmptyDataError:
+        return pd.DataFrame()
+
+
+def _widest(raw: bytes, layout: Layout) -> int:
+    """An upper bound of the fields of any data row (delimiters + 1, empty trailing cells counted)."""
+    text = raw.decode(layout.encoding, errors="replace")
+    rows = _LINE_BREAK.split(text[_line_start(text, layout.data_at) :])
+    if layout.delimiter == " ":
+        return max((len(r.split()) for r in rows), default=1)
+    return max((r.count(layout.delimiter) + 1 for r in rows), default=1)
+
+
+def _blank_as_na(series: pd.Series) -> pd.Series:
+    """A text column with cells of spaces only as missing (a line of spaces is a blank row)."""
+    import pandas as pd
+
+    if pd.api.types.is_numeric_dtype(series):
+        return series
+    text = series.astype("string").str.strip()
+    return series.where(text.ne("").fillna(False))
+
+
+def column(rows: Rows, index: int, name: str, *, required: bool) -> np.ndarray | None:
+    """Column ``index`` as floats; a bad cell of a ``required`` column raises a DataError at its row,
+    another column with a bad cell is None (dropped)."""
+    import pandas as pd
+
+    frame = rows.frame
+    series = frame[index] if index in frame.columns else pd.Series(np.nan, index=frame.index)
+    if not pd.api.types.is_numeric_dtype(series):
+        text = series.astype("string").str.strip()
+        if rows.layout.decimal_comma:  # "1,5" is 1.5 where a comma may be decimal (detect.number)
+            comma = text.str.count(",").eq(1) & ~text.str.contains(".", regex=False)
+            text = text.where(~comma.fillna(False), text.str.replace(",", ".", regex=False))
+        series = pd.to_numeric(text, errors="coerce")
+    values = series.to_numpy(dtype=float, na_value=np.nan)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size == 0:
+        return values
+    if required:
+        _cell_error(rows, int(bad[0]), index, name)
+    return None
+
+
+def _decimal(text: str, start: int, layout: Layout) -> str:
+    """',' when the delimiter allows a decimal comma and the first data row uses one, else '.'."""
+    if not layout.decimal_comma:
+        return "."
+    end = _LINE_BREAK.search(text, start)
+    first = text[start : end.start() if end else len(text)]
+    cells = split(first, layout.delimiter)
+    return "," if any("," in c and "." not in c for c in cells) else "."
+
+
+def _line_start(text: str, line: int) -> int:
+    """Character offset of 0-based ``line`` (as :func:`matid.io.ingest.detect.lines_of` counts)."""
+    if line == 0:
+        return 0
+    for k, match in enumerate(_LINE_BREAK.finditer(text), start=1):
+        if k == line:
+            return match.end()
+    return len(text)
+
+
+def _tail_codec(raw: bytes, encoding: str) -> tuple[str, int]:
+    """(codec for bytes after the start, length of the byte-order mark the start has)."""
+    family = codecs.lookup(encoding).name
+    for bom, codec in _TAIL_CODECS:
+        if raw.startswith(bom) and family in ("utf-8-sig", "utf-16", "utf-32", codec):
+            return codec, len(bom)
+    return {"utf-8-sig": "utf-8", "utf-16": "utf-16-le", "utf-32": "utf-32-le"}.get(family, family), 0
+
+
+def _line_of(text: str, file_line: int) -> str:
+    """The text of 1-based ``file_line``."""
+    start = _line_start(text, file_line - 1)
+    end = _LINE_BREAK.search(text, start)
+    return text[start : end.start() if end else len(text)]
+
+
+def _cells(rows: Rows, file_line: int) -> list[str]:
+    try:
+        return split(_line_of(rows.text(), file_line), rows.layout.delimiter)
+    except csv.Error:
+        raise DataError(
+            f"a cell is longer than {csv.field_size_limit()} characters", file=rows.path, row=file_line
+        ) from None
+
+
+def _check_width(
+    frame: pd.DataFrame, lines: pd.Index, raw: bytes, layout: Layout, path: Path
+) -> pd.DataFrame:
+    """The frame without cells beyond the header's (empty: a trailing delimiter); a row with
+    values there has more cells than the header and is an error."""
+    n = layout.n_cells
+    extra = [c for c in frame.columns if c >= n]
+    if not extra:
+        return frame
+    wide = np.flatnonzero(frame[extra].notna().any(axis=1).to_numpy())
+    if wide.size:
+        line = int(lines[wide[0]])
+        cells = split(_line_of(raw.decode(layout.encoding, errors="replace"), line), layout.delimiter)
+        raise DataError(f"row has {len(cells)} cells, header has {n}", file=path, row=line)
+    return frame.drop(columns=extra)
+
+
+def _first_bad_row(raw: bytes, layout: Layout, path: Path) -> None:
+    """Raise the DataError of the first row pandas could not parse (a row wider than the header)."""
+    n = layout.n_cells
+    text = raw.decode(layout.encoding, errors="replace")
+    for k, line in enumerate(_LINE_BREAK.split(text[_line_start(text, layout.data_at) :])):
+        try:
+            cells = split(line, layout.delimiter)
+        except csv.Error:
+            raise DataError(
+                f"a cell is longer than {csv.field_size_limit()} characters",
+                file=path,
+                row=layout.data_at + k + 1,
+            ) from None
+        if len(cells) > n:
+            raise DataError(
+                f"row has {len(cells)} cells, header has {n}", file=path, row=layout.data_at + k + 1
+            )
+
+
+def _cell_error(rows: Rows, k: int, index: int, name: str) -> None:
+    """Raise the DataError of row ``k``'s cell ``index``, as a short file's reader words it."""
+    line = int(rows.lines[k])
+    cells = _cells(rows, line)
+    n = rows.layout.n_cells
+    if index >= len(cells) or not cells[index]:
+        if index >= len(cells):
+            raise DataError(f"row has {len(cells)} cells, header has {n}", file=rows.path, row=line)
+        raise DataError("empty cell", file=rows.path, row=line, column=name)
+    text = cells[index]
+    try:
+        number(text, rows.layout.decimal_comma)
+    except ValueError:
+        raise DataError(
+            f"not a number: '{bounded_text(text, 80)}'", file=rows.path, row=line, column=name
+        ) from None
+    raise DataError(
+        f"NaN or infinite value '{bounded_text(text, 80)}'", file=rows.path, row=line, column=name
+    )

@@ -1,0 +1,166 @@
+"""The status of every reported value, decided from what its fit reports (docs/contract.md section 10).
+
+``ok`` (use it), ``check`` (a warning applies: read it) or ``not_identifiable``
+(the data do not determine it: no value is printed, only the reason and what
+to measure instead). :func:`status` reads the estimate and the fit that gave it;
+it computes nothing new, so a value's status can always be traced to a figure
+the fit already reports (stiffness.json, the report).
+
+The correlation thresholds match the report's "strong: not separately identifiable"
+label (:data:`STRONG_R`) and a ridge so flat that the data fix only a combination
+of the two parameters (:data:`INSEPARABLE_R`: the marginal interval of either is
+then at least 22x its conditional one, 1/sqrt(1 - r^2)).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # results imports this module
+    from matid.io.results import Estimate, StudyResult, TestFit
+
+STATUSES = ("ok", "check", "not_identifiable")
+#: |r| from which two parameters are read together (status ``check``).
+STRONG_R = 0.95
+#: |r| from which two parameters cannot be told apart (status ``not_identifiable``).
+INSEPARABLE_R = 0.999
+#: A fit's own words for a parameter the data do not determine.
+_NOT_IDENTIFIABLE = re.compile(r"\bnot (separately )?identifiable\b", re.IGNORECASE)
+
+#: What to measure instead when a parameter is not identifiable, by parameter.
+MEASURE_INSTEAD: Mapping[str, str] = {
+    "E_e": "extension runs at more rates, or a ramp and a hold longer than the relaxation",
+    "E_b": "magnetic bending at more free lengths or larger tip angles",
+    "E_t": "a torsion record with a longer linear range",
+    "E_s": 'centreline deflection (deflection_at = "centreline") at short spans, or E_s_torsion',
+    "E_s_torsion": "E_s from a three-point bend with centreline deflection",
+    "viscoelastic": "a ramp and a hold lasting several relaxation times, sampled faster than the "
+    "fastest one (or fix the parameter with [[fixed]])",
+}
+
+
+@dataclass(frozen=True)
+class Status:
+    """A value's status, why (empty for ``ok``), and what to measure instead (``not_identifiable``)."""
+
+    status: str
+    reason: str = ""
+    instead: str = ""
+
+    def __post_init__(self) -> None:
+        if self.status not in STATUSES:
+            raise ValueError(f"status must be one of {', '.join(STATUSES)}, got {self.status!r}")
+        if self.status != "ok" and not self.reason:
+            raise ValueError(f"a {self.status} status needs its reason")
+
+    @property
+    def printed(self) -> bool:
+        """Whether the value is printed (not for ``not_identifiable``)."""
+        return self.status != "not_identifiable"
+
+
+def status(est: Estimate, fit: TestFit | None = None) -> Status:
+    """The status of ``est`` from ``fit`` (None: a [[fixed]] value). Routes, first that applies:
+
+    ================  ===================  ===============================================
+    status            route                what the fit reports
+    ================  ===================  ===============================================
+    not_identifiable  withheld             ``Estimate.withheld``: the section or the fit
+                                           cannot give it (an open tube's E_s_torsion)
+    not_identifiable  stated               a warning of the value says it is not
+                                           identifiable (SLS k2/eta, E_s by shear share)
+    not_identifiable  no interval          a fitted value without standard error and
+                                           interval, or with an unbounded one
+    not_identifiable  interval holds zero  the 95 % interval reaches 0 or below
+    not_identifiable  inseparable          |r| >= INSEPARABLE_R with another parameter
+    check             warning              any warning of the value or of its fit
+                                           (misfit, drift between spans, bias, ...)
+    check             misfit               ``info["lack_of_fit"]["misfit"]`` without a
+                                           warning text
+    check             correlated           |r| >= STRONG_R with another parameter
+    ok                -                    none of the above
+    ================  ===================  ===============================================
+    """
+    warnings = [*(fit.warnings if fit else ()), *est.warnings]
+    instead = _instead(est.parameter)
+    if est.withheld:
+        return Status("not_identifiable", est.withheld, instead)
+    stated = next((w for w in est.warnings if _NOT_IDENTIFIABLE.search(w)), None)
+    if stated:
+        return Status("not_identifiable", stated, instead)
+    if est.method != "fixed":
+        interval = _interval_problem(est)
+        if interval:
+            return Status("not_identifiable", interval, instead)
+    partner, r = _strongest_correlation(est.parameter, fit)
+    if partner and abs(r) >= INSEPARABLE_R:
+        why = f"{est.parameter} and {partner} are inseparable (r = {r:+.4f}): the data fix a combination"
+        return Status("not_identifiable", why, instead)
+    if warnings:
+        return Status("check", warnings[0])
+    lof = fit.info.get("lack_of_fit") if fit else None
+    if isinstance(lof, Mapping) and lof.get("misfit"):
+        return Status("check", "the model does not describe the data within their noise (lack of fit)")
+    if partner and abs(r) >= STRONG_R:
+        why = f"{est.parameter} is strongly correlated with {partner} (r = {r:+.3f}): read the two together"
+        return Status("check", why)
+    return Status("ok")
+
+
+def parameter_statuses(result: StudyResult) -> dict[tuple[str, str], Status]:
+    """(specimen, parameter) -> its :func:`status`, for every value of the study."""
+    out: dict[tuple[str, str], Status] = {}
+    for fit in result.fits:
+        for est in fit.estimates:
+            out[(fit.specimen, est.parameter)] = status(est, fit)
+    for est in result.fixed:
+        out.setdefault((str(est.extra.get("specimen")), est.parameter), status(est, None))
+    return out
+
+
+def status_text(verdict: Status, warnings: list[str]) -> list[str]:
+    """The warnings of a value with its status's reason first when they do not already say it."""
+    if verdict.status == "not_identifiable":
+        instead = f"; measure instead: {verdict.instead}" if verdict.instead else ""
+        head = [f"not identifiable: {verdict.reason}{instead}"]
+        return head + [w for w in warnings if w != verdict.reason]
+    if verdict.status == "check" and verdict.reason not in warnings:
+        return [*warnings, verdict.reason]
+    return warnings
+
+
+def _instead(parameter: str) -> str:
+    if parameter.startswith(("sls_", "prony_")):
+        return MEASURE_INSTEAD["viscoelastic"]
+    return MEASURE_INSTEAD.get(parameter, "")
+
+
+def _interval_problem(est: Estimate) -> str:
+    """Why the value's interval does not bound it ("" when it does)."""
+    if est.ci95 is None:
+        if est.stderr is None or not math.isfinite(est.stderr):
+            return "the fit gives no standard error and no interval for it (its covariance is singular)"
+        return ""
+    low, high = est.ci95
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return f"its 95 % interval is unbounded ({low:.4g} to {high:.4g})"
+    if low <= 0.0:
+        return f"its 95 % interval ({low:.4g} to {high:.4g}) reaches zero: the data do not bound it below"
+    return ""
+
+
+def _strongest_correlation(parameter: str, fit: TestFit | None) -> tuple[str | None, float]:
+    """The fitted parameter most correlated with ``parameter`` in ``fit.correlation`` ("a|b" -> r)."""
+    best: tuple[str | None, float] = (None, 0.0)
+    for pair, r in (fit.correlation if fit else {}).items():
+        a, _, b = str(pair).partition("|")
+        names = {a: b, b: a}
+        if parameter in names and math.isfinite(r) and abs(r) > abs(best[1]):
+            best = (names[parameter], float(r))
+        if parameter == "E_e" and "sls_k1" in names and math.isfinite(r) and abs(r) > abs(best[1]):
+            best = (names["sls_k1"], float(r))  # E_e is k1 of the SLS
+    return best
