@@ -18,13 +18,17 @@ from matid import __version__
 from matid.io.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
 from matid.io.study import OPTIONAL_KEYS, TEST_KINDS, Test
 from matid.report.bend import bend_drawings
+from matid.report.diagnostics import glossary, lack_of_fit_table, model_choice_table
 from matid.report.figures import Drawing, ExtraFigure, axis_unit, extra_figures, has_plot
 from matid.report.holds import hold_drawings
-from matid.report.quantities import Cell, info_cell
+from matid.report.quantities import Cell, info_cell, label_of, text_of
 from matid.report.summary import (
+    FIT_COLUMNS,
+    FIT_NUMERIC,
     SUMMARY_COLUMNS,
     SUMMARY_NUMERIC,
     Note,
+    interval_text,
     mark_text,
     marks_of,
     merged_names,
@@ -32,6 +36,7 @@ from matid.report.summary import (
     notes_of,
     value_cells,
 )
+from matid.report.verdict import in_units, reason_line, status_words, summary_intro
 
 #: Section titles and the parameters each test kind gives, in report order.
 KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -42,9 +47,7 @@ KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
 }
 PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in params}
 
-FIT_COLUMNS = SUMMARY_COLUMNS[1:]
-FIT_NUMERIC = SUMMARY_NUMERIC[1:]
-MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± stderr", "unit", "check")
+MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± standard error (1σ)", "unit", "check")
 #: Info items not shown in the details table: figures and the arrays the figures are drawn from.
 HIDDEN_INFO = ("figures", "plot_data", "force_time")
 
@@ -112,6 +115,7 @@ class Report:
     matid_version: str
     versions: tuple[tuple[str, str], ...]
     units: str
+    summary_intro: str  # what the summary table shows: status words, interval, rounding
     summary: Table
     moduli: Table | None  # E and G from the stiffnesses and the section
     notes: tuple[Note, ...]  # every warning of the fits, numbered as the summary marks them
@@ -120,6 +124,7 @@ class Report:
     pending: tuple[str, ...]
     sections: tuple[Section, ...]
     provenance: Table
+    glossary: tuple[tuple[str, str], ...] = ()
 
 
 def build_report(result: StudyResult, units: str) -> Report:
@@ -129,7 +134,7 @@ def build_report(result: StudyResult, units: str) -> Report:
     # (naming the parameter): drop those lines, whatever their wording, by asking without fits.
     apart = set(replace(result, fits=()).warnings())
     titles = {kind: title for kind, (title, _) in KINDS.items()}
-    notes = notes_of(result, titles)
+    notes = [replace(n, text=in_units(n.text, units)) for n in notes_of(result, titles)]
     moduli = moduli_rows(result, units)
     return Report(
         study=result.study.name,
@@ -140,7 +145,8 @@ def build_report(result: StudyResult, units: str) -> Report:
         matid_version=result.versions.get("matid", __version__),
         versions=tuple((k, str(v)) for k, v in result.versions.items() if k != "matid"),
         units=units,
-        summary=summary_table(result, doc, marks_of(result, notes, titles)),
+        summary_intro=summary_intro(units),
+        summary=summary_table(result, doc, marks_of(result, notes, titles), units),
         moduli=Table(MODULI_COLUMNS, tuple(moduli), (False,) * 3 + (True, True) + (False,) * 2)
         if moduli
         else None,
@@ -150,6 +156,7 @@ def build_report(result: StudyResult, units: str) -> Report:
         pending=tuple(pending_message(p, with_specimen=True) for p in result.pending),
         sections=tuple(_sections(result, doc, units)),
         provenance=provenance_table(result.inputs),
+        glossary=glossary(units),
     )
 
 
@@ -218,9 +225,30 @@ def format_started(started: str) -> str:
     return f"{text} {when.strftime('%Z') or when.strftime('%z')}".strip()
 
 
-def _param_row(name: str, item: Mapping, marks: list[int] | None = None) -> tuple[str, ...]:
-    text = mark_text(marks) if marks is not None else "; ".join(item.get("warnings") or ())
-    return (name, *value_cells(item), str(item["n_points"]), str(item["method"]), text)
+def _param_row(name: str, item: Mapping, marks: list[int]) -> tuple[str, ...]:
+    """A fit's table row: status in words, value, standard error, interval, points, method, marks."""
+    value, stderr, rel, low, high, unit = value_cells(item)
+    status = status_words(str(item.get("status", "ok")))
+    return (name, status, value, stderr, rel, interval_text(low, high), unit, str(item["n_points"]),
+            str(item["method"]), mark_text(marks))  # fmt: skip
+
+
+def _summary_row(sid: str, name: str, item: Mapping, marks: list[int], units: str) -> tuple[str, ...]:
+    """Page 1's row: the status in words, the value and its 95 % interval, the reason in one line."""
+    value, _, _, low, high, unit = value_cells(item)
+    why = in_units(reason_line(item), units) or (
+        "fixed in study.toml, not fitted" if item["method"] == "fixed" else ""
+    )
+    why = " ".join(part for part in (why, mark_text(marks)) if part)
+    return (
+        sid,
+        name,
+        status_words(str(item.get("status", "ok"))),
+        value,
+        interval_text(low, high),
+        unit,
+        why,
+    )
 
 
 def _parameters_of(kind: str) -> str:
@@ -246,7 +274,9 @@ def _test_kind(kind: str) -> str:
 # -- tables ----------------------------------------------------------------------------------
 
 
-def summary_table(result: StudyResult, doc: Mapping, marks: Mapping[tuple[str, str], list[int]]) -> Table:
+def summary_table(
+    result: StudyResult, doc: Mapping, marks: Mapping[tuple[str, str], list[int]], units: str = "SI"
+) -> Table:
     """Specimen x parameter, from stiffness_json; warnings by number; missing parameters say why."""
     missing = [(f, "could not be fitted") for f in result.failures]
     missing += [(p, "not yet fitted") for p in result.pending]
@@ -254,11 +284,11 @@ def summary_table(result: StudyResult, doc: Mapping, marks: Mapping[tuple[str, s
     for sid, params in doc["specimens"].items():
         for name, item in merged_names(params):
             numbers = sorted({n for part in name.split(" = ") for n in marks.get((sid, part), [])})
-            rows.append((sid, *_param_row(name, item, numbers)))
+            rows.append(_summary_row(sid, name, item, numbers, units))
         for item, status in missing:
             param = _parameters_of(_test_kind(item.kind))
             if item.specimen == sid and param not in params:
-                rows.append((sid, param, *("—",) * 8, f"{status}: {item.reason}"))
+                rows.append((sid, param, status, "no value", "—", "—", in_units(item.reason, units)))
     return Table(SUMMARY_COLUMNS, tuple(rows), SUMMARY_NUMERIC)
 
 
@@ -337,6 +367,7 @@ def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str, 
         known = {(t.file, t.index) for t in tests}
         tests += [t for t in fit.tests if (t.file, t.index) not in known]
     parameters, warnings = _fit_parameters(fit, doc) if fit is not None else (None, ())
+    warnings = tuple(in_units(w, units) for w in warnings)
     return Block(
         specimen=sid,
         anchor=anchor,
@@ -375,7 +406,11 @@ def _info(fit: TestFit, units: str) -> tuple[tuple[str, Cell], ...]:
         if key == "fe" and isinstance(value, Mapping):
             rows.append(("FE mesh and solver", format_fe(value)))
         elif key == "held_stiffness_propagation" and isinstance(value, Mapping):
-            rows.append(("held stiffness propagation", format_held(value) or "none"))
+            rows.append(("uncertainty of the held stiffnesses in E_s", format_held(value) or "none"))
+        elif key == "lack_of_fit" and isinstance(value, Mapping) and lack_of_fit_table(value):
+            rows.append(("lack of fit", lack_of_fit_table(value)))
+        elif key == "model_choice" and isinstance(value, Mapping) and model_choice_table(value):
+            rows.append(("relaxation model compared", model_choice_table(value)))
         else:
             rows.append(info_cell(str(key), value, units, axes))
     return tuple(rows)
@@ -402,7 +437,7 @@ def format_fe(fe: Mapping) -> str:
     if isinstance(fe.get("runtime_s"), (int, float)):
         parts.append(f"run time {format_runtime(fe['runtime_s'])}")
     known = {"element", "elements", "discretization_error", "runtime_s", "rod_solves", "levels"}
-    parts += [f"{k.replace('_', ' ')} {format_value(v)}" for k, v in fe.items() if k not in known]
+    parts += [f"{label_of(k)}: {text_of(v)}" for k, v in fe.items() if k not in known]
     return ", ".join(parts)
 
 
@@ -429,9 +464,14 @@ def _test_view(test: Test, inputs: tuple[InputFile, ...]) -> TestView:
         exclude=test.exclude,
         note=test.note,
         metadata=tuple((str(k), str(v)) for k, v in source.metadata.items()) if source else (),
-        units=tuple((str(k), str(v)) for k, v in source.units.items()) if source else (),
+        units=_units_written(source.units) if source else (),
         n_rows=source.n_rows if source else None,
     )
+
+
+def _units_written(units: Mapping[str, str]) -> tuple[tuple[str, str], ...]:
+    """(column in words, "[unit]" or "(no unit)") of each column of a record."""
+    return tuple((str(k).replace("_", " "), f"[{v}]" if str(v) else "(no unit)") for k, v in units.items())
 
 
 def _input_of(test: Test, inputs: tuple[InputFile, ...]) -> InputFile | None:
