@@ -10,18 +10,25 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from datetime import datetime
-from pathlib import Path
-
-import numpy as np
 
 from matid import __version__
 from matid.io.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
-from matid.io.study import OPTIONAL_KEYS, TEST_KINDS, Test
 from matid.report.bend import bend_drawings
 from matid.report.diagnostics import glossary, lack_of_fit_table, model_choice_table
 from matid.report.figures import Drawing, ExtraFigure, axis_unit, extra_figures, has_plot
+from matid.report.formats import (  # noqa: F401 - format_value re-exported
+    fe_notes,
+    fmt,
+    format_fe,
+    format_held,
+    format_runtime,
+    format_started,
+    format_value,
+    parse_started,
+)
 from matid.report.holds import hold_drawings
-from matid.report.quantities import Cell, info_cell, label_of, text_of
+from matid.report.quantities import Cell, info_cell
+from matid.report.records import TestView, record_view
 from matid.report.summary import (
     FIT_COLUMNS,
     FIT_NUMERIC,
@@ -57,24 +64,6 @@ class Table:
     header: tuple[str, ...]
     rows: tuple[tuple[str, ...], ...]
     numeric: tuple[bool, ...]  # right-aligned columns
-
-
-@dataclass(frozen=True)
-class TestView:
-    """One test of a block: its file and how it was set up."""
-
-    file: str
-    sha256: str
-    setup: str
-    exclude: bool
-    note: str
-    metadata: tuple[tuple[str, str], ...]
-    units: tuple[tuple[str, str], ...]
-    n_rows: int | None
-
-    @property
-    def sha_short(self) -> str:
-        return self.sha256[:12] if self.sha256 else "not read"
 
 
 @dataclass(frozen=True)
@@ -140,7 +129,7 @@ def build_report(result: StudyResult, units: str) -> Report:
         study=result.study.name,
         temperature=result.study.temperature or "not given",
         started=format_started(result.started),
-        run_date=_parse_started(result.started),
+        run_date=parse_started(result.started),
         runtime=format_runtime(result.runtime_s),
         matid_version=result.versions.get("matid", __version__),
         versions=tuple((k, str(v)) for k, v in result.versions.items() if k != "matid"),
@@ -161,68 +150,6 @@ def build_report(result: StudyResult, units: str) -> Report:
 
 
 # -- formatting ------------------------------------------------------------------------------
-
-
-def fmt(x: float | None, digits: int = 5) -> str:
-    if x is None or not np.isfinite(x):
-        return "—"
-    text = f"{x:.{digits}g}"
-    if "e+" in text and abs(x) < 1e6:  # 1e+02 reads worse than 100
-        text = f"{float(text):.0f}"
-    return text
-
-
-def format_value(value: object, *, limit: int = 300) -> str:
-    """A readable one-line rendering of an info value (number, list, array, dict, text)."""
-    text = _format(value)
-    return text if len(text) <= limit else text[: limit - 1] + "…"
-
-
-def _format(value: object, nested: bool = False) -> str:
-    if isinstance(value, np.generic):
-        value = value.item()
-    if value is None:
-        return "—"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        return fmt(value)
-    if isinstance(value, Mapping):
-        items = [f"{k} = {_format(v, True)}" for k, v in value.items()]
-        return "{" + ", ".join(items) + "}" if nested else "; ".join(items)
-    if isinstance(value, (list, tuple, np.ndarray)):
-        items = list(np.asarray(value).ravel()) if isinstance(value, np.ndarray) else list(value)
-        if len(items) > 8:
-            shown = [_format(v, True) for v in items[:6]]
-            return f"[{', '.join(shown)}, …, {_format(items[-1], True)}] ({len(items)} values)"
-        return "[" + ", ".join(_format(v, True) for v in items) + "]"
-    return str(value)
-
-
-def format_runtime(seconds: float) -> str:
-    if seconds < 0.1:
-        return f"{seconds * 1e3:.0f} ms"
-    if seconds < 120:
-        return f"{seconds:.1f} s"
-    minutes, rest = divmod(round(seconds), 60)
-    return f"{minutes} min {rest} s"
-
-
-def _parse_started(started: str) -> datetime | None:
-    try:
-        return datetime.fromisoformat(started) if started else None
-    except ValueError:
-        return None
-
-
-def format_started(started: str) -> str:
-    when = _parse_started(started)
-    if when is None:
-        return started or "not recorded"
-    text = when.strftime("%Y-%m-%d %H:%M:%S")
-    return f"{text} {when.strftime('%Z') or when.strftime('%z')}".strip()
 
 
 def _param_row(name: str, item: Mapping, marks: list[int]) -> tuple[str, ...]:
@@ -379,7 +306,7 @@ def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str, 
         fe_notes=() if fit is None else fe_notes(fit),
         info=() if fit is None else _info(fit, units),
         warnings=warnings,
-        tests=tuple(_test_view(t, result.inputs) for t in tests),
+        tests=tuple(record_view(t, result.inputs) for t in tests),
         drawings=drawings,
         extras=() if fit is None else (*extra_figures(fit), *problems),
     )
@@ -414,91 +341,3 @@ def _info(fit: TestFit, units: str) -> tuple[tuple[str, Cell], ...]:
         else:
             rows.append(info_cell(str(key), value, units, axes))
     return tuple(rows)
-
-
-def fe_notes(fit: TestFit) -> tuple[str, ...]:
-    """One line per distinct ``extra["fe"]`` of the estimates ("FE mesh and solver for E_s: ...")."""
-    groups: dict[str, list[str]] = {}
-    for estimate in fit.estimates:
-        fe = estimate.extra.get("fe")
-        if isinstance(fe, Mapping):
-            groups.setdefault(format_fe(fe), []).append(estimate.parameter)
-    return tuple(f"FE mesh and solver for {', '.join(names)}: {text}" for text, names in groups.items())
-
-
-def format_fe(fe: Mapping) -> str:
-    """The mesh and solver figures of a finite-element fit, in words."""
-    head = " ".join(format_value(fe[k]) for k in ("elements", "element") if k in fe)
-    parts = [f"{head} elements"] if head else []
-    if isinstance(fe.get("discretization_error"), (int, float)):
-        parts.append(f"discretisation error {fmt(fe['discretization_error'], 2)} of E_s (relative)")
-    if "rod_solves" in fe:
-        parts.append(f"{format_value(fe['rod_solves'])} rod solves")
-    if isinstance(fe.get("runtime_s"), (int, float)):
-        parts.append(f"run time {format_runtime(fe['runtime_s'])}")
-    known = {"element", "elements", "discretization_error", "runtime_s", "rod_solves", "levels"}
-    parts += [f"{label_of(k)}: {text_of(v)}" for k, v in fe.items() if k not in known]
-    return ", ".join(parts)
-
-
-def format_held(held: Mapping) -> str:
-    """How the uncertainty of each held stiffness p moves into E_s (d ln E_s / d ln p and its share)."""
-    parts = []
-    for name, item in held.items():
-        if isinstance(item, Mapping) and {"dlogEs_dlogp", "contribution"} <= item.keys():
-            parts.append(
-                f"{name}: d ln E_s / d ln {name} = {fmt(item['dlogEs_dlogp'], 3)}, "
-                f"adds ±{fmt(100 * item['contribution'], 2)} % to E_s"
-            )
-        else:
-            parts.append(f"{name}: {format_value(item)}")
-    return "; ".join(parts)
-
-
-def _test_view(test: Test, inputs: tuple[InputFile, ...]) -> TestView:
-    source = _input_of(test, inputs)
-    return TestView(
-        file=test.file.name,
-        sha256=source.sha256 if source else "",
-        setup=_setup(test),
-        exclude=test.exclude,
-        note=test.note,
-        metadata=tuple((str(k), str(v)) for k, v in source.metadata.items()) if source else (),
-        units=_units_written(source.units) if source else (),
-        n_rows=source.n_rows if source else None,
-    )
-
-
-def _units_written(units: Mapping[str, str]) -> tuple[tuple[str, str], ...]:
-    """(column in words, "[unit]" or "(no unit)") of each column of a record."""
-    return tuple((str(k).replace("_", " "), f"[{v}]" if str(v) else "(no unit)") for k, v in units.items())
-
-
-def _input_of(test: Test, inputs: tuple[InputFile, ...]) -> InputFile | None:
-    target = _resolved(test.file)
-    match = next((f for f in inputs if _resolved(f.path) == target), None)
-    if match is None:
-        by_name = [f for f in inputs if f.path.name == test.file.name]
-        match = by_name[0] if len(by_name) == 1 else None
-    return match
-
-
-def _resolved(path: Path) -> str:
-    try:
-        return str(Path(path).resolve())
-    except OSError:
-        return str(path)
-
-
-def _setup(test: Test) -> str:
-    """The set-up of a test in readable units: lengths in mm, the rest in SI."""
-    kinds = {**TEST_KINDS.get(test.kind, {}), **OPTIONAL_KEYS.get(test.kind, {})}
-    parts = []
-    for key, value in test.params.items():
-        if kinds.get(key) == "length":
-            parts.append(f"{key.replace('_', ' ')} {value * 1e3:.4g} mm")
-        elif kinds.get(key) == "moment":
-            parts.append(f"{key.replace('_', ' ')} {value:.4g} A m^2")
-        else:
-            parts.append(f"{key.replace('_', ' ')} {format_value(value)}")
-    return ", ".join(parts)

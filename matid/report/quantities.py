@@ -87,7 +87,7 @@ INFO_KEYS: dict[str, Key] = {
     "interval_widening": Key("interval widening factor for correlated residuals", "1"),
     "residual_lag1_used": Key("lag-1 autocorrelation of the residuals used for the interval", "1"),
     "sign_flipped": Key("records whose sign was flipped", None),
-    "left_out": Key("points left out, by reason", None, row_label="record, points"),
+    "left_out": Key("points left out, by reason", "count", row_label="record, points"),
     "rows_left_out": Key("rows left out (first, last of each stretch)", None, row_label="record, rows"),
     "left_out_tests": Key("tests left out", None, row_label="test"),
     "per_span": Key("E_s of each span alone", None, row_label="span"),
@@ -276,7 +276,7 @@ def _mapping_table(value: Mapping, spec: Key | None, kind: str | None, units: st
         quantity(float(k), row_kind, units, axes).split(" ")[0] if row_kind else label_of(k) for k in value
     ]
     if all(isinstance(v, Mapping) for v in value.values()):
-        table = _records_table(list(value.values()), units, axes, row_label="")
+        table = _records_table(list(value.values()), units, axes, row_label="", kind=kind)
         return Nested(
             (head, *table.header[1:]), tuple((k, *r[1:]) for k, r in zip(keys, table.rows, strict=True))
         )
@@ -308,10 +308,13 @@ def _row_head(row_label: str, row_kind: str | None, units: str, axes) -> str:
     return f"{row_label} [{unit}]" if unit else row_label
 
 
-def _records_table(records: Sequence[Mapping], units: str, axes, *, row_label: str) -> Nested:
-    """A list of mappings as one table: a column per key, each with its unit in the header."""
+def _records_table(
+    records: Sequence[Mapping], units: str, axes, *, row_label: str, kind: str | None = None
+) -> Nested:
+    """A list of mappings as one table: a column per key, each with its unit in the header
+    (``kind``: of the columns whose names do not say theirs)."""
     columns = list(dict.fromkeys(k for r in records for k in r))
-    kinds = {c: _column_kind(c, columns) for c in columns}
+    kinds = {c: _column_kind(c, columns) or kind for c in columns}
     header = [row_label] if row_label else [""]
     for c in columns:
         unit = unit_of(kinds[c], units, axes or {})[0]

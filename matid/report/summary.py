@@ -174,6 +174,8 @@ def moduli_rows(result: StudyResult, units: str) -> list[tuple[str, ...]]:
             note = ""
             if source == "E_b" and "E_e" in found:
                 note = agreement_text(found["E_e"], m)
+            if statuses[(sid, source)].status == "check":
+                note = "; ".join(filter(None, (f"from {source}, a value to check", note)))
             section = {"E_e": "A", "E_b": "I", "E_t": "J"}[source]
             power, decimals = scale_of(m.value * factor, None if m.stderr is None else m.stderr * factor)
             rows.append(
