@@ -282,11 +282,13 @@ def _outside(x: np.ndarray, used: np.ndarray) -> np.ndarray:
 
 
 def _legend(ax, series: Sequence[Series], fitted: bool, excluded: bool) -> None:
-    handles = [
-        Line2D([], [], color=COLOURS[i % len(COLOURS)], marker="o", markersize=4, linestyle="none")
-        for i in range(len(series))
-    ]
-    labels = [s.label for s in series]
+    """One entry per series as it is drawn: a series left out whole is hollow grey, not its colour."""
+    handles, labels = [], []
+    for i, s in enumerate(series):
+        whole = s.used is not None and not np.asarray(s.used, bool).any()
+        style = {"mfc": "none", "mec": EXCLUDED} if whole else {"color": COLOURS[i % len(COLOURS)]}
+        handles.append(Line2D([], [], marker="o", markersize=4, linestyle="none", **style))
+        labels.append(f"{s.label} (left out)" if whole else s.label)
     if fitted:
         handles.append(Line2D([], [], color="#333333", linewidth=1.6))
         labels.append("model fit")

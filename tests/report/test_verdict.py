@@ -53,3 +53,27 @@ def test_reason_in_one_line_and_what_to_measure_instead():
         "check it",
         "not identifiable",
     ]
+
+
+def test_legend_draws_a_series_left_out_whole_as_it_is_plotted():
+    """A record left out of the fit is plotted hollow grey: its legend entry is too, not its colour."""
+    import numpy as np
+
+    from matid.io.results import Estimate, Series
+    from matid.io.results import TestFit as Fit
+    from matid.report.figures import EXCLUDED, fit_figure
+    from tests.report.test_report import make_result
+
+    test = make_result(kinds=("torsion",)).study.tests[0]
+    x = np.linspace(0.0, 1.0, 20)
+    series = (
+        Series("kept.csv", x, 2 * x, 2 * x, np.ones(20, bool)),
+        Series("out.csv", x, 3 * x, 3 * x, np.zeros(20, bool)),
+    )
+    fit = Fit("torsion", "T1", (test,), (Estimate("E_t", 4e-5, 1e-7, None, 20, "linear"),), series,
+              "twist [rad]", "torque [N m]")  # fmt: skip
+    legend = fit_figure(fit).axes[0].get_legend()
+    entries = dict(zip([t.get_text() for t in legend.get_texts()], legend.legend_handles, strict=True))
+    assert entries["out.csv (left out)"].get_markerfacecolor() == "none"
+    assert entries["out.csv (left out)"].get_markeredgecolor() == EXCLUDED
+    assert entries["kept.csv"].get_markerfacecolor() != "none"
