@@ -13,6 +13,7 @@ from datetime import datetime
 
 from matid import __version__
 from matid.io.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
+from matid.io.status import INSEPARABLE_R, STRONG_R
 from matid.report.bend import bend_drawings
 from matid.report.diagnostics import glossary, lack_of_fit_table, model_choice_table
 from matid.report.figures import Drawing, ExtraFigure, axis_unit, extra_figures, has_plot
@@ -246,7 +247,13 @@ def _correlation(fit: TestFit) -> Table | None:
     rows = []
     for pair, r in fit.correlation.items():
         a, _, b = str(pair).partition("|")
-        strong = "strong: not separately identifiable" if abs(r) >= 0.95 else ""
+        strong = (
+            "inseparable: the data fix only a combination (not identifiable)"
+            if abs(r) >= INSEPARABLE_R
+            else "strong: read the two together (check it)"
+            if abs(r) >= STRONG_R
+            else ""
+        )
         rows.append((a, b or "—", f"{r:+.3f}", strong))
     return Table(("parameter", "with", "r", ""), tuple(rows), (False, False, True, False))
 

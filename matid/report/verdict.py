@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 
-from matid.units import UNIT_SYSTEMS
+from matid.report.quantities import DISPLAY
 
 #: The words for each status, as page 1 prints them.
 STATUS_WORDS = {"ok": "use it", "check": "check it", "not_identifiable": "not identifiable"}
@@ -28,8 +28,10 @@ ONE_LINE = 110
 
 _NUMBER = r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?"
 #: A number (or a range a-b) followed by an SI stiffness unit, in a warning text.
-_QUANTITY = re.compile(rf"(?<![\w.])({_NUMBER})(?:(-|–| to )({_NUMBER}))? (N m\^2|N s|N)(?![\w/^])")
-_KIND_OF_UNIT = {"N": "force", "N m^2": "bending_stiffness", "N s": "viscosity"}
+_QUANTITY = re.compile(rf"(?<![\w.])({_NUMBER})(?:(-|–| to )({_NUMBER}))? (N m\^2|N s|N|mm/N)(?![\w/^])")
+#: unit as the fits write it -> (quantity kind, factor to SI).
+_KIND_OF_UNIT = {"N": ("force", 1.0), "N m^2": ("bending_stiffness", 1.0), "N s": ("viscosity", 1.0),
+                 "mm/N": ("compliance", 1e-3)}  # fmt: skip
 
 
 def status_words(status: str) -> str:
@@ -64,13 +66,15 @@ def reason_line(item: Mapping) -> str:
 
 
 def in_units(text: str, units: str) -> str:
-    """``text`` with its SI stiffnesses (``19.33 N``, ``46.6-49.2 N``, ``9e-5 N m^2``) in ``units``."""
+    """``text`` with its SI stiffnesses (``19.33 N``, ``46.6-49.2 N``, ``9e-5 N m^2``) and compliances
+    (``0.063-0.17 mm/N``) in ``units``."""
     if units == "SI":
         return text
-    system = UNIT_SYSTEMS[units]
 
     def convert(match: re.Match) -> str:
-        unit, factor = system[_KIND_OF_UNIT[match.group(4)]]
+        kind, si = _KIND_OF_UNIT[match.group(4)]
+        unit, factor = DISPLAY[kind][units]
+        factor *= si
         low = f"{float(match.group(1)) * factor:.4g}"
         if match.group(3) is None:
             return f"{low} {unit}"

@@ -21,8 +21,8 @@ def test_cgs_converts_every_stiffness_in_a_warning_and_nothing_else():
     assert "4.66e+06-4.92e+06 dyn" in text and "= 4.785e+06 dyn" in text
     assert f"{from_si(9.036e-05, 'bending_stiffness', 'cgs')[0]:.4g} dyn cm^2" in text
     assert f"{from_si(450.5, 'viscosity', 'cgs')[0]:.4g} dyn s" in text
-    assert "0.063-0.17 mm/N" in text and "1.2-3.3 times" in text  # a compliance and a ratio stay
-    assert " N" not in text.replace("N m^2", "").replace("mm/N", "")
+    assert "6.3e-08-1.7e-07 cm/dyn" in text and "1.2-3.3 times" in text  # 1 mm/N = 1e-6 cm/dyn; a ratio stays
+    assert " N" not in text and "mm/N" not in text
     assert in_units(WARNING, "SI") == WARNING
 
 
