@@ -182,14 +182,12 @@ def has_plot(fit: TestFit) -> bool:
 
 
 def unit_note(fit: TestFit, units: str) -> str:
-    """A caption sentence on the axis units."""
-    kept = [a.kept_si for a in (axis_unit(fit.x_label, units), axis_unit(fit.y_label, units))]
-    kept = [k for k in kept if k]
-    if units == "SI":
-        return "Axes in SI units."
-    if kept:
-        return f"Axes in {units} units where they have one; {', '.join(kept)} kept in SI."
-    return f"Axes in {units} units."
+    """A caption sentence naming the units on the axes, as the plot labels them."""
+    x = axis_unit(fit.x_label, units, _peak(s.x for s in fit.series))
+    y = axis_unit(fit.y_label, units, _peak(s.y for s in fit.series))
+    kept = [a.kept_si for a in (x, y) if a.kept_si]
+    note = f" ({', '.join(kept)} kept in SI)" if units != "SI" and kept else ""
+    return f"Horizontal axis: {x.label}; vertical: {y.label}{note}."
 
 
 def caption(fit: TestFit, units: str) -> str:

@@ -77,3 +77,17 @@ def test_legend_draws_a_series_left_out_whole_as_it_is_plotted():
     assert entries["out.csv (left out)"].get_markerfacecolor() == "none"
     assert entries["out.csv (left out)"].get_markeredgecolor() == EXCLUDED
     assert entries["kept.csv"].get_markerfacecolor() != "none"
+
+
+@pytest.mark.parametrize("units", ["SI", "cgs"])
+def test_caption_names_the_units_the_axes_show(units):
+    """The caption of a fit plot names the axis labels as drawn (with their prefixed units)."""
+    from matid.report.figures import caption, fit_figure
+    from tests.report.test_report import make_result
+
+    for fit in make_result().fits:
+        if not any(len(s.x) for s in fit.series):
+            continue
+        axes = fit_figure(fit, units).axes
+        text = caption(fit, units)
+        assert axes[0].get_ylabel() in text and axes[-1].get_xlabel() in text, (text, axes[0].get_ylabel())
