@@ -24,6 +24,7 @@ from matid.app.api import fit
 from matid.io.results import PARAMETER_KINDS
 from matid.io.study import OPTIONAL_KEYS, TABLE_KEYS, TEST_COLUMNS, TEST_COMMON_KEYS, TEST_KINDS, Test
 from matid.report import render_report
+from matid.report.quantities import UNSTATED
 from matid.report.summary import interval_text, value_cells
 from matid.report.verdict import STATUS_WORDS
 from tests.report.test_report import make_result
@@ -150,6 +151,7 @@ def synthetic() -> str:
 def test_demo_report_reads_without_repr_label_or_bare_number(demo):
     page = (demo[1] / "report.html").read_text(encoding="utf-8")
     assert readability_problems(page) == []
+    assert UNSTATED not in page  # every figure the fitters write has its quantity registered
 
 
 def test_every_kind_report_reads_without_repr_label_or_bare_number(synthetic):
