@@ -133,6 +133,8 @@ def comparison_figure(stats: Sequence[dict]) -> bytes:
         ax.set_yticks(y, labels)
         ax.invert_yaxis()
         ax.set_xlabel(f"{s['parameter']} [{s['unit']}]")
+        if s.get("geometry"):
+            ax.set_title(f"{s['parameter']}, {s['geometry']}", fontsize="medium", loc="left")
         ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4), useMathText=True)
     if stats:
         axes[0].legend(loc="lower left", bbox_to_anchor=(0, 1.02), ncols=3, frameon=False, fontsize="small")
@@ -194,7 +196,7 @@ def _link(o: StudyOutcome) -> str:
     return name
 
 
-_MARK = {"check": "⚠ check it", "not_identifiable": "not identifiable"}
+_MARK = {"ok": "use it", "check": "⚠ check it", "not_identifiable": "not identifiable"}
 
 
 def _value_rows(stats: Sequence[dict], geometry: Mapping[tuple[str, str], str]) -> str:

@@ -76,4 +76,4 @@ def test_mean_and_sd_only_within_one_section(tmp_path):
 def test_values_to_check_are_marked(tmp_path):
     page = comparison_page(outcomes(tmp_path))
     marked = re.findall(r"<td>(\w+) / (\w)</td>.*?<td class=\"mark\">([^<]*)</td>", page)
-    assert [(s, m) for _, s, m in marked] == [("A", ""), ("B", "⚠ check it"), ("C", "")]
+    assert [(s, m) for _, s, m in marked] == [("A", "use it"), ("B", "⚠ check it"), ("C", "use it")]
