@@ -44,7 +44,7 @@ from matid.report.summary import (
     notes_of,
     value_cells,
 )
-from matid.report.verdict import in_units, reason_line, status_words, summary_intro
+from matid.report.verdict import STATUS_LEGEND, in_units, reason_line, status_words, summary_intro
 
 #: Section titles and the parameters each test kind gives, in report order.
 KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -105,7 +105,8 @@ class Report:
     matid_version: str
     versions: tuple[tuple[str, str], ...]
     units: str
-    summary_intro: str  # what the summary table shows: status words, interval, rounding
+    summary_intro: str  # what the summary table shows: units, interval, rounding
+    status_legend: tuple[tuple[str, str], ...]  # each status word and what it asks of the reader
     summary: Table
     moduli: Table | None  # E and G from the stiffnesses and the section
     notes: tuple[Note, ...]  # every warning of the fits, numbered as the summary marks them
@@ -136,6 +137,7 @@ def build_report(result: StudyResult, units: str) -> Report:
         versions=tuple((k, str(v)) for k, v in result.versions.items() if k != "matid"),
         units=units,
         summary_intro=summary_intro(units),
+        status_legend=STATUS_LEGEND,
         summary=summary_table(result, doc, marks_of(result, notes, titles), units),
         moduli=Table(MODULI_COLUMNS, tuple(moduli), (False,) * 3 + (True, True) + (False,) * 2)
         if moduli

@@ -133,6 +133,7 @@ def _first_page(report: Report) -> list[Flowable]:
         parts = "; ".join(f"{s.title} ({s.parameters})" for s in report.sections)
         story += [space(4), para(f"Sections: {parts}; Provenance", 8.5)]
     story += [space(8), Heading("Summary of stiffnesses", 14, key="summary"), _section_rule()]
+    story += [para(f"{words}: {meaning}", 8, space=1) for words, meaning in report.status_legend]
     story.append(para(report.summary_intro, 8, muted=True, space=4))
     story += [_summary_table(report.summary), space(8), *_warnings(report)]
     if report.moduli:

@@ -84,13 +84,12 @@ def in_units(text: str, units: str) -> str:
 
 
 def summary_intro(units: str) -> str:
-    """What page 1's table shows: the status words, the interval, the rounding, the marks."""
-    legend = "; ".join(f"{words}: {meaning}" for words, meaning in STATUS_LEGEND)
+    """What page 1's table shows besides the status words: the units, the interval, the marks."""
     return (
-        f"Status of each value ({legend}). Values in {units} units, as in stiffness.json, "
-        "stiffness.csv and stiffness.xlsx, rounded to two significant figures of their standard error. "
-        "95 % interval: the range that holds the value with 95 % confidence given the fit; it need not "
-        "be centred on the value (E_s is fitted on a log scale). ⚠ [n]: warning n below the table, in full."
+        f"Values in {units} units, as in stiffness.json, stiffness.csv and stiffness.xlsx, rounded to two "
+        "significant figures of their standard error. 95 % interval: the range that holds the value with "
+        "95 % confidence given the fit; it need not be centred on the value (E_s is fitted on a log "
+        "scale). ⚠ [n]: warning n below the table, in full."
     )
 
 
