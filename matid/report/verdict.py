@@ -30,6 +30,8 @@ _NUMBER = r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?"
 #: A number (or a range a-b) followed by an SI stiffness unit, in a warning text.
 _QUANTITY = re.compile(rf"(?<![\w.])({_NUMBER})(?:(-|–| to )({_NUMBER}))? (N m\^2|N s|N|mm/N)(?![\w/^])")
 #: unit as the fits write it -> (quantity kind, factor to SI).
+#: A bracketed remark holding numbers ("(-3.1e-05 to 4.2e-05)", "(r = +0.9993)").
+_BRACKETED_NUMBERS = re.compile(r"\s*\([^()]*\d[^()]*\)")
 _KIND_OF_UNIT = {"N": ("force", 1.0), "N m^2": ("bending_stiffness", 1.0), "N s": ("viscosity", 1.0),
                  "mm/N": ("compliance", 1e-3)}  # fmt: skip
 
@@ -60,7 +62,10 @@ def reason_line(item: Mapping) -> str:
     status = item.get("status", "ok")
     if status == "ok":
         return ""
-    reason = one_line(str(item.get("status_reason") or ""))
+    reason = str(item.get("status_reason") or "")
+    if status == "not_identifiable":  # no number of a value the data do not determine
+        reason = _BRACKETED_NUMBERS.sub("", reason)
+    reason = one_line(reason)
     instead = item.get("measure_instead") or ""
     return f"{reason}. Measure instead: {instead}" if status == "not_identifiable" and instead else reason
 

@@ -48,6 +48,14 @@ def test_reason_in_one_line_and_what_to_measure_instead():
         "its 95 % interval reaches zero. Measure instead: a torsion record with a longer linear range"
     )
     assert reason_line({"status": "ok"}) == ""
+    withheld = {
+        "status": "not_identifiable",
+        "measure_instead": "a longer record",
+        "status_reason": "its 95 % interval (-3.1e-05 to 4.2e-05) reaches zero: the data do not bound it",
+    }
+    assert reason_line(withheld) == (
+        "its 95 % interval reaches zero: the data do not bound it. Measure instead: a longer record"
+    )
     assert [status_words(s) for s in ("ok", "check", "not_identifiable")] == [
         "use it",
         "check it",
