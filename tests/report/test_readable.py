@@ -219,3 +219,28 @@ def test_nose_travel_E_s_of_T2_shows_its_status_and_interval_not_a_plain_stderr(
     for text in (first, page):
         assert f"{value} ± {stderr}" not in text and f"{value} {interval_text(low, high)} {unit}" in text
         assert f"E_s {STATUS_WORDS[item['status']]} {value}" in text
+
+
+def test_a_value_the_data_do_not_determine_shows_no_number_and_what_to_measure():
+    """A torsion E_t whose 95 % interval reaches zero: page 1 says 'not identifiable', prints no
+    value or interval of it, and says what to measure instead; the report still reads cleanly."""
+    from dataclasses import replace
+
+    from matid.io.results import stiffness_json
+
+    base = make_result(kinds=("torsion",))
+    fit = base.fits[0]
+    loose = [replace(e, value=2e-6, stderr=5e-6, ci95=(-8e-6, 1.2e-5)) if e.parameter == "E_t" else e
+             for e in fit.estimates]  # fmt: skip
+    result = replace(base, fits=(replace(fit, estimates=tuple(loose)),))
+    item = stiffness_json(result)["specimens"]["T1"]["E_t"]
+    assert item["status"] == "not_identifiable" and item["value"] is None  # decided by matid.io.status
+    out = render_report(result)
+    page = out["report.html"].decode("utf-8")
+    summary = visible_text(page.split('<section id="summary">', 1)[1].split("</section>", 1)[0])
+    row = summary[summary.index("T1 E_t ") :]
+    assert row.startswith("T1 E_t not identifiable no value — ") and "Measure instead: " in row
+    assert not re.search(r"[-−]?8(\.0*)?e-0?6|1\.2e-0?5|2(\.0*)?e-0?6", summary)
+    assert readability_problems(page) == []
+    first = " ".join(pypdf.PdfReader(io.BytesIO(out["report.pdf"])).pages[0].extract_text().split())
+    assert "T1 E_t not identifiable no value" in first and "Measure instead" in first
