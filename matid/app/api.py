@@ -15,7 +15,6 @@ stay available as ``result.study_result`` (a :class:`matid.io.results.StudyResul
 
 from __future__ import annotations
 
-import html
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +22,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # heavy imports only when used
     import pandas as pd
+    from matplotlib.figure import Figure
 
     from matid.io.results import StudyResult
     from matid.io.study import Study
@@ -77,12 +77,37 @@ class FitResult:
 
     def table(self, units: str = "SI") -> pd.DataFrame:
         """One row per specimen and parameter: the columns of ``stiffness.csv``, warnings then status
-        (``ok``, ``check``, ``not_identifiable``: no value, the reason in warnings; contract section 10)."""
-        import pandas as pd
+        (``ok``, ``check``, ``not_identifiable``: no value, the reason in warnings; contract section 10).
 
+        The numbers are floats; printed, each row shows value and bounds with the digits its
+        standard error supports (:class:`matid.report.notebook.StiffnessTable`)."""
         from matid.io.results import CSV_COLUMNS, table_rows
+        from matid.report.notebook import StiffnessTable
 
-        return pd.DataFrame(table_rows(self.study_result, units), columns=CSV_COLUMNS)
+        return StiffnessTable(table_rows(self.study_result, units), columns=CSV_COLUMNS)
+
+    def plot(self, parameter: str, specimen: str, units: str = "SI") -> Figure:
+        """The report's figure of the fit that gives ``parameter`` of ``specimen`` (data, model,
+        residuals) as a matplotlib Figure; DataError naming the fits there are if none gives it."""
+        from matid.errors import DataError
+        from matid.report.figures import fit_figure
+
+        fits = [f for f in self.study_result.fits if f.specimen == specimen]
+        names = {"sls_k1": "E_e", "E_e": "sls_k1"}
+        match = next(
+            (
+                f
+                for f in fits
+                if {e.parameter for e in f.estimates} & {parameter, names.get(parameter, parameter)}
+            ),
+            None,
+        )
+        if match is None:
+            there = sorted(
+                {f"{f.specimen} {e.parameter}" for f in self.study_result.fits for e in f.estimates}
+            )
+            raise DataError(f"no fit gives {parameter} of specimen {specimen}; fitted: {', '.join(there)}")
+        return fit_figure(match, units)
 
     def write(self, out: str | Path, *, units: str = "SI") -> list[Path]:
         """Write the files of ``matid fit --out OUT`` (docs/contract.md sections 4, 7); returns the paths."""
@@ -96,28 +121,7 @@ class FitResult:
         return f"<matid.FitResult {self.name!r}: {n} values, {status}, {len(self.warnings)} warnings>"
 
     def _repr_html_(self) -> str:
-        """The summary table (value ± stderr, 95 % interval, unit, method) and the warnings."""
-        rows = self.table()
-        head = "".join(f"<th>{h}</th>" for h in ("specimen", "parameter", "value ± stderr", "95 % interval",
-                                                 "unit", "method", "warnings", "status"))  # fmt: skip
-        body = "".join(_html_row(r) for r in rows.to_dict("records"))
-        warnings = "".join(f"<li>{html.escape(w)}</li>" for w in self.warnings)
-        return (
-            f"<div><h4>{html.escape(self.name)}</h4>"
-            f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
-            + (f"<p><b>Warnings ({len(self.warnings)})</b></p><ul>{warnings}</ul>" if warnings
-               else "<p>No warnings.</p>")
-            + "</div>"
-        )  # fmt: skip
+        """Page 1 of the report: each value's status, value, 95 % interval, unit, why; the warnings."""
+        from matid.report.notebook import result_html
 
-
-def _html_row(row: dict) -> str:
-    def num(x) -> str:
-        return "" if x is None or x != x else f"{x:.4g}"
-
-    value = num(row["value"]) + ("" if row["stderr"] is None or row["stderr"] != row["stderr"]
-                                 else f" ± {row['stderr']:.2g}")  # fmt: skip
-    interval = "" if not num(row["ci95_low"]) else f"[{num(row['ci95_low'])}, {num(row['ci95_high'])}]"
-    cells = (row["specimen"], row["parameter"], value, interval, row["unit"], row["method"], row["warnings"],
-             row["status"])  # fmt: skip
-    return "<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in cells) + "</tr>"
+        return result_html(self.study_result, self.warnings)

@@ -3,8 +3,9 @@
 docs/contract.md section 8. The tables hold every specimen of every study, one
 row per parameter, the study folder name first. The page shows, per parameter,
 each specimen's value with its 95 % interval and the mean ± sd across specimens
-(sample standard deviation, n - 1; no sd from a single specimen), with the
-failed studies and every warning listed.
+of one section (sample standard deviation, n - 1; no sd from a single specimen;
+tubes of different sizes are never pooled), failed studies first, a link to each
+study's report, values to check marked, and every warning listed.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import html
 import io
 import math
 import statistics
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from matid.app.batch import STUDY_COLUMNS, SUMMARY_FIRST, StudyOutcome
@@ -40,21 +41,47 @@ def study_rows(outcomes: Sequence[StudyOutcome]) -> list[dict[str, object]]:
     ]  # fmt: skip
 
 
-def statistics_by_parameter(rows: Sequence[dict]) -> list[dict[str, object]]:
-    """Per parameter (in table order): unit, n specimens, mean, sd (None for n < 2), cv."""
+def statistics_by_parameter(
+    rows: Sequence[dict], geometry: Mapping[tuple[str, str], str] | None = None
+) -> list[dict[str, object]]:
+    """Per parameter (in table order) and, given ``geometry`` ((study, specimen) -> section),
+    per section: unit, n specimens, mean, sd (None for n < 2), cv."""
     out = []
     for name in PARAMETER_ORDER:
         if name in _COMPARE_SKIP:
             continue
         mine = [r for r in rows if r["parameter"] == name and r["value"] is not None]  # not_identifiable
-        if not mine:
-            continue
-        values = [float(r["value"]) for r in mine]
-        mean = statistics.fmean(values)
-        sd = statistics.stdev(values) if len(values) > 1 else None
-        cv = None if sd is None or mean == 0 else abs(sd / mean)
-        out.append({"parameter": name, "unit": mine[0]["unit"], "n": len(values), "mean": mean, "sd": sd,
-                    "cv": cv, "rows": mine})  # fmt: skip
+        groups: dict[str, list[dict]] = {}
+        for r in mine:
+            section = (
+                (geometry or {}).get((r[SUMMARY_FIRST], r["specimen"]), "") if geometry is not None else ""
+            )
+            groups.setdefault(section, []).append(r)
+        for section, group in groups.items():
+            values = [float(r["value"]) for r in group]
+            mean = statistics.fmean(values)
+            sd = statistics.stdev(values) if len(values) > 1 else None
+            cv = None if sd is None or mean == 0 else abs(sd / mean)
+            out.append({"parameter": name, "unit": group[0]["unit"], "n": len(values), "mean": mean, "sd": sd,
+                        "cv": cv, "rows": group, "geometry": section})  # fmt: skip
+    return out
+
+
+def geometry_of(outcomes: Sequence[StudyOutcome]) -> dict[tuple[str, str], str]:
+    """(study, specimen) -> its section in words ("tube 2/1.5 mm"), read from each study.toml;
+    "section not known" for a study that cannot be read again."""
+    from matid.errors import MatidError
+    from matid.io.study import load_study
+
+    out: dict[tuple[str, str], str] = {}
+    for o in outcomes:
+        try:
+            specimens = load_study(o.source).specimens if o.rows else ()
+        except (MatidError, OSError):
+            specimens = ()
+        known = {s.id: s.section.describe() for s in specimens}
+        for row in o.rows:
+            out[(o.name, row["specimen"])] = known.get(row["specimen"], "section not known")
     return out
 
 
@@ -107,6 +134,8 @@ def comparison_figure(stats: Sequence[dict]) -> bytes:
         ax.set_yticks(y, labels)
         ax.invert_yaxis()
         ax.set_xlabel(f"{s['parameter']} [{s['unit']}]")
+        if s.get("geometry"):
+            ax.set_title(f"{s['parameter']}, {s['geometry']}", fontsize="medium", loc="left")
         ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4), useMathText=True)
     if stats:
         axes[0].legend(loc="lower left", bbox_to_anchor=(0, 1.02), ncols=3, frameon=False, fontsize="small")
@@ -124,30 +153,68 @@ def _percent(x: float | None) -> str:
 
 
 def comparison_page(outcomes: Sequence[StudyOutcome]) -> str:
-    """The self-contained HTML comparison page (figure inlined as PNG)."""
-    stats = statistics_by_parameter(summary_rows(outcomes))
+    """The self-contained HTML comparison page (figure inlined as PNG): failed studies first,
+    statistics per parameter within one section, each specimen's value marked when to check."""
+    geometry = geometry_of(outcomes)
+    stats = statistics_by_parameter(summary_rows(outcomes), geometry)
     esc = html.escape
     stat_rows = "".join(
         f"<tr><td>{s['parameter']}</td><td>{s['n']}</td><td>{_num(s['mean'])}</td><td>{_num(s['sd'], 2)}</td>"
-        f"<td>{_percent(s['cv'])}</td><td>{esc(s['unit'])}</td></tr>"
+        f"<td>{_percent(s['cv'])}</td><td>{esc(s['unit'])}</td><td>{esc(s['geometry'])}</td></tr>"
         for s in stats
     )
+    failed = [o for o in outcomes if o.code != 0]
+    failed_box = "".join(f"<li><b>{esc(o.name)}</b> (exit {o.code}): {esc(_why(o))}</li>" for o in failed)
     study_table = "".join(
-        f"<tr><td>{esc(r['study'])}</td><td>{r['exit_code']}</td><td>{r['warnings']}</td>"
-        f"<td>{r['runtime_s']:.1f} s</td><td>{esc(str(r['error']))}</td></tr>"
-        for r in study_rows(outcomes)
+        f"<tr><td>{_link(o)}</td><td>{o.code}</td><td>{len(o.warnings)}</td>"
+        f"<td>{o.runtime_s:.1f} s</td><td>{esc(o.error.split(chr(10))[0])}</td></tr>"
+        for o in sorted(outcomes, key=lambda o: o.code == 0)
     )
     warnings = "".join(f"<li>{esc(o.name)}: {esc(w)}</li>" for o in outcomes for w in o.warnings)
     figure = base64.b64encode(comparison_figure(stats)).decode() if stats else ""
     return _PAGE.format(
         n_studies=len(outcomes),
         n_specimens=len({(r[SUMMARY_FIRST], r["specimen"]) for r in summary_rows(outcomes)}),
-        stats=stat_rows or "<tr><td colspan=6>no values</td></tr>",
+        failed=f'<div class="failed"><h2>{len(failed)} failed</h2><ul>{failed_box}</ul></div>' * bool(failed),
+        stats=stat_rows or "<tr><td colspan=7>no values</td></tr>",
+        values=_value_rows(stats, geometry) or "<tr><td colspan=7>no values</td></tr>",
         studies=study_table,
         figure=f'<img alt="values per specimen with 95 % intervals" src="data:image/png;base64,{figure}">'
         if figure else "<p>No values to compare.</p>",
         warnings=f"<ul>{warnings}</ul>" if warnings else "<p>No warnings.</p>",
     )  # fmt: skip
+
+
+def _why(o: StudyOutcome) -> str:
+    return o.error.split("\n")[0] if o.error else "; ".join(o.failures) or "warnings (--strict)"
+
+
+def _link(o: StudyOutcome) -> str:
+    """The study's name, linked to its report.html (relative to summary.html) when it was written."""
+    name = html.escape(o.name)
+    if any(Path(p).name == "report.html" for p in o.paths):
+        return f'<a href="{html.escape(o.name)}/report.html">{name}</a>'
+    return name
+
+
+_MARK = {"ok": "use it", "check": "⚠ check it", "not_identifiable": "not identifiable"}
+
+
+def _value_rows(stats: Sequence[dict], geometry: Mapping[tuple[str, str], str]) -> str:
+    """Each specimen's value by parameter and section, values to check marked."""
+    esc = html.escape
+    rows = []
+    for s in stats:
+        for r in s["rows"]:
+            low, high = _num(r["ci95_low"]), _num(r["ci95_high"])
+            interval = f"{low} to {high}" if low and high else ""
+            mark = _MARK.get(str(r.get("status", "ok")), "")
+            rows.append(
+                f"<tr><td>{s['parameter']}</td><td>{esc(s['geometry'])}</td>"
+                f"<td>{esc(r[SUMMARY_FIRST])} / {esc(r['specimen'])}</td><td>{_num(r['value'])}</td>"
+                f'<td>{interval}</td><td>{esc(str(r["unit"]))}</td><td class="mark">{mark}</td></tr>'
+            )
+    return "".join(rows)
 
 
 _PAGE = """<!DOCTYPE html>
@@ -157,18 +224,27 @@ body {{ font-family: sans-serif; max-width: 60em; margin: 1em auto; padding: 0 1
 table {{ border-collapse: collapse; margin: 0.5em 0 1.5em; }}
 td, th {{ border-bottom: 1px solid #ccc; padding: 0.2em 0.8em; text-align: left; }}
 td:nth-child(n+2) {{ font-variant-numeric: tabular-nums; }}
+td.mark {{ color: #8a5a00; font-weight: 600; }}
+.failed {{ background: #fde2e1; border-left: 6px solid #c0392b; padding: 0.3em 1em; margin: 1em 0; }}
 img {{ max-width: 100%; }}
 </style></head><body>
 <h1>Comparison of {n_studies} studies, {n_specimens} specimens</h1>
-<h2>Mean ± standard deviation across specimens</h2>
-<table><thead><tr><th>parameter</th><th>specimens</th><th>mean</th><th>sd</th><th>cv</th><th>unit</th></tr></thead>
-<tbody>{stats}</tbody></table>
-<h2>Each specimen with its 95 % interval</h2>
-{figure}
+{failed}
 <h2>Studies</h2>
+<p>Failed studies first; each name links to its report.</p>
 <table><thead><tr><th>study</th><th>exit code</th><th>warnings</th><th>run time</th><th>error</th></tr>
 </thead>
 <tbody>{studies}</tbody></table>
+<h2>Mean ± standard deviation across specimens of one section</h2>
+<p>Specimens of different sections are never pooled; a value the data do not determine is left out.</p>
+<table><thead><tr><th>parameter</th><th>specimens</th><th>mean</th><th>sd</th><th>cv</th><th>unit</th>
+<th>section (outer/inner diameter)</th></tr></thead>
+<tbody>{stats}</tbody></table>
+<h2>Each specimen with its 95 % interval</h2>
+{figure}
+<table><thead><tr><th>parameter</th><th>section</th><th>study / specimen</th><th>value</th>
+<th>95 % interval</th><th>unit</th><th>status</th></tr></thead>
+<tbody>{values}</tbody></table>
 <h2>Warnings</h2>
 {warnings}
 </body></html>

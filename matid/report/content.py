@@ -10,21 +10,33 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from datetime import datetime
-from pathlib import Path
-
-import numpy as np
 
 from matid import __version__
 from matid.io.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
-from matid.io.study import OPTIONAL_KEYS, TEST_KINDS, Test
+from matid.io.status import INSEPARABLE_R, STRONG_R
 from matid.report.bend import bend_drawings
+from matid.report.diagnostics import glossary, lack_of_fit_table, model_choice_table
 from matid.report.figures import Drawing, ExtraFigure, axis_unit, extra_figures, has_plot
+from matid.report.formats import (  # noqa: F401 - format_value re-exported
+    fe_notes,
+    fmt,
+    format_fe,
+    format_held,
+    format_runtime,
+    format_started,
+    format_value,
+    parse_started,
+)
 from matid.report.holds import hold_drawings
 from matid.report.quantities import Cell, info_cell
+from matid.report.records import TestView, record_view
 from matid.report.summary import (
+    FIT_COLUMNS,
+    FIT_NUMERIC,
     SUMMARY_COLUMNS,
     SUMMARY_NUMERIC,
     Note,
+    interval_text,
     mark_text,
     marks_of,
     merged_names,
@@ -32,6 +44,7 @@ from matid.report.summary import (
     notes_of,
     value_cells,
 )
+from matid.report.verdict import STATUS_LEGEND, in_units, reason_line, status_words, summary_intro
 
 #: Section titles and the parameters each test kind gives, in report order.
 KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -42,9 +55,7 @@ KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
 }
 PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in params}
 
-FIT_COLUMNS = SUMMARY_COLUMNS[1:]
-FIT_NUMERIC = SUMMARY_NUMERIC[1:]
-MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± stderr", "unit", "check")
+MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± standard error (1σ)", "unit", "check")
 #: Info items not shown in the details table: figures and the arrays the figures are drawn from.
 HIDDEN_INFO = ("figures", "plot_data", "force_time")
 
@@ -54,24 +65,6 @@ class Table:
     header: tuple[str, ...]
     rows: tuple[tuple[str, ...], ...]
     numeric: tuple[bool, ...]  # right-aligned columns
-
-
-@dataclass(frozen=True)
-class TestView:
-    """One test of a block: its file and how it was set up."""
-
-    file: str
-    sha256: str
-    setup: str
-    exclude: bool
-    note: str
-    metadata: tuple[tuple[str, str], ...]
-    units: tuple[tuple[str, str], ...]
-    n_rows: int | None
-
-    @property
-    def sha_short(self) -> str:
-        return self.sha256[:12] if self.sha256 else "not read"
 
 
 @dataclass(frozen=True)
@@ -112,6 +105,8 @@ class Report:
     matid_version: str
     versions: tuple[tuple[str, str], ...]
     units: str
+    summary_intro: str  # what the summary table shows: units, interval, rounding
+    status_legend: tuple[tuple[str, str], ...]  # each status word and what it asks of the reader
     summary: Table
     moduli: Table | None  # E and G from the stiffnesses and the section
     notes: tuple[Note, ...]  # every warning of the fits, numbered as the summary marks them
@@ -120,6 +115,7 @@ class Report:
     pending: tuple[str, ...]
     sections: tuple[Section, ...]
     provenance: Table
+    glossary: tuple[tuple[str, str], ...] = ()
 
 
 def build_report(result: StudyResult, units: str) -> Report:
@@ -129,18 +125,20 @@ def build_report(result: StudyResult, units: str) -> Report:
     # (naming the parameter): drop those lines, whatever their wording, by asking without fits.
     apart = set(replace(result, fits=()).warnings())
     titles = {kind: title for kind, (title, _) in KINDS.items()}
-    notes = notes_of(result, titles)
+    notes = [replace(n, text=in_units(n.text, units)) for n in notes_of(result, titles)]
     moduli = moduli_rows(result, units)
     return Report(
         study=result.study.name,
         temperature=result.study.temperature or "not given",
         started=format_started(result.started),
-        run_date=_parse_started(result.started),
+        run_date=parse_started(result.started),
         runtime=format_runtime(result.runtime_s),
         matid_version=result.versions.get("matid", __version__),
         versions=tuple((k, str(v)) for k, v in result.versions.items() if k != "matid"),
         units=units,
-        summary=summary_table(result, doc, marks_of(result, notes, titles)),
+        summary_intro=summary_intro(units),
+        status_legend=STATUS_LEGEND,
+        summary=summary_table(result, doc, marks_of(result, notes, titles), units),
         moduli=Table(MODULI_COLUMNS, tuple(moduli), (False,) * 3 + (True, True) + (False,) * 2)
         if moduli
         else None,
@@ -150,77 +148,37 @@ def build_report(result: StudyResult, units: str) -> Report:
         pending=tuple(pending_message(p, with_specimen=True) for p in result.pending),
         sections=tuple(_sections(result, doc, units)),
         provenance=provenance_table(result.inputs),
+        glossary=glossary(units),
     )
 
 
 # -- formatting ------------------------------------------------------------------------------
 
 
-def fmt(x: float | None, digits: int = 5) -> str:
-    if x is None or not np.isfinite(x):
-        return "—"
-    text = f"{x:.{digits}g}"
-    if "e+" in text and abs(x) < 1e6:  # 1e+02 reads worse than 100
-        text = f"{float(text):.0f}"
-    return text
+def _param_row(name: str, item: Mapping, marks: list[int]) -> tuple[str, ...]:
+    """A fit's table row: status in words, value, standard error, interval, points, method, marks."""
+    value, stderr, rel, low, high, unit = value_cells(item)
+    status = status_words(str(item.get("status", "ok")))
+    return (name, status, value, stderr, rel, interval_text(low, high), unit, str(item["n_points"]),
+            str(item["method"]), mark_text(marks))  # fmt: skip
 
 
-def format_value(value: object, *, limit: int = 300) -> str:
-    """A readable one-line rendering of an info value (number, list, array, dict, text)."""
-    text = _format(value)
-    return text if len(text) <= limit else text[: limit - 1] + "…"
-
-
-def _format(value: object, nested: bool = False) -> str:
-    if isinstance(value, np.generic):
-        value = value.item()
-    if value is None:
-        return "—"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        return fmt(value)
-    if isinstance(value, Mapping):
-        items = [f"{k} = {_format(v, True)}" for k, v in value.items()]
-        return "{" + ", ".join(items) + "}" if nested else "; ".join(items)
-    if isinstance(value, (list, tuple, np.ndarray)):
-        items = list(np.asarray(value).ravel()) if isinstance(value, np.ndarray) else list(value)
-        if len(items) > 8:
-            shown = [_format(v, True) for v in items[:6]]
-            return f"[{', '.join(shown)}, …, {_format(items[-1], True)}] ({len(items)} values)"
-        return "[" + ", ".join(_format(v, True) for v in items) + "]"
-    return str(value)
-
-
-def format_runtime(seconds: float) -> str:
-    if seconds < 0.1:
-        return f"{seconds * 1e3:.0f} ms"
-    if seconds < 120:
-        return f"{seconds:.1f} s"
-    minutes, rest = divmod(round(seconds), 60)
-    return f"{minutes} min {rest} s"
-
-
-def _parse_started(started: str) -> datetime | None:
-    try:
-        return datetime.fromisoformat(started) if started else None
-    except ValueError:
-        return None
-
-
-def format_started(started: str) -> str:
-    when = _parse_started(started)
-    if when is None:
-        return started or "not recorded"
-    text = when.strftime("%Y-%m-%d %H:%M:%S")
-    return f"{text} {when.strftime('%Z') or when.strftime('%z')}".strip()
-
-
-def _param_row(name: str, item: Mapping, marks: list[int] | None = None) -> tuple[str, ...]:
-    text = mark_text(marks) if marks is not None else "; ".join(item.get("warnings") or ())
-    return (name, *value_cells(item), str(item["n_points"]), str(item["method"]), text)
+def _summary_row(sid: str, name: str, item: Mapping, marks: list[int], units: str) -> tuple[str, ...]:
+    """Page 1's row: the status in words, the value and its 95 % interval, the reason in one line."""
+    value, _, _, low, high, unit = value_cells(item)
+    why = in_units(reason_line(item), units) or (
+        "fixed in study.toml, not fitted" if item["method"] == "fixed" else ""
+    )
+    why = " ".join(part for part in (why, mark_text(marks)) if part)
+    return (
+        sid,
+        name,
+        status_words(str(item.get("status", "ok"))),
+        value,
+        interval_text(low, high),
+        unit,
+        why,
+    )
 
 
 def _parameters_of(kind: str) -> str:
@@ -246,7 +204,9 @@ def _test_kind(kind: str) -> str:
 # -- tables ----------------------------------------------------------------------------------
 
 
-def summary_table(result: StudyResult, doc: Mapping, marks: Mapping[tuple[str, str], list[int]]) -> Table:
+def summary_table(
+    result: StudyResult, doc: Mapping, marks: Mapping[tuple[str, str], list[int]], units: str = "SI"
+) -> Table:
     """Specimen x parameter, from stiffness_json; warnings by number; missing parameters say why."""
     missing = [(f, "could not be fitted") for f in result.failures]
     missing += [(p, "not yet fitted") for p in result.pending]
@@ -254,11 +214,11 @@ def summary_table(result: StudyResult, doc: Mapping, marks: Mapping[tuple[str, s
     for sid, params in doc["specimens"].items():
         for name, item in merged_names(params):
             numbers = sorted({n for part in name.split(" = ") for n in marks.get((sid, part), [])})
-            rows.append((sid, *_param_row(name, item, numbers)))
+            rows.append(_summary_row(sid, name, item, numbers, units))
         for item, status in missing:
             param = _parameters_of(_test_kind(item.kind))
             if item.specimen == sid and param not in params:
-                rows.append((sid, param, *("—",) * 8, f"{status}: {item.reason}"))
+                rows.append((sid, param, status, "no value", "—", "—", in_units(item.reason, units)))
     return Table(SUMMARY_COLUMNS, tuple(rows), SUMMARY_NUMERIC)
 
 
@@ -289,7 +249,13 @@ def _correlation(fit: TestFit) -> Table | None:
     rows = []
     for pair, r in fit.correlation.items():
         a, _, b = str(pair).partition("|")
-        strong = "strong: not separately identifiable" if abs(r) >= 0.95 else ""
+        strong = (
+            "inseparable: the data fix only a combination (not identifiable)"
+            if abs(r) >= INSEPARABLE_R
+            else "strong: read the two together (check it)"
+            if abs(r) >= STRONG_R
+            else ""
+        )
         rows.append((a, b or "—", f"{r:+.3f}", strong))
     return Table(("parameter", "with", "r", ""), tuple(rows), (False, False, True, False))
 
@@ -337,6 +303,7 @@ def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str, 
         known = {(t.file, t.index) for t in tests}
         tests += [t for t in fit.tests if (t.file, t.index) not in known]
     parameters, warnings = _fit_parameters(fit, doc) if fit is not None else (None, ())
+    warnings = tuple(in_units(w, units) for w in warnings)
     return Block(
         specimen=sid,
         anchor=anchor,
@@ -348,7 +315,7 @@ def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str, 
         fe_notes=() if fit is None else fe_notes(fit),
         info=() if fit is None else _info(fit, units),
         warnings=warnings,
-        tests=tuple(_test_view(t, result.inputs) for t in tests),
+        tests=tuple(record_view(t, result.inputs) for t in tests),
         drawings=drawings,
         extras=() if fit is None else (*extra_figures(fit), *problems),
     )
@@ -375,90 +342,11 @@ def _info(fit: TestFit, units: str) -> tuple[tuple[str, Cell], ...]:
         if key == "fe" and isinstance(value, Mapping):
             rows.append(("FE mesh and solver", format_fe(value)))
         elif key == "held_stiffness_propagation" and isinstance(value, Mapping):
-            rows.append(("held stiffness propagation", format_held(value) or "none"))
+            rows.append(("uncertainty of the held stiffnesses in E_s", format_held(value) or "none"))
+        elif key == "lack_of_fit" and isinstance(value, Mapping) and lack_of_fit_table(value):
+            rows.append(("lack of fit", lack_of_fit_table(value)))
+        elif key == "model_choice" and isinstance(value, Mapping) and model_choice_table(value):
+            rows.append(("relaxation model compared", model_choice_table(value)))
         else:
             rows.append(info_cell(str(key), value, units, axes))
     return tuple(rows)
-
-
-def fe_notes(fit: TestFit) -> tuple[str, ...]:
-    """One line per distinct ``extra["fe"]`` of the estimates ("FE mesh and solver for E_s: ...")."""
-    groups: dict[str, list[str]] = {}
-    for estimate in fit.estimates:
-        fe = estimate.extra.get("fe")
-        if isinstance(fe, Mapping):
-            groups.setdefault(format_fe(fe), []).append(estimate.parameter)
-    return tuple(f"FE mesh and solver for {', '.join(names)}: {text}" for text, names in groups.items())
-
-
-def format_fe(fe: Mapping) -> str:
-    """The mesh and solver figures of a finite-element fit, in words."""
-    head = " ".join(format_value(fe[k]) for k in ("elements", "element") if k in fe)
-    parts = [f"{head} elements"] if head else []
-    if isinstance(fe.get("discretization_error"), (int, float)):
-        parts.append(f"discretisation error {fmt(fe['discretization_error'], 2)} of E_s (relative)")
-    if "rod_solves" in fe:
-        parts.append(f"{format_value(fe['rod_solves'])} rod solves")
-    if isinstance(fe.get("runtime_s"), (int, float)):
-        parts.append(f"run time {format_runtime(fe['runtime_s'])}")
-    known = {"element", "elements", "discretization_error", "runtime_s", "rod_solves", "levels"}
-    parts += [f"{k.replace('_', ' ')} {format_value(v)}" for k, v in fe.items() if k not in known]
-    return ", ".join(parts)
-
-
-def format_held(held: Mapping) -> str:
-    """How the uncertainty of each held stiffness p moves into E_s (d ln E_s / d ln p and its share)."""
-    parts = []
-    for name, item in held.items():
-        if isinstance(item, Mapping) and {"dlogEs_dlogp", "contribution"} <= item.keys():
-            parts.append(
-                f"{name}: d ln E_s / d ln {name} = {fmt(item['dlogEs_dlogp'], 3)}, "
-                f"adds ±{fmt(100 * item['contribution'], 2)} % to E_s"
-            )
-        else:
-            parts.append(f"{name}: {format_value(item)}")
-    return "; ".join(parts)
-
-
-def _test_view(test: Test, inputs: tuple[InputFile, ...]) -> TestView:
-    source = _input_of(test, inputs)
-    return TestView(
-        file=test.file.name,
-        sha256=source.sha256 if source else "",
-        setup=_setup(test),
-        exclude=test.exclude,
-        note=test.note,
-        metadata=tuple((str(k), str(v)) for k, v in source.metadata.items()) if source else (),
-        units=tuple((str(k), str(v)) for k, v in source.units.items()) if source else (),
-        n_rows=source.n_rows if source else None,
-    )
-
-
-def _input_of(test: Test, inputs: tuple[InputFile, ...]) -> InputFile | None:
-    target = _resolved(test.file)
-    match = next((f for f in inputs if _resolved(f.path) == target), None)
-    if match is None:
-        by_name = [f for f in inputs if f.path.name == test.file.name]
-        match = by_name[0] if len(by_name) == 1 else None
-    return match
-
-
-def _resolved(path: Path) -> str:
-    try:
-        return str(Path(path).resolve())
-    except OSError:
-        return str(path)
-
-
-def _setup(test: Test) -> str:
-    """The set-up of a test in readable units: lengths in mm, the rest in SI."""
-    kinds = {**TEST_KINDS.get(test.kind, {}), **OPTIONAL_KEYS.get(test.kind, {})}
-    parts = []
-    for key, value in test.params.items():
-        if kinds.get(key) == "length":
-            parts.append(f"{key.replace('_', ' ')} {value * 1e3:.4g} mm")
-        elif kinds.get(key) == "moment":
-            parts.append(f"{key.replace('_', ' ')} {value:.4g} A m^2")
-        else:
-            parts.append(f"{key.replace('_', ' ')} {format_value(value)}")
-    return ", ".join(parts)

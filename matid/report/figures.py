@@ -182,14 +182,12 @@ def has_plot(fit: TestFit) -> bool:
 
 
 def unit_note(fit: TestFit, units: str) -> str:
-    """A caption sentence on the axis units."""
-    kept = [a.kept_si for a in (axis_unit(fit.x_label, units), axis_unit(fit.y_label, units))]
-    kept = [k for k in kept if k]
-    if units == "SI":
-        return "Axes in SI units."
-    if kept:
-        return f"Axes in {units} units where they have one; {', '.join(kept)} kept in SI."
-    return f"Axes in {units} units."
+    """A caption sentence naming the units on the axes, as the plot labels them."""
+    x = axis_unit(fit.x_label, units, _peak(s.x for s in fit.series))
+    y = axis_unit(fit.y_label, units, _peak(s.y for s in fit.series))
+    kept = [a.kept_si for a in (x, y) if a.kept_si]
+    note = f" ({', '.join(kept)} kept in SI)" if units != "SI" and kept else ""
+    return f"Horizontal axis: {x.label}; vertical: {y.label}{note}."
 
 
 def caption(fit: TestFit, units: str) -> str:
@@ -282,11 +280,13 @@ def _outside(x: np.ndarray, used: np.ndarray) -> np.ndarray:
 
 
 def _legend(ax, series: Sequence[Series], fitted: bool, excluded: bool) -> None:
-    handles = [
-        Line2D([], [], color=COLOURS[i % len(COLOURS)], marker="o", markersize=4, linestyle="none")
-        for i in range(len(series))
-    ]
-    labels = [s.label for s in series]
+    """One entry per series as it is drawn: a series left out whole is hollow grey, not its colour."""
+    handles, labels = [], []
+    for i, s in enumerate(series):
+        whole = s.used is not None and not np.asarray(s.used, bool).any()
+        style = {"mfc": "none", "mec": EXCLUDED} if whole else {"color": COLOURS[i % len(COLOURS)]}
+        handles.append(Line2D([], [], marker="o", markersize=4, linestyle="none", **style))
+        labels.append(f"{s.label} (left out)" if whole else s.label)
     if fitted:
         handles.append(Line2D([], [], color="#333333", linewidth=1.6))
         labels.append("model fit")

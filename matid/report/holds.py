@@ -1,10 +1,14 @@
-"""Force against time for extension runs with a hold (ramp-hold, relaxation).
+"""Force against time for extension runs (ramp, ramp-hold, relaxation) with the model and residuals.
 
-A fitter that has the time base of its runs leaves it in ``TestFit.info["force_time"]``: a
-list of ``{"label": str, "time": array [s], "force": array [N], "model": array [N]
-(optional), "used": bool array (optional)}``, one entry per run. The strain plot hides a
-hold (the strain stands still while the force relaxes); against time the relaxation shows,
-and with it whether the model follows it. Runs without a hold are drawn too when given.
+The extension fitter leaves the time base of its runs in ``TestFit.info["plot_data"]
+["force_time"]``: per run name ``{"time_s", "force_N", "model_N", "used"}`` (arrays, SI); a
+fitter may instead give ``info["force_time"]``, a list of ``{"label", "time", "force",
+"model" (optional), "used" (optional)}``. Against strain a hold is a vertical line (the
+strain stands still while the force relaxes); against time the relaxation shows, and with
+it whether the model follows it: the residual panel below shows force minus model.
+
+The model drawn is the one whose curve the fit gives (the SLS); when the fit's BIC prefers
+a Prony series (``info["model_choice"]["arms_preferred"]`` > 1) the caption says so.
 """
 
 from __future__ import annotations
@@ -32,16 +36,20 @@ TITLE = "Force against time"
 
 
 def hold_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
-    """The force-against-time drawing of ``fit`` (none without ``info["force_time"]``)."""
-    runs = fit.info.get("force_time")
+    """The force-against-time drawing of ``fit`` (none without time-based plot data)."""
+    runs = _runs_of(fit.info)
     if not runs:
         return []
     checked = [_run(r, i) for i, r in enumerate(runs)]
     model = any(r["model"] is not None for r in checked)
     caption = (
         "Measured force against time (markers)"
-        + (" and the fitted model (lines)" if model else "")
-        + ", one colour per run; hollow grey points are left out of the fit. "
+        + (
+            f" and the {model_name(fit.info)} (lines), residuals (measured minus model) below"
+            if model
+            else ""
+        )
+        + "; one colour per run; hollow grey points are left out of the fit. "
         + f"Force in {'dyn' if units == 'cgs' else 'N'}, time in s."
     )
     return [
@@ -49,9 +57,39 @@ def hold_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
             TITLE,
             caption,
             f"Force against time of the extension runs, specimen {fit.specimen}",
-            (FIT_SIZE[0], 3.2),
+            (FIT_SIZE[0], 4.2 if model else 3.2),
             partial(draw_force_time, runs=checked, units=units),
         )
+    ]
+
+
+def model_name(info: Mapping) -> str:
+    """Which model the drawn curve is: the SLS, and whether BIC preferred a Prony series."""
+    choice = info.get("model_choice")
+    arms = choice.get("arms_preferred") if isinstance(choice, Mapping) else None
+    if isinstance(arms, int) and arms > 1:
+        return f"fitted SLS model (BIC prefers a {arms}-arm Prony series, whose curve the fit does not give)"
+    return "fitted SLS model (standard linear solid)"
+
+
+def _runs_of(info: Mapping) -> list[Mapping]:
+    """The runs of ``info["force_time"]`` or of the fitter's ``info["plot_data"]["force_time"]``."""
+    if info.get("force_time"):
+        return list(info["force_time"])
+    plot = info.get("plot_data")
+    runs = plot.get("force_time") if isinstance(plot, Mapping) else None
+    if not isinstance(runs, Mapping):
+        return []
+    return [
+        {
+            "label": name,
+            "time": r["time_s"],
+            "force": r["force_N"],
+            "model": r.get("model_N"),
+            "used": r.get("used"),
+        }
+        for name, r in runs.items()
+        if isinstance(r, Mapping) and {"time_s", "force_N"} <= r.keys()
     ]
 
 
@@ -69,8 +107,12 @@ def _run(raw: Mapping, index: int) -> dict:
 
 def draw_force_time(fig: Figure, rect: Rect, *, runs: Sequence[dict], units: str = "SI") -> None:
     force = axis_unit("force [N]", units)
+    model = any(r["model"] is not None for r in runs)
     left, bottom, right, top = rect
-    ax = fig.add_axes((left, bottom, right - left, top - bottom))
+    grid = fig.add_gridspec(2 if model else 1, 1, height_ratios=[3, 1] if model else [1], left=left,
+                            right=right, bottom=bottom, top=top, hspace=0.16)  # fmt: skip
+    ax = fig.add_subplot(grid[0])
+    ax_res = fig.add_subplot(grid[1], sharex=ax) if model else None
     handles, labels = [], []
     for i, r in enumerate(runs):
         colour = COLOURS[i % len(COLOURS)]
@@ -79,12 +121,22 @@ def draw_force_time(fig: Figure, rect: Rect, *, runs: Sequence[dict], units: str
         ax.plot(r["t"][~used], y[~used], "o", mfc="none", mec=EXCLUDED, markersize=2.5)
         if r["model"] is not None:
             ax.plot(r["t"], r["model"] * force.factor, "-", color=colour, linewidth=1.4)
+            residual = (r["F"] - r["model"]) * force.factor
+            ax_res.plot(r["t"][used], residual[used], "o", color=colour, markersize=2, alpha=0.75)
         handles.append(Line2D([], [], color=colour, marker="o", markersize=4, linestyle="none"))
         labels.append(r["label"])
-    if any(r["model"] is not None for r in runs):
+    if model:
         handles.append(Line2D([], [], color="#333333", linewidth=1.4))
-        labels.append("model fit")
+        labels.append("SLS model fit")
+    if any((~r["used"]).any() for r in runs):
+        handles.append(Line2D([], [], linestyle="none", marker="o", mfc="none", mec=EXCLUDED))
+        labels.append("left out of the fit")
     quiet_legend(ax, handles, labels, fontsize=7, framealpha=0.9)
-    ax.set_xlabel("time [s]")
     ax.set_ylabel(force.label)
+    (ax_res or ax).set_xlabel("time [s]")
+    if ax_res is not None:
+        ax_res.axhline(0.0, color="#555555", linewidth=0.8)
+        ax_res.set_ylabel(f"residual [{force.unit}]")
+        ax.tick_params(labelbottom=False)
+        style_axes(ax_res)
     style_axes(ax)

@@ -14,13 +14,19 @@ import jinja2
 from matid.report.content import Report
 from matid.report.images import Images, render_images
 from matid.report.quantities import Nested
+from matid.report.verdict import STATUS_CLASS
 
 
 def render_html(report: Report, images: Images | None = None) -> bytes:
     """The report page as UTF-8 bytes (figures from ``images``, rendered here if not given)."""
     images = render_images(report) if images is None else images
     page = _template().render(
-        report=report, plots=images.plots, drawings=images.drawings, data_uri=data_uri, nested=is_nested
+        report=report,
+        plots=images.plots,
+        drawings=images.drawings,
+        data_uri=data_uri,
+        nested=is_nested,
+        status_class=STATUS_CLASS,
     )
     return page.encode("utf-8")
 

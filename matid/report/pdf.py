@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import io
 
+from reportlab.lib import colors
 from reportlab.lib.pagesizes import A4
 from reportlab.lib.units import inch
-from reportlab.platypus import BaseDocTemplate, Frame, PageBreak, PageTemplate
+from reportlab.platypus import BaseDocTemplate, Frame, PageBreak, PageTemplate, TableStyle
 from reportlab.platypus.flowables import Flowable, HRFlowable
 
 from matid.report.content import Block, Report, Section, Table, TestView
@@ -41,6 +42,7 @@ from matid.report.pdfparts import (
     table,
 )
 from matid.report.quantities import Nested
+from matid.report.verdict import STATUS_CLASS
 
 MARGIN_X, MARGIN_TOP, MARGIN_BOTTOM = 0.65 * inch, 0.75 * inch, 0.75 * inch
 WIDTH = A4[0] - 2 * MARGIN_X  # of the text, points
@@ -58,6 +60,7 @@ def render_pdf(report: Report, images: Images | None = None) -> bytes:
     for section in report.sections:
         story += _section(section, images)
     story += _provenance(report)
+    story += _glossary(report)
     with binary_streams():
         doc.build(assemble(story))
     return buffer.getvalue()
@@ -113,15 +116,12 @@ def _section_rule() -> HRFlowable:
 
 
 def _first_page(report: Report) -> list[Flowable]:
-    """The study and its run, the summary table, the warnings and the material moduli."""
+    """The study and its run, the summary table with each value's status, the warnings and the
+    material moduli."""
     story = [*_title(report), space(8), heading("Summary of stiffnesses", 14, key="summary"), _section_rule()]
-    summary = (
-        f"Values in {report.units} units, as in stiffness.json and stiffness.csv, rounded to two "
-        "significant figures of the standard error; 95 % confidence interval from-to; "
-        "⚠ [n] points to warning n below the table."
-    )
-    story += [para(summary, 8, muted=True, space=4), _table(report.summary, size=6.5), space(8)]
-    story += _warnings(report)
+    story += [para(f"{words}: {meaning}", 8, space=1) for words, meaning in report.status_legend]
+    story.append(para(report.summary_intro, 8, muted=True, space=4))
+    story += [_summary_table(report.summary), space(8), *_warnings(report)]
     if report.moduli:
         moduli = (
             "E = E_e / A, E = E_b / I and G = E_t / J of the tube section (diameters of the study, "
@@ -150,6 +150,20 @@ def _title(report: Report) -> list[Flowable]:
         parts = "; ".join(f"{s.title} ({s.parameters})" for s in report.sections)
         story += [space(4), para(f"Sections: {parts}; Provenance", 8.5)]
     return story
+
+
+def _summary_table(summary: Table) -> Flowable:
+    """Page 1's table with each status word on the colour of its box (green, amber, grey)."""
+    flowable = _table(summary, size=6.5)
+    column = summary.header.index("status")
+    faces = {"ok": GREEN[0], "check": AMBER[0], "none": colors.HexColor("#fde2e1")}
+    commands = []
+    for i, row in enumerate(summary.rows, start=1):
+        face = faces.get(STATUS_CLASS.get(row[column], ""))
+        if face is not None:
+            commands.append(("BACKGROUND", (column, i), (column, i), face))
+    flowable.setStyle(TableStyle(commands))
+    return flowable
 
 
 def _warnings(report: Report) -> list[Flowable]:
@@ -261,10 +275,15 @@ def _test(test: TestView) -> Together:
     if test.note:
         details.append(f"Note: {test.note}")
     if test.units:
-        details.append("Units as written: " + ", ".join(f"{c} [{u}]" for c, u in test.units))
+        details.append("Units as written: " + ", ".join(f"{c} {u}" for c, u in test.units))
     details += [f"{k}: {v}" for k, v in test.metadata]
     lines = [para(head, 8, mono=True, bold=True, space=1)] + [para(d, 7.5) for d in details]
     return Together([*lines, space(5)])
+
+
+def _glossary(report: Report) -> list[Flowable]:
+    story: list[Flowable] = [space(12), Heading("Glossary", 14, key="glossary"), _section_rule()]
+    return story + [para(f"{term}: {meaning}", 8, space=2) for term, meaning in report.glossary]
 
 
 # -- provenance ----------------------------------------------------------------------------------

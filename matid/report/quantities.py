@@ -34,10 +34,15 @@ DISPLAY: dict[str, dict[str, tuple[str, float]]] = {
     "curvature": {"SI": ("rad/m", 1.0), "cgs": ("rad/cm", 1e-2)},
     "modulus": {"SI": ("MPa", 1e-6), "cgs": ("dyn/cm^2", 10.0)},
     "time": {"SI": ("s", 1.0), "cgs": ("s", 1.0)},
+    "compliance": {"SI": ("mm/N", 1e3), "cgs": ("cm/dyn", 1e-3)},
     "percent": {"SI": ("%", 100.0), "cgs": ("%", 100.0)},
     "1": {"SI": ("", 1.0), "cgs": ("", 1.0)},
     "count": {"SI": ("", 1.0), "cgs": ("", 1.0)},
 }
+
+
+#: What follows a number whose quantity the fit did not name (an unregistered info key).
+UNSTATED = "(unit not stated by the fit)"
 
 
 @dataclass(frozen=True)
@@ -73,10 +78,43 @@ INFO_KEYS: dict[str, Key] = {
     "fit_window": Key("fit window", "x"),
     "levels": Key("mesh levels tried", None, row_label="level"),
     "intercept": Key("intercept (tare offset)", "y"),
+    "noise": Key("point-to-point noise of each record", "y", row_label="record"),
+    "tare_offset": Key("tare offset held at", "y", row_label="record"),
+    "tare_offset_estimated": Key("tare offset estimated", "y", row_label="record"),
+    "tare_offset_p": Key("p-value of the tare offsets (small: an offset is present)", "1"),
+    "fitted_x_range": Key("fitted range of x, from and to", "x", row_label="record"),
+    "n_effective": Key("effective number of independent points", "count"),
+    "interval_widening": Key("interval widening factor for correlated residuals", "1"),
+    "residual_lag1_used": Key("lag-1 autocorrelation of the residuals used for the interval", "1"),
+    "sign_flipped": Key("records whose sign was flipped", None),
+    "left_out": Key("points left out, by reason", "count", row_label="record, points"),
+    "rows_left_out": Key("rows left out (first, last of each stretch)", "count", row_label="record, rows"),
+    "left_out_tests": Key("tests left out", None, row_label="test"),
+    "per_span": Key("E_s of each span alone", None, row_label="span"),
+    "toe_offset_m": Key("toe offset", "length", row_label="record"),
+    "reference_kGA_N": Key("shear stiffness k G A from E_s_torsion, 95 % range", "force"),
+    "reference_source": Key("reference", None),
+    "reference_shear_share": Key("share of the deflection from shear with that k G A", "percent"),
+    "local_compliance_m_per_N": Key("local contact compliance predicted, range", "compliance"),
+    "nose_bias_ratio": Key("ratio of E_s from nose travel to its true value, range", "1"),
+    "rows": Key("rows", "count"),
+    "knots": Key("knots", "count"),
+    "relative_compliance": Key("contact compliance relative to the beam compliance", "1"),
+    "var_log": Key("variance of ln E_s from the model form (added to the fit's)", "1"),
+    "rho": Key("lag-1 autocorrelation of the residuals", "1"),
+    "n_eff": Key("effective number of independent points", "count"),
+    "interval_inflation": Key("interval widening factor", "1"),
+    "assessment": Key("assessment of the nose-travel measurement", None),
+    "model_form": Key("model-form uncertainty", None),
+    "residual_correlation": Key("correlation of the residuals", None),
+    "experiment_design": Key("experiment that would determine E_s", None),
+    "torsion_check": Key("comparison with torsion", None),
+    "measurement": Key("deflection measured as", None),
 }
 
 #: Key suffix -> kind, the fitters' convention for SI values (``_mm`` values are in mm).
 SUFFIXES: tuple[tuple[str, str], ...] = (
+    ("_m_per_N", "compliance"),
     ("_rad_per_m", "curvature"),
     ("_Nm2", "bending_stiffness"),
     ("_N_m2", "bending_stiffness"),
@@ -171,6 +209,7 @@ def quantity(value: object, kind: str | None, units: str, axes=None, *, si: floa
         value = value.item()
     if isinstance(value, bool):
         return "yes" if value else "no"
+    unit = unit if kind is not None else UNSTATED  # a number of unknown kind says so
     if isinstance(value, (int, float)):
         text = str(value) if kind == "count" and isinstance(value, int) else fmt(value * factor)
         return f"{text} {unit}".strip()
@@ -181,27 +220,42 @@ def quantity(value: object, kind: str | None, units: str, axes=None, *, si: floa
         return f"{', '.join(items)} {unit}".strip()
     if value is None:
         return "—"
-    return text_of(value)
+    return text_of(value, units)
 
 
 def _number(v: object) -> bool:
     return isinstance(v, (int, float, np.number)) and not isinstance(v, bool)
 
 
-def text_of(value: object) -> str:
-    """Any other value, readably on one line (mappings as ``a = 1, b = 2``, never braces)."""
+def text_of(value: object, units: str = "SI") -> str:
+    """Any other value, readably on one line: a mapping as ``rows 30; error 0.2 mN`` (each item
+    labelled, with its unit), never braces; mappings in a list apart by " / "."""
     if isinstance(value, Mapping):
-        return "; ".join(f"{label_of(k)} = {text_of(v)}" for k, v in value.items())
+        items = [f"{label_of(k)} {quantity(v, info_kind(k), units)}" for k, v in value.items()]
+        return "; ".join(items) if items else "none"
     if isinstance(value, (list, tuple)):
-        return ", ".join(text_of(v) for v in value) if value else "none"
+        joint = " / " if all(isinstance(v, Mapping) for v in value) else ", "
+        return joint.join(text_of(v, units) for v in value) if value else "none"
     if _number(value):
         return fmt(float(value))
     return str(value)
 
 
+#: A file name (``bending_T1_L30.csv``): shown as written, underscores kept.
+FILE_NAME = re.compile(r"^[^\s/]+\.[A-Za-z0-9]{1,5}$")
+
+
 def label_of(key: object) -> str:
     key = str(key)
+    if FILE_NAME.match(key):
+        return key
     return INFO_KEYS[key].label if key in INFO_KEYS else kind_of(key)[0]
+
+
+def info_kind(key: object) -> str | None:
+    """The quantity kind of an info key: written in :data:`INFO_KEYS`, else read from its name."""
+    key = str(key)
+    return INFO_KEYS[key].kind if key in INFO_KEYS else kind_of(key)[1]
 
 
 def info_cell(key: str, value: object, units: str, axes=None) -> tuple[str, Cell]:
@@ -221,9 +275,11 @@ def _mapping_table(value: Mapping, spec: Key | None, kind: str | None, units: st
     row_kind = spec.row_kind if spec else None
     row_label = spec.row_label if spec else "entry"
     head = _row_head(row_label, row_kind, units, axes)
-    keys = [quantity(float(k), row_kind, units, axes).split(" ")[0] if row_kind else str(k) for k in value]
+    keys = [
+        quantity(float(k), row_kind, units, axes).split(" ")[0] if row_kind else label_of(k) for k in value
+    ]
     if all(isinstance(v, Mapping) for v in value.values()):
-        table = _records_table(list(value.values()), units, axes, row_label="")
+        table = _records_table(list(value.values()), units, axes, row_label="", kind=kind)
         return Nested(
             (head, *table.header[1:]), tuple((k, *r[1:]) for k, r in zip(keys, table.rows, strict=True))
         )
@@ -234,11 +290,16 @@ def _mapping_table(value: Mapping, spec: Key | None, kind: str | None, units: st
     rows = tuple(
         (
             label_of(name),
-            text_of(v) if isinstance(v, Mapping) else quantity(v, kind_of(str(name))[1], units, axes),
+            text_of(v) if isinstance(v, Mapping) else quantity(v, info_kind(name), units, axes),
         )
         for name, v in value.items()
     )
     return Nested(("item", "value"), rows)
+
+
+def _row_key(key: object, row_kind: str | None, units: str, axes) -> str:
+    """A row's key: a number in the row unit (free length 30), or a label (a file name as written)."""
+    return quantity(float(key), row_kind, units, axes).split(" ")[0] if row_kind else label_of(key)
 
 
 def _bare(text: str, unit: str) -> str:
@@ -250,10 +311,13 @@ def _row_head(row_label: str, row_kind: str | None, units: str, axes) -> str:
     return f"{row_label} [{unit}]" if unit else row_label
 
 
-def _records_table(records: Sequence[Mapping], units: str, axes, *, row_label: str) -> Nested:
-    """A list of mappings as one table: a column per key, each with its unit in the header."""
+def _records_table(
+    records: Sequence[Mapping], units: str, axes, *, row_label: str, kind: str | None = None
+) -> Nested:
+    """A list of mappings as one table: a column per key, each with its unit in the header
+    (``kind``: of the columns whose names do not say theirs)."""
     columns = list(dict.fromkeys(k for r in records for k in r))
-    kinds = {c: _column_kind(c, columns) for c in columns}
+    kinds = {c: _column_kind(c, columns) or kind for c in columns}
     header = [row_label] if row_label else [""]
     for c in columns:
         unit = unit_of(kinds[c], units, axes or {})[0]

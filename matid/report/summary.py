@@ -15,23 +15,35 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from matid.io.results import StudyResult
+from matid.io.status import parameter_statuses
 from matid.physics.moduli import MODULUS_OF, agreement, modulus
 from matid.report.quantities import DISPLAY, fmt
 
+#: Page 1: the status of each value in words, the value and its 95 % interval, the reason.
 SUMMARY_COLUMNS = (
     "specimen",
     "parameter",
+    "status",
     "value",
-    "± stderr",
-    "rel.",
-    "95 % CI from",
-    "to",
+    "95 % interval",
+    "unit",
+    "why",
+)
+SUMMARY_NUMERIC = (False, False, False, True, True, False, False)
+#: A fit's own table: the same with the standard error, the points and the method.
+FIT_COLUMNS = (
+    "parameter",
+    "status",
+    "value",
+    "± standard error (1σ)",
+    "rel. error",
+    "95 % interval",
     "unit",
     "points",
     "method",
     "warnings",
 )
-SUMMARY_NUMERIC = (False, False, True, True, True, True, True, False, True, False, False)
+FIT_NUMERIC = (False, False, True, True, True, True, False, True, False, False)
 SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 
@@ -66,8 +78,11 @@ def power_unit(power: int, unit: str) -> str:
 
 
 def value_cells(item: Mapping) -> tuple[str, str, str, str, str, str]:
-    """value, stderr, relative error, CI low, CI high, unit of one stiffness_json entry."""
+    """value, stderr, relative error, CI low, CI high, unit of one stiffness_json entry
+    ("no value" and dashes for a value the data do not determine)."""
     value, stderr, ci = item["value"], item.get("stderr"), item.get("ci95") or (None, None)
+    if value is None:
+        return ("no value", "—", "—", "—", "—", str(item["unit"]))
     power, decimals = scale_of(value, stderr)
     rel = f"{abs(stderr / value) * 100:.2g} %" if stderr and value else "—"
     return (
@@ -78,6 +93,11 @@ def value_cells(item: Mapping) -> tuple[str, str, str, str, str, str]:
         scaled(ci[1], power, decimals),
         power_unit(power, str(item["unit"])),
     )
+
+
+def interval_text(low: str, high: str) -> str:
+    """ "8.6 to 186.1" (the 95 % interval of a row), "—" when there is none."""
+    return "—" if "—" in (low, high) else f"{low} to {high}"
 
 
 def merged_names(params: Mapping[str, Mapping]) -> list[tuple[str, Mapping]]:
@@ -139,6 +159,7 @@ def moduli_rows(result: StudyResult, units: str) -> list[tuple[str, ...]]:
     unit, factor = DISPLAY["modulus"][units]
     rows = []
     geometry = {s.id: s for s in result.study.specimens}
+    statuses = parameter_statuses(result)
     for sid, params in result.estimates().items():
         spec = geometry.get(sid)
         if spec is None:
@@ -146,19 +167,15 @@ def moduli_rows(result: StudyResult, units: str) -> list[tuple[str, ...]]:
         found = {}
         for source in MODULUS_OF:
             est = params.get(source)
-            if est is None:
+            if est is None or not statuses[(sid, source)].printed:
                 continue
-            found[source] = modulus(
-                source,
-                est.value,
-                est.stderr,
-                outer_radius=0.5 * spec.outer_diameter,
-                inner_radius=0.5 * spec.inner_diameter,
-            )
+            found[source] = modulus(source, est.value, est.stderr, section=spec.section)
         for source, m in found.items():
             note = ""
             if source == "E_b" and "E_e" in found:
                 note = agreement_text(found["E_e"], m)
+            if statuses[(sid, source)].status == "check":
+                note = "; ".join(filter(None, (f"from {source}, a value to check", note)))
             section = {"E_e": "A", "E_b": "I", "E_t": "J"}[source]
             power, decimals = scale_of(m.value * factor, None if m.stderr is None else m.stderr * factor)
             rows.append(

@@ -137,3 +137,44 @@ def test_import_matid_and_the_cli_stay_light():
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert json.loads(done.stdout) == []
+
+
+def test_printed_table_tells_value_and_bounds_apart(session):
+    """E_b ~ 6.5e-5 N m^2 with a 0.2 % interval: printed, value and bounds differ (pandas' default
+    six decimals print all three as 0.000065); the numbers behind stay the floats of stiffness.csv."""
+    table = session[0]["result"].table()
+    text = repr(table)
+    for row in table.itertuples():
+        low, value, high = (f"{x:.{digits(row)}g}" for x in (row.ci95_low, row.value, row.ci95_high))
+        assert len({low, value, high}) == 3, row  # the data tell them apart at this precision
+        line = next(line for line in text.splitlines() if f" {row.parameter} " in f" {line} ")
+        shown = re.findall(r"-?\d+\.\d+(?:e[-+]\d+)?", line)[:4]  # value, stderr, low, high
+        assert len({shown[0], shown[2], shown[3]}) == 3, line
+        assert float(shown[0]) == pytest.approx(row.value, rel=abs(row.stderr / row.value))
+    assert isinstance(table.value.iloc[0], float)
+
+
+def digits(row) -> int:
+    """Significant digits that resolve the standard error of ``row`` to two figures."""
+    import math
+
+    return max(2, int(math.floor(math.log10(abs(row.value))) - math.floor(math.log10(row.stderr))) + 2)
+
+
+def test_notebook_view_is_page_one(session):
+    """The Jupyter view: status in words, value, 95 % interval and unit per value, no ± stderr."""
+    result = session[0]["result"]
+    page = result._repr_html_()
+    for row in result.table().itertuples():
+        assert f"<td>{row.parameter}</td>" in page
+    assert "use it" in page and " to " in page and "±" not in page
+
+
+def test_plot_returns_the_fit_figure(session):
+    from matplotlib.figure import Figure
+
+    result = session[0]["result"]
+    fig = result.plot("E_b", "T1")
+    assert isinstance(fig, Figure) and fig.axes and fig.axes[0].lines
+    with pytest.raises(DataError, match="no fit gives E_s of specimen T1; fitted: T1 E_b"):
+        result.plot("E_s", "T1")

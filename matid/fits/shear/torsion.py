@@ -217,8 +217,8 @@ def agreement(E_s: Estimate, E_s_torsion: Estimate) -> str:
     verdict = "agree" if abs(diff) <= 2 * combined else "disagree"
     text = (
         f"E_s from the bend ({E_s.value:.4g} N) and from torsion (E_s_torsion = {E_s_torsion.value:.4g} N) "
-        f"{verdict}: they differ by {100 * diff:+.1f} % against a combined uncertainty "
-        f"of {100 * combined:.1f} %"
+        f"{verdict}: the bend gives {math.exp(diff):.2g} times the torsion value (natural log of the "
+        f"ratio {diff:+.2f}) against a combined relative standard error of {100 * combined:.1f} %"
     )
     if verdict == "disagree":
         text += (

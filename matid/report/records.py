@@ -1,0 +1,81 @@
+"""The tests of a report block: each record's file, checksum, set-up, units as written, metadata.
+
+Text only, from the study and the inputs read; file and column names as written.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from matid.io.results import InputFile
+from matid.io.study import OPTIONAL_KEYS, TEST_KINDS, Test
+from matid.report.formats import format_value
+
+
+@dataclass(frozen=True)
+class TestView:
+    """One test of a block: its file and how it was set up."""
+
+    file: str
+    sha256: str
+    setup: str
+    exclude: bool
+    note: str
+    metadata: tuple[tuple[str, str], ...]
+    units: tuple[tuple[str, str], ...]
+    n_rows: int | None
+
+    @property
+    def sha_short(self) -> str:
+        return self.sha256[:12] if self.sha256 else "not read"
+
+
+def record_view(test: Test, inputs: tuple[InputFile, ...]) -> TestView:
+    source = _input_of(test, inputs)
+    return TestView(
+        file=test.file.name,
+        sha256=source.sha256 if source else "",
+        setup=_setup(test),
+        exclude=test.exclude,
+        note=test.note,
+        metadata=tuple((str(k), str(v)) for k, v in source.metadata.items()) if source else (),
+        units=_units_written(source.units) if source else (),
+        n_rows=source.n_rows if source else None,
+    )
+
+
+def _units_written(units: Mapping[str, str]) -> tuple[tuple[str, str], ...]:
+    """(column in words, "[unit]" or "(no unit)") of each column of a record."""
+    return tuple((str(k).replace("_", " "), f"[{v}]" if str(v) else "(no unit)") for k, v in units.items())
+
+
+def _input_of(test: Test, inputs: tuple[InputFile, ...]) -> InputFile | None:
+    target = _resolved(test.file)
+    match = next((f for f in inputs if _resolved(f.path) == target), None)
+    if match is None:
+        by_name = [f for f in inputs if f.path.name == test.file.name]
+        match = by_name[0] if len(by_name) == 1 else None
+    return match
+
+
+def _resolved(path: Path) -> str:
+    try:
+        return str(Path(path).resolve())
+    except OSError:
+        return str(path)
+
+
+def _setup(test: Test) -> str:
+    """The set-up of a test in readable units: lengths in mm, the rest in SI."""
+    kinds = {**TEST_KINDS.get(test.kind, {}), **OPTIONAL_KEYS.get(test.kind, {})}
+    parts = []
+    for key, value in test.params.items():
+        if kinds.get(key) == "length":
+            parts.append(f"{key.replace('_', ' ')} {value * 1e3:.4g} mm")
+        elif kinds.get(key) == "moment":
+            parts.append(f"{key.replace('_', ' ')} {value:.4g} A m^2")
+        else:
+            parts.append(f"{key.replace('_', ' ')} {format_value(value)}")
+    return ", ".join(parts)
