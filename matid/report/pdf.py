@@ -282,7 +282,7 @@ def _test(test: TestView) -> Together:
 
 
 def _glossary(report: Report) -> list[Flowable]:
-    story: list[Flowable] = [space(12), Heading("Glossary", 14, key="glossary"), _section_rule()]
+    story: list[Flowable] = [space(12), heading("Glossary", 14, key="glossary"), _section_rule()]
     return story + [para(f"{term}: {meaning}", 8, space=2) for term, meaning in report.glossary]
 
 
