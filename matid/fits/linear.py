@@ -293,18 +293,18 @@ FEW_ROWS = 10
 
 
 def share_warnings(records: Sequence[Record]) -> list[Warning]:
-    """A warning for each file whose fitted rows are fewer than FEW_ROWS, or whose linear
-    range holds under MIN_LINEAR_SHARE of its loading rows."""
+    """A warning for each file whose linear range holds under MIN_LINEAR_SHARE of its loading
+    rows, or else whose fitted rows are fewer than FEW_ROWS."""
     out = []
     for r in records:
-        if r.used.sum() < FEW_ROWS:
-            text = f"{r.name}: only {int(r.used.sum())} rows are fitted; the slope rests on few points"
-            out.append(Warning("few_rows", text))
         beyond = sum(int(r.excluded[k].sum()) for k in (branch.BEFORE, branch.BEYOND) if k in r.excluded)
-        loading = int(r.used.sum()) + beyond
-        if beyond and r.used.sum() < MIN_LINEAR_SHARE * loading:
-            text = f"{r.name}: only {int(r.used.sum())} of {loading} loading points are in the linear range"
+        used = int(r.used.sum())
+        if beyond and used < MIN_LINEAR_SHARE * (used + beyond):
+            text = f"{r.name}: only {used} of {used + beyond} loading points are in the linear range"
             out.append(Warning("little_linear", text))
+        elif used < FEW_ROWS:
+            text = f"{r.name}: only {used} rows are fitted; the slope rests on few points"
+            out.append(Warning("few_rows", text))
     return out
 
 
