@@ -118,7 +118,7 @@ def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
         Series(f"{r.name} (L = {length * 1e3:.4g} mm)", r.x, r.y, fit.model(r), r.used)
         for r, length in zip(records, lengths, strict=True)
     )
-    texts, kinds = linear.warning_fields(warnings)
+    texts, kinds = linear.warning_fields(warnings, records)
     extra = {"ci_method": "t-ar1" if fit.covariance.rho else "t", "tare_offset_N_m": fit.intercepts, **kinds}
     return TestFit(
         kind="magnetic_bending",

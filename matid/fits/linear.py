@@ -73,7 +73,7 @@ def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 class Warning:
     """A warning of a fit: its text and a machine-readable kind for the value's status."""
 
-    kind: str  # sign_flipped, zero_in_interval, few_rows, little_linear, misfit, slopes_disagree
+    kind: str  # sign_flipped, zero_in_interval, little_linear, misfit, slopes_disagree
     text: str
 
 
@@ -289,22 +289,14 @@ def check_sign(fit: LineFit, parameter: str, quantity: str, against: str) -> lis
 MIN_LINEAR_SHARE = 0.5
 
 
-#: Fewer fitted rows than this in a file: its slope rests on little; the estimate says so.
-FEW_ROWS = 10
-
-
 def share_warnings(records: Sequence[Record]) -> list[Warning]:
-    """A warning for each file whose fitted rows are fewer than FEW_ROWS, or whose linear
-    range holds under MIN_LINEAR_SHARE of its loading rows."""
+    """A warning for each file whose linear range holds under MIN_LINEAR_SHARE of its loading rows."""
     out = []
     for r in records:
-        if r.used.sum() < FEW_ROWS:
-            text = f"{r.name}: only {int(r.used.sum())} rows are fitted; the slope rests on few points"
-            out.append(Warning("few_rows", text))
         beyond = sum(int(r.excluded[k].sum()) for k in (branch.BEFORE, branch.BEYOND) if k in r.excluded)
-        loading = int(r.used.sum()) + beyond
-        if beyond and r.used.sum() < MIN_LINEAR_SHARE * loading:
-            text = f"{r.name}: only {int(r.used.sum())} of {loading} loading points are in the linear range"
+        used = int(r.used.sum())
+        if beyond and used < MIN_LINEAR_SHARE * (used + beyond):
+            text = f"{r.name}: only {used} of {used + beyond} loading points are in the linear range"
             out.append(Warning("little_linear", text))
     return out
 
@@ -315,9 +307,16 @@ def misfit_warning(fit: LineFit, model: str, advice: str) -> list[Warning]:
     return [Warning("misfit", text)] if text else []
 
 
-def warning_fields(warnings: Sequence[Warning]) -> tuple[tuple[str, ...], dict[str, object]]:
-    """(texts for ``Estimate.warnings``, ``{"warning_kinds": kinds}`` for its extra)."""
-    return tuple(w.text for w in warnings), {"warning_kinds": tuple(w.kind for w in warnings)}
+def warning_fields(
+    warnings: Sequence[Warning], records: Sequence[Record]
+) -> tuple[tuple[str, ...], dict[str, object]]:
+    """(texts for ``Estimate.warnings``, its extra: ``warning_kinds`` in the texts' order and
+    ``fitted_rows``, file -> rows fitted, for a status that weighs how much a slope rests on)."""
+    kinds = {"warning_kinds": tuple(w.kind for w in warnings)}
+    return tuple(w.text for w in warnings), {
+        **kinds,
+        "fitted_rows": {r.name: int(r.used.sum()) for r in records},
+    }
 
 
 def r2(records: Sequence[Record], fit: LineFit) -> float:

@@ -59,7 +59,7 @@ def fit_torsion(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
         Series(f"{r.name} (L = {m.test.params['length'] * 1e3:.4g} mm)", r.x, r.y, fit.model(r), r.used)
         for r, m in zip(records, measurements, strict=True)
     )
-    texts, kinds = linear.warning_fields(warnings)
+    texts, kinds = linear.warning_fields(warnings, records)
     extra = {"ci_method": "t-ar1" if fit.covariance.rho else "t", "tare_offset_N_m": fit.intercepts, **kinds}
     n_all = sum(r.x.size for r in records)
     return TestFit(

@@ -12,7 +12,7 @@ from scipy.optimize import brentq
 
 from matid.errors import DataError, FitError
 from matid.fits.bending import bending_torque, fit_bending, magnet_torque
-from matid.fits.branch import linear_range
+from matid.fits.onset import linear_range
 from matid.fits.stats import ar1_noise
 from matid.fits.torsion import fit_torsion
 from matid.io import study

@@ -17,7 +17,7 @@ and ``info["rows_left_out"]``):
    out. It is applied only when a toe is there (:func:`toe_offset`) and d0 > 0.
 4. **Yield**: the force falling below the line of the initial stretch before
    the peak (a plastic hinge, a kink) is found as the upper onset of the linear
-   range of :mod:`matid.fits.branch`; rows beyond it are left out when the
+   range of :mod:`matid.fits.onset`; rows beyond it are left out when the
    departure is downwards (a stiffening, as the rod's on round rollers, is
    what the model describes and stays).
 
@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from matid.errors import DataError, FitError
-from matid.fits import branch
+from matid.fits import onset
 
 #: A toe is compensated when the initial slope is below this fraction of the typical early slope.
 TOE_SLOPE_RATIO = 0.5
@@ -105,9 +105,9 @@ def _loading(d: np.ndarray, F: np.ndarray, used: np.ndarray, reasons: dict[str, 
 def _yield(d: np.ndarray, F: np.ndarray, used: np.ndarray, reasons: dict[str, int]) -> np.ndarray:
     """The used rows without those past a downward departure from the line (step 4)."""
     idx = np.nonzero(used)[0]
-    if idx.size <= 2 * branch.LINEAR_RANGE_MIN_POINTS:
+    if idx.size <= 2 * onset.LINEAR_RANGE_MIN_POINTS:
         return used
-    inside, curvature = branch.departure(d[idx], F[idx])
+    inside, curvature = onset.departure(d[idx], F[idx])
     if curvature >= 0:
         return used
     top = float(np.max(d[idx][inside]))

@@ -1,0 +1,249 @@
+r"""The linear range of a record: the stretch of x that ``y = c + a x`` describes within the noise.
+
+Rows are the loading rows of :mod:`matid.fits.branch`, in recording order (the order of
+the noise); the range is found in x, with no start at zero or direction assumed:
+
+   a. F-test of the line against ``c + a u + b u^2 + d u^3 + e u|u|`` (u: x scaled to
+      [-1, 1]; u|u| for records symmetric about their middle),
+      divided by the AR(1) variance factor of the noise and taken on n_eff dof
+      (correlated noise is not curvature). The noise is the residual, in recording
+      order, of a smooth Legendre series (degree <= 12): the alternative's own residuals
+      would count a curve it misses as correlated noise. Passing: every row.
+   b. Otherwise the onsets of departure at either end by segmented regression,
+      ``y = c + a u + b_lo min(u - u_lo, 0)^2 + b_hi max(u - u_hi, 0)^2`` (C^1 departures:
+      toe, backlash or tare below u_lo; yield, softening or stiffening above u_hi), u_lo
+      and u_hi by alternating scans of least residual sum of squares (started from either
+      end, the better kept); a side whose term is not significant (the same corrected
+      F-test, at alpha / candidates: the onset is the best of many) stays at the end of
+      the data, and so does the start's side when it would hold more than ``TOE_SHARE``
+      of the rows (a curve bent from the start, not a toe). It uses the shape of the
+      whole curve, unlike window tests that admit rows past an onset.
+   c. While curvature is still significant inside, the end whose removal leaves the
+      straighter stretch (p larger by ``TRIM_PREFERENCE``) is trimmed, else the end away
+      from the first recorded row, down to ``min_points``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.stats
+
+from matid.fits import stats
+
+#: Significance level of the curvature and onset tests.
+LINEAR_RANGE_ALPHA = 0.01
+#: Fewest points a linear range may hold.
+LINEAR_RANGE_MIN_POINTS = 6
+#: At most this many onsets are tried (evenly spread) per scan.
+LINEAR_RANGE_WINDOWS = 200
+
+
+def _curvature_p(u: np.ndarray, y: np.ndarray, order: np.ndarray) -> float:
+    """p-value of the corrected F-test of ``c + a u`` against ``c + a u + b u^2 + d u^3 + e u|u|``."""
+    one = np.ones_like(u)
+    null = np.column_stack([one, u])
+    alt = np.column_stack([one, u, u**2, u**3, u * np.abs(u)])
+    return _extra_p(null, alt, y, _noise_factor(u, y, order))
+
+
+#: Degree of the smooth fit whose residuals give the noise's correlation (at most).
+NOISE_DEGREE = 12
+
+
+def _noise_factor(u: np.ndarray, y: np.ndarray, order: np.ndarray) -> tuple[float, float]:
+    """(f, n_eff) of :func:`matid.fits.stats.variance_factor` on the residuals, in recording
+    order, of a Legendre series of degree up to NOISE_DEGREE: a curve the test's
+    alternative misses would otherwise be read as correlated noise, and hide itself."""
+    degree = int(min(NOISE_DEGREE, max(3, u.size // 10)))
+    scaled = (u - u.min()) / max(float(np.ptp(u)), 1e-300) * 2.0 - 1.0
+    basis = np.polynomial.legendre.legvander(scaled, degree)
+    # normal equations of an orthogonal basis on [-1, 1]: well conditioned, and ~100x
+    # faster than an SVD least squares of the tall matrix on a loaded machine
+    coef, _, rank, _ = np.linalg.lstsq(basis.T @ basis, basis.T @ y, rcond=None)
+    resid = y - basis @ coef
+    return stats.variance_factor(resid[np.argsort(order)], n_params=rank)
+
+
+def _extra_p(null: np.ndarray, alt: np.ndarray, y: np.ndarray, noise: tuple[float, float]) -> float:
+    """p-value of the F-test of nested designs, divided by the AR(1) variance factor
+    ``noise = (f, n_eff)`` of the noise, on n_eff denominator dof."""
+    rss0 = _rss(null, y)
+    coef, _, rank, _ = np.linalg.lstsq(alt.T @ alt, alt.T @ y, rcond=None)  # as in _rss
+    rank0 = np.linalg.matrix_rank(null.T @ null)
+    rss1 = float(np.sum((y - alt @ coef) ** 2))
+    q, dof = rank - rank0, y.size - rank
+    if q < 1 or dof < 1:
+        return 1.0
+    if rss1 <= 0.0:
+        return 0.0 if rss0 > 1e-24 * max(float(np.sum(y**2)), 1e-300) else 1.0
+    factor, n_eff = noise
+    f = max(rss0 - rss1, 0.0) / q / (rss1 / dof) / factor
+    return float(scipy.stats.f.sf(f, q, max(n_eff - rank, 1.0)))
+
+
+def _hinges(u: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Design of ``c + a u + b_lo min(u - lo, 0)^2 + b_hi max(u - hi, 0)^2``."""
+    return np.column_stack([np.ones_like(u), u, np.minimum(u - lo, 0.0) ** 2, np.maximum(u - hi, 0.0) ** 2])
+
+
+def _rss(design: np.ndarray, y: np.ndarray) -> float:
+    """Residual sum of squares of the least-squares fit of ``design`` (a few columns of
+    order one: the normal equations, solved with rank deficiency allowed, are accurate
+    and far cheaper than an SVD of the tall matrix, which the onset scans call ~10^3 times)."""
+    coef, *_ = np.linalg.lstsq(design.T @ design, design.T @ y, rcond=None)
+    return float(np.sum((y - design @ coef) ** 2))
+
+
+def _scan(fixed: np.ndarray, columns: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """RSS of ``y`` on ``fixed`` plus each column of ``columns`` in turn (n x K), at once.
+
+    With P the projection off ``fixed``: RSS_k = |Py|^2 - (Ph_k . Py)^2 / |Ph_k|^2.
+    """
+    coef, *_ = np.linalg.lstsq(fixed.T @ fixed, fixed.T @ np.column_stack([y, columns]), rcond=None)
+    resid = np.column_stack([y, columns]) - fixed @ coef
+    ry, rh = resid[:, 0], resid[:, 1:]
+    norm = np.sum(rh**2, axis=0)
+    gain = np.divide(
+        (rh.T @ ry) ** 2, norm, out=np.zeros_like(norm), where=norm > 1e-12 * max(float(norm.max()), 1e-300)
+    )
+    return float(ry @ ry) - gain
+
+
+#: Elements of one block of candidate columns in :func:`_chunked` (memory bound on long records).
+SCAN_BLOCK = 4_000_000
+
+
+def _chunked(fixed: np.ndarray, make, candidates: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """:func:`_scan` over the columns ``make(block)`` of the candidates, a block at a time."""
+    size = max(1, SCAN_BLOCK // y.size)
+    return np.concatenate(
+        [_scan(fixed, make(candidates[i : i + size]), y) for i in range(0, candidates.size, size)]
+    )
+
+
+def _descent(
+    u: np.ndarray, y: np.ndarray, lo: int, hi: int, *, high_first: bool, min_points: int, windows: int
+):
+    """Alternating scans of the onsets from (lo, hi), the upper one first or the lower one."""
+    n, one = u.size, np.ones_like(u)
+    for k in range(6):
+        if (k % 2 == 0) == high_first:
+            his = np.unique(np.linspace(lo + min_points - 1, n - 1, min(n, windows)).astype(int))
+            fixed = np.column_stack([one, u, np.minimum(u - u[lo], 0.0) ** 2])
+            hi = int(
+                his[np.argmin(_chunked(fixed, lambda c: np.maximum(u[:, None] - u[c], 0.0) ** 2, his, y))]
+            )
+        else:
+            los = np.unique(np.linspace(0, hi - min_points + 1, min(n, windows)).astype(int))
+            fixed = np.column_stack([one, u, np.maximum(u - u[hi], 0.0) ** 2])
+            lo = int(
+                los[np.argmin(_chunked(fixed, lambda c: np.minimum(u[:, None] - u[c], 0.0) ** 2, los, y))]
+            )
+    return lo, hi
+
+
+def _onsets(u: np.ndarray, y: np.ndarray, order: np.ndarray, *, alpha: float, min_points: int, windows: int):
+    """(lo, hi) indices into the sorted u of the departures' onsets (module docstring, step b).
+
+    The scans start from either end (a one-sided hinge at the far end is a quadratic over
+    all the data and would trap a descent that began there); the better pair is kept.
+    """
+    n = u.size
+    pairs = [
+        _descent(u, y, 0, n - 1, high_first=first, min_points=min_points, windows=windows)
+        for first in (True, False)
+    ]
+    lo, hi = min(pairs, key=lambda p: _rss(_hinges(u, u[p[0]], u[p[1]]), y))
+    full, noise = _hinges(u, u[lo], u[hi]), _noise_factor(u, y, order)
+    # each onset is the best of up to ``windows`` candidates: Bonferroni, or noise makes a side
+    strict = alpha / min(n, windows)
+    low = _extra_p(full[:, [0, 1, 3]], full, y, noise) < strict
+    high = _extra_p(full[:, [0, 1, 2]], full, y, noise) < strict
+    # a toe is a small part at the start of loading; "most of the record before the line"
+    # is a curve bent from the start, whose linear range trimming then finds at the start
+    if np.argmin(order) < n / 2:
+        low &= lo <= TOE_SHARE * n
+    else:
+        high &= hi >= (1.0 - TOE_SHARE) * n
+    return (lo if low else 0), (hi if high else n - 1)
+
+
+def _p(u, y, order, lo: int, hi: int) -> float:
+    return _curvature_p(u[lo : hi + 1], y[lo : hi + 1], order[lo : hi + 1])
+
+
+#: At most this share of the loading rows may lie before the linear range on the start's side.
+TOE_SHARE = 0.5
+#: Trimming removes the end nearer the record's start only when that is this much straighter.
+TRIM_PREFERENCE = 10.0
+
+
+def _trim(
+    u: np.ndarray, y: np.ndarray, order: np.ndarray, lo: int, hi: int, *, alpha: float, min_points: int
+):
+    """Trim the end whose removal leaves the straighter stretch until no curvature is left.
+
+    When neither end is clearly straighter (a curve bent alike everywhere), the end away
+    from the first recorded row goes: the stiffness is the one at the start of loading.
+    """
+    first = int(np.argmin(order))  # the first recorded row, in the sorted order
+    while hi - lo + 1 > min_points and _p(u, y, order, lo, hi) < alpha:
+        step = min(max(1, (hi - lo + 1) // 50), hi - lo + 1 - min_points)
+        left, right = _p(u, y, order, lo + step, hi), _p(u, y, order, lo, hi - step)
+        if abs(first - lo) <= abs(first - hi):  # the start is at the low end: keep it
+            trim_left = left > TRIM_PREFERENCE * right
+        else:
+            trim_left = TRIM_PREFERENCE * left >= right
+        lo, hi = (lo + step, hi) if trim_left else (lo, hi - step)
+    return lo, hi
+
+
+def linear_range(
+    x: np.ndarray,
+    y: np.ndarray,
+    *,
+    alpha: float = LINEAR_RANGE_ALPHA,
+    min_points: int = LINEAR_RANGE_MIN_POINTS,
+    max_windows: int = LINEAR_RANGE_WINDOWS,
+) -> np.ndarray:
+    """Mask of the rows in the linear range ``x_lo <= x <= x_hi`` of ``y = c + a x`` data.
+
+    Rows are taken as recorded (their order is the order of the noise); the range is
+    found in x (module docstring, step 2), with no start at zero or direction assumed.
+    With ``min_points`` finite rows or fewer, all of them are returned.
+    """
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if x.ndim != 1 or x.shape != y.shape:
+        raise ValueError("x and y must be 1-d arrays of the same length")
+    if min_points < 3:
+        raise ValueError(f"min_points must be at least 3, got {min_points}")
+    ok = np.isfinite(x) & np.isfinite(y)
+    index = np.flatnonzero(ok)[np.argsort(x[ok], kind="stable")]
+    if index.size <= min_points or np.ptp(x[index]) <= 0:
+        return ok
+    xs = x[index]
+    u, yy = (xs - 0.5 * (xs[0] + xs[-1])) / (0.5 * (xs[-1] - xs[0])), y[index]
+    if _curvature_p(u, yy, index) >= alpha:
+        return ok
+    lo, hi = _onsets(u, yy, index, alpha=alpha, min_points=min_points, windows=max_windows)
+    lo, hi = _trim(u, yy, index, lo, hi, alpha=alpha, min_points=min_points)
+    return ok & (x >= xs[lo]) & (x <= xs[hi])
+
+
+def departure(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float]:
+    """Mask of the linear range and the sign of the curvature just beyond its upper end.
+
+    The sign is that of ``b_hi`` of the segmented fit over the whole (sorted) record: < 0
+    where y falls below the line (yield, softening), > 0 where it rises above it; 0 when
+    nothing lies beyond.
+    """
+    mask = linear_range(x, y)
+    ok = np.isfinite(x) & np.isfinite(y)
+    if not np.any(ok & ~mask & (x > np.max(x[mask], initial=-np.inf))):
+        return mask, 0.0
+    xs = np.sort(x[ok])
+    u = (x[ok] - 0.5 * (xs[0] + xs[-1])) / (0.5 * (xs[-1] - xs[0]))
+    hi = (np.max(x[mask]) - 0.5 * (xs[0] + xs[-1])) / (0.5 * (xs[-1] - xs[0]))
+    design = _hinges(u, -np.inf, hi)[:, [0, 1, 3]]
+    coef, *_ = np.linalg.lstsq(design, y[ok], rcond=None)
+    return mask, float(np.sign(coef[2]))
