@@ -24,8 +24,8 @@ from hypothesis import strategies as st
 from matid.app import pipeline
 from matid.app.batch import StudyOutcome
 from matid.app.compare import write_summary
-from matid.io.cells import FORMULA_LEADS, text_cell
-from matid.io.results import Estimate, stiffness_csv, table_rows
+from matid.io.cells import FORMULA_LEADS, cell, text_cell
+from matid.io.results import Estimate, csv_text, stiffness_csv, table_rows
 from matid.io.results import TestFit as Fit
 from matid.io.study import load_study
 from matid.io.xlsx import stiffness_xlsx
@@ -101,7 +101,8 @@ def test_hostile_ids_and_warnings_are_text_in_stiffness_csv_and_xlsx(tmp_path, m
     assert [c for c in csv_text_cells(table) if is_formula_leading(c)] == []
     row = next(csv.DictReader(io.StringIO(table)))
     assert row["specimen"] == "'" + specimen_id if specimen_id[0] in "=+-@" else specimen_id
-    assert float(row["value"]) == NEGATIVE  # a negative number stays a number
+    # E_t < 0 reaches zero: its status withholds the number (contract section 10)
+    assert row["status"] == "not_identifiable" and row["value"] == ""
     book = stiffness_xlsx(result)
     cells = sheet_cells(book)
     assert cells and not any(formula for _, _, formula in cells)
@@ -111,7 +112,14 @@ def test_hostile_ids_and_warnings_are_text_in_stiffness_csv_and_xlsx(tmp_path, m
     sheet = openpyxl.load_workbook(io.BytesIO(book))["stiffness"]
     values = {sheet.cell(1, c).value: sheet.cell(2, c) for c in range(1, sheet.max_column + 1)}
     assert values["specimen"].data_type == "s" and values["specimen"].value.lstrip("'") == specimen_id
-    assert values["value"].data_type == "n" and values["value"].value == NEGATIVE
+    assert values["value"].value is None and values["status"].value == "not_identifiable"
+
+
+def test_a_negative_number_stays_a_number_in_csv_and_xlsx_cells():
+    # a number is never prefixed like text, whatever its sign (the status decides whether it is shown)
+    assert cell(NEGATIVE) == NEGATIVE and cell("-T1") == "'-T1"
+    text = csv_text([{"specimen": "-T1", "value": NEGATIVE}], ["specimen", "value"])
+    assert list(csv.reader(io.StringIO(text)))[1] == ["'-T1", repr(NEGATIVE)]
 
 
 def test_hostile_names_are_text_in_summary_csv_and_xlsx(tmp_path, monkeypatch):
@@ -124,8 +132,6 @@ def test_hostile_names_are_text_in_summary_csv_and_xlsx(tmp_path, monkeypatch):
     summary_csv = (tmp_path / "out" / "summary.csv").read_bytes().decode("utf-8")
     assert "\r" not in summary_csv  # a lone CR, unquoted by the csv module, ends a row in a spreadsheet
     assert [c for c in csv_text_cells(summary_csv) if is_formula_leading(c)] == []
-    assert any(c == str(NEGATIVE) or float(c or "nan") == NEGATIVE for c in csv_text_cells(summary_csv)
-               if re.fullmatch(r"-?[\d.e+-]+", c))  # fmt: skip
     cells = sheet_cells((tmp_path / "out" / "summary.xlsx").read_bytes())
     assert len(cells) > 10 and not any(formula for _, _, formula in cells)
     assert {p.name for p in paths} >= {"summary.csv", "summary.xlsx"}
