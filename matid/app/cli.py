@@ -279,19 +279,23 @@ def fit_warnings(result: StudyResult) -> list[str]:
 
 
 def summary(result: StudyResult, *, units: str = "SI") -> str:
-    """A compact table of the stiffnesses (value ± stderr, unit), then what was not fitted."""
+    """A compact table of the stiffnesses (status in words, value, 95 % interval, unit, method:
+    page 1's, from stiffness.json), then what was not fitted."""
     from matid.io.results import stiffness_json
+    from matid.report.verdict import STATUS_WORDS
 
     doc = stiffness_json(result, units)
-    rows = [("specimen", "parameter", "value", "unit", "method")]
+    rows = [("specimen", "parameter", "status", "value", "95 % interval", "unit", "method")]
     for sid, params in doc["specimens"].items():
         for name, item in params.items():
             if name in _SUMMARY_SKIP:
                 continue
-            value = "not identifiable" if item["value"] is None else f"{item['value']:.5g}"
-            if item["stderr"] is not None:
-                value += f" ± {item['stderr']:.2g}"
-            rows.append((sid, name, value, item["unit"], item["method"]))
+            shown = item["value"] is not None
+            value = f"{item['value']:.5g}" if shown else "no value"
+            ci = item["ci95"]
+            interval = f"{ci[0]:.4g} to {ci[1]:.4g}" if shown and ci is not None else ""
+            status = STATUS_WORDS[item["status"]]
+            rows.append((sid, name, status, value, interval, item["unit"], item["method"]))
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in rows]
     lines += [f"{_what(f)}: could not be fitted: {f.reason}" for f in result.failures]

@@ -114,8 +114,10 @@ def test_demo_pdf_is_readable(demo_run):
 def test_demo_prints_progress_summary_and_paths(demo_run):
     _, out, err, folder = demo_run
     assert "fitting extension T1" in err and re.search(r"\[\s*\d+\.\d s\]", err)
-    assert re.search(r"T1\s+E_b\s+6\.\d+e-05 ± \S+\s+N m\^2", out)
-    assert re.search(r"T1\s+E_s\s+2\d\.\d+ ± \S+\s+N\s+cosserat-fe", out)
+    # page 1's columns: status in words, value, 95 % interval, unit, method
+    assert re.search(r"T1\s+E_b\s+use it\s+6\.\d+e-05\s+\S+ to \S+\s+N m\^2", out)
+    assert re.search(r"T1\s+E_s\s+use it\s+2\d\.\d+\s+2\d\.\d+ to [23]\d\.\d+\s+N\s+cosserat-fe", out)
+    assert re.search(r"T2\s+E_s\s+check it\s+19\.\d+\s+8\.\d+ to 18\d\.\d\s+N\s+cosserat-fe", out)
     for name in OUTPUTS:
         assert str(Path("reports") / "demo" / name) in out
 
