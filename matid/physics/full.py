@@ -119,7 +119,8 @@ def derivatives(
     C[:, 2], C[:, 3], C[:, 5] = props["E_t"].ravel(), props["E_s"].ravel(), props["E_e"].ravel()
     C[:, 4] = C[:, 3]
     ref = np.zeros((n, 6))  # kappa_ref: a 3-vector, or P + (3,) per point (per-segment precurvature)
-    ref[:, :3], ref[:, 5] = lam * kin.per_point(kappa_ref, n), 1.0
+    kappa_ref = np.asarray(kappa_ref, float)  # one rod-wide vector broadcasts in the assignment
+    ref[:, :3], ref[:, 5] = lam * (kappa_ref if kappa_ref.ndim == 1 else kappa_ref.reshape(n, 3)), 1.0
     s = np.empty((n, nF))
     s[:, :6] = C * (a[:, :6] * F[:, :6] - ref)
     if mu is not None:

@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from matid.physics import kinematics as kin
-
 
 def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None, want_strain=False):
     """(g, H) of the planar density at every point: shapes P + (6,), P + (6, 6).
@@ -48,7 +46,8 @@ def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None
     g[:, 2] = n3 * nu1 - n1 * nu3
     g[:, 3] = n1 * c + n3 * s
     g[:, 4] = n3 * c - n1 * s
-    g[:, 5] = Eb * (z[:, 5] - lam * kin.per_point(kappa_ref, n)[:, 1])
+    kappa_ref = np.asarray(kappa_ref, float)  # one rod-wide vector: no broadcast to the points
+    g[:, 5] = Eb * (z[:, 5] - lam * (kappa_ref[1] if kappa_ref.ndim == 1 else kappa_ref.reshape(n, 3)[:, 1]))
     if mu is not None:
         mu = lam * mu.ravel()
         g[:, 2] -= mu * (c * B[0] - s * B[2])
