@@ -175,7 +175,8 @@ class Discretisation:
     def set_free(self, free: np.ndarray) -> None:
         """Which dofs are free: the band pattern now, the CSR pattern when first used.
 
-        The same set again keeps the patterns (a cached mesh shared by the systems of a scene)."""
+        The same set again keeps the patterns (a cached mesh shared by the systems of a scene).
+        ``free_index``: the free dof number of each dof, -1 where fixed."""
         free = np.asarray(free, dtype=bool)
         current = self.__dict__.get("free")
         if current is not None and free is not current and free.tobytes() == current.tobytes():
@@ -186,7 +187,7 @@ class Discretisation:
         index[self.free] = np.arange(nfree)
         local = index[self.gdofs]
         self.keep_mask = ((local[:, :, None] >= 0) & (local[:, None, :] >= 0)).ravel()
-        self._index, self._pattern, self._blocks = index, None, {}
+        self.free_index, self._pattern, self._blocks = index, None, {}
         self._band_pattern(index, nfree)
 
     def block_pattern(self, dofs: np.ndarray) -> BlockPattern:
@@ -201,7 +202,7 @@ class Discretisation:
 
     def _block_pattern(self, dofs: np.ndarray) -> BlockPattern:
         k, m = dofs.shape
-        idx = self._index[dofs]
+        idx = self.free_index[dofs]
         ii = np.broadcast_to(idx[:, :, None], (k, m, m)).ravel()
         jj = np.broadcast_to(idx[:, None, :], (k, m, m)).ravel()
         keep = (ii >= 0) & (jj >= 0)
@@ -216,7 +217,7 @@ class Discretisation:
     def pattern(self) -> Pattern:
         """CSR pattern of the free-free block (the sparse path: the bend's bordered system)."""
         if self._pattern is None:
-            index, m, nfree = self._index, self.gdofs.shape[1], int(self.free.sum())
+            index, m, nfree = self.free_index, self.gdofs.shape[1], int(self.free.sum())
             rows = np.broadcast_to(index[self.gdofs][:, :, None], (self.ne, m, m)).ravel()
             cols = np.broadcast_to(index[self.gdofs][:, None, :], (self.ne, m, m)).ravel()
             keep = self.keep_mask

@@ -147,7 +147,7 @@ class RodSystem:
         clamp = self.disc.vertex_dof(0) * nf + np.arange(nf)  # values only (Hermite: slopes stay free)
         free[clamp if self.fixed is None else list(self.fixed)] = False
         self.disc.set_free(free)  # a shared (cached) mesh keeps its patterns when the set is the same
-        self.index = self.disc._index  # free dof number of each dof, -1 where fixed
+        self.index = self.disc.free_index  # free dof number of each dof, -1 where fixed
         self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
         magnets = [(s_m, m) for s_m, m in self.rod.magnets]
         verts = self.disc.vertices
