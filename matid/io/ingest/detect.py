@@ -36,14 +36,16 @@ _MULTIBYTE = {"gb18030", "gbk", "gb2312", "shift_jis", "big5", "euc_kr", "euc_jp
 #: Chinese or Japanese words are runs of ideographs/kana; one stray Latin-1 byte
 #: (``°`` before ``]``) read as GBK is a lone ideograph amid ASCII.
 _CJK_WORD = re.compile(r"[\u3040-\u30ff\u4e00-\u9fff]{2,}")
-_BOMS = (
-    (codecs.BOM_UTF32_LE, "utf-32"),
-    (codecs.BOM_UTF32_BE, "utf-32"),
-    (codecs.BOM_UTF8, "utf-8-sig"),
-    (codecs.BOM_UTF16_LE, "utf-16"),
-    (codecs.BOM_UTF16_BE, "utf-16"),
+#: Byte-order marks: the codec that reads a file from its start (the mark included), and the
+#: one that reads it from the middle (no mark there: :mod:`matid.io.ingest.frame`).
+BOMS = (
+    (codecs.BOM_UTF32_LE, "utf-32", "utf-32-le"),
+    (codecs.BOM_UTF32_BE, "utf-32", "utf-32-be"),
+    (codecs.BOM_UTF8, "utf-8-sig", "utf-8"),
+    (codecs.BOM_UTF16_LE, "utf-16", "utf-16-le"),
+    (codecs.BOM_UTF16_BE, "utf-16", "utf-16-be"),
 )
-_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+LINE_BREAK = re.compile(r"\r\n|\r|\n")
 _WIDE_GAP = re.compile(r"\t|\s{2,}")
 _NAME_UNIT = re.compile(r"^\S.*\s*[\[(][^\[\]()]*[\])]$")
 
@@ -83,7 +85,7 @@ def decode(raw: bytes, path: Path, encoding: str | None = None) -> tuple[str, st
                 f"{raw[exc.start : exc.start + 1]!r}; remove `encoding` to detect it",
                 file=path,
             ) from None
-    for bom, name in _BOMS:
+    for bom, name, _ in BOMS:
         if raw.startswith(bom):
             try:
                 return raw.decode(name), name
@@ -117,11 +119,11 @@ def lines_of(text: str, limit: int | None = None) -> list[str]:
     and shift the row numbers from what an editor shows); trailing blank lines dropped.
     With ``limit``, only the first ``limit`` lines (the head that layout detection reads)."""
     if limit is not None:
-        for k, match in enumerate(_LINE_BREAK.finditer(text), start=1):
+        for k, match in enumerate(LINE_BREAK.finditer(text), start=1):
             if k == limit:
                 text = text[: match.start()]
                 break
-    lines = _LINE_BREAK.split(text)
+    lines = LINE_BREAK.split(text)
     while lines and not lines[-1].strip():
         lines.pop()
     return lines

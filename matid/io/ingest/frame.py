@@ -19,7 +19,6 @@ from __future__ import annotations
 import codecs
 import csv
 import io
-import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -27,21 +26,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from matid.errors import DataError
-from matid.io.ingest.detect import Layout, number, split
+from matid.io.ingest.detect import BOMS, LINE_BREAK, Layout, number, split
 from matid.io.study import bounded_text
 
 if TYPE_CHECKING:  # pandas is imported when a record is read, so `import matid` stays light
     import pandas as pd
-
-#: Codec that reads the file from its middle (no byte-order mark there), by the BOM at its start.
-_TAIL_CODECS = (
-    (codecs.BOM_UTF32_LE, "utf-32-le"),
-    (codecs.BOM_UTF32_BE, "utf-32-be"),
-    (codecs.BOM_UTF8, "utf-8"),
-    (codecs.BOM_UTF16_LE, "utf-16-le"),
-    (codecs.BOM_UTF16_BE, "utf-16-be"),
-)
-_LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,7 +117,7 @@ def _parse(raw: bytes, start: Start, layout: Layout, width: int | None) -> pd.Da
 def _widest(raw: bytes, layout: Layout) -> int:
     """An upper bound of the fields of any data row (delimiters + 1, empty trailing cells counted)."""
     text = raw.decode(layout.encoding, errors="replace")
-    rows = _LINE_BREAK.split(text[_line_start(text, layout.data_at) :])
+    rows = LINE_BREAK.split(text[_line_start(text, layout.data_at) :])
     if layout.delimiter == " ":
         return max((len(r.split()) for r in rows), default=1)
     return max((r.count(layout.delimiter) + 1 for r in rows), default=1)
@@ -170,7 +159,7 @@ def _decimal(text: str, start: int, layout: Layout) -> str:
     """',' when the delimiter allows a decimal comma and the first data row uses one, else '.'."""
     if not layout.decimal_comma:
         return "."
-    end = _LINE_BREAK.search(text, start)
+    end = LINE_BREAK.search(text, start)
     first = text[start : end.start() if end else len(text)]
     cells = split(first, layout.delimiter)
     return "," if any("," in c and "." not in c for c in cells) else "."
@@ -180,7 +169,7 @@ def _line_start(text: str, line: int) -> int:
     """Character offset of 0-based ``line`` (as :func:`matid.io.ingest.detect.lines_of` counts)."""
     if line == 0:
         return 0
-    for k, match in enumerate(_LINE_BREAK.finditer(text), start=1):
+    for k, match in enumerate(LINE_BREAK.finditer(text), start=1):
         if k == line:
             return match.end()
     return len(text)
@@ -189,7 +178,7 @@ def _line_start(text: str, line: int) -> int:
 def _tail_codec(raw: bytes, encoding: str) -> tuple[str, int]:
     """(codec for bytes after the start, length of the byte-order mark the start has)."""
     family = codecs.lookup(encoding).name
-    for bom, codec in _TAIL_CODECS:
+    for bom, _, codec in BOMS:
         if raw.startswith(bom) and family in ("utf-8-sig", "utf-16", "utf-32", codec):
             return codec, len(bom)
     return {"utf-8-sig": "utf-8", "utf-16": "utf-16-le", "utf-32": "utf-32-le"}.get(family, family), 0
@@ -198,7 +187,7 @@ def _tail_codec(raw: bytes, encoding: str) -> tuple[str, int]:
 def _line_of(text: str, file_line: int) -> str:
     """The text of 1-based ``file_line``."""
     start = _line_start(text, file_line - 1)
-    end = _LINE_BREAK.search(text, start)
+    end = LINE_BREAK.search(text, start)
     return text[start : end.start() if end else len(text)]
 
 
@@ -232,7 +221,7 @@ def _first_bad_row(raw: bytes, layout: Layout, path: Path) -> None:
     """Raise the DataError of the first row pandas could not parse (a row wider than the header)."""
     n = layout.n_cells
     text = raw.decode(layout.encoding, errors="replace")
-    for k, line in enumerate(_LINE_BREAK.split(text[_line_start(text, layout.data_at) :])):
+    for k, line in enumerate(LINE_BREAK.split(text[_line_start(text, layout.data_at) :])):
         try:
             cells = split(line, layout.delimiter)
         except csv.Error:
