@@ -109,12 +109,10 @@ def test_load_return_torsion_with_tare():
     assert est.n_points >= 300
 
 
-@pytest.mark.xfail(
-    strict=True, raises=DataError, reason="ingest takes the LVM segment header for the header row"
-)
 def test_load_return_torsion_lvm_reads_through_matid(tmp_path):
     """The LabVIEW Measurement File layout of NI's specification (a segment header of
-    Channels, Samples, Date, Time, X_Dimension, X0, Delta_X before the channel names)."""
+    Channels, Samples, Date, Time, X_Dimension, X0, Delta_X before the channel names), read
+    and fitted by matid fit's pipeline: the same value as the fit of the hand-read columns."""
     path = study(
         tmp_path,
         LVM,
@@ -124,6 +122,11 @@ def test_load_return_torsion_lvm_reads_through_matid(tmp_path):
     _, law = RECORDS[LVM]()
     fit, _ = fitted(path, "torsion")
     assert fit.series[0].x.size == law.extra["rows"]
+    data = columns(CORPUS / LVM, LVM_HEADER, "\t", [1, 2])  # angle [deg], torque [N mm]
+    test = study_mod.Test("torsion", "T1", Path(LVM), {"length": law.length})
+    table = Table(Path(LVM), {"twist_angle": np.radians(data[:, 0]), "torque": data[:, 1] * 1e-3}, {}, {}, "")
+    by_hand = fit_torsion([Measurement(test, table)], specimen="T1").estimate("E_t").value
+    assert fit.estimate("E_t").value == pytest.approx(by_hand, rel=1e-9)
 
 
 def test_torsion_from_an_absolute_start_angle(tmp_path):

@@ -209,6 +209,14 @@ def _is_data(line: str, delimiter: str) -> int:
     return len(cells) if numeric >= 2 and 2 * numeric > len(cells) else 0
 
 
+def _width(line: str, delimiter: str) -> int:
+    """Cell count of a line (0 when it does not split)."""
+    try:
+        return len(split(line, delimiter))
+    except csv.Error:
+        return 0
+
+
 def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layout | None:
     """The layout if line ``h`` is a header for ``delimiter``, else None."""
     after = [i for i in range(h + 1, min(len(lines), h + 8)) if lines[i].strip()][:4]
@@ -220,6 +228,11 @@ def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layou
         if len(after) < 2 or not (n := _is_data(lines[after[1]], delimiter)):
             return None
         units_at, after = after[0], after[1:]
+    # "followed by rows of numbers": a block of data, not one or two numeric-looking preamble
+    # lines (a LabVIEW segment header's X0 and Delta_X before ***End_of_Header***); a row of
+    # the block's width with a bad cell stays in it, for its message to name the cell
+    if any(not _is_data(lines[i], delimiter) and _width(lines[i], delimiter) != n for i in after[1:3]):
+        return None
     header = header_names(lines, h, units_at, delimiter, n)
     # Trailing columns may be empty in the data (a remark column): the header may be wider.
     if header is None or not n <= len(header) <= 2 * n or any(is_number(c, delimiter != ",") for c in header):
