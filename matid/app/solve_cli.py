@@ -75,7 +75,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         reached = _deflection_reached(scene, exc)
         raise ConvergenceError(f"{args.scene}: no equilibrium: {exc}{reached}") from exc
     doc = json.dumps(solution_json(sol), indent=1) + "\n"
-    png = shape_png(sol)
+    png = shape_png(sol, name=Path(args.scene).stem)
     json_path, png_path = args.out / "solution.json", args.out / "shape.png"
     atomic_write(json_path, doc)
     atomic_write(png_path, png)

@@ -8,6 +8,7 @@ The JSON is SI and extends the contract with ``element``, ``load_steps`` and
 from __future__ import annotations
 
 import io
+import textwrap
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -16,6 +17,24 @@ from matplotlib.patches import Circle
 from matid.rod.solve import Solution
 
 MM = 1e3
+#: The unit of every number in ``solution.json`` (SI), by key; directors are unit vectors.
+UNITS = {
+    "s": "m",
+    "position": "m",
+    "d1": "1",
+    "d3": "1",
+    "tip.position": "m",
+    "tip.d1": "1",
+    "tip.d3": "1",
+    "field.B": "T",
+    "runtime_s": "s",
+    "discretization_error": "1 (relative: tip position over the rod length, bend forces over the largest)",
+    "three_point_bend.deflection": "m",
+    "three_point_bend.force": "N",
+    "three_point_bend.support_contact_s": "m",
+    "aim.tip_direction_error_rad": "rad",
+    "aim.runtime_s": "s",
+}
 
 
 def solution_json(sol: Solution) -> dict:
@@ -35,6 +54,7 @@ def solution_json(sol: Solution) -> dict:
         "d1": _floats(sol.d1),
         "d3": _floats(sol.d3),
         "tip": {key: _floats(value) for key, value in sol.tip.items()},
+        "units": dict(UNITS),
     }
     doc["field"] = {"B": _floats(sol.scene.loads.B)}  # the field used (solved for under [aim])
     if "aim" in sol.extra:
@@ -52,8 +72,10 @@ def _floats(a: object) -> list:
     return np.asarray(a, dtype=float).tolist()
 
 
-def shape_png(sol: Solution, *, dpi: int = 120) -> bytes:
-    """PNG of the deformed centreline (mm), the undeformed rod dashed, the tip marked.
+def shape_png(sol: Solution, *, dpi: int = 120, name: str = "") -> bytes:
+    """PNG of the deformed centreline (mm), the undeformed rod dashed, the tip marked, the loads
+    drawn (the field's direction and strength, magnets, tip and point forces); ``name``: the
+    scene's, in the title.
 
     Solutions in the x-z plane show that projection, others add the y-z view; a
     three-point bend shows the tube, its supports and the nose at the largest
@@ -68,22 +90,31 @@ def shape_png(sol: Solution, *, dpi: int = 120) -> bytes:
     if bend:
         _bend_setup(axes[0], sol)
         _force_curve(axes[1], sol.three_point_bend)
-    elif panels == 2:
-        _centreline(axes[1], sol, 1, "y")
+    else:
+        _loads(axes[0], sol, 0)
+        if panels == 2:
+            _centreline(axes[1], sol, 1, "y")
+            _loads(axes[1], sol, 1)
     warned = bool(sol.extra.get("warnings"))
-    fig.suptitle(shape_title(sol), color="C3" if warned else "black", fontsize=9 if warned else None)
+    title = shape_title(sol, name)
+    fig.suptitle(title, color="C3" if warned else "black", fontsize=9 if warned else None)
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi)
     return buffer.getvalue()
 
 
-def shape_title(sol: Solution) -> str:
-    """The picture's title: scene, model, mesh; the first strain warning and how many more."""
+def shape_title(sol: Solution, name: str = "") -> str:
+    """The picture's title: scene name and kind, model, mesh, the field; the first strain warning
+    and how many more."""
     kind = sol.scene.kind.replace("_", " ")
-    title = f"{kind}: {sol.model} model, {sol.elements} {sol.element} elements"
+    B = np.asarray(sol.scene.loads.B, dtype=float)
+    field = f", |B| = {np.linalg.norm(B) * 1e3:.4g} mT" if B.any() else ""
+    mesh = f"{sol.model} model, {sol.elements} {sol.element} elements"
+    title = f"{name + ': ' if name else ''}{kind}, {mesh}{field}"
     warnings = sol.extra.get("warnings", [])
-    if warnings:  # never silent (contract section 9)
-        title += f"\nWARNING: {warnings[0]}" + (f" (+{len(warnings) - 1} more)" if len(warnings) > 1 else "")
+    if warnings:  # never silent (contract section 9); wrapped to the width of one panel
+        more = f" (+{len(warnings) - 1} more)" if len(warnings) > 1 else ""
+        title += "\n" + textwrap.fill(f"WARNING: {warnings[0]}{more}", width=72)
     return title
 
 
@@ -99,6 +130,44 @@ def _centreline(ax, sol: Solution, component: int, name: str) -> None:
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, lw=0.3)
     ax.legend(loc="best", fontsize=8)
+
+
+def _loads(ax, sol: Solution, component: int) -> None:
+    """The loads in the (z, component) view: the field's direction as an arrow in the corner,
+    lumped magnets as squares, tip and point forces as arrows at their points (length: a fifth
+    of the rod for the largest)."""
+    loads, L = sol.scene.loads, sol.scene.rod.length
+    B = np.asarray(loads.B, dtype=float)
+    if B.any() and np.hypot(B[2], B[component]) > 1e-12 * np.linalg.norm(B):
+        u = np.array([B[2], B[component]]) / np.linalg.norm(B)
+        arrow = {"arrowstyle": "->", "color": "C2", "lw": 1.5}
+        tip = (0.12 + 0.08 * u[0], 0.85 + 0.08 * u[1])
+        ax.annotate("", xy=tip, xytext=(0.12, 0.85), xycoords="axes fraction", arrowprops=arrow)
+        ax.text(0.12, 0.95, f"B {np.linalg.norm(B) * 1e3:.3g} mT", transform=ax.transAxes, color="C2",
+                fontsize=7, ha="center")  # fmt: skip
+    where = lambda s: int(np.argmin(np.abs(sol.s - s)))  # noqa: E731
+    for k, (start, end, _) in enumerate(loads.magnetization):
+        inside = (sol.s >= start) & (sol.s <= end)
+        ax.plot(sol.position[inside, 2] * MM, sol.position[inside, component] * MM, "-", color="C2",
+                lw=5, alpha=0.45, label="magnetised" if k == 0 else None)  # fmt: skip
+    for at, _ in loads.magnets:
+        i = where(at)
+        ax.plot(sol.position[i, 2] * MM, sol.position[i, component] * MM, "s", color="C2", ms=6,
+                label="magnet" if at == loads.magnets[0][0] else None)  # fmt: skip
+    forces = [(L, np.asarray(loads.tip_force, dtype=float))] if any(loads.tip_force) else []
+    forces += [(at, np.asarray(F, dtype=float)) for at, F, _ in loads.point_loads if any(F)]
+    largest = max((np.linalg.norm(F) for _, F in forces), default=0.0)
+    for k, (at, F) in enumerate(forces):
+        i, scale = where(at), 0.2 * L / largest
+        z, v = sol.position[i, 2], sol.position[i, component]
+        tail = ((z - F[2] * scale) * MM, (v - F[component] * scale) * MM)
+        ax.annotate(
+            "", xy=(z * MM, v * MM), xytext=tail, arrowprops={"arrowstyle": "->", "color": "C1", "lw": 1.5}
+        )
+        if k == 0:
+            ax.plot([], [], "-", color="C1", label="dead force (arrow: direction)")
+    if loads.magnets or loads.magnetization or forces:
+        ax.legend(loc="best", fontsize=8)
 
 
 def _bend_setup(ax, sol: Solution) -> None:
