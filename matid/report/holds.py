@@ -7,8 +7,8 @@ fitter may instead give ``info["force_time"]``, a list of ``{"label", "time", "f
 strain stands still while the force relaxes); against time the relaxation shows, and with
 it whether the model follows it: the residual panel below shows force minus model.
 
-The model drawn is the one whose curve the fit gives (the SLS); when the fit's BIC prefers
-a Prony series (``info["model_choice"]["arms_preferred"]`` > 1) the caption says so.
+The model drawn is the one that gives E_e: the SLS, or the Prony series when the fit's BIC
+prefers it (``prony_N`` per run and the model's name in ``plot_data["model"]``).
 """
 
 from __future__ import annotations
@@ -64,7 +64,10 @@ def hold_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
 
 
 def model_name(info: Mapping) -> str:
-    """Which model the drawn curve is: the SLS, and whether BIC preferred a Prony series."""
+    """Which model the drawn curve is: the SLS, or the Prony series BIC preferred."""
+    plot = info.get("plot_data")
+    if isinstance(plot, Mapping) and plot.get("model"):
+        return f"fitted {plot['model']}"
     choice = info.get("model_choice")
     arms = choice.get("arms_preferred") if isinstance(choice, Mapping) else None
     if isinstance(arms, int) and arms > 1:
@@ -85,7 +88,8 @@ def _runs_of(info: Mapping) -> list[Mapping]:
             "label": name,
             "time": r["time_s"],
             "force": r["force_N"],
-            "model": r.get("model_N"),
+            "model": r.get("prony_N", r.get("model_N")),  # the model that gives E_e
+            "model_name": plot.get("model", "SLS model fit"),
             "used": r.get("used"),
         }
         for name, r in runs.items()
@@ -102,7 +106,9 @@ def _run(raw: Mapping, index: int) -> dict:
     used = np.ones(t.shape, bool) if raw.get("used") is None else np.asarray(raw["used"], bool).ravel()
     if not (t.size == f.size == used.size) or model is not None and model.size != t.size or t.size == 0:
         raise ValueError(f"{where}: time, force, model and used differ in length or are empty")
-    return {"label": str(raw.get("label", f"run {index + 1}")), "t": t, "F": f, "model": model, "used": used}
+    label = str(raw.get("label", f"run {index + 1}"))
+    name = str(raw.get("model_name", "SLS model fit"))
+    return {"label": label, "t": t, "F": f, "model": model, "model_name": name, "used": used}
 
 
 def draw_force_time(fig: Figure, rect: Rect, *, runs: Sequence[dict], units: str = "SI") -> None:
@@ -127,7 +133,7 @@ def draw_force_time(fig: Figure, rect: Rect, *, runs: Sequence[dict], units: str
         labels.append(r["label"])
     if model:
         handles.append(Line2D([], [], color="#333333", linewidth=1.4))
-        labels.append("SLS model fit")
+        labels.append(next(r["model_name"] for r in runs if r["model"] is not None))
     if any((~r["used"]).any() for r in runs):
         handles.append(Line2D([], [], linestyle="none", marker="o", mfc="none", mec=EXCLUDED))
         labels.append("left out of the fit")

@@ -144,6 +144,16 @@ def _info(runs, models, k, sigma, nfree: int) -> dict[str, object]:
     }
 
 
+def _plot_prony(plot_data: dict, runs, fit: prony.PronyFit) -> None:
+    """The preferred Prony series' force beside each run's SLS model (``prony_N``, bin means
+    alike on a long record) and the model's name (``model``) for the force-time figure."""
+    for run in runs:
+        force = prony.prony_force(run.t, run.eps, fit.k0, fit.ks, fit.taus)
+        plot_data["force_time"][run.name]["prony_N"] = _plotted(run, force)["model_N"]
+    arms = len(fit.taus)
+    plot_data["model"] = f"Prony series, {arms} arm{'s' if arms > 1 else ''} (preferred by BIC; gives E_e)"
+
+
 def _prony(runs, sigma, k, fixed_k):
     """The Prony comparison: (choice or None, extra estimates, E_e warning, sls warning)."""
     if fixed_k:
@@ -209,6 +219,8 @@ def fit_extension(
     info["interval_widening"] = float(np.max(cov.inflation)) if cov is not None else 1.0
     if choice is not None:
         info["model_choice"] = {"arms_preferred": choice.best, **choice.table()}
+    if prony_estimates:  # E_e is the Prony series': the force-time plot draws that model
+        _plot_prony(info["plot_data"], runs, choice.fits[choice.best])
     return TestFit(
         kind="extension",
         specimen=specimen,

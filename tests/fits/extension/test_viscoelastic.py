@@ -252,7 +252,11 @@ def test_two_arm_solid_is_not_passed_off_as_an_sls():
     assert fit.estimate("prony_tau2").value == pytest.approx(100.0, rel=0.1)
     assert fit.estimate("prony_k2").value == pytest.approx(40.0, rel=0.05)
     plot = fit.info["plot_data"]["force_time"]["hold0.csv"]
-    assert set(plot) == {"time_s", "force_N", "model_N", "used"} and plot["time_s"].size == 601
+    assert set(plot) == {"time_s", "force_N", "model_N", "prony_N", "used"} and plot["time_s"].size == 601
+    # the force-time figure draws the model that gives E_e: the Prony series, closer to the data
+    assert fit.info["plot_data"]["model"].startswith("Prony series, 2 arms")
+    rms = {key: np.sqrt(np.mean((plot[key] - plot["force_N"]) ** 2)) for key in ("model_N", "prony_N")}
+    assert rms["prony_N"] < 0.5 * rms["model_N"], rms
 
 
 def test_an_sls_stays_an_sls():
@@ -331,3 +335,18 @@ def test_no_interval_rather_than_an_overflow_when_tau_is_far_beyond_the_run():
         assert by[name].ci95 is None
         assert any("not identifiable" in w for w in by[name].warnings)
     assert np.isfinite(by["E_e"].value) and by["E_e"].warnings
+
+
+def test_the_force_time_figure_draws_and_names_the_prony_series_that_gives_e_e():
+    from matplotlib.figure import Figure
+
+    from matid.report.holds import hold_drawings
+
+    rng = np.random.default_rng(21)
+    runs = [ramp_hold(rng, f"hold{i}.csv", rise, 600.0, two_arm) for i, rise in enumerate([0.5, 20.0])]
+    (drawing,) = hold_drawings(fit_extension(runs, specimen="T1"))
+    assert "Prony series, 2 arms" in drawing.caption and "SLS" not in drawing.caption
+    fig = Figure()
+    drawing.draw(fig, (0.1, 0.1, 0.9, 0.9))
+    legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert any(text.startswith("Prony series, 2 arms") for text in legend), legend
