@@ -253,16 +253,29 @@ def _peak(arrays) -> float | None:
     return max(peaks) if peaks else None
 
 
+#: Rows drawn per series at most: a longer record is drawn every k-th row (its fit used them all;
+#: 10^7 drawn points cost seconds and gigabytes for a picture of the same cloud).
+MAX_DRAWN = 20_000
+
+
+def _drawn(series: Series) -> tuple[np.ndarray, ...]:
+    """x, y, used and y_fit (or None) of the rows drawn: all, or every k-th of a long record."""
+    step = max(1, -(-len(series.x) // MAX_DRAWN))
+    x, y = np.asarray(series.x, dtype=float)[::step], np.asarray(series.y, dtype=float)[::step]
+    used = np.ones(x.shape, bool) if series.used is None else np.asarray(series.used, bool)[::step]
+    y_fit = None if series.y_fit is None else np.asarray(series.y_fit, dtype=float)[::step]
+    return x, y, used, y_fit
+
+
 def _draw_series(ax, ax_res, series: Series, colour: str, fx: float, fy: float) -> bool:
-    x = np.asarray(series.x, dtype=float) * fx
-    y = np.asarray(series.y, dtype=float) * fy
-    used = np.ones(x.shape, bool) if series.used is None else np.asarray(series.used, bool)
+    x, y, used, y_fit = _drawn(series)
+    x, y = x * fx, y * fy
     heavy = x.size > 1000  # rasterise dense point clouds to keep the PDF light
     marker = {"linestyle": "none", "marker": "o", "markersize": 3 if x.size < 300 else 2}
     ax.plot(x[used], y[used], color=colour, alpha=0.75, rasterized=heavy, **marker)
     ax.plot(x[~used], y[~used], mfc="none", mec=EXCLUDED, rasterized=heavy, **marker)
-    if series.y_fit is not None:
-        y_fit = np.asarray(series.y_fit, dtype=float) * fy
+    if y_fit is not None:
+        y_fit = y_fit * fy
         if _outside(x, used).any():  # the model carried on over the points past the fit
             ax.plot(x, y_fit, color=colour, linewidth=0.9, linestyle="--", alpha=0.45)
         ax.plot(x, np.where(used, y_fit, np.nan), color=colour, linewidth=1.6)
