@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from tests.fits.extension.test_sls_independent import ar1  # AR(1) noise written out, not matid's
+
 #: Equilibrium stiffness and two arms (N, N, s): a fast and a slow relaxation.
 K0 = 40.0
 ARMS = ((25.0, 4.0), (15.0, 150.0))
@@ -39,16 +41,6 @@ def prony_record(n: int, dt: float, arms=ARMS, k0: float = K0) -> tuple[np.ndarr
     arm_force = np.concatenate([up.sol(t[ramp]).sum(axis=0), hold.y.sum(axis=0)])
     eps = np.minimum(RATE * t, STRAIN)
     return t, eps, k0 * eps + arm_force
-
-
-def ar1(rng: np.random.Generator, n: int, phi: float, sd: float) -> np.ndarray:
-    """AR(1) noise of marginal sd ``sd``, written out (not matid's)."""
-    e = np.empty(n)
-    e[0] = rng.normal(0.0, sd)
-    innovations = rng.normal(0.0, sd * np.sqrt(1 - phi**2), n)
-    for i in range(1, n):
-        e[i] = phi * e[i - 1] + innovations[i]
-    return e
 
 
 def write_bluehill(path: Path, t, extension_m, load_n, sample: str = "R1") -> None:
