@@ -14,6 +14,7 @@ patterns are built once per mesh and each assembly is a single ``bincount`` into
 storage (:mod:`matid.rod.band`). No Python loop over elements. Unknowns are
 interleaved per scalar dof: global dof = k * nf + c.
 """
+
 from __future__ import annotations
 
 import functools
