@@ -197,18 +197,18 @@ def _link(o: StudyOutcome) -> str:
     return name
 
 
-_MARK = {"ok": "use it", "check": "⚠ check it", "not_identifiable": "not identifiable"}
-
-
 def _value_rows(stats: Sequence[dict], geometry: Mapping[tuple[str, str], str]) -> str:
-    """Each specimen's value by parameter and section, values to check marked."""
+    """Each specimen's value by parameter and section, values to check marked (page 1's words)."""
+    from matid.report.verdict import STATUS_WORDS
+
     esc = html.escape
     rows = []
     for s in stats:
         for r in s["rows"]:
             low, high = _num(r["ci95_low"]), _num(r["ci95_high"])
             interval = f"{low} to {high}" if low and high else ""
-            mark = _MARK.get(str(r.get("status", "ok")), "")
+            status = str(r.get("status", "ok"))
+            mark = ("⚠ " if status == "check" else "") + STATUS_WORDS.get(status, "")
             rows.append(
                 f"<tr><td>{s['parameter']}</td><td>{esc(s['geometry'])}</td>"
                 f"<td>{esc(r[SUMMARY_FIRST])} / {esc(r['specimen'])}</td><td>{_num(r['value'])}</td>"
