@@ -257,13 +257,13 @@ def dead_moment(q: np.ndarray, M) -> tuple[np.ndarray, np.ndarray]:
     return Q, (L - 2.0 * np.outer(Q, q)) / n2
 
 
-def directed_magnetic(g: np.ndarray, H: np.ndarray | None, z: np.ndarray, lam: float, mu_a, B, variant):
+def directed_magnetic(g: np.ndarray, H: np.ndarray | None, z: np.ndarray, lam: float, M: np.ndarray, variant):
     """Add magnetisation off d3 to (g, H) of :func:`derivatives` in place (contract section 9):
-    U = -lam (R(q) mu a).B per point, mu a (P + (3,)) the moment per length times its direction
-    in the director frame; the gradient and Hessian are :func:`magnet`'s with M = directed_maps."""
+    U = -lam (R(q) mu a).B per point, with ``M`` = :func:`directed_maps` (B, mu a) of the points
+    (mu a: the moment per length times its direction in the director frame; built once per
+    system); the gradient and Hessian are :func:`magnet`'s with that map."""
     q = z.reshape(-1, 14)[:, 3:7]
-    M = directed_maps(B, np.asarray(mu_a, float).reshape(-1, 3))
-    gq, Hq = magnet(q, B, variant, M=M)
+    gq, Hq = magnet(q, None, variant, M=M)
     g[..., 3:7] += lam * gq.reshape(g.shape[:-1] + (4,))
     if H is not None:
         H[..., 3:7, 3:7] += lam * Hq.reshape(H.shape[:-2] + (4, 4))

@@ -162,6 +162,12 @@ class RodSystem:
         #: per-segment precurvature and off-axis magnetisation at the points, point loads at nodes
         self.kappa = self.rod.kappa_ref_at(self.disc.s_quad)
         self.mu_directed = self.rod.directed_mu_at(self.disc.s_quad) if self.rod.has_field else None
+        #: their maps M (points, 4, 4) of physics.full.directed_maps, built once per system
+        self._directed_point_M = (
+            None
+            if self.mu_directed is None
+            else full.directed_maps(self.rod.B, self.mu_directed.reshape(-1, 3))
+        )
         node = lambda s_p: self.disc.vertex_dof(int(np.argmin(np.abs(verts - s_p))))  # noqa: E731
         self.directed_nodes = [(node(s_m), m, np.asarray(a)) for s_m, m, a in self.rod.directed_magnets]
         self.point_nodes = [(node(s_p), np.asarray(F), np.asarray(M)) for s_p, F, M in self.rod.point_loads]
@@ -242,7 +248,7 @@ class RodSystem:
         else:
             out = full.derivatives(*args, variant=self.variant, c_u=self.c_u, **options)
             if self.mu_directed is not None:  # magnetisation off d3 (contract section 9)
-                full.directed_magnetic(out[0], out[1], z, lam, self.mu_directed, rod.B, self.variant)
+                full.directed_magnetic(out[0], out[1], z, lam, self._directed_point_M, self.variant)
         if self.mixed and tangent:
             self._strain = out[2]
         return out[0], out[1]
