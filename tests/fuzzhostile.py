@@ -73,14 +73,19 @@ def snapshot(out: Path) -> dict[str, tuple[int, int]]:
     if not out.is_dir():
         return {}
     files = {}
-    for path in out.rglob("*"):
-        if any(part.startswith(".") for part in path.relative_to(out).parts):
-            continue
-        try:
-            info = path.stat()
-        except FileNotFoundError:
-            continue
-        files[str(path.relative_to(out))] = (info.st_ino, info.st_mtime_ns)
+    # os.walk, not rglob: a hidden temp folder the run removes while it is walked is skipped, where
+    # rglob descended into it and raised FileNotFoundError (seen once in a batch signal test)
+    for root, dirs, names in os.walk(out):
+        dirs[:] = [d for d in dirs if not d.startswith(".")]
+        for name in [*dirs, *names]:
+            if name.startswith("."):
+                continue
+            path = Path(root) / name
+            try:
+                info = path.stat()
+            except FileNotFoundError:
+                continue
+            files[str(path.relative_to(out))] = (info.st_ino, info.st_mtime_ns)
     return files
 
 
