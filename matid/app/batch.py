@@ -34,15 +34,13 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from matid.errors import DataError, MatidError
 
-#: Columns of summary.csv and of the sheet ``summary``: the study folder name, then stiffness.csv's.
-SUMMARY_FIRST = "study"
-STUDY_COLUMNS = ["study", "source", "exit_code", "error", "warnings", "runtime_s"]
 #: Seconds between a worker's looks at the batch's stop event (the parent's death wakes it at once).
 WATCH_S = 0.05
 #: The stop event of the batch in a worker process (None in the batch's own process and on Dask).
@@ -89,6 +87,7 @@ def study_folder_name(source: str | Path) -> str:
 
 def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> StudyOutcome:
     """Load, fit and write one study into ``out``; never raises: errors become the outcome's code."""
+    from matid.app.cli import error_message, exit_code
     from matid.app.pipeline import run_study, write_outputs
     from matid.io.results import table_rows
     from matid.io.study import load_study
@@ -100,17 +99,10 @@ def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> S
         if _STOP is not None and _STOP.is_set():  # the batch was stopped: publish nothing more
             os._exit(Terminated.exit_code)
         paths = write_outputs(result, Path(out), units=units)
-    except DataError as exc:
-        return StudyOutcome(source, name, 2, error=str(exc), runtime_s=time.perf_counter() - clock)
-    except MatidError as exc:
-        from matid.app.exits import FAILED, NOT_WRITTEN
-        from matid.io.publish import OutputError
-
-        code = NOT_WRITTEN if isinstance(exc, OutputError) else FAILED
-        return StudyOutcome(source, name, code, error=str(exc), runtime_s=time.perf_counter() - clock)
-    except Exception as exc:  # a bug: say so, keep the traceback for --debug
-        error = f"internal error: {type(exc).__name__}: {exc}\n{traceback.format_exc()}"
-        return StudyOutcome(source, name, 3, error=error, runtime_s=time.perf_counter() - clock)
+    except Exception as exc:  # the code and message of `matid fit`; a bug keeps its traceback for --debug
+        code = exit_code(exc)
+        error = error_message(exc) + (f"\n{traceback.format_exc()}" if code == 3 else "")
+        return StudyOutcome(source, name, code, error=error, runtime_s=time.perf_counter() - clock)
     warnings = result.warnings()
     code = 0 if result.ok and not (strict and warnings) else 1
     return StudyOutcome(
@@ -150,26 +142,35 @@ def run_batch(
             raise DataError(f"studies {', '.join(same)} share the folder name {name!r}; rename one", file=out)
     tasks = [(str(s), str(out / n), units, strict) for s, n in zip(sources, names, strict=True)]
     done = on_done or (lambda _: None)
+    jobs = min(jobs or os.cpu_count() or 1, len(tasks))
     with _sigterm_interrupts():
         if scheduler:
             outcomes = _run_dask(tasks, scheduler, done)
-        elif (jobs or os.cpu_count() or 1) == 1 or len(tasks) == 1:
+        elif jobs == 1:
             outcomes = []
             for task in tasks:
                 outcomes.append(fit_one(*task))
                 done(outcomes[-1])
         else:
-            outcomes = _run_processes(tasks, min(jobs or os.cpu_count() or 1, len(tasks)), done)
+            outcomes = _run_processes(tasks, jobs, done)
     from matid.app.compare import write_summary
 
     return BatchResult(outcomes, write_summary(outcomes, out))
 
 
-def _crashed(task: tuple, exc: BaseException) -> StudyOutcome:
-    """The outcome of a task whose worker died or could not be reached (code 3: not the study's fault)."""
-    return StudyOutcome(
-        task[0], study_folder_name(task[0]), 3, error=f"worker failed: {type(exc).__name__}: {exc}"
-    )
+def _gather(completed: Iterable[tuple[int, Any]], tasks: list[tuple], done: Callable) -> list[StudyOutcome]:
+    """The outcomes of (task index, finished future) pairs in completion order, each passed to ``done``;
+    returned in the order of ``tasks``. A worker that died, was lost or could not unpickle the task
+    gives code 3 (not the study's fault)."""
+    outcomes: dict[int, StudyOutcome] = {}
+    for i, future in completed:
+        try:
+            outcomes[i] = future.result()
+        except Exception as exc:
+            error = f"worker failed: {type(exc).__name__}: {exc}"
+            outcomes[i] = StudyOutcome(tasks[i][0], study_folder_name(tasks[i][0]), 3, error=error)
+        done(outcomes[i])
+    return [outcomes[i] for i in range(len(tasks))]
 
 
 @contextlib.contextmanager
@@ -195,12 +196,10 @@ def _watch(stop) -> None:
     import multiprocessing
     from multiprocessing.connection import wait
 
-    parent = multiprocessing.parent_process()
+    parent = multiprocessing.parent_process()  # set in every process a pool starts
     while not stop.is_set():
-        if parent is not None and wait([parent.sentinel], timeout=WATCH_S):
+        if wait([parent.sentinel], timeout=WATCH_S):
             break  # the parent died (even by SIGKILL): nothing of this batch may go on
-        if parent is None:
-            stop.wait(WATCH_S)
     os._exit(Terminated.exit_code)  # at once: no study of a dead or stopped batch is published
 
 
@@ -221,18 +220,11 @@ def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyO
     # killed batch by 6.5 s (measured, load 12); each worker imports the pipeline on its first study.
     context = multiprocessing.get_context("forkserver")
     stop = context.Event()
-    outcomes: dict[int, StudyOutcome] = {}
     others = set(multiprocessing.active_children())  # this process's children that are not the pool's
     pool = ProcessPoolExecutor(jobs, mp_context=context, initializer=_start_worker, initargs=(stop,))
     try:
         futures = {pool.submit(fit_one, *task): i for i, task in enumerate(tasks)}
-        for future in as_completed(futures):
-            i = futures[future]
-            try:
-                outcomes[i] = future.result()
-            except Exception as exc:  # the worker process died (e.g. killed for memory)
-                outcomes[i] = _crashed(tasks[i], exc)
-            done(outcomes[i])
+        outcomes = _gather(((futures[f], f) for f in as_completed(futures)), tasks, done)
     except BaseException:  # SIGINT, SIGTERM (Terminated), or a failing progress callback
         stop.set()
         for worker in set(multiprocessing.active_children()) - others:
@@ -241,7 +233,7 @@ def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyO
         _tidy([Path(task[1]) for task in tasks])
         raise
     pool.shutdown(wait=True)
-    return [outcomes[i] for i in range(len(tasks))]
+    return outcomes
 
 
 def _tidy(outs: list[Path]) -> None:
@@ -264,22 +256,15 @@ def _run_dask(tasks: list[tuple], address: str, done: Callable) -> list[StudyOut
         client = Client(address, timeout="10s", set_as_default=False)
     except (OSError, TimeoutError) as exc:
         raise MatidError(f"cannot reach the Dask scheduler at {address}: {exc}") from exc
-    outcomes: dict[int, StudyOutcome] = {}
     with client:
         futures = [client.submit(fit_one, *task, pure=False) for task in tasks]
         index = {f.key: i for i, f in enumerate(futures)}
         try:
-            for future in as_completed(futures, loop=client.loop):  # this client, not a global default
-                i = index[future.key]
-                try:
-                    outcomes[i] = future.result()
-                except Exception as exc:  # worker lost, or the task could not be unpickled there
-                    outcomes[i] = _crashed(tasks[i], exc)
-                done(outcomes[i])
+            completed = as_completed(futures, loop=client.loop)  # this client, not a global default
+            return _gather(((index[f.key], f) for f in completed), tasks, done)
         except BaseException:  # interrupted: the queued studies are not started (running ones may finish)
             client.cancel(futures)
             raise
-    return [outcomes[i] for i in range(len(tasks))]
 
 
 class Progress:
@@ -294,8 +279,7 @@ class Progress:
             from tqdm import tqdm
 
             class Bar(tqdm):
-                # tqdm's monitor thread outlives the bar (tqdm 4.70); a live thread keeps any later
-                # report of this process in one process (matid.app.render_worker.can_fork)
+                # no monitor thread: it outlives the bar (tqdm 4.70), and a batch leaves no thread behind
                 monitor_interval = 0
 
             self.bar = Bar(total=total, unit="study", file=self.stream, desc="fitting studies")

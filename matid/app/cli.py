@@ -13,7 +13,7 @@ runs in a ``_cmd_<name>(args) -> int`` function: ``fit`` and ``demo`` here,
 - 3: an unexpected error (a bug): a short message, the traceback with ``--debug``;
 - 4: the outputs could not be written (a full disk, an I/O error): the previous outputs are
   unchanged;
-- 130 / 143: stopped by SIGINT (Ctrl-C) / SIGTERM (:mod:`matid.app.exits`).
+- 130 / 143: stopped by SIGINT (Ctrl-C) / SIGTERM (:class:`matid.app.batch.Terminated`).
 
 Messages are printed with control characters escaped (an ESC in a file name never
 reaches the terminal raw).
@@ -30,7 +30,6 @@ the fits load only for the commands that need them).
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
 import time
 import traceback
@@ -39,10 +38,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from matid import __version__
-from matid.app.options import UNITS_METAVAR as UNITS_METAVAR  # re-exported: tests/test_cli.py
-from matid.app.options import _add_strict, _add_units, _common, _positive_int
+from matid.app.options import _positive_int, add_command, add_units_and_strict
 from matid.app.solve_cli import _register_design, _register_solve
-from matid.app.solve_cli import solve_summary as solve_summary  # re-exported: its home before the split
 from matid.errors import DataError, MatidError
 
 if TYPE_CHECKING:
@@ -78,15 +75,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     return _guarded(args)
 
 
-#: Subcommands defined in other modules: name -> (module, its register function, one-line help).
-#: The module is imported only when its command is the one run (or asked for help).
-LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
-    "bench": ("matid.bench.cli", "register", "measure accuracy, cost and robustness of the rod solver"),
-}
+#: The help line of ``matid bench`` (matid.bench.cli) in ``matid --help``, without loading the bench.
+BENCH_HELP = "measure accuracy, cost and robustness of the rod solver"
 
 
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
-    """The ``matid`` parser; with ``argv``, only the command named there loads its module."""
+    """The ``matid`` parser; with ``argv``, ``bench`` loads its module only when it is the command."""
     parser = argparse.ArgumentParser(
         prog="matid",
         description="Stiffness identification of catheter tubes for Cosserat rod models. "
@@ -98,19 +92,20 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     _register_demo(subparsers)
     _register_solve(subparsers)
     _register_design(subparsers)
-    command = next((a for a in argv if not a.startswith("-")), None) if argv is not None else None
-    for name, (module, register, help_text) in LAZY_COMMANDS.items():
-        if argv is None or command == name:
-            getattr(importlib.import_module(module), register)(subparsers)
-        else:  # listed in --help; never selected, since its name in argv loads the real one
-            subparsers.add_parser(name, help=help_text, add_help=False)
+    if argv is None or next((a for a in argv if not a.startswith("-")), None) == "bench":
+        from matid.bench.cli import register
+
+        register(subparsers)
+    else:  # listed in --help; never selected, since "bench" in argv loads the real one
+        subparsers.add_parser("bench", help=BENCH_HELP, add_help=False)
     return parser
 
 
 def _register_fit(subparsers) -> None:
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "fit",
-        parents=[_common()],
+        _cmd_fit,
         help="fit one or more studies and write the reports and stiffness tables",
         description="Fit every specimen of a study; write report.html, report.pdf, stiffness.csv, "
         "stiffness.json and stiffness.xlsx into --out (docs/contract.md sections 4 and 7). "
@@ -136,9 +131,7 @@ def _register_fit(subparsers) -> None:
         help="several studies: run them on the Dask cluster at ADDRESS, e.g. tcp://host:8786 "
         "(needs matid[dask]; the workers must see the study folders and --out by the same paths)",
     )
-    _add_units(parser)
-    _add_strict(parser)
-    parser.set_defaults(command=_cmd_fit)
+    add_units_and_strict(parser)
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
@@ -205,9 +198,10 @@ def _warning_lines(warnings: Sequence[str]) -> list[str]:
 
 
 def _register_demo(subparsers) -> None:
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "demo",
-        parents=[_common()],
+        _cmd_demo,
         help="fit the embedded synthetic demo study",
         description="Fit the synthetic demo study shipped with matid (matid.example).",
     )
@@ -215,9 +209,7 @@ def _register_demo(subparsers) -> None:
         "--out", metavar="DIR", type=Path, default=Path("reports/demo"),
         help="output folder (default reports/demo)",
     )  # fmt: skip
-    _add_units(parser)
-    _add_strict(parser)
-    parser.set_defaults(command=_cmd_demo)
+    add_units_and_strict(parser)
 
 
 def demo_study_path() -> Path:
@@ -312,25 +304,31 @@ def _guarded(args: argparse.Namespace) -> int:
     """Run the command; map errors to exit codes and one-line messages."""
     try:
         return args.command(args)
-    except DataError as exc:
-        return _fail(args, exc, 2, str(exc))
-    except MatidError as exc:
-        from matid.app.exits import FAILED, NOT_WRITTEN
-        from matid.io.publish import OutputError
-
-        return _fail(args, exc, NOT_WRITTEN if isinstance(exc, OutputError) else FAILED, str(exc))
     except KeyboardInterrupt as exc:  # SIGINT; SIGTERM during a batch (matid.app.batch.Terminated)
         print("matid: interrupted", file=sys.stderr)
         return getattr(exc, "exit_code", 130)
     except Exception as exc:
-        hint = "" if args.debug else " (rerun with --debug for the traceback)"
-        return _fail(args, exc, 3, f"internal error: {type(exc).__name__}: {exc}{hint}")
+        from matid.io.cells import escaped
+
+        code = exit_code(exc)
+        hint = " (rerun with --debug for the traceback)" if code == 3 and not args.debug else ""
+        if args.debug:
+            traceback.print_exception(exc, file=sys.stderr)
+        print(f"matid: error: {escaped(error_message(exc) + hint)}", file=sys.stderr)
+        return code
 
 
-def _fail(args: argparse.Namespace, exc: BaseException, code: int, message: str) -> int:
-    if args.debug:
-        traceback.print_exception(exc, file=sys.stderr)
-    from matid.io.cells import escaped
+def exit_code(exc: Exception) -> int:
+    """The exit code of an error (see the module docstring): 2, 4, 1 for another MatidError, 3 for a bug."""
+    from matid.io.publish import OutputError
 
-    print(f"matid: error: {escaped(message)}", file=sys.stderr)
-    return code
+    if isinstance(exc, DataError):
+        return 2
+    if isinstance(exc, OutputError):
+        return 4
+    return 1 if isinstance(exc, MatidError) else 3
+
+
+def error_message(exc: Exception) -> str:
+    """What ``matid`` says of an error: its message, or for a bug its type and message."""
+    return str(exc) if isinstance(exc, MatidError) else f"internal error: {type(exc).__name__}: {exc}"

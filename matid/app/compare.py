@@ -18,18 +18,21 @@ import statistics
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from matid.app.batch import STUDY_COLUMNS, SUMMARY_FIRST, StudyOutcome
+from matid.app.batch import StudyOutcome
 from matid.io.cells import escaped
 from matid.io.results import CSV_COLUMNS, PARAMETER_ORDER, atomic_write, csv_text
 
-SUMMARY_COLUMNS = [SUMMARY_FIRST, *CSV_COLUMNS]
+#: Columns of summary.csv and of the sheet ``summary``: the study folder name, then stiffness.csv's.
+SUMMARY_COLUMNS = ["study", *CSV_COLUMNS]
+#: Columns of the sheet ``studies``.
+STUDY_COLUMNS = ["study", "source", "exit_code", "error", "warnings", "runtime_s"]
 #: Parameters left out of the comparison: sls_k1 is E_e under another name.
 _COMPARE_SKIP = {"sls_k1"}
 
 
 def summary_rows(outcomes: Sequence[StudyOutcome]) -> list[dict[str, object]]:
     """Every row of every study's stiffness table, the study folder name first."""
-    return [{SUMMARY_FIRST: o.name, **row} for o in outcomes for row in o.rows]
+    return [{"study": o.name, **row} for o in outcomes for row in o.rows]
 
 
 def study_rows(outcomes: Sequence[StudyOutcome]) -> list[dict[str, object]]:
@@ -53,9 +56,7 @@ def statistics_by_parameter(
         mine = [r for r in rows if r["parameter"] == name and r["value"] is not None]  # not_identifiable
         groups: dict[str, list[dict]] = {}
         for r in mine:
-            section = (
-                (geometry or {}).get((r[SUMMARY_FIRST], r["specimen"]), "") if geometry is not None else ""
-            )
+            section = geometry.get((r["study"], r["specimen"]), "") if geometry else ""
             groups.setdefault(section, []).append(r)
         for section, group in groups.items():
             values = [float(r["value"]) for r in group]
@@ -97,11 +98,9 @@ def write_summary(outcomes: Sequence[StudyOutcome], out: Path) -> list[Path]:
         ),
         "summary.html": comparison_page(outcomes),
     }
-    paths = []
     for name, content in files.items():
         atomic_write(out / name, content)
-        paths.append(out / name)
-    return paths
+    return [out / name for name in files]
 
 
 def comparison_figure(stats: Sequence[dict]) -> bytes:
@@ -112,16 +111,13 @@ def comparison_figure(stats: Sequence[dict]) -> bytes:
     fig = Figure(figsize=(7.5, height), layout="constrained")
     axes = fig.subplots(max(len(stats), 1), 1, squeeze=False)[:, 0]
     for ax, s in zip(axes, stats, strict=False):
-        labels = [escaped(f"{r['study']} / {r['specimen']}") for r in s["rows"]]  # no control glyphs
+        rows = s["rows"]
+        labels = [escaped(f"{r['study']} / {r['specimen']}") for r in rows]  # no control glyphs
         y = list(range(len(labels)))
-        values = [float(r["value"]) for r in s["rows"]]
-        low = [
-            v - (r["ci95_low"] if r["ci95_low"] is not None else v)
-            for v, r in zip(values, s["rows"], strict=True)
-        ]
+        values = [float(r["value"]) for r in rows]
+        low = [v - (v if r["ci95_low"] is None else r["ci95_low"]) for v, r in zip(values, rows, strict=True)]
         high = [
-            (r["ci95_high"] if r["ci95_high"] is not None else v) - v
-            for v, r in zip(values, s["rows"], strict=True)
+            (v if r["ci95_high"] is None else r["ci95_high"]) - v for v, r in zip(values, rows, strict=True)
         ]
         if s["sd"] is not None:
             ax.axvspan(
@@ -174,10 +170,10 @@ def comparison_page(outcomes: Sequence[StudyOutcome]) -> str:
     figure = base64.b64encode(comparison_figure(stats)).decode() if stats else ""
     return _PAGE.format(
         n_studies=len(outcomes),
-        n_specimens=len({(r[SUMMARY_FIRST], r["specimen"]) for r in summary_rows(outcomes)}),
+        n_specimens=len({(r["study"], r["specimen"]) for r in summary_rows(outcomes)}),
         failed=f'<div class="failed"><h2>{len(failed)} failed</h2><ul>{failed_box}</ul></div>' * bool(failed),
         stats=stat_rows or "<tr><td colspan=7>no values</td></tr>",
-        values=_value_rows(stats, geometry) or "<tr><td colspan=7>no values</td></tr>",
+        values=_value_rows(stats) or "<tr><td colspan=7>no values</td></tr>",
         studies=study_table,
         figure=f'<img alt="values per specimen with 95 % intervals" src="data:image/png;base64,{figure}">'
         if figure else "<p>No values to compare.</p>",
@@ -192,12 +188,11 @@ def _why(o: StudyOutcome) -> str:
 def _link(o: StudyOutcome) -> str:
     """The study's name, linked to its report.html (relative to summary.html) when it was written."""
     name = html.escape(o.name)
-    if any(Path(p).name == "report.html" for p in o.paths):
-        return f'<a href="{html.escape(o.name)}/report.html">{name}</a>'
-    return name
+    written = any(Path(p).name == "report.html" for p in o.paths)
+    return f'<a href="{name}/report.html">{name}</a>' if written else name
 
 
-def _value_rows(stats: Sequence[dict], geometry: Mapping[tuple[str, str], str]) -> str:
+def _value_rows(stats: Sequence[dict]) -> str:
     """Each specimen's value by parameter and section, values to check marked (page 1's words)."""
     from matid.report.verdict import STATUS_WORDS
 
@@ -211,7 +206,7 @@ def _value_rows(stats: Sequence[dict], geometry: Mapping[tuple[str, str], str]) 
             mark = ("⚠ " if status == "check" else "") + STATUS_WORDS.get(status, "")
             rows.append(
                 f"<tr><td>{s['parameter']}</td><td>{esc(s['geometry'])}</td>"
-                f"<td>{esc(r[SUMMARY_FIRST])} / {esc(r['specimen'])}</td><td>{_num(r['value'])}</td>"
+                f"<td>{esc(r['study'])} / {esc(r['specimen'])}</td><td>{_num(r['value'])}</td>"
                 f'<td>{interval}</td><td>{esc(str(r["unit"]))}</td><td class="mark">{mark}</td></tr>'
             )
     return "".join(rows)

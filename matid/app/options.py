@@ -1,7 +1,5 @@
 """Options and argument types shared by the ``matid`` subcommands.
 
-Used by :mod:`matid.app.cli` and :mod:`matid.app.solve_cli`.
-
 Standard library only: building the parser must not load the numerical stack.
 """
 
@@ -9,18 +7,19 @@ from __future__ import annotations
 
 import argparse
 
-
-def _common() -> argparse.ArgumentParser:
-    """Options every command takes."""
-    common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("--debug", action="store_true", help="show tracebacks of errors")
-    common.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    return common
-
-
 #: The ``--units`` choices as shown in the help; :func:`_unit_system` checks a given name against
-#: :data:`matid.units.UNIT_SYSTEMS` itself (tests/test_cli.py holds the two equal).
+#: :data:`matid.units.UNIT_SYSTEMS` itself (tests/app/test_cli.py holds the two equal).
 UNITS_METAVAR = "{SI,cgs}"
+
+
+def add_command(subparsers, name: str, command, **kwargs) -> argparse.ArgumentParser:
+    """The subparser ``name`` (``kwargs``: help, description), run by ``command(args)``, with the
+    options every command takes."""
+    parser = subparsers.add_parser(name, **kwargs)
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    parser.set_defaults(command=command)
+    return parser
 
 
 def _unit_system(name: str) -> str:
@@ -35,7 +34,8 @@ def _unit_system(name: str) -> str:
     return name
 
 
-def _add_units(parser: argparse.ArgumentParser) -> None:
+def add_units_and_strict(parser: argparse.ArgumentParser) -> None:
+    """``--units`` and ``--strict`` of the commands that fit."""
     # No ``choices``: argparse iterates them while the parser is built, which would load pint
     # for every command; a ``type`` is called only for a --units that is given.
     parser.add_argument(
@@ -45,14 +45,12 @@ def _add_units(parser: argparse.ArgumentParser) -> None:
         default="SI",
         help="unit system of the reported stiffnesses (default SI: N, N m^2, N s; cgs: dyn, dyn cm^2, dyn s)",
     )
-
-
-def _add_strict(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--strict", action="store_true", help="exit 1 when there is any warning (docs/contract.md section 7)"
     )
 
 
+# The names of these two types appear in argparse's message for a value they cannot read.
 def _positive_int(text: str) -> int:
     value = int(text)
     if value < 1:

@@ -12,14 +12,15 @@ import argparse
 import sys
 from pathlib import Path
 
-from matid.app.options import _common, _fraction, _positive_int
+from matid.app.options import _fraction, _positive_int, add_command
 from matid.errors import ConvergenceError, DataError, SlipOffError
 
 
 def _register_solve(subparsers) -> None:
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "solve",
-        parents=[_common()],
+        _cmd_solve,
         help="solve a rod scene (cantilever or three-point bend)",
         description="Forward solve of a scene TOML; write solution.json and shape.png into --out.",
     )
@@ -47,7 +48,6 @@ def _register_solve(subparsers) -> None:
         default="auto",
         help="rod model (default auto: planar when every load lies in one plane)",
     )
-    parser.set_defaults(command=_cmd_solve)
 
 
 def _cmd_solve(args: argparse.Namespace) -> int:
@@ -112,9 +112,10 @@ def solve_summary(sol) -> str:
 
 
 def _register_design(subparsers) -> None:
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "design",
-        parents=[_common()],
+        _cmd_design,
         help="which spans and which bend measurement identify E_s to a given precision",
         description="Experiment design for E_s (matid.fits.design): predicted precision of E_s per span for "
         "centreline deflection and nose travel, from the tube's section, E_b and E_e or E_t.",
@@ -127,7 +128,6 @@ def _register_design(subparsers) -> None:
     parser.add_argument("--poisson-ratio", type=float, help="default: the range 0.3-0.5")
     parser.add_argument("--precision", type=_fraction, default=0.05, help="relative sd wanted (default 0.05)")
     parser.add_argument("--spans", default="6,8,10,15,20,30", help="spans in mm, comma-separated")
-    parser.set_defaults(command=_cmd_design)
 
 
 def _cmd_design(args: argparse.Namespace) -> int:
@@ -137,26 +137,18 @@ def _cmd_design(args: argparse.Namespace) -> int:
     from matid.units import UnitError, to_si
 
     try:
-        values = {
-            "outer": to_si(args.outer_diameter, "length"),
-            "inner": to_si(args.inner_diameter, "length"),
-            "E_b": to_si(args.E_b, "bending_stiffness"),
-            "E_e": to_si(args.E_e, "force") if args.E_e else None,
-            "E_t": to_si(args.E_t, "bending_stiffness") if args.E_t else None,
-        }
+        outer, inner = (to_si(d, "length") for d in (args.outer_diameter, args.inner_diameter))
+        E_b = to_si(args.E_b, "bending_stiffness")
+        E_e, E_t = (
+            to_si(v, kind) if v else None
+            for v, kind in [(args.E_e, "force"), (args.E_t, "bending_stiffness")]
+        )
         spans = [1e-3 * float(s) for s in args.spans.split(",")]
-        specimen = Specimen("design", values["outer"], values["inner"], args.poisson_ratio)
+        specimen = Specimen("design", outer, inner, args.poisson_ratio)
     except (UnitError, ValueError) as exc:
         raise DataError(f"matid design: {exc}") from exc
-    if not (values["E_e"] or values["E_t"]):
+    if not (E_e or E_t):
         raise DataError("matid design: give --E-e or --E-t (the shear reference k G A comes from them)")
-    options = design(
-        specimen,
-        E_b=values["E_b"],
-        E_e=values["E_e"],
-        E_t=values["E_t"],
-        precision=args.precision,
-        spans=spans,
-    )
+    options = design(specimen, E_b=E_b, E_e=E_e, E_t=E_t, precision=args.precision, spans=spans)
     print(design_summary(options, args.precision))
     return 0

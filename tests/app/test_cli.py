@@ -197,7 +197,7 @@ def test_version_and_help(capsys):
 
 def test_units_option_without_pint():
     """--units lists the systems of matid.units; the parser loads pint only for a --units given."""
-    from matid.app.cli import UNITS_METAVAR
+    from matid.app.options import UNITS_METAVAR
     from matid.units import UNIT_SYSTEMS
 
     assert UNITS_METAVAR == "{" + ",".join(sorted(UNIT_SYSTEMS)) + "}"
