@@ -40,24 +40,11 @@ from matid.fits.shear.torsion import with_E_s_torsion
 from matid.fits.torsion import fit_torsion
 from matid.io.ingest.read import Measurement, load_measurements
 from matid.io.publish import publish
-from matid.io.results import (
-    Estimate,
-    Failure,
-    InputFile,
-    StudyResult,
-    TestFit,
-    stiffness_csv,
-    stiffness_json,
-)
+from matid.io.results import Estimate, Failure, InputFile, StudyResult, TestFit, stiffness_csv, stiffness_json
 from matid.io.study import Specimen, Study
 from matid.io.xlsx import stiffness_xlsx
 
 Progress = Callable[[str], None]
-
-#: A fitter: all included measurements of one kind on one specimen -> one TestFit.
-#: ``fixed`` holds the study's fixed values for the specimen (parameter -> SI value);
-#: ``known`` the estimates already obtained for it (earlier kinds, then fixed entries).
-Fitter = Callable[..., TestFit]
 
 #: Fit order: extension and bending before three_point_bend, which needs E_e and E_b.
 FIT_ORDER = ("extension", "magnetic_bending", "torsion", "three_point_bend")
@@ -75,18 +62,9 @@ GIVES: dict[str, tuple[str, ...]] = {
 _EXTENSION_FIXED = ("E_e", "sls_k1", "sls_k2", "sls_eta")
 
 #: Numerical failures inside a fit that mean "this fit could not be done", not a bug.
-FIT_FAILURES: tuple[type[BaseException], ...] = (
-    FitError,
-    ConvergenceError,
-    np.linalg.LinAlgError,
-    FloatingPointError,
-)
+FIT_FAILURES = (FitError, ConvergenceError, np.linalg.LinAlgError, FloatingPointError)
 
 VERSION_PACKAGES = ("numpy", "scipy", "lmfit", "scikit-fem", "pint", "matplotlib")
-
-
-class NotFitted(Exception):
-    """Raised by a fitter for a kind that is present but not fitted by design."""
 
 
 def _fit_extension(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
@@ -106,8 +84,11 @@ def _fit_shear(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
     return fit_three_point_bend(measurements, specimen=specimen, fixed=fixed, known=known)
 
 
-#: kind -> fitter(measurements, *, specimen, fixed, known). Replace an entry to plug in a fit.
-FITTERS: dict[str, Fitter] = {
+#: kind -> fitter(measurements, *, specimen, fixed, known) -> TestFit, given all included measurements
+#: of the kind on one specimen; ``fixed`` holds the study's fixed values for the specimen (parameter ->
+#: SI value), ``known`` the estimates already obtained for it (earlier kinds, then fixed entries).
+#: Replace an entry to plug in a fit.
+FITTERS: dict[str, Callable[..., TestFit]] = {
     "extension": _fit_extension,
     "magnetic_bending": _fit_bending,
     "torsion": _fit_torsion,
@@ -209,9 +190,6 @@ def _fit_kind(
     clock = time.perf_counter()
     try:
         fit = FITTERS[kind](mine, specimen=spec, fixed=fixed, known=dict(known))
-    except NotFitted as exc:
-        say(f"{kind} {spec.id}: not fitted: {exc}")
-        return False, Failure(kind, spec.id, str(exc))
     except FIT_FAILURES as exc:
         say(f"{kind} {spec.id}: FAILED: {exc}")
         return True, Failure(kind, spec.id, str(exc) or type(exc).__name__)
@@ -227,20 +205,17 @@ def render_report(result: StudyResult, *, units: str = "SI") -> dict[str, bytes]
     return render(result, units=units)
 
 
-def render_outputs(result: StudyResult, *, units: str = "SI") -> dict[str, bytes | str]:
-    """Every output file of docs/contract.md section 4, rendered in memory: name -> content."""
-    tables: dict[str, bytes | str] = {
-        "stiffness.csv": stiffness_csv(result, units),
-        "stiffness.json": json.dumps(stiffness_json(result, units), indent=2) + "\n",
-        "stiffness.xlsx": stiffness_xlsx(result, units),  # docs/contract.md section 7
-    }
-    return {**render_report(result, units=units), **tables}
-
-
 def write_outputs(result: StudyResult, out: Path, *, units: str = "SI") -> list[Path]:
-    """Render everything first, then publish the files as the folder ``out`` whole; returns the paths.
+    """Render every output file of docs/contract.md section 4 in memory, then publish them as the
+    folder ``out`` whole; returns the paths.
 
     The old contents of ``out`` stay whole until the new folder replaces them in
     one step (:func:`matid.io.publish.publish`); a write error raises OutputError.
     """
-    return publish(render_outputs(result, units=units), Path(out))
+    files = {
+        **render_report(result, units=units),
+        "stiffness.csv": stiffness_csv(result, units),
+        "stiffness.json": json.dumps(stiffness_json(result, units), indent=2) + "\n",
+        "stiffness.xlsx": stiffness_xlsx(result, units),  # docs/contract.md section 7
+    }
+    return publish(files, Path(out))
