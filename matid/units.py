@@ -53,42 +53,26 @@ ureg.define("Sec = second = _ = Secs")
 ureg.define("lab_gauss = 1e-4 * tesla")
 ureg.define("lab_emu = 1e-3 * ampere * meter ** 2")
 
-#: pint dimensionality per physical kind of field. Angles and strains are
-#: dimensionless in pint; they are told apart by the unit names allowed.
-DIMENSIONS: dict[str, str] = {
-    "length": "[length]",
-    "force": "[force]",
-    "torque": "[force] * [length]",
-    "time": "[time]",
-    "field": "[mass] / [time] ** 2 / [current]",
-    "moment": "[current] * [length] ** 2",
-    "moment_per_length": "[current] * [length]",
-    "bending_stiffness": "[force] * [length] ** 2",
-    "viscosity": "[force] * [time]",
-    "force_per_length": "[force] / [length]",
-    "curvature": "1 / [length]",
-    "angle": "",
-    "strain": "",
-    "dimensionless": "",
+#: Per physical kind of field: its pint dimensionality and the SI unit it is reported in.
+#: Angles and strains are dimensionless in pint; they are told apart by the unit names allowed.
+_KINDS: dict[str, tuple[str, str]] = {
+    "length": ("[length]", "m"),
+    "force": ("[force]", "N"),
+    "torque": ("[force] * [length]", "N m"),
+    "time": ("[time]", "s"),
+    "field": ("[mass] / [time] ** 2 / [current]", "T"),
+    "moment": ("[current] * [length] ** 2", "A m^2"),
+    "moment_per_length": ("[current] * [length]", "A"),
+    "bending_stiffness": ("[force] * [length] ** 2", "N m^2"),
+    "viscosity": ("[force] * [time]", "N s"),
+    "force_per_length": ("[force] / [length]", "N/m"),
+    "curvature": ("1 / [length]", "1/m"),
+    "angle": ("", "rad"),
+    "strain": ("", "1"),
+    "dimensionless": ("", "1"),
 }
-
-#: The SI unit each kind is reported in.
-SI_UNITS: dict[str, str] = {
-    "length": "m",
-    "force": "N",
-    "torque": "N m",
-    "time": "s",
-    "field": "T",
-    "moment": "A m^2",
-    "moment_per_length": "A",
-    "bending_stiffness": "N m^2",
-    "viscosity": "N s",
-    "force_per_length": "N/m",
-    "curvature": "1/m",
-    "angle": "rad",
-    "strain": "1",
-    "dimensionless": "1",
-}
+DIMENSIONS = {kind: dimension for kind, (dimension, _) in _KINDS.items()}
+SI_UNITS = {kind: unit for kind, (_, unit) in _KINDS.items()}
 
 _STRAIN_UNITS = {"1", "-", "%", "percent", "mm/mm", "m/m", "", "ratio"}
 _POUND = re.compile(r"lb|pound", re.IGNORECASE)
