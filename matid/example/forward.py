@@ -138,38 +138,34 @@ def torsion_torque(
 BEND_ELEMENTS = 96
 
 
-def bend_force(
-    d: np.ndarray,
-    *,
-    span: float,
-    E_b: float,
-    E_s: float,
-    E_e: float,
-    specimen_length: float,
-    support_radius: float,
-    nose_radius: float,
-    outer_diameter: float,
-) -> np.ndarray:
-    """Nose force of the three-point bend test against nose deflection ``d``.
+def bend_force(d: np.ndarray, *, E_b: float, E_s: float, E_e: float, **geometry: float) -> np.ndarray:
+    """Nose force of the three-point bend test against nose deflection ``d``; ``geometry``: the
+    fields of :class:`matid.rod.bend.BendGeometry` (span, specimen_length, support_radius,
+    nose_radius, outer_diameter).
 
     matid's Cosserat rod model of the bend (matid.rod.bend: half model, sliding
     contact with the rollers and the nose, large deflection) on a fine mesh of
     ``BEND_ELEMENTS`` P2 elements. In the small-deflection limit it tends to the
     Timoshenko closed form ``d = F S^3 / (48 E_b) + F S / (4 E_s)``.
     """
-    from matid.rod.bend import BendGeometry, BendModel
-
-    geometry = BendGeometry(span, specimen_length, support_radius, nose_radius, outer_diameter)
-    for name, value in [("E_b", E_b), ("E_s", E_s), ("E_e", E_e)]:
-        if not value > 0.0:
-            raise ValueError(f"{name} must be positive, got {value}")
     d = np.asarray(d, dtype=float)
     flat = np.atleast_1d(d)
     order = np.argsort(flat, kind="stable")
-    path = BendModel(geometry, elements=BEND_ELEMENTS).solve(E_b, E_s, E_e, flat[order])
+    _, path = _bend_path(flat[order], E_b, E_s, E_e, geometry)
     force = np.empty_like(flat)
     force[order] = path.force
     return force.reshape(d.shape)
+
+
+def _bend_path(d: np.ndarray, E_b: float, E_s: float, E_e: float, geometry: dict):
+    """(model, path) of :func:`bend_force` at increasing nose deflections ``d``."""
+    from matid.rod.bend import BendGeometry, BendModel
+
+    model = BendModel(BendGeometry(**geometry), elements=BEND_ELEMENTS)
+    for name, value in [("E_b", E_b), ("E_s", E_s), ("E_e", E_e)]:
+        if not value > 0.0:
+            raise ValueError(f"{name} must be positive, got {value}")
+    return model, model.solve(E_b, E_s, E_e, d)
 
 
 #: The 3D continuum tube's local contact travel (benchmarks/README.md, "The 3D tube"):
@@ -215,23 +211,15 @@ def bend_force_nose(d: np.ndarray, *, inner_diameter: float, E: float, **kwargs)
     return PchipInterpolator(total, F)(d)
 
 
-def bend_centreline(d: np.ndarray, **kwargs) -> tuple[np.ndarray, np.ndarray]:
+def bend_centreline(
+    d: np.ndarray, *, E_b: float, E_s: float, E_e: float, **geometry: float
+) -> tuple[np.ndarray, np.ndarray]:
     """(centreline deflection, force) at increasing nose deflections ``d`` (same keywords as
     :func:`bend_force`): the mid-span centreline relative to the sections over the supports
     (:func:`matid.fits.shear.centreline.centreline_deflection`), as a side camera measures it."""
     from matid.fits.shear.centreline import centreline_deflection
-    from matid.rod.bend import BendGeometry, BendModel
 
-    stiff = {k: kwargs.pop(k) for k in ("E_b", "E_s", "E_e")}
-    geometry = BendGeometry(
-        kwargs["span"],
-        kwargs["specimen_length"],
-        kwargs["support_radius"],
-        kwargs["nose_radius"],
-        kwargs["outer_diameter"],
-    )
-    model = BendModel(geometry, elements=BEND_ELEMENTS)
-    path = model.solve(stiff["E_b"], stiff["E_s"], stiff["E_e"], np.asarray(d, dtype=float))
+    model, path = _bend_path(np.asarray(d, dtype=float), E_b, E_s, E_e, geometry)
     return centreline_deflection(model, path), path.force
 
 

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .files import TestSpec, render_csv, render_toml
+from .files import UNIT_SI, TestSpec, render_csv, render_toml
 from .forward import (
     CONTACT_C,
     CONTACT_N,
@@ -199,13 +199,8 @@ def _simulate(spec: TestSpec, params: dict, layout: dict, tube: tuple[float, flo
 
 
 def _jsonable(value: object) -> object:
-    if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
+    """``value`` as ground_truth.json holds it: numpy arrays and tuples as lists, numpy scalars as numbers."""
+    return json.loads(json.dumps(value, default=lambda array: array.tolist()))
 
 
 def _test_record(spec: TestSpec, law: dict) -> dict:
@@ -259,8 +254,7 @@ def generate(out: Path, *, seed: int = 2611, variant: str = "demo", truth: dict 
     layout = demo_layout() if variant == "demo" else alt_layout(np.random.default_rng(seed))
     params = merge_truth(layout["truth"], truth)
     tube = {
-        s["id"]: (_outer_diameter(s["outer_diameter"]), _outer_diameter(s["inner_diameter"]))
-        for s in layout["specimens"]
+        s["id"]: (_diameter(s["outer_diameter"]), _diameter(s["inner_diameter"])) for s in layout["specimens"]
     }
     files: dict[str, bytes] = {}
     for spec in layout["specs"]:
@@ -279,12 +273,12 @@ def generate(out: Path, *, seed: int = 2611, variant: str = "demo", truth: dict 
     return result
 
 
-def _outer_diameter(value: object) -> float:
+def _diameter(value: object) -> float:
     """A diameter in m from a layout entry ("2.4 mm", "0.28 cm" or a bare SI number)."""
     if isinstance(value, (int, float)):
         return float(value)
     number, unit = str(value).split()
-    return float(number) * {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6}[unit]
+    return float(number) * UNIT_SI[unit]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -293,14 +287,11 @@ def main(argv: list[str] | None = None) -> int:
         description="Write the SYNTHETIC matid demo study (study.toml, CSVs, ground_truth.json).",
     )
     parser.add_argument(
-        "--out",
-        type=Path,
-        default=None,
-        help="output folder (default: the package folder, demo variant only)",
+        "--out", type=Path, help="output folder (default: the package folder, demo variant only)"
     )
     parser.add_argument("--seed", type=int, default=2611, help="noise seed (default 2611)")
     parser.add_argument("--variant", choices=VARIANTS, default="demo")
-    args = parser.parse_args(argv)  # fmt: skip
+    args = parser.parse_args(argv)
     if args.out is None:
         if args.variant != "demo":
             parser.error("--out is required for --variant alt")

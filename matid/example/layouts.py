@@ -25,22 +25,23 @@ DEG = math.pi / 180.0
 MT = 1e-3
 MM = 1e-3
 
+
+def _truth(E_b: float, E_t: float, E_e: float, E_s: float, k2: float, eta: float) -> dict[str, float]:
+    """One specimen's parameters; the SLS's k1 is E_e (physics.md section 1)."""
+    return {"E_b": E_b, "E_t": E_t, "E_e": E_e, "E_s": E_s, "sls_k1": E_e, "sls_k2": k2, "sls_eta": eta}
+
+
 #: Ground truth of the demo (SI): E_b = EI and E_t = GJ [N m^2], E_e = EA and E_s = kGA [N],
 #: SLS k1, k2 [N], eta [N s]. E_s = k(nu) A E_t / J with Hutchinson's k (physics.md section 7):
 #: T1 at its stated poisson_ratio 0.42, T2 at nu = 0.4 (its study entry states none).
 DEMO_TRUTH = {
-    "T1": {"E_b": 6.5e-5, "E_t": 4.4e-5, "E_e": 120.0, "E_s": 26.31,
-           "sls_k1": 120.0, "sls_k2": 90.0, "sls_eta": 450.0},  # tau = 5 s
-    "T2": {"E_b": 9.0e-5, "E_t": 6.5e-5, "E_e": 190.0, "E_s": 47.9,
-           "sls_k1": 190.0, "sls_k2": 114.0, "sls_eta": 1368.0},  # tau = 12 s
-}  # fmt: skip
-
+    "T1": _truth(6.5e-5, 4.4e-5, 120.0, 26.31, k2=90.0, eta=450.0),  # tau = 5 s
+    "T2": _truth(9.0e-5, 6.5e-5, 190.0, 47.9, k2=114.0, eta=1368.0),  # tau = 12 s
+}
 ALT_TRUTH = {
-    "P-01": {"E_b": 8.0e-5, "E_t": 5.4e-5, "E_e": 150.0, "E_s": 16.0,
-             "sls_k1": 150.0, "sls_k2": 135.0, "sls_eta": 405.0},  # tau = 3 s
-    "P-02": {"E_b": 5.2e-5, "E_t": 3.8e-5, "E_e": 105.0, "E_s": 12.0,
-             "sls_k1": 105.0, "sls_k2": 58.0, "sls_eta": 1044.0},  # tau = 18 s
-}  # fmt: skip
+    "P-01": _truth(8.0e-5, 5.4e-5, 150.0, 16.0, k2=135.0, eta=405.0),  # tau = 3 s
+    "P-02": _truth(5.2e-5, 3.8e-5, 105.0, 12.0, k2=58.0, eta=1044.0),  # tau = 18 s
+}
 
 #: Torsion beyond the linear range (forward.torsion_torque): onset and scale in rad/m.
 DEMO_TORSION = {"form": "softening", "sign": -1.0, "onset": 60.0, "scale": 150.0}
@@ -83,15 +84,16 @@ def _torsion(sid, mm, columns, dialect):
     )  # fmt: skip
 
 
+#: The demo's three-point-bend rig: set-up (SI) and its study.toml keys.
+BEND_RIG = {"span": 10 * MM, "specimen_length": 30 * MM, "support_radius": 2 * MM, "nose_radius": 2 * MM}
+BEND_TOML = {"span": "10 mm", "specimen_length": "30 mm", "support_radius": "2 mm", "nose_radius": "2 mm"}
+
+
 def _three_point(sid, columns, dialect, *, preamble="short"):
     return TestSpec(
         kind="three_point_bend", specimen=sid, file=f"3pb_{sid}_S10.csv",
-        setup={"span": 10 * MM, "specimen_length": 30 * MM, "support_radius": 2 * MM,
-               "nose_radius": 2 * MM, "d_max": 1 * MM, "n_load": 30, "n_unload": 8,
-               "rate": 0.02 * MM},
-        toml={"span": "10 mm", "specimen_length": "30 mm", "support_radius": "2 mm",
-              "nose_radius": "2 mm"},
-        columns=columns, dialect=dialect, preamble=preamble,
+        setup={**BEND_RIG, "d_max": 1 * MM, "n_load": 30, "n_unload": 8, "rate": 0.02 * MM},
+        toml=BEND_TOML, columns=columns, dialect=dialect, preamble=preamble,
         description="span 10 mm, nose 0..1 mm at 0.02 mm/s (30 loading rows), 8 unloading rows",
     )  # fmt: skip
 
@@ -100,12 +102,9 @@ def _centreline(sid, columns, dialect):
     """A bend whose deflection is the tube's mid-span centreline relative to the supports (video/DIC)."""
     return TestSpec(
         kind="three_point_bend", specimen=sid, file=f"3pb_{sid}_S10_centreline.csv",
-        setup={"span": 10 * MM, "specimen_length": 30 * MM, "support_radius": 2 * MM,
-               "nose_radius": 2 * MM, "d_max": 0.3 * MM, "n_load": 30, "n_unload": 0,
-               "rate": 0.01 * MM, "deflection_at": "centreline"},
-        toml={"span": "10 mm", "specimen_length": "30 mm", "support_radius": "2 mm",
-              "nose_radius": "2 mm", "deflection_at": "centreline"},
-        columns=columns, dialect=dialect,
+        setup={**BEND_RIG, "d_max": 0.3 * MM, "n_load": 30, "n_unload": 0, "rate": 0.01 * MM,
+               "deflection_at": "centreline"},
+        toml={**BEND_TOML, "deflection_at": "centreline"}, columns=columns, dialect=dialect,
         description="span 10 mm, centreline deflection by side camera 0..0.3 mm (30 rows), loading only",
     )  # fmt: skip
 
