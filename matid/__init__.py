@@ -18,16 +18,17 @@ __version__ = "0.1.0"
 
 __all__ = ["FitResult", "__version__", "fit", "load_study"]
 
-_API = {"fit", "load_study", "FitResult"}
+#: The API, imported on first use: name -> its module.
+_API = {"fit": "matid.app.api", "FitResult": "matid.app.api", "load_study": "matid.io.study"}
 
 
 def __getattr__(name: str):
     if name in _API:
-        from matid.app import api
+        import importlib
 
-        return getattr(api, name)
+        return getattr(importlib.import_module(_API[name]), name)
     raise AttributeError(f"module 'matid' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | _API)
+    return sorted(set(globals()) | set(_API))

@@ -1,4 +1,4 @@
-"""The Python API for a notebook or a script: :func:`fit` and :func:`load_study`.
+"""The Python API for a notebook or a script: :func:`fit`; ``matid.load_study`` is matid.io.study's.
 
 docs/contract.md section 8::
 
@@ -28,13 +28,6 @@ if TYPE_CHECKING:  # heavy imports only when used
     from matid.io.study import Study
 
 
-def load_study(path: str | Path) -> Study:
-    """Read and validate a study (a folder holding ``study.toml``, or the toml); DataError if unusable."""
-    from matid.io.study import load_study as _load
-
-    return _load(path)
-
-
 def fit(study: str | Path | Study, *, progress: Callable[[str], None] | None = None) -> FitResult:
     """Fit every specimen and test kind of a study (a path or a loaded :class:`~matid.io.study.Study`).
 
@@ -44,7 +37,7 @@ def fit(study: str | Path | Study, *, progress: Callable[[str], None] | None = N
     per step, e.g. ``print``.
     """
     from matid.app.pipeline import run_study
-    from matid.io.study import Study
+    from matid.io.study import Study, load_study
 
     loaded = study if isinstance(study, Study) else load_study(study)
     return FitResult(run_study(loaded, progress=progress))
@@ -92,20 +85,13 @@ class FitResult:
         from matid.errors import DataError
         from matid.report.figures import fit_figure
 
-        fits = [f for f in self.study_result.fits if f.specimen == specimen]
-        names = {"sls_k1": "E_e", "E_e": "sls_k1"}
+        fits = self.study_result.fits
+        names = {parameter, {"sls_k1": "E_e", "E_e": "sls_k1"}.get(parameter, parameter)}
         match = next(
-            (
-                f
-                for f in fits
-                if {e.parameter for e in f.estimates} & {parameter, names.get(parameter, parameter)}
-            ),
-            None,
+            (f for f in fits if f.specimen == specimen and names & {e.parameter for e in f.estimates}), None
         )
         if match is None:
-            there = sorted(
-                {f"{f.specimen} {e.parameter}" for f in self.study_result.fits for e in f.estimates}
-            )
+            there = sorted({f"{f.specimen} {e.parameter}" for f in fits for e in f.estimates})
             raise DataError(f"no fit gives {parameter} of specimen {specimen}; fitted: {', '.join(there)}")
         return fit_figure(match, units)
 
