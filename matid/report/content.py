@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from datetime import datetime
 
 from matid import __version__
 from matid.io.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
@@ -17,16 +16,7 @@ from matid.io.status import INSEPARABLE_R, STRONG_R
 from matid.report.bend import bend_drawings
 from matid.report.diagnostics import glossary, lack_of_fit_table, model_choice_table
 from matid.report.figures import Drawing, ExtraFigure, axis_unit, extra_figures, has_plot
-from matid.report.formats import (  # noqa: F401 - format_value re-exported
-    fe_notes,
-    fmt,
-    format_fe,
-    format_held,
-    format_runtime,
-    format_started,
-    format_value,
-    parse_started,
-)
+from matid.report.formats import fe_notes, format_fe, format_held, format_runtime, format_started
 from matid.report.holds import hold_drawings
 from matid.report.quantities import Cell, info_cell
 from matid.report.records import TestView, record_view
@@ -58,6 +48,16 @@ PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in p
 MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± standard error (1σ)", "unit", "check")
 #: Info items not shown in the details table: figures and the arrays the figures are drawn from.
 HIDDEN_INFO = ("figures", "plot_data", "force_time")
+#: Info items whose mapping reads in words or as a table of its own: key -> (label, cell or None).
+MAPPING_INFO = {
+    "fe": ("FE mesh and solver", format_fe),
+    "held_stiffness_propagation": (
+        "uncertainty of the held stiffnesses in E_s",
+        lambda v: format_held(v) or "none",
+    ),
+    "lack_of_fit": ("lack of fit", lack_of_fit_table),
+    "model_choice": ("relaxation model compared", model_choice_table),
+}
 
 
 @dataclass(frozen=True)
@@ -88,8 +88,7 @@ class Block:
 
 @dataclass(frozen=True)
 class Section:
-    kind: str
-    anchor: str
+    kind: str  # also the section's anchor
     title: str
     parameters: str
     blocks: tuple[Block, ...]
@@ -100,7 +99,6 @@ class Report:
     study: str
     temperature: str
     started: str
-    run_date: datetime | None  # result.started parsed, for the PDF's CreationDate
     runtime: str
     matid_version: str
     versions: tuple[tuple[str, str], ...]
@@ -131,7 +129,6 @@ def build_report(result: StudyResult, units: str) -> Report:
         study=result.study.name,
         temperature=result.study.temperature or "not given",
         started=format_started(result.started),
-        run_date=parse_started(result.started),
         runtime=format_runtime(result.runtime_s),
         matid_version=result.versions.get("matid", __version__),
         versions=tuple((k, str(v)) for k, v in result.versions.items() if k != "matid"),
@@ -275,7 +272,7 @@ def _sections(result: StudyResult, doc: Mapping, units: str) -> list[Section]:
             _block(result, doc, kind, sid, f"{kind}-{i + 1}", units)
             for i, sid in enumerate(_specimens_of(result, kind))
         ]
-        sections.append(Section(kind, kind, title, ", ".join(params), tuple(blocks)))
+        sections.append(Section(kind, title, ", ".join(params), tuple(blocks)))
     return sections
 
 
@@ -339,14 +336,7 @@ def _info(fit: TestFit, units: str) -> tuple[tuple[str, Cell], ...]:
     for key, value in fit.info.items():
         if key in HIDDEN_INFO or key == "fe" and value in shown:  # fe: under the parameters already
             continue
-        if key == "fe" and isinstance(value, Mapping):
-            rows.append(("FE mesh and solver", format_fe(value)))
-        elif key == "held_stiffness_propagation" and isinstance(value, Mapping):
-            rows.append(("uncertainty of the held stiffnesses in E_s", format_held(value) or "none"))
-        elif key == "lack_of_fit" and isinstance(value, Mapping) and lack_of_fit_table(value):
-            rows.append(("lack of fit", lack_of_fit_table(value)))
-        elif key == "model_choice" and isinstance(value, Mapping) and model_choice_table(value):
-            rows.append(("relaxation model compared", model_choice_table(value)))
-        else:
-            rows.append(info_cell(str(key), value, units, axes))
+        label, make = MAPPING_INFO.get(key, ("", None))
+        cell = make(value) if make is not None and isinstance(value, Mapping) else None
+        rows.append((label, cell) if cell is not None else info_cell(str(key), value, units, axes))
     return tuple(rows)

@@ -190,7 +190,7 @@ def _warnings(report: Report) -> list[Flowable]:
 def _section(section: Section, images: Images) -> list[Flowable]:
     story: list[Flowable] = [
         PageBreak(),
-        heading(f"{section.title} ({section.parameters})", 14, key=section.anchor),
+        heading(f"{section.title} ({section.parameters})", 14, key=section.kind),
         _section_rule(),
     ]
     for block in section.blocks:
