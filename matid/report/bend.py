@@ -48,7 +48,7 @@ from matid.report.figures import (
 from matid.report.summary import SUPERSCRIPT
 
 MM = 1e3
-TUBE, CYLINDER, CYLINDER_EDGE, BAND = "#0072B2", "#d9dce1", "#555555", "#8a94a6"
+TUBE, CYLINDER, CYLINDER_EDGE = "#0072B2", "#d9dce1", "#555555"
 TIMOSHENKO = "Timoshenko formula, same E_b and E_s"
 PANEL_TITLE, PANEL_GAP = 0.22, 0.55  # inches above a shape panel for its title; between panels
 ARRAYS = ("d", "F", "model", "timoshenko", "plus10")  # per curve, one value per loading point
@@ -156,18 +156,17 @@ def bend_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
             partial(draw_sensitivity, plots=plots, units=units),
         ),
     ]
-    fe = (fit.estimate("E_s").extra.get("fe") if fit.estimate("E_s") else None) or {}
+    est = fit.estimate("E_s")
+    fe = (est.extra.get("fe") if est else None) or {}
     if fe.get("levels"):
-        est = fit.estimate("E_s")
+        stat = est.stderr / est.value if est.stderr else None  # relative statistical error of E_s
         drawings.append(
             Drawing(
                 "Error against run time",
-                _fe_caption(fe, est.stderr / est.value if est.stderr else None),
+                _fe_caption(fe, stat),
                 f"Discretisation error of E_s against run time, {who}",
                 (FIT_SIZE[0], 2.8),
-                partial(
-                    draw_fe_levels, levels=fe["levels"], stat=est.stderr / est.value if est.stderr else None
-                ),
+                partial(draw_fe_levels, levels=fe["levels"], stat=stat),
             )
         )
     shaped = tuple(c for c in plots.curves if c.shape is not None)
@@ -263,7 +262,10 @@ def draw_force(fig: Figure, rect: Rect, *, plots: BendPlots, units: str = "SI") 
         ax.plot(d, c.F * force.factor, "o", color=colour, markersize=3, alpha=0.75)
         ax.plot(d, c.model * force.factor, "-", color=colour, linewidth=1.6)
         ax.plot(d, c.timoshenko * force.factor, "--", color=colour, linewidth=1.1)
-    handles = [_marker(i) for i in range(len(plots.curves))]
+    handles = [
+        Line2D([], [], color=COLOURS[i % len(COLOURS)], marker="o", markersize=4, linestyle="none")
+        for i in range(len(plots.curves))
+    ]
     labels = [f"{c.label} ({_span(c)})" for c in plots.curves]
     handles += [
         Line2D([], [], color="#333333", linewidth=1.6),
@@ -398,10 +400,6 @@ def shape_height(curves: Sequence[Curve]) -> float:
 def _axes(fig: Figure, rect: Rect):
     left, bottom, right, top = rect
     return fig.add_axes((left, bottom, right - left, top - bottom))
-
-
-def _marker(i: int) -> Line2D:
-    return Line2D([], [], color=COLOURS[i % len(COLOURS)], marker="o", markersize=4, linestyle="none")
 
 
 # -- captions ----------------------------------------------------------------------------------

@@ -109,7 +109,6 @@ class Report:
     moduli: Table | None  # E and G from the stiffnesses and the section
     notes: tuple[Note, ...]  # every warning of the fits, numbered as the summary marks them
     failures: tuple[str, ...]
-    warnings: tuple[str, ...]
     pending: tuple[str, ...]
     sections: tuple[Section, ...]
     provenance: Table
@@ -119,9 +118,6 @@ class Report:
 def build_report(result: StudyResult, units: str) -> Report:
     """Everything the report shows, formatted once for both renderers."""
     doc = stiffness_json(result, units)
-    # StudyResult.warnings() also lists failures and pending tests, which the report shows apart
-    # (naming the parameter): drop those lines, whatever their wording, by asking without fits.
-    apart = set(replace(result, fits=()).warnings())
     titles = {kind: title for kind, (title, _) in KINDS.items()}
     notes = [replace(n, text=in_units(n.text, units)) for n in notes_of(result, titles)]
     moduli = moduli_rows(result, units)
@@ -141,7 +137,6 @@ def build_report(result: StudyResult, units: str) -> Report:
         else None,
         notes=tuple(notes),
         failures=tuple(failure_message(f) for f in result.failures),
-        warnings=tuple(w for w in result.warnings() if w not in apart),
         pending=tuple(pending_message(p, with_specimen=True) for p in result.pending),
         sections=tuple(_sections(result, doc, units)),
         provenance=provenance_table(result.inputs),
@@ -163,19 +158,10 @@ def _param_row(name: str, item: Mapping, marks: list[int]) -> tuple[str, ...]:
 def _summary_row(sid: str, name: str, item: Mapping, marks: list[int], units: str) -> tuple[str, ...]:
     """Page 1's row: the status in words, the value and its 95 % interval, the reason in one line."""
     value, _, _, low, high, unit = value_cells(item)
-    why = in_units(reason_line(item), units) or (
-        "fixed in study.toml, not fitted" if item["method"] == "fixed" else ""
-    )
-    why = " ".join(part for part in (why, mark_text(marks)) if part)
-    return (
-        sid,
-        name,
-        status_words(str(item.get("status", "ok"))),
-        value,
-        interval_text(low, high),
-        unit,
-        why,
-    )
+    fixed = "fixed in study.toml, not fitted" if item["method"] == "fixed" else ""
+    why = " ".join(part for part in (in_units(reason_line(item), units) or fixed, mark_text(marks)) if part)
+    status = status_words(str(item.get("status", "ok")))
+    return (sid, name, status, value, interval_text(low, high), unit, why)
 
 
 def _parameters_of(kind: str) -> str:

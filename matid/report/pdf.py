@@ -21,7 +21,7 @@ from reportlab.platypus.flowables import Flowable, HRFlowable
 
 from matid.report.content import Block, Report, Section, Table, TestView
 from matid.report.figures import DPI, png_size
-from matid.report.images import Image, Images, render_images
+from matid.report.images import Image, Images
 from matid.report.pdfparts import (
     AMBER,
     GREEN,
@@ -50,10 +50,9 @@ FIT_HEIGHT = 4.3 * inch  # the most a fit plot takes of a page (its PNG scaled t
 DRAWING_HEIGHT = 4.6 * inch
 
 
-def render_pdf(report: Report, images: Images | None = None) -> bytes:
-    """The report as PDF bytes (figures from ``images``, rendered here if not given)."""
+def render_pdf(report: Report, images: Images) -> bytes:
+    """The report as PDF bytes, its figures from ``images``."""
     register_fonts()
-    images = render_images(report) if images is None else images
     buffer = io.BytesIO()
     doc = _document(buffer, report)
     story = _first_page(report)
@@ -66,13 +65,8 @@ def render_pdf(report: Report, images: Images | None = None) -> bytes:
     return buffer.getvalue()
 
 
-class _Document(BaseDocTemplate):
-    def beforeDocument(self) -> None:  # noqa: N802 -- platypus' hook
-        self.canv.showOutline()  # the viewer opens with the outline shown
-
-
 def _document(buffer: io.BytesIO, report: Report) -> BaseDocTemplate:
-    doc = _Document(
+    doc = BaseDocTemplate(
         buffer,
         pagesize=A4,
         leftMargin=MARGIN_X,
@@ -88,6 +82,7 @@ def _document(buffer: io.BytesIO, report: Report) -> BaseDocTemplate:
     header, footer = f"{report.study}: stiffness identification report", f"matid {report.matid_version}"
 
     def decorate(canvas, document) -> None:
+        canvas.showOutline()  # the viewer opens with the outline shown
         canvas.saveState()
         canvas.setFont(SANS, 7)
         canvas.setFillColor(MUTED)

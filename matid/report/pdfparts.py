@@ -30,12 +30,6 @@ from reportlab.pdfbase.ttfonts import TTFont
 from reportlab.platypus import Flowable, Image, KeepTogether, Paragraph, Spacer, Table, TableStyle
 
 SANS, SANS_BOLD, MONO, MONO_BOLD = "DejaVuSans", "DejaVuSans-Bold", "DejaVuSansMono", "DejaVuSansMono-Bold"
-FONT_FILES = {
-    SANS: "DejaVuSans.ttf",
-    SANS_BOLD: "DejaVuSans-Bold.ttf",
-    MONO: "DejaVuSansMono.ttf",
-    MONO_BOLD: "DejaVuSansMono-Bold.ttf",
-}
 INK, MUTED, RULE = colors.HexColor("#1d1d1f"), colors.HexColor("#5f6368"), colors.HexColor("#c8ccd2")
 HEAD_FACE, ZEBRA = colors.HexColor("#e6e9ee"), colors.HexColor("#f3f4f6")
 AMBER = (colors.HexColor("#fff4d6"), colors.HexColor("#e0a800"))
@@ -64,8 +58,8 @@ def binary_streams() -> Iterator[None]:
 def register_fonts() -> None:
     """Register the DejaVu fonts (once per process) as one family: <b> selects the bold face."""
     folder = Path(matplotlib.get_data_path()) / "fonts" / "ttf"
-    for name, file in FONT_FILES.items():
-        pdfmetrics.registerFont(TTFont(name, str(folder / file)))
+    for name in (SANS, SANS_BOLD, MONO, MONO_BOLD):
+        pdfmetrics.registerFont(TTFont(name, str(folder / f"{name}.ttf")))
     pdfmetrics.registerFontFamily(SANS, normal=SANS, bold=SANS_BOLD, italic=SANS, boldItalic=SANS_BOLD)
     pdfmetrics.registerFontFamily(MONO, normal=MONO, bold=MONO_BOLD, italic=MONO, boldItalic=MONO_BOLD)
 
@@ -194,13 +188,10 @@ def table(
     fonts = [MONO if m else SANS for m in mono]
     widths = column_widths(header, rows, fonts, size, width)
     data = [[_cell(h, SANS_BOLD, size, w, right=r) for h, w, r in zip(header, widths, numeric, strict=True)]]
-    for row in rows:
-        data.append(
-            [
-                _cell(str(c), f, size, w, right=r)
-                for c, f, w, r in zip(row, fonts, widths, numeric, strict=True)
-            ]
-        )
+    data += [
+        [_cell(str(c), f, size, w, right=r) for c, f, w, r in zip(row, fonts, widths, numeric, strict=True)]
+        for row in rows
+    ]
     return Table(
         data,
         colWidths=widths,

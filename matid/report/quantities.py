@@ -281,14 +281,11 @@ def _mapping_table(value: Mapping, spec: Key, kind: str | None, units: str, axes
         unit = unit_of(kind, units, axes)[0]
         values = [_bare(quantity(v, kind, units, axes), unit) for v in value.values()]
         return Nested((head, _headed("value", unit)), tuple(zip(keys, values, strict=True)))
-    rows = tuple(
-        (
-            label_of(name),
-            text_of(v) if isinstance(v, Mapping) else quantity(v, info_kind(name), units, axes),
-        )
-        for name, v in value.items()
-    )
-    return Nested(("item", "value"), rows)
+    cells = [
+        text_of(v) if isinstance(v, Mapping) else quantity(v, info_kind(k), units, axes)
+        for k, v in value.items()
+    ]
+    return Nested(("item", "value"), tuple(zip(map(label_of, value), cells, strict=True)))
 
 
 def _bare(text: str, unit: str) -> str:

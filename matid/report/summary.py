@@ -20,15 +20,7 @@ from matid.physics.moduli import MODULUS_OF, agreement, modulus
 from matid.report.quantities import DISPLAY, fmt
 
 #: Page 1: the status of each value in words, the value and its 95 % interval, the reason.
-SUMMARY_COLUMNS = (
-    "specimen",
-    "parameter",
-    "status",
-    "value",
-    "95 % interval",
-    "unit",
-    "why",
-)
+SUMMARY_COLUMNS = ("specimen", "parameter", "status", "value", "95 % interval", "unit", "why")
 SUMMARY_NUMERIC = (False, False, False, True, True, False, False)
 #: A fit's own table: the same with the standard error, the points and the method.
 FIT_COLUMNS = (
@@ -104,10 +96,7 @@ def merged_names(params: Mapping[str, Mapping]) -> list[tuple[str, Mapping]]:
     """Parameters with their entries; one estimate under two names (E_e, sls_k1) once."""
     out: list[tuple[str, Mapping]] = []
     for name, item in params.items():
-        twin = next(
-            (i for i, (_, seen) in enumerate(out) if _same(seen, item)),
-            None,
-        )
+        twin = next((i for i, (_, seen) in enumerate(out) if _same(seen, item)), None)
         if twin is None:
             out.append((name, item))
         else:
