@@ -121,14 +121,8 @@ def _shape(raw: Mapping, where: str) -> Shape:
         raise ValueError(f"{where}: shape z and x must be finite 1-d arrays of equal length")
     cylinders = tuple((float(c[0][0]), float(c[0][1]), float(c[1])) for c in [*raw["supports"], raw["nose"]])
     contact = raw.get("support_contact_s")
-    return Shape(
-        z,
-        x,
-        float(raw["outer_radius"]),
-        float(raw["deflection"]),
-        cylinders,
-        None if contact is None else float(contact),
-    )
+    contact = None if contact is None else float(contact)
+    return Shape(z, x, float(raw["outer_radius"]), float(raw["deflection"]), cylinders, contact)
 
 
 # -- the drawings ------------------------------------------------------------------------------

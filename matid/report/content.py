@@ -97,11 +97,8 @@ class Section:
 @dataclass(frozen=True)
 class Report:
     study: str
-    temperature: str
-    started: str
-    runtime: str
+    meta: tuple[tuple[str, str], ...]  # the run: temperature, start, run time, units, software
     matid_version: str
-    versions: tuple[tuple[str, str], ...]
     units: str
     summary_intro: str  # what the summary table shows: units, interval, rounding
     status_legend: tuple[tuple[str, str], ...]  # each status word and what it asks of the reader
@@ -121,13 +118,18 @@ def build_report(result: StudyResult, units: str) -> Report:
     titles = {kind: title for kind, (title, _) in KINDS.items()}
     notes = [replace(n, text=in_units(n.text, units)) for n in notes_of(result, titles)]
     moduli = moduli_rows(result, units)
+    others = dict(result.versions)
+    version = others.pop("matid", __version__)
     return Report(
         study=result.study.name,
-        temperature=result.study.temperature or "not given",
-        started=format_started(result.started),
-        runtime=format_runtime(result.runtime_s),
-        matid_version=result.versions.get("matid", __version__),
-        versions=tuple((k, str(v)) for k, v in result.versions.items() if k != "matid"),
+        meta=(
+            ("Temperature", result.study.temperature or "not given"),
+            ("Run started", format_started(result.started)),
+            ("Runtime", format_runtime(result.runtime_s)),
+            ("Units", units),
+            ("Software", ", ".join([f"matid {version}", *(f"{k} {v}" for k, v in others.items())])),
+        ),
+        matid_version=version,
         units=units,
         summary_intro=summary_intro(units),
         status_legend=STATUS_LEGEND,

@@ -43,15 +43,12 @@ def hold_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
         return []
     checked = [_run(r, i) for i, r in enumerate(runs)]
     model = any(r["model"] is not None for r in checked)
+    fitted = (
+        f" and the {model_name(fit.info)} (lines), residuals (measured minus model) below" if model else ""
+    )
     caption = (
-        "Measured force against time (markers)"
-        + (
-            f" and the {model_name(fit.info)} (lines), residuals (measured minus model) below"
-            if model
-            else ""
-        )
-        + "; one colour per run; hollow grey points are left out of the fit. "
-        + f"Force in {'dyn' if units == 'cgs' else 'N'}, time in s."
+        f"Measured force against time (markers){fitted}; one colour per run; hollow grey points are left out "
+        f"of the fit. Force in {'dyn' if units == 'cgs' else 'N'}, time in s."
     )
     return [
         Drawing(

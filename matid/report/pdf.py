@@ -128,19 +128,8 @@ def _first_page(report: Report) -> list[Flowable]:
 
 
 def _title(report: Report) -> list[Flowable]:
-    software = ", ".join([f"matid {report.matid_version}", *(f"{k} {v}" for k, v in report.versions)])
-    story: list[Flowable] = [
-        para("Stiffness identification report", 10, muted=True, space=2),
-        heading(report.study, 18),
-    ]
-    for key, value in (
-        ("Temperature", report.temperature),
-        ("Run started", report.started),
-        ("Runtime", report.runtime),
-        ("Units", report.units),
-        ("Software", software),
-    ):
-        story.append(para(f"{key}: {value}", 8.5))
+    story = [para("Stiffness identification report", 10, muted=True, space=2), heading(report.study, 18)]
+    story += [para(f"{key}: {value}", 8.5) for key, value in report.meta]
     if report.sections:
         parts = "; ".join(f"{s.title} ({s.parameters})" for s in report.sections)
         story += [space(4), para(f"Sections: {parts}; Provenance", 8.5)]

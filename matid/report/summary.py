@@ -166,18 +166,10 @@ def moduli_rows(result: StudyResult, units: str) -> list[tuple[str, ...]]:
             if statuses[(sid, source)].status == "check":
                 note = "; ".join(filter(None, (f"from {source}, a value to check", note)))
             section = {"E_e": "A", "E_b": "I", "E_t": "J"}[source]
-            power, decimals = scale_of(m.value * factor, None if m.stderr is None else m.stderr * factor)
-            rows.append(
-                (
-                    sid,
-                    m.name,
-                    f"{source} / {section}",
-                    scaled(m.value * factor, power, decimals),
-                    scaled(None if m.stderr is None else m.stderr * factor, power, decimals),
-                    power_unit(power, unit),
-                    note,
-                )
-            )
+            value, stderr = m.value * factor, None if m.stderr is None else m.stderr * factor
+            power, decimals = scale_of(value, stderr)
+            cells = (scaled(value, power, decimals), scaled(stderr, power, decimals), power_unit(power, unit))
+            rows.append((sid, m.name, f"{source} / {section}", *cells, note))
     return rows
 
 
