@@ -326,29 +326,12 @@ def _draw_shape(ax, shape: Shape, colour: str) -> None:
     z, x, R = shape.z * MM, shape.x * MM, shape.outer_radius * MM
     ax.axhline(0.0, color="#9a9a9a", linewidth=0.8, linestyle=(0, (4, 3)), zorder=1)
     for cz, cx, r in shape.cylinders:
-        ax.add_patch(
-            Circle(
-                (cz * MM, cx * MM),
-                r * MM,
-                facecolor=CYLINDER,
-                edgecolor=CYLINDER_EDGE,
-                linewidth=0.9,
-                zorder=2,
-            )
-        )
-        ax.plot(cz * MM, cx * MM, "+", color=CYLINDER_EDGE, markersize=4, zorder=2)
+        centre = (cz * MM, cx * MM)
+        ax.add_patch(Circle(centre, r * MM, fc=CYLINDER, ec=CYLINDER_EDGE, lw=0.9, zorder=2))
+        ax.plot(*centre, "+", color=CYLINDER_EDGE, markersize=4, zorder=2)
     upper, lower = outline(z, x, R)
-    ax.add_patch(
-        Polygon(
-            np.vstack([upper, lower[::-1]]),
-            closed=True,
-            facecolor=colour,
-            alpha=0.25,
-            edgecolor=colour,
-            linewidth=0.9,
-            zorder=3,
-        )
-    )
+    tube = np.vstack([upper, lower[::-1]])
+    ax.add_patch(Polygon(tube, closed=True, fc=colour, alpha=0.25, ec=colour, lw=0.9, zorder=3))
     ax.plot(z, x, "-", color=colour, linewidth=1.4, zorder=4)
     if shape.deflection > 0:  # the nose deflection, from the undeformed to the deformed centreline
         nose_z = shape.cylinders[-1][0] * MM

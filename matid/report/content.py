@@ -48,6 +48,11 @@ PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in p
 MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± standard error (1σ)", "unit", "check")
 #: Info items not shown in the details table: figures and the arrays the figures are drawn from.
 HIDDEN_INFO = ("figures", "plot_data", "force_time")
+#: What a correlation of the estimates at least this strong (|r|) means for reading them.
+CORRELATION_WORDS = (
+    (INSEPARABLE_R, "inseparable: the data fix only a combination (not identifiable)"),
+    (STRONG_R, "strong: read the two together (check it)"),
+)
 #: Info items whose mapping reads in words or as a table of its own: key -> (label, cell or None).
 MAPPING_INFO = {
     "fe": ("FE mesh and solver", format_fe),
@@ -234,14 +239,8 @@ def _correlation(fit: TestFit) -> Table | None:
     rows = []
     for pair, r in fit.correlation.items():
         a, _, b = str(pair).partition("|")
-        strong = (
-            "inseparable: the data fix only a combination (not identifiable)"
-            if abs(r) >= INSEPARABLE_R
-            else "strong: read the two together (check it)"
-            if abs(r) >= STRONG_R
-            else ""
-        )
-        rows.append((a, b or "—", f"{r:+.3f}", strong))
+        strength = next((words for least, words in CORRELATION_WORDS if abs(r) >= least), "")
+        rows.append((a, b or "—", f"{r:+.3f}", strength))
     return Table(("parameter", "with", "r", ""), tuple(rows), (False, False, True, False))
 
 
@@ -249,18 +248,15 @@ def _correlation(fit: TestFit) -> Table | None:
 
 
 def _sections(result: StudyResult, doc: Mapping, units: str) -> list[Section]:
-    present = {t.kind for t in result.study.tests}
-    present |= {f.kind for f in result.fits}
-    present |= {_test_kind(f.kind) for f in (*result.failures, *result.pending)}
+    """A section per test kind with anything to show, a block per specimen."""
     sections = []
     for kind, (title, params) in KINDS.items():
-        if kind not in present:
-            continue
-        blocks = [
-            _block(result, doc, kind, sid, f"{kind}-{i + 1}", units)
-            for i, sid in enumerate(_specimens_of(result, kind))
-        ]
-        sections.append(Section(kind, title, ", ".join(params), tuple(blocks)))
+        specimens = _specimens_of(result, kind)
+        if specimens:
+            blocks = (
+                _block(result, doc, kind, sid, f"{kind}-{i + 1}", units) for i, sid in enumerate(specimens)
+            )
+            sections.append(Section(kind, title, ", ".join(params), tuple(blocks)))
     return sections
 
 

@@ -20,7 +20,6 @@ from reportlab.platypus import BaseDocTemplate, Frame, PageBreak, PageTemplate, 
 from reportlab.platypus.flowables import Flowable, HRFlowable
 
 from matid.report.content import Block, Report, Section, Table, TestView
-from matid.report.figures import DPI, png_size
 from matid.report.images import Image, Images
 from matid.report.pdfparts import (
     AMBER,
@@ -191,7 +190,7 @@ def _block(section: Section, block: Block, images: Images) -> list[Flowable]:
         story += [box(para(line, 8.5, bold=True), (), colours, width=WIDTH), space(6)]
     if block.plot:
         image = images.plots[block.anchor]
-        story.append(figure(None, _picture(image.png, FIT_HEIGHT), image.caption))
+        story.append(figure(None, picture(image.png, width=WIDTH, max_height=FIT_HEIGHT), image.caption))
     if block.parameters and block.parameters.rows:
         story += [heading("Parameters", 9.5), _table(block.parameters), space(6)]
     if block.warnings:
@@ -204,17 +203,13 @@ def _block(section: Section, block: Block, images: Images) -> list[Flowable]:
     story += _info(block.info)
     for extra in block.extras:
         if extra.png:
-            story.append(figure(extra.title, _picture(extra.png, DRAWING_HEIGHT), ""))
+            story.append(figure(extra.title, picture(extra.png, width=WIDTH, max_height=DRAWING_HEIGHT), ""))
         else:
             story += [_failed(extra.title, str(extra.error)), space(6)]
     if block.tests:
         story.append(heading("Tests", 9.5))
         story += [_test(test) for test in block.tests]
     return [*story, space(10)]
-
-
-def _picture(png: bytes, max_height: float) -> Flowable:
-    return picture(png, png_size(png), DPI, width=WIDTH, max_height=max_height)
 
 
 def _failed(title: str, error: str) -> Flowable:
@@ -225,7 +220,7 @@ def _drawing(image: Image) -> Together:
     """A rendered drawing under its title, its caption below; or why it could not be drawn."""
     if not image.png:
         return Together([_failed(image.title, image.error), space(6)])
-    return figure(image.title, _picture(image.png, DRAWING_HEIGHT), image.caption)
+    return figure(image.title, picture(image.png, width=WIDTH, max_height=DRAWING_HEIGHT), image.caption)
 
 
 def _info(info) -> list[Flowable]:

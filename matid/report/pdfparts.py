@@ -29,6 +29,8 @@ from reportlab.pdfbase import pdfmetrics
 from reportlab.pdfbase.ttfonts import TTFont
 from reportlab.platypus import Flowable, Image, KeepTogether, Paragraph, Spacer, Table, TableStyle
 
+from matid.report.figures import DPI, png_size
+
 SANS, SANS_BOLD, MONO, MONO_BOLD = "DejaVuSans", "DejaVuSans-Bold", "DejaVuSansMono", "DejaVuSansMono-Bold"
 INK, MUTED, RULE = colors.HexColor("#1d1d1f"), colors.HexColor("#5f6368"), colors.HexColor("#c8ccd2")
 HEAD_FACE, ZEBRA = colors.HexColor("#e6e9ee"), colors.HexColor("#f3f4f6")
@@ -230,19 +232,11 @@ def _cell(text: str, font: str, size: float, width: float, *, right: bool) -> st
     return para(text, size, bold=font in (SANS_BOLD, MONO_BOLD), mono=font in (MONO, MONO_BOLD), right=right)
 
 
-def box(
-    title: Heading | Paragraph | None,
-    items: Sequence[str],
-    colours: tuple,
-    *,
-    width: float,
-    size: float = 8.5,
-) -> Table:
+def box(title: Paragraph, items: Sequence[str], colours: tuple, *, width: float) -> Table:
     """A coloured box with an accent bar on its left: a title, then one bulleted row per item
     (so that a long box continues on the next page between its items)."""
     face, edge = colours
-    rows = [[title]] if title is not None else []
-    rows += [[Paragraph(markup(item), style(size), bulletText="•")] for item in items]
+    rows = [[title]] + [[Paragraph(markup(item), style(8.5), bulletText="•")] for item in items]
     commands = [
         ("BACKGROUND", (0, 0), (-1, -1), face),
         ("LINEBEFORE", (0, 0), (0, -1), 3, edge),
@@ -259,9 +253,9 @@ def box(
 # -- figures ------------------------------------------------------------------------------------
 
 
-def picture(png: bytes, pixels: tuple[int, int], dpi: float, *, width: float, max_height: float) -> Image:
-    """A PNG at its size at ``dpi``, shrunk to ``width`` and ``max_height`` points (never enlarged)."""
-    w, h = pixels[0] * 72 / dpi, pixels[1] * 72 / dpi
+def picture(png: bytes, *, width: float, max_height: float) -> Image:
+    """A PNG at the report's dpi, shrunk to ``width`` and ``max_height`` points (never enlarged)."""
+    w, h = (pixels * 72 / DPI for pixels in png_size(png))
     scale = min(1.0, width / w, max_height / h)
     return Image(io.BytesIO(png), width=w * scale, height=h * scale, mask=None, hAlign="CENTER")
 
@@ -287,7 +281,7 @@ def assemble(story: Sequence[Flowable | Together]) -> list[Flowable]:
     return out + pending
 
 
-def figure(title: str | None, image: Image, caption: str, *, size: float = 7.5) -> Together:
+def figure(title: str | None, image: Image, caption: str) -> Together:
     """A figure kept on one page with its title above and its caption below."""
     parts = [heading(title, 9.5)] if title else []
-    return Together([*parts, image, space(2), para(caption, size, muted=True, space=6)])
+    return Together([*parts, image, space(2), para(caption, 7.5, muted=True, space=6)])

@@ -77,14 +77,8 @@ def value_cells(item: Mapping) -> tuple[str, str, str, str, str, str]:
         return ("no value", "—", "—", "—", "—", str(item["unit"]))
     power, decimals = scale_of(value, stderr)
     rel = f"{abs(stderr / value) * 100:.2g} %" if stderr and value else "—"
-    return (
-        scaled(value, power, decimals),
-        scaled(stderr, power, decimals),
-        rel,
-        scaled(ci[0], power, decimals),
-        scaled(ci[1], power, decimals),
-        power_unit(power, str(item["unit"])),
-    )
+    shown, error, low, high = (scaled(x, power, decimals) for x in (value, stderr, ci[0], ci[1]))
+    return shown, error, rel, low, high, power_unit(power, str(item["unit"]))
 
 
 def interval_text(low: str, high: str) -> str:
