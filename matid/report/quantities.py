@@ -77,7 +77,6 @@ INFO_KEYS: dict[str, Key] = {
     "unloading_rows_excluded": Key("unloading rows left out", "count"),
     "fit_window": Key("fit window", "x"),
     "levels": Key("mesh levels tried", None, row_label="level"),
-    "intercept": Key("intercept (tare offset)", "y"),
     "noise": Key("point-to-point noise of each record", "y", row_label="record"),
     "tare_offset": Key("tare offset held at", "y", row_label="record"),
     "tare_offset_estimated": Key("tare offset estimated", "y", row_label="record"),

@@ -13,6 +13,9 @@ from matid.io.results import InputFile
 from matid.io.study import OPTIONAL_KEYS, TEST_KINDS, Test
 from matid.report.formats import format_value
 
+#: Set-up values shown in a unit of their own: kind -> (factor from SI, unit).
+SETUP_UNITS = {"length": (1e3, "mm"), "moment": (1.0, "A m^2")}
+
 
 @dataclass(frozen=True)
 class TestView:
@@ -72,10 +75,7 @@ def _setup(test: Test) -> str:
     kinds = {**TEST_KINDS.get(test.kind, {}), **OPTIONAL_KEYS.get(test.kind, {})}
     parts = []
     for key, value in test.params.items():
-        if kinds.get(key) == "length":
-            parts.append(f"{key.replace('_', ' ')} {value * 1e3:.4g} mm")
-        elif kinds.get(key) == "moment":
-            parts.append(f"{key.replace('_', ' ')} {value:.4g} A m^2")
-        else:
-            parts.append(f"{key.replace('_', ' ')} {format_value(value)}")
+        shown = SETUP_UNITS.get(kinds.get(key))
+        text = f"{value * shown[0]:.4g} {shown[1]}" if shown else format_value(value)
+        parts.append(f"{key.replace('_', ' ')} {text}")
     return ", ".join(parts)
