@@ -189,13 +189,12 @@ def caption(fit: TestFit, units: str) -> str:
     """What the fit plot shows, in words (the figure caption)."""
     model = any(s.y_fit is not None for s in fit.series)
     excluded = any(s.used is not None and not np.all(s.used) for s in fit.series)
-    parts = ["Measured points (markers)" + (" and fitted model (lines)" if model else "")]
-    parts.append(", one colour per data set")
-    if excluded:
-        parts.append("; hollow grey points are excluded from the fit")
-    if model:
-        parts.append(". Residuals (measured minus model) below")
-    return "".join(parts) + ". " + unit_note(fit, units)
+    fitted = " and fitted model (lines)" if model else ""
+    hollow = "; hollow grey points are excluded from the fit" if excluded else ""
+    below = ". Residuals (measured minus model) below" if model else ""
+    return (
+        f"Measured points (markers){fitted}, one colour per data set{hollow}{below}. {unit_note(fit, units)}"
+    )
 
 
 def data_axes(fig: Figure, rect: Rect, residuals: bool) -> tuple:

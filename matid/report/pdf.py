@@ -248,14 +248,7 @@ def _test(test: TestView) -> Together:
     head = f"{test.file}  (sha256 {test.sha_short}{rows})"
     if test.exclude:
         head += "  EXCLUDED: exclude = true, left out of the fit"
-    details = []
-    if test.setup:
-        details.append(f"Set-up: {test.setup}")
-    if test.note:
-        details.append(f"Note: {test.note}")
-    if test.units:
-        details.append("Units as written: " + ", ".join(f"{c} {u}" for c, u in test.units))
-    details += [f"{k}: {v}" for k, v in test.metadata]
+    details = [*test.details, *(f"{k}: {v}" for k, v in test.metadata)]
     lines = [para(head, 8, mono=True, bold=True, space=1)] + [para(d, 7.5) for d in details]
     return Together([*lines, space(5)])
 
@@ -278,17 +271,8 @@ def _provenance(report: Report) -> list[Flowable]:
     rows = tuple((name, n, sha) for name, n, sha, _ in report.provenance.rows)
     if not rows:
         return [*story, para("No input files were read.", 8.5)]
-    story += [
-        table(
-            ("file", "rows", "sha256"),
-            rows,
-            (False, True, False),
-            width=WIDTH,
-            size=6.5,
-            mono=(False, False, True),
-        ),
-        space(6),
-    ]
+    files = Table(("file", "rows", "sha256"), rows, (False, True, False))
+    story += [_table(files, size=6.5, mono=(False, False, True)), space(6)]
     story += [
         para(f"{name}: {path}", 6.5, mono=True, muted=True) for name, _, _, path in report.provenance.rows
     ]
