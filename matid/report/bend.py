@@ -48,7 +48,7 @@ from matid.report.figures import (
 from matid.report.summary import SUPERSCRIPT
 
 MM = 1e3
-TUBE, CYLINDER, CYLINDER_EDGE, BAND = "#0072B2", "#d9dce1", "#555555", "#8a94a6"
+TUBE, CYLINDER, CYLINDER_EDGE = "#0072B2", "#d9dce1", "#555555"
 TIMOSHENKO = "Timoshenko formula, same E_b and E_s"
 PANEL_TITLE, PANEL_GAP = 0.22, 0.55  # inches above a shape panel for its title; between panels
 ARRAYS = ("d", "F", "model", "timoshenko", "plus10")  # per curve, one value per loading point
@@ -121,14 +121,8 @@ def _shape(raw: Mapping, where: str) -> Shape:
         raise ValueError(f"{where}: shape z and x must be finite 1-d arrays of equal length")
     cylinders = tuple((float(c[0][0]), float(c[0][1]), float(c[1])) for c in [*raw["supports"], raw["nose"]])
     contact = raw.get("support_contact_s")
-    return Shape(
-        z,
-        x,
-        float(raw["outer_radius"]),
-        float(raw["deflection"]),
-        cylinders,
-        None if contact is None else float(contact),
-    )
+    contact = None if contact is None else float(contact)
+    return Shape(z, x, float(raw["outer_radius"]), float(raw["deflection"]), cylinders, contact)
 
 
 # -- the drawings ------------------------------------------------------------------------------
@@ -156,18 +150,17 @@ def bend_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
             partial(draw_sensitivity, plots=plots, units=units),
         ),
     ]
-    fe = (fit.estimate("E_s").extra.get("fe") if fit.estimate("E_s") else None) or {}
+    est = fit.estimate("E_s")
+    fe = (est.extra.get("fe") if est else None) or {}
     if fe.get("levels"):
-        est = fit.estimate("E_s")
+        stat = est.stderr / est.value if est.stderr else None  # relative statistical error of E_s
         drawings.append(
             Drawing(
                 "Error against run time",
-                _fe_caption(fe, est.stderr / est.value if est.stderr else None),
+                _fe_caption(fe, stat),
                 f"Discretisation error of E_s against run time, {who}",
                 (FIT_SIZE[0], 2.8),
-                partial(
-                    draw_fe_levels, levels=fe["levels"], stat=est.stderr / est.value if est.stderr else None
-                ),
+                partial(draw_fe_levels, levels=fe["levels"], stat=stat),
             )
         )
     shaped = tuple(c for c in plots.curves if c.shape is not None)
@@ -263,7 +256,10 @@ def draw_force(fig: Figure, rect: Rect, *, plots: BendPlots, units: str = "SI") 
         ax.plot(d, c.F * force.factor, "o", color=colour, markersize=3, alpha=0.75)
         ax.plot(d, c.model * force.factor, "-", color=colour, linewidth=1.6)
         ax.plot(d, c.timoshenko * force.factor, "--", color=colour, linewidth=1.1)
-    handles = [_marker(i) for i in range(len(plots.curves))]
+    handles = [
+        Line2D([], [], color=COLOURS[i % len(COLOURS)], marker="o", markersize=4, linestyle="none")
+        for i in range(len(plots.curves))
+    ]
     labels = [f"{c.label} ({_span(c)})" for c in plots.curves]
     handles += [
         Line2D([], [], color="#333333", linewidth=1.6),
@@ -330,29 +326,12 @@ def _draw_shape(ax, shape: Shape, colour: str) -> None:
     z, x, R = shape.z * MM, shape.x * MM, shape.outer_radius * MM
     ax.axhline(0.0, color="#9a9a9a", linewidth=0.8, linestyle=(0, (4, 3)), zorder=1)
     for cz, cx, r in shape.cylinders:
-        ax.add_patch(
-            Circle(
-                (cz * MM, cx * MM),
-                r * MM,
-                facecolor=CYLINDER,
-                edgecolor=CYLINDER_EDGE,
-                linewidth=0.9,
-                zorder=2,
-            )
-        )
-        ax.plot(cz * MM, cx * MM, "+", color=CYLINDER_EDGE, markersize=4, zorder=2)
+        centre = (cz * MM, cx * MM)
+        ax.add_patch(Circle(centre, r * MM, fc=CYLINDER, ec=CYLINDER_EDGE, lw=0.9, zorder=2))
+        ax.plot(*centre, "+", color=CYLINDER_EDGE, markersize=4, zorder=2)
     upper, lower = outline(z, x, R)
-    ax.add_patch(
-        Polygon(
-            np.vstack([upper, lower[::-1]]),
-            closed=True,
-            facecolor=colour,
-            alpha=0.25,
-            edgecolor=colour,
-            linewidth=0.9,
-            zorder=3,
-        )
-    )
+    tube = np.vstack([upper, lower[::-1]])
+    ax.add_patch(Polygon(tube, closed=True, fc=colour, alpha=0.25, ec=colour, lw=0.9, zorder=3))
     ax.plot(z, x, "-", color=colour, linewidth=1.4, zorder=4)
     if shape.deflection > 0:  # the nose deflection, from the undeformed to the deformed centreline
         nose_z = shape.cylinders[-1][0] * MM
@@ -398,10 +377,6 @@ def shape_height(curves: Sequence[Curve]) -> float:
 def _axes(fig: Figure, rect: Rect):
     left, bottom, right, top = rect
     return fig.add_axes((left, bottom, right - left, top - bottom))
-
-
-def _marker(i: int) -> Line2D:
-    return Line2D([], [], color=COLOURS[i % len(COLOURS)], marker="o", markersize=4, linestyle="none")
 
 
 # -- captions ----------------------------------------------------------------------------------

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from datetime import datetime
 
 from matid import __version__
 from matid.io.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
@@ -17,16 +16,7 @@ from matid.io.status import INSEPARABLE_R, STRONG_R
 from matid.report.bend import bend_drawings
 from matid.report.diagnostics import glossary, lack_of_fit_table, model_choice_table
 from matid.report.figures import Drawing, ExtraFigure, axis_unit, extra_figures, has_plot
-from matid.report.formats import (  # noqa: F401 - format_value re-exported
-    fe_notes,
-    fmt,
-    format_fe,
-    format_held,
-    format_runtime,
-    format_started,
-    format_value,
-    parse_started,
-)
+from matid.report.formats import fe_notes, format_fe, format_held, format_runtime, format_started
 from matid.report.holds import hold_drawings
 from matid.report.quantities import Cell, info_cell
 from matid.report.records import TestView, record_view
@@ -58,6 +48,21 @@ PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in p
 MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± standard error (1σ)", "unit", "check")
 #: Info items not shown in the details table: figures and the arrays the figures are drawn from.
 HIDDEN_INFO = ("figures", "plot_data", "force_time")
+#: What a correlation of the estimates at least this strong (|r|) means for reading them.
+CORRELATION_WORDS = (
+    (INSEPARABLE_R, "inseparable: the data fix only a combination (not identifiable)"),
+    (STRONG_R, "strong: read the two together (check it)"),
+)
+#: Info items whose mapping reads in words or as a table of its own: key -> (label, cell or None).
+MAPPING_INFO = {
+    "fe": ("FE mesh and solver", format_fe),
+    "held_stiffness_propagation": (
+        "uncertainty of the held stiffnesses in E_s",
+        lambda v: format_held(v) or "none",
+    ),
+    "lack_of_fit": ("lack of fit", lack_of_fit_table),
+    "model_choice": ("relaxation model compared", model_choice_table),
+}
 
 
 @dataclass(frozen=True)
@@ -88,8 +93,7 @@ class Block:
 
 @dataclass(frozen=True)
 class Section:
-    kind: str
-    anchor: str
+    kind: str  # also the section's anchor
     title: str
     parameters: str
     blocks: tuple[Block, ...]
@@ -98,12 +102,8 @@ class Section:
 @dataclass(frozen=True)
 class Report:
     study: str
-    temperature: str
-    started: str
-    run_date: datetime | None  # result.started parsed, for the PDF's CreationDate
-    runtime: str
+    meta: tuple[tuple[str, str], ...]  # the run: temperature, start, run time, units, software
     matid_version: str
-    versions: tuple[tuple[str, str], ...]
     units: str
     summary_intro: str  # what the summary table shows: units, interval, rounding
     status_legend: tuple[tuple[str, str], ...]  # each status word and what it asks of the reader
@@ -111,7 +111,6 @@ class Report:
     moduli: Table | None  # E and G from the stiffnesses and the section
     notes: tuple[Note, ...]  # every warning of the fits, numbered as the summary marks them
     failures: tuple[str, ...]
-    warnings: tuple[str, ...]
     pending: tuple[str, ...]
     sections: tuple[Section, ...]
     provenance: Table
@@ -121,20 +120,21 @@ class Report:
 def build_report(result: StudyResult, units: str) -> Report:
     """Everything the report shows, formatted once for both renderers."""
     doc = stiffness_json(result, units)
-    # StudyResult.warnings() also lists failures and pending tests, which the report shows apart
-    # (naming the parameter): drop those lines, whatever their wording, by asking without fits.
-    apart = set(replace(result, fits=()).warnings())
     titles = {kind: title for kind, (title, _) in KINDS.items()}
     notes = [replace(n, text=in_units(n.text, units)) for n in notes_of(result, titles)]
     moduli = moduli_rows(result, units)
+    others = dict(result.versions)
+    version = others.pop("matid", __version__)
     return Report(
         study=result.study.name,
-        temperature=result.study.temperature or "not given",
-        started=format_started(result.started),
-        run_date=parse_started(result.started),
-        runtime=format_runtime(result.runtime_s),
-        matid_version=result.versions.get("matid", __version__),
-        versions=tuple((k, str(v)) for k, v in result.versions.items() if k != "matid"),
+        meta=(
+            ("Temperature", result.study.temperature or "not given"),
+            ("Run started", format_started(result.started)),
+            ("Runtime", format_runtime(result.runtime_s)),
+            ("Units", units),
+            ("Software", ", ".join([f"matid {version}", *(f"{k} {v}" for k, v in others.items())])),
+        ),
+        matid_version=version,
         units=units,
         summary_intro=summary_intro(units),
         status_legend=STATUS_LEGEND,
@@ -144,7 +144,6 @@ def build_report(result: StudyResult, units: str) -> Report:
         else None,
         notes=tuple(notes),
         failures=tuple(failure_message(f) for f in result.failures),
-        warnings=tuple(w for w in result.warnings() if w not in apart),
         pending=tuple(pending_message(p, with_specimen=True) for p in result.pending),
         sections=tuple(_sections(result, doc, units)),
         provenance=provenance_table(result.inputs),
@@ -166,19 +165,10 @@ def _param_row(name: str, item: Mapping, marks: list[int]) -> tuple[str, ...]:
 def _summary_row(sid: str, name: str, item: Mapping, marks: list[int], units: str) -> tuple[str, ...]:
     """Page 1's row: the status in words, the value and its 95 % interval, the reason in one line."""
     value, _, _, low, high, unit = value_cells(item)
-    why = in_units(reason_line(item), units) or (
-        "fixed in study.toml, not fitted" if item["method"] == "fixed" else ""
-    )
-    why = " ".join(part for part in (why, mark_text(marks)) if part)
-    return (
-        sid,
-        name,
-        status_words(str(item.get("status", "ok"))),
-        value,
-        interval_text(low, high),
-        unit,
-        why,
-    )
+    fixed = "fixed in study.toml, not fitted" if item["method"] == "fixed" else ""
+    why = " ".join(part for part in (in_units(reason_line(item), units) or fixed, mark_text(marks)) if part)
+    status = status_words(str(item.get("status", "ok")))
+    return (sid, name, status, value, interval_text(low, high), unit, why)
 
 
 def _parameters_of(kind: str) -> str:
@@ -249,14 +239,8 @@ def _correlation(fit: TestFit) -> Table | None:
     rows = []
     for pair, r in fit.correlation.items():
         a, _, b = str(pair).partition("|")
-        strong = (
-            "inseparable: the data fix only a combination (not identifiable)"
-            if abs(r) >= INSEPARABLE_R
-            else "strong: read the two together (check it)"
-            if abs(r) >= STRONG_R
-            else ""
-        )
-        rows.append((a, b or "—", f"{r:+.3f}", strong))
+        strength = next((words for least, words in CORRELATION_WORDS if abs(r) >= least), "")
+        rows.append((a, b or "—", f"{r:+.3f}", strength))
     return Table(("parameter", "with", "r", ""), tuple(rows), (False, False, True, False))
 
 
@@ -264,18 +248,15 @@ def _correlation(fit: TestFit) -> Table | None:
 
 
 def _sections(result: StudyResult, doc: Mapping, units: str) -> list[Section]:
-    present = {t.kind for t in result.study.tests}
-    present |= {f.kind for f in result.fits}
-    present |= {_test_kind(f.kind) for f in (*result.failures, *result.pending)}
+    """A section per test kind with anything to show, a block per specimen."""
     sections = []
     for kind, (title, params) in KINDS.items():
-        if kind not in present:
-            continue
-        blocks = [
-            _block(result, doc, kind, sid, f"{kind}-{i + 1}", units)
-            for i, sid in enumerate(_specimens_of(result, kind))
-        ]
-        sections.append(Section(kind, kind, title, ", ".join(params), tuple(blocks)))
+        specimens = _specimens_of(result, kind)
+        if specimens:
+            blocks = (
+                _block(result, doc, kind, sid, f"{kind}-{i + 1}", units) for i, sid in enumerate(specimens)
+            )
+            sections.append(Section(kind, title, ", ".join(params), tuple(blocks)))
     return sections
 
 
@@ -339,14 +320,7 @@ def _info(fit: TestFit, units: str) -> tuple[tuple[str, Cell], ...]:
     for key, value in fit.info.items():
         if key in HIDDEN_INFO or key == "fe" and value in shown:  # fe: under the parameters already
             continue
-        if key == "fe" and isinstance(value, Mapping):
-            rows.append(("FE mesh and solver", format_fe(value)))
-        elif key == "held_stiffness_propagation" and isinstance(value, Mapping):
-            rows.append(("uncertainty of the held stiffnesses in E_s", format_held(value) or "none"))
-        elif key == "lack_of_fit" and isinstance(value, Mapping) and lack_of_fit_table(value):
-            rows.append(("lack of fit", lack_of_fit_table(value)))
-        elif key == "model_choice" and isinstance(value, Mapping) and model_choice_table(value):
-            rows.append(("relaxation model compared", model_choice_table(value)))
-        else:
-            rows.append(info_cell(str(key), value, units, axes))
+        label, make = MAPPING_INFO.get(key, ("", None))
+        cell = make(value) if make is not None and isinstance(value, Mapping) else None
+        rows.append((label, cell) if cell is not None else info_cell(str(key), value, units, axes))
     return tuple(rows)

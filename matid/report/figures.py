@@ -124,11 +124,6 @@ class Drawing:
 DRAWING_MARGINS = (0.85, 0.5, 0.15, 0.12)
 
 
-def drawing_png(drawing: Drawing) -> bytes:
-    """The drawing as PNG, at its size and the report's dpi."""
-    return png_bytes(drawing_figure(drawing))
-
-
 def drawing_figure(drawing: Drawing) -> Figure:
     """The drawing drawn on a figure of its size, inside the report's margins."""
     width, height = drawing.size
@@ -194,26 +189,17 @@ def caption(fit: TestFit, units: str) -> str:
     """What the fit plot shows, in words (the figure caption)."""
     model = any(s.y_fit is not None for s in fit.series)
     excluded = any(s.used is not None and not np.all(s.used) for s in fit.series)
-    parts = ["Measured points (markers)" + (" and fitted model (lines)" if model else "")]
-    parts.append(", one colour per data set")
-    if excluded:
-        parts.append("; hollow grey points are excluded from the fit")
-    if model:
-        parts.append(". Residuals (measured minus model) below")
-    return "".join(parts) + ". " + unit_note(fit, units)
+    fitted = " and fitted model (lines)" if model else ""
+    hollow = "; hollow grey points are excluded from the fit" if excluded else ""
+    below = ". Residuals (measured minus model) below" if model else ""
+    return (
+        f"Measured points (markers){fitted}, one colour per data set{hollow}{below}. {unit_note(fit, units)}"
+    )
 
 
-def draw_fit(
-    fig: Figure,
-    fit: TestFit,
-    units: str = "SI",
-    *,
-    rect: tuple[float, float, float, float] = (0.11, 0.1, 0.97, 0.97),
-) -> None:
-    """Draw the data + fit axes and the residual axes of ``fit`` into ``rect`` (l, b, r, t)."""
-    x_unit = axis_unit(fit.x_label, units, _peak(s.x for s in fit.series))
-    y_unit = axis_unit(fit.y_label, units, _peak(s.y for s in fit.series))
-    residuals = any(s.y_fit is not None for s in fit.series)
+def data_axes(fig: Figure, rect: Rect, residuals: bool) -> tuple:
+    """The data axes filling ``rect`` (l, b, r, t), with a residual axes a third of their height
+    below them on a shared x when ``residuals`` (else None)."""
     left, bottom, right, top = rect
     grid = fig.add_gridspec(
         2 if residuals else 1,
@@ -226,26 +212,30 @@ def draw_fit(
         hspace=0.16,
     )
     ax = fig.add_subplot(grid[0])
-    ax_res = fig.add_subplot(grid[1], sharex=ax) if residuals else None
+    return ax, fig.add_subplot(grid[1], sharex=ax) if residuals else None
+
+
+def draw_fit(fig: Figure, fit: TestFit, units: str = "SI", *, rect: Rect = (0.11, 0.1, 0.97, 0.97)) -> None:
+    """Draw the data + fit axes and the residual axes of ``fit`` into ``rect`` (l, b, r, t)."""
+    x_unit = axis_unit(fit.x_label, units, _peak(s.x for s in fit.series))
+    y_unit = axis_unit(fit.y_label, units, _peak(s.y for s in fit.series))
+    residuals = any(s.y_fit is not None for s in fit.series)
+    ax, ax_res = data_axes(fig, rect, residuals)
     any_excluded = False
     for i, series in enumerate(fit.series):
         colour = COLOURS[i % len(COLOURS)]
         any_excluded |= _draw_series(ax, ax_res, series, colour, x_unit.factor, y_unit.factor)
     ax.set_ylabel(y_unit.label, parse_math=False)
-    ax.grid(True, color="#e6e6e6", linewidth=0.6)
     _legend(ax, fit.series, residuals, any_excluded)
-    bottom_ax = ax_res if ax_res is not None else ax
-    bottom_ax.set_xlabel(x_unit.label, parse_math=False)
+    (ax_res or ax).set_xlabel(x_unit.label, parse_math=False)
     if ax_res is not None:
         ax_res.axhline(0.0, color="#555555", linewidth=0.8)
         ax_res.set_ylabel(f"residual [{y_unit.unit}]" if y_unit.unit else "residual", parse_math=False)
-        ax_res.grid(True, color="#e6e6e6", linewidth=0.6)
         ax.tick_params(labelbottom=False)
-    for axis in filter(None, (ax, ax_res)):
+    axes = [a for a in (ax, ax_res) if a is not None]
+    for axis in axes:
         axis.ticklabel_format(style="plain", useOffset=False)  # no "1e-5" above an axis
-        axis.tick_params(labelsize=8)
-        axis.yaxis.label.set_size(9)
-        axis.xaxis.label.set_size(9)
+    style_axes(*axes)
 
 
 def _peak(arrays) -> float | None:
@@ -309,9 +299,7 @@ def _legend(ax, series: Sequence[Series], fitted: bool, excluded: bool) -> None:
         if fitted and any(_series_outside(s) for s in series):
             handles.append(Line2D([], [], color="#333333", linewidth=0.9, linestyle="--", alpha=0.45))
             labels.append("model outside the fit")
-    legend = ax.legend(handles, labels, fontsize=7, ncol=2 if len(labels) > 5 else 1, framealpha=0.9)
-    for text in legend.get_texts():
-        text.set_parse_math(False)
+    quiet_legend(ax, handles, labels, fontsize=7, ncol=2 if len(labels) > 5 else 1, framealpha=0.9)
 
 
 def _series_outside(series: Series) -> bool:

@@ -61,15 +61,11 @@ def format_runtime(seconds: float) -> str:
     return f"{minutes} min {rest} s"
 
 
-def parse_started(started: str) -> datetime | None:
-    try:
-        return datetime.fromisoformat(started) if started else None
-    except ValueError:
-        return None
-
-
 def format_started(started: str) -> str:
-    when = parse_started(started)
+    try:
+        when = datetime.fromisoformat(started) if started else None
+    except ValueError:
+        when = None
     if when is None:
         return started or "not recorded"
     text = when.strftime("%Y-%m-%d %H:%M:%S")

@@ -28,6 +28,7 @@ from matid.report.figures import (
     Drawing,
     Rect,
     axis_unit,
+    data_axes,
     quiet_legend,
     style_axes,
 )
@@ -42,15 +43,12 @@ def hold_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
         return []
     checked = [_run(r, i) for i, r in enumerate(runs)]
     model = any(r["model"] is not None for r in checked)
+    fitted = (
+        f" and the {model_name(fit.info)} (lines), residuals (measured minus model) below" if model else ""
+    )
     caption = (
-        "Measured force against time (markers)"
-        + (
-            f" and the {model_name(fit.info)} (lines), residuals (measured minus model) below"
-            if model
-            else ""
-        )
-        + "; one colour per run; hollow grey points are left out of the fit. "
-        + f"Force in {'dyn' if units == 'cgs' else 'N'}, time in s."
+        f"Measured force against time (markers){fitted}; one colour per run; hollow grey points are left out "
+        f"of the fit. Force in {'dyn' if units == 'cgs' else 'N'}, time in s."
     )
     return [
         Drawing(
@@ -114,11 +112,7 @@ def _run(raw: Mapping, index: int) -> dict:
 def draw_force_time(fig: Figure, rect: Rect, *, runs: Sequence[dict], units: str = "SI") -> None:
     force = axis_unit("force [N]", units)
     model = any(r["model"] is not None for r in runs)
-    left, bottom, right, top = rect
-    grid = fig.add_gridspec(2 if model else 1, 1, height_ratios=[3, 1] if model else [1], left=left,
-                            right=right, bottom=bottom, top=top, hspace=0.16)  # fmt: skip
-    ax = fig.add_subplot(grid[0])
-    ax_res = fig.add_subplot(grid[1], sharex=ax) if model else None
+    ax, ax_res = data_axes(fig, rect, model)
     handles, labels = [], []
     for i, r in enumerate(runs):
         colour = COLOURS[i % len(COLOURS)]

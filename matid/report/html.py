@@ -25,7 +25,7 @@ def render_html(report: Report, images: Images | None = None) -> bytes:
         plots=images.plots,
         drawings=images.drawings,
         data_uri=data_uri,
-        nested=is_nested,
+        nested=lambda value: isinstance(value, Nested),
         status_class=STATUS_CLASS,
     )
     return page.encode("utf-8")
@@ -46,7 +46,3 @@ def _template() -> jinja2.Template:
 
 def data_uri(png: bytes) -> str:
     return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
-
-
-def is_nested(value: object) -> bool:
-    return isinstance(value, Nested)

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from matid.report.content import KINDS, Block, Report
+from matid.io.results import TestFit
+from matid.report.content import Report
 from matid.report.figures import Drawing, axis_unit, caption, drawing_figure, fit_figure, png_bytes, png_size
 
 
@@ -32,24 +33,14 @@ class Images:
 
 def render_images(report: Report) -> Images:
     """The fit plot and the drawings of every block, as PNG."""
-    plots = {
-        block.anchor: fit_image(block, report.units, KINDS[section.kind][0])
-        for section in report.sections
-        for block in section.blocks
-        if block.plot
-    }
-    drawings = {
-        block.anchor: [drawing_image(d) for d in block.drawings]
-        for section in report.sections
-        for block in section.blocks
-    }
+    blocks = [(section.title, block) for section in report.sections for block in section.blocks]
+    plots = {block.anchor: fit_image(block.fit, report.units, title) for title, block in blocks if block.plot}
+    drawings = {block.anchor: [drawing_image(d) for d in block.drawings] for _, block in blocks}
     return Images(plots, drawings)
 
 
-def fit_image(block: Block, units: str, title: str) -> Image:
-    """The fit plot of ``block`` with its caption and alternative text."""
-    fit = block.fit
-    assert fit is not None
+def fit_image(fit: TestFit, units: str, title: str) -> Image:
+    """The fit plot of ``fit`` with its caption and alternative text."""
     png = png_bytes(fit_figure(fit, units))
     names = ", ".join(s.label for s in fit.series)
     y_label, x_label = axis_unit(fit.y_label, units).label, axis_unit(fit.x_label, units).label

@@ -17,7 +17,7 @@ from collections.abc import Mapping
 import pandas as pd
 
 from matid.io.results import StudyResult, stiffness_json
-from matid.report.summary import interval_text, scale_of, value_cells
+from matid.report.summary import interval_text, scale_of, scaled, value_cells
 from matid.report.verdict import STATUS_CLASS, reason_line, status_words
 
 #: Columns printed with the row's power of ten and decimals.
@@ -28,11 +28,8 @@ WARNINGS_SHOWN = 60
 
 def number(x: float | None, power: int, decimals: int) -> str:
     """``x`` in the row's scale: ``6.492e-05`` (power -5, 3 decimals) or ``119.970``."""
-    if x is None or not math.isfinite(x):
-        return "—"
-    if power:
-        return f"{x / 10.0**power:.{decimals}f}e{power:+03d}"
-    return f"{x:.{decimals}f}"
+    text = scaled(x, power, decimals)
+    return f"{text}e{power:+03d}" if power and text != "—" else text
 
 
 def readable(frame: pd.DataFrame) -> pd.DataFrame:

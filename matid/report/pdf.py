@@ -20,8 +20,7 @@ from reportlab.platypus import BaseDocTemplate, Frame, PageBreak, PageTemplate, 
 from reportlab.platypus.flowables import Flowable, HRFlowable
 
 from matid.report.content import Block, Report, Section, Table, TestView
-from matid.report.figures import DPI, png_size
-from matid.report.images import Image, Images, render_images
+from matid.report.images import Image, Images
 from matid.report.pdfparts import (
     AMBER,
     GREEN,
@@ -50,10 +49,9 @@ FIT_HEIGHT = 4.3 * inch  # the most a fit plot takes of a page (its PNG scaled t
 DRAWING_HEIGHT = 4.6 * inch
 
 
-def render_pdf(report: Report, images: Images | None = None) -> bytes:
-    """The report as PDF bytes (figures from ``images``, rendered here if not given)."""
+def render_pdf(report: Report, images: Images) -> bytes:
+    """The report as PDF bytes, its figures from ``images``."""
     register_fonts()
-    images = render_images(report) if images is None else images
     buffer = io.BytesIO()
     doc = _document(buffer, report)
     story = _first_page(report)
@@ -66,13 +64,8 @@ def render_pdf(report: Report, images: Images | None = None) -> bytes:
     return buffer.getvalue()
 
 
-class _Document(BaseDocTemplate):
-    def beforeDocument(self) -> None:  # noqa: N802 -- platypus' hook
-        self.canv.showOutline()  # the viewer opens with the outline shown
-
-
 def _document(buffer: io.BytesIO, report: Report) -> BaseDocTemplate:
-    doc = _Document(
+    doc = BaseDocTemplate(
         buffer,
         pagesize=A4,
         leftMargin=MARGIN_X,
@@ -88,6 +81,7 @@ def _document(buffer: io.BytesIO, report: Report) -> BaseDocTemplate:
     header, footer = f"{report.study}: stiffness identification report", f"matid {report.matid_version}"
 
     def decorate(canvas, document) -> None:
+        canvas.showOutline()  # the viewer opens with the outline shown
         canvas.saveState()
         canvas.setFont(SANS, 7)
         canvas.setFillColor(MUTED)
@@ -133,19 +127,8 @@ def _first_page(report: Report) -> list[Flowable]:
 
 
 def _title(report: Report) -> list[Flowable]:
-    software = ", ".join([f"matid {report.matid_version}", *(f"{k} {v}" for k, v in report.versions)])
-    story: list[Flowable] = [
-        para("Stiffness identification report", 10, muted=True, space=2),
-        heading(report.study, 18),
-    ]
-    for key, value in (
-        ("Temperature", report.temperature),
-        ("Run started", report.started),
-        ("Runtime", report.runtime),
-        ("Units", report.units),
-        ("Software", software),
-    ):
-        story.append(para(f"{key}: {value}", 8.5))
+    story = [para("Stiffness identification report", 10, muted=True, space=2), heading(report.study, 18)]
+    story += [para(f"{key}: {value}", 8.5) for key, value in report.meta]
     if report.sections:
         parts = "; ".join(f"{s.title} ({s.parameters})" for s in report.sections)
         story += [space(4), para(f"Sections: {parts}; Provenance", 8.5)]
@@ -190,7 +173,7 @@ def _warnings(report: Report) -> list[Flowable]:
 def _section(section: Section, images: Images) -> list[Flowable]:
     story: list[Flowable] = [
         PageBreak(),
-        heading(f"{section.title} ({section.parameters})", 14, key=section.anchor),
+        heading(f"{section.title} ({section.parameters})", 14, key=section.kind),
         _section_rule(),
     ]
     for block in section.blocks:
@@ -207,7 +190,7 @@ def _block(section: Section, block: Block, images: Images) -> list[Flowable]:
         story += [box(para(line, 8.5, bold=True), (), colours, width=WIDTH), space(6)]
     if block.plot:
         image = images.plots[block.anchor]
-        story.append(figure(None, _picture(image.png, FIT_HEIGHT), image.caption))
+        story.append(figure(None, picture(image.png, width=WIDTH, max_height=FIT_HEIGHT), image.caption))
     if block.parameters and block.parameters.rows:
         story += [heading("Parameters", 9.5), _table(block.parameters), space(6)]
     if block.warnings:
@@ -220,17 +203,13 @@ def _block(section: Section, block: Block, images: Images) -> list[Flowable]:
     story += _info(block.info)
     for extra in block.extras:
         if extra.png:
-            story.append(figure(extra.title, _picture(extra.png, DRAWING_HEIGHT), ""))
+            story.append(figure(extra.title, picture(extra.png, width=WIDTH, max_height=DRAWING_HEIGHT), ""))
         else:
             story += [_failed(extra.title, str(extra.error)), space(6)]
     if block.tests:
         story.append(heading("Tests", 9.5))
         story += [_test(test) for test in block.tests]
     return [*story, space(10)]
-
-
-def _picture(png: bytes, max_height: float) -> Flowable:
-    return picture(png, png_size(png), DPI, width=WIDTH, max_height=max_height)
 
 
 def _failed(title: str, error: str) -> Flowable:
@@ -241,7 +220,7 @@ def _drawing(image: Image) -> Together:
     """A rendered drawing under its title, its caption below; or why it could not be drawn."""
     if not image.png:
         return Together([_failed(image.title, image.error), space(6)])
-    return figure(image.title, _picture(image.png, DRAWING_HEIGHT), image.caption)
+    return figure(image.title, picture(image.png, width=WIDTH, max_height=DRAWING_HEIGHT), image.caption)
 
 
 def _info(info) -> list[Flowable]:
@@ -269,14 +248,7 @@ def _test(test: TestView) -> Together:
     head = f"{test.file}  (sha256 {test.sha_short}{rows})"
     if test.exclude:
         head += "  EXCLUDED: exclude = true, left out of the fit"
-    details = []
-    if test.setup:
-        details.append(f"Set-up: {test.setup}")
-    if test.note:
-        details.append(f"Note: {test.note}")
-    if test.units:
-        details.append("Units as written: " + ", ".join(f"{c} {u}" for c, u in test.units))
-    details += [f"{k}: {v}" for k, v in test.metadata]
+    details = [*test.details, *(f"{k}: {v}" for k, v in test.metadata)]
     lines = [para(head, 8, mono=True, bold=True, space=1)] + [para(d, 7.5) for d in details]
     return Together([*lines, space(5)])
 
@@ -299,17 +271,8 @@ def _provenance(report: Report) -> list[Flowable]:
     rows = tuple((name, n, sha) for name, n, sha, _ in report.provenance.rows)
     if not rows:
         return [*story, para("No input files were read.", 8.5)]
-    story += [
-        table(
-            ("file", "rows", "sha256"),
-            rows,
-            (False, True, False),
-            width=WIDTH,
-            size=6.5,
-            mono=(False, False, True),
-        ),
-        space(6),
-    ]
+    files = Table(("file", "rows", "sha256"), rows, (False, True, False))
+    story += [_table(files, size=6.5, mono=(False, False, True)), space(6)]
     story += [
         para(f"{name}: {path}", 6.5, mono=True, muted=True) for name, _, _, path in report.provenance.rows
     ]

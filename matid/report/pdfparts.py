@@ -29,13 +29,9 @@ from reportlab.pdfbase import pdfmetrics
 from reportlab.pdfbase.ttfonts import TTFont
 from reportlab.platypus import Flowable, Image, KeepTogether, Paragraph, Spacer, Table, TableStyle
 
+from matid.report.figures import DPI, png_size
+
 SANS, SANS_BOLD, MONO, MONO_BOLD = "DejaVuSans", "DejaVuSans-Bold", "DejaVuSansMono", "DejaVuSansMono-Bold"
-FONT_FILES = {
-    SANS: "DejaVuSans.ttf",
-    SANS_BOLD: "DejaVuSans-Bold.ttf",
-    MONO: "DejaVuSansMono.ttf",
-    MONO_BOLD: "DejaVuSansMono-Bold.ttf",
-}
 INK, MUTED, RULE = colors.HexColor("#1d1d1f"), colors.HexColor("#5f6368"), colors.HexColor("#c8ccd2")
 HEAD_FACE, ZEBRA = colors.HexColor("#e6e9ee"), colors.HexColor("#f3f4f6")
 AMBER = (colors.HexColor("#fff4d6"), colors.HexColor("#e0a800"))
@@ -64,8 +60,8 @@ def binary_streams() -> Iterator[None]:
 def register_fonts() -> None:
     """Register the DejaVu fonts (once per process) as one family: <b> selects the bold face."""
     folder = Path(matplotlib.get_data_path()) / "fonts" / "ttf"
-    for name, file in FONT_FILES.items():
-        pdfmetrics.registerFont(TTFont(name, str(folder / file)))
+    for name in (SANS, SANS_BOLD, MONO, MONO_BOLD):
+        pdfmetrics.registerFont(TTFont(name, str(folder / f"{name}.ttf")))
     pdfmetrics.registerFontFamily(SANS, normal=SANS, bold=SANS_BOLD, italic=SANS, boldItalic=SANS_BOLD)
     pdfmetrics.registerFontFamily(MONO, normal=MONO, bold=MONO_BOLD, italic=MONO, boldItalic=MONO_BOLD)
 
@@ -194,13 +190,10 @@ def table(
     fonts = [MONO if m else SANS for m in mono]
     widths = column_widths(header, rows, fonts, size, width)
     data = [[_cell(h, SANS_BOLD, size, w, right=r) for h, w, r in zip(header, widths, numeric, strict=True)]]
-    for row in rows:
-        data.append(
-            [
-                _cell(str(c), f, size, w, right=r)
-                for c, f, w, r in zip(row, fonts, widths, numeric, strict=True)
-            ]
-        )
+    data += [
+        [_cell(str(c), f, size, w, right=r) for c, f, w, r in zip(row, fonts, widths, numeric, strict=True)]
+        for row in rows
+    ]
     return Table(
         data,
         colWidths=widths,
@@ -239,19 +232,11 @@ def _cell(text: str, font: str, size: float, width: float, *, right: bool) -> st
     return para(text, size, bold=font in (SANS_BOLD, MONO_BOLD), mono=font in (MONO, MONO_BOLD), right=right)
 
 
-def box(
-    title: Heading | Paragraph | None,
-    items: Sequence[str],
-    colours: tuple,
-    *,
-    width: float,
-    size: float = 8.5,
-) -> Table:
+def box(title: Paragraph, items: Sequence[str], colours: tuple, *, width: float) -> Table:
     """A coloured box with an accent bar on its left: a title, then one bulleted row per item
     (so that a long box continues on the next page between its items)."""
     face, edge = colours
-    rows = [[title]] if title is not None else []
-    rows += [[Paragraph(markup(item), style(size), bulletText="•")] for item in items]
+    rows = [[title]] + [[Paragraph(markup(item), style(8.5), bulletText="•")] for item in items]
     commands = [
         ("BACKGROUND", (0, 0), (-1, -1), face),
         ("LINEBEFORE", (0, 0), (0, -1), 3, edge),
@@ -268,9 +253,9 @@ def box(
 # -- figures ------------------------------------------------------------------------------------
 
 
-def picture(png: bytes, pixels: tuple[int, int], dpi: float, *, width: float, max_height: float) -> Image:
-    """A PNG at its size at ``dpi``, shrunk to ``width`` and ``max_height`` points (never enlarged)."""
-    w, h = pixels[0] * 72 / dpi, pixels[1] * 72 / dpi
+def picture(png: bytes, *, width: float, max_height: float) -> Image:
+    """A PNG at the report's dpi, shrunk to ``width`` and ``max_height`` points (never enlarged)."""
+    w, h = (pixels * 72 / DPI for pixels in png_size(png))
     scale = min(1.0, width / w, max_height / h)
     return Image(io.BytesIO(png), width=w * scale, height=h * scale, mask=None, hAlign="CENTER")
 
@@ -296,7 +281,7 @@ def assemble(story: Sequence[Flowable | Together]) -> list[Flowable]:
     return out + pending
 
 
-def figure(title: str | None, image: Image, caption: str, *, size: float = 7.5) -> Together:
+def figure(title: str | None, image: Image, caption: str) -> Together:
     """A figure kept on one page with its title above and its caption below."""
     parts = [heading(title, 9.5)] if title else []
-    return Together([*parts, image, space(2), para(caption, size, muted=True, space=6)])
+    return Together([*parts, image, space(2), para(caption, 7.5, muted=True, space=6)])

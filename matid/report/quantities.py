@@ -77,7 +77,6 @@ INFO_KEYS: dict[str, Key] = {
     "unloading_rows_excluded": Key("unloading rows left out", "count"),
     "fit_window": Key("fit window", "x"),
     "levels": Key("mesh levels tried", None, row_label="level"),
-    "intercept": Key("intercept (tare offset)", "y"),
     "noise": Key("point-to-point noise of each record", "y", row_label="record"),
     "tare_offset": Key("tare offset held at", "y", row_label="record"),
     "tare_offset_estimated": Key("tare offset estimated", "y", row_label="record"),
@@ -113,22 +112,22 @@ INFO_KEYS: dict[str, Key] = {
     "measurement": Key("deflection measured as", None),
 }
 
-#: Key suffix -> kind, the fitters' convention for SI values (``_mm`` values are in mm).
-SUFFIXES: tuple[tuple[str, str], ...] = (
-    ("_m_per_N", "compliance"),
-    ("_rad_per_m", "curvature"),
-    ("_Nm2", "bending_stiffness"),
-    ("_N_m2", "bending_stiffness"),
-    ("_Nm", "torque"),
-    ("_N_m", "torque"),
-    ("_Ns", "viscosity"),
-    ("_N", "force"),
-    ("_mm", "length_mm"),
-    ("_m", "length"),
-    ("_s", "time"),
-    ("_pct", "percent_value"),
-    ("_MPa", "modulus_MPa"),
-    ("_Pa", "modulus"),
+#: Key suffix -> (kind, factor to SI), the fitters' convention: SI values but for _mm, _pct, _MPa.
+SUFFIXES: tuple[tuple[str, str, float], ...] = (
+    ("_m_per_N", "compliance", 1.0),
+    ("_rad_per_m", "curvature", 1.0),
+    ("_Nm2", "bending_stiffness", 1.0),
+    ("_N_m2", "bending_stiffness", 1.0),
+    ("_Nm", "torque", 1.0),
+    ("_N_m", "torque", 1.0),
+    ("_Ns", "viscosity", 1.0),
+    ("_N", "force", 1.0),
+    ("_mm", "length", 1e-3),
+    ("_m", "length", 1.0),
+    ("_s", "time", 1.0),
+    ("_pct", "percent", 0.01),
+    ("_MPa", "modulus", 1e6),
+    ("_Pa", "modulus", 1.0),
 )
 #: Parameters whose names carry a suffix that is not a unit (E_s_torsion is a force).
 PARAMETER = re.compile(r"^(E_[betse]|sls_k[12]|sls_eta)(?:_[A-Za-z0-9]+)*$")
@@ -165,14 +164,9 @@ def kind_of(key: str) -> tuple[str, str | None, float]:
     stem, rest = words[0], (" " + words[1] if len(words) > 1 else "")
     if PARAMETER.match(stem) and stem in PARAMETER_KINDS:
         return text, PARAMETER_KINDS[stem], 1.0
-    for suffix, kind in SUFFIXES:
+    for suffix, kind, factor in SUFFIXES:
         if stem.endswith(suffix) and len(stem) > len(suffix):
-            base = stem[: -len(suffix)]
-            factor = {"length_mm": 1e-3, "percent_value": 0.01, "modulus_MPa": 1e6}.get(kind, 1.0)
-            kind = {"length_mm": "length", "percent_value": "percent", "modulus_MPa": "modulus"}.get(
-                kind, kind
-            )
-            return words_of(base) + rest, kind, factor
+            return words_of(stem[: -len(suffix)]) + rest, kind, factor
     if PARAMETER.match(stem):
         base = PARAMETER.match(stem).group(1)
         return text, PARAMETER_KINDS.get(base), 1.0  # a parameter keeps its name (E_s_torsion)
@@ -191,10 +185,10 @@ def words_of(name: str) -> str:
     return re.sub(r"\s+", " ", "".join(out)).strip()
 
 
-def unit_of(kind: str | None, units: str, axes: Mapping[str, tuple[str, float]]) -> tuple[str, float]:
+def unit_of(kind: str | None, units: str, axes: Mapping[str, tuple[str, float]] | None) -> tuple[str, float]:
     """(unit label, factor from SI) of ``kind``; ``x`` / ``y`` are the fit's axis units."""
     if kind in ("x", "y"):
-        return axes.get(kind, ("", 1.0))
+        return (axes or {}).get(kind, ("", 1.0))
     if kind in DISPLAY:
         return DISPLAY[kind][units]
     return "", 1.0
@@ -202,7 +196,7 @@ def unit_of(kind: str | None, units: str, axes: Mapping[str, tuple[str, float]])
 
 def quantity(value: object, kind: str | None, units: str, axes=None, *, si: float = 1.0) -> str:
     """A scalar or list of numbers with its unit: ``"30, 45, 60 mm"``; other values as text."""
-    unit, factor = unit_of(kind, units, axes or {})
+    unit, factor = unit_of(kind, units, axes)
     factor *= si
     if isinstance(value, np.ndarray):
         value = value.ravel().tolist()
@@ -262,20 +256,18 @@ def info_kind(key: object) -> str | None:
 def info_cell(key: str, value: object, units: str, axes=None) -> tuple[str, Cell]:
     """(label, cell) of one info item: a quantity with its unit, or a small table."""
     spec = INFO_KEYS.get(key)
-    label, kind, si = (spec.label, spec.kind, 1.0) if spec else kind_of(key)
-    if spec and key.endswith("_mm"):
-        si = 1e-3
+    label, kind, si = (spec.label, spec.kind, 1e-3 if key.endswith("_mm") else 1.0) if spec else kind_of(key)
+    spec = spec or Key(label)
     if isinstance(value, Mapping) and value:
         return label, _mapping_table(value, spec, kind, units, axes)
     if isinstance(value, (list, tuple)) and value and all(isinstance(v, Mapping) for v in value):
-        return label, _records_table(list(value), units, axes, row_label=spec.row_label if spec else "entry")
+        return label, _records_table(list(value), units, axes, row_label=spec.row_label)
     return label, quantity(value, kind, units, axes, si=si)
 
 
-def _mapping_table(value: Mapping, spec: Key | None, kind: str | None, units: str, axes) -> Nested:
-    row_kind = spec.row_kind if spec else None
-    row_label = spec.row_label if spec else "entry"
-    head = _row_head(row_label, row_kind, units, axes)
+def _mapping_table(value: Mapping, spec: Key, kind: str | None, units: str, axes) -> Nested:
+    row_kind = spec.row_kind
+    head = _headed(spec.row_label, unit_of(row_kind, units, axes)[0])
     keys = [
         quantity(float(k), row_kind, units, axes).split(" ")[0] if row_kind else label_of(k) for k in value
     ]
@@ -285,31 +277,22 @@ def _mapping_table(value: Mapping, spec: Key | None, kind: str | None, units: st
             (head, *table.header[1:]), tuple((k, *r[1:]) for k, r in zip(keys, table.rows, strict=True))
         )
     if kind is not None or row_kind:  # one quantity per entry: the unit goes in the header
-        unit = unit_of(kind, units, axes or {})[0]
+        unit = unit_of(kind, units, axes)[0]
         values = [_bare(quantity(v, kind, units, axes), unit) for v in value.values()]
-        return Nested((head, f"value [{unit}]" if unit else "value"), tuple(zip(keys, values, strict=True)))
-    rows = tuple(
-        (
-            label_of(name),
-            text_of(v) if isinstance(v, Mapping) else quantity(v, info_kind(name), units, axes),
-        )
-        for name, v in value.items()
-    )
-    return Nested(("item", "value"), rows)
-
-
-def _row_key(key: object, row_kind: str | None, units: str, axes) -> str:
-    """A row's key: a number in the row unit (free length 30), or a label (a file name as written)."""
-    return quantity(float(key), row_kind, units, axes).split(" ")[0] if row_kind else label_of(key)
+        return Nested((head, _headed("value", unit)), tuple(zip(keys, values, strict=True)))
+    cells = [
+        text_of(v) if isinstance(v, Mapping) else quantity(v, info_kind(k), units, axes)
+        for k, v in value.items()
+    ]
+    return Nested(("item", "value"), tuple(zip(map(label_of, value), cells, strict=True)))
 
 
 def _bare(text: str, unit: str) -> str:
     return text[: -len(unit)].strip() if unit and text.endswith(unit) else text
 
 
-def _row_head(row_label: str, row_kind: str | None, units: str, axes) -> str:
-    unit = unit_of(row_kind, units, axes or {})[0] if row_kind else ""
-    return f"{row_label} [{unit}]" if unit else row_label
+def _headed(name: str, unit: str) -> str:
+    return f"{name} [{unit}]" if unit else name
 
 
 def _records_table(
@@ -319,19 +302,13 @@ def _records_table(
     (``kind``: of the columns whose names do not say theirs)."""
     columns = list(dict.fromkeys(k for r in records for k in r))
     kinds = {c: _column_kind(c, columns) or kind for c in columns}
-    header = [row_label] if row_label else [""]
-    for c in columns:
-        unit = unit_of(kinds[c], units, axes or {})[0]
-        name = COLUMNS.get(c) or kind_of(c)[0]
-        header.append(f"{name} [{unit}]" if unit else name)
-    rows = []
-    for i, record in enumerate(records):
-        cells = [str(i + 1)]
-        for c in columns:
-            text = quantity(record.get(c), kinds[c], units, axes)
-            cells.append(_bare(text, unit_of(kinds[c], units, axes or {})[0]))
-        rows.append(tuple(cells))
-    return Nested(tuple(header), tuple(rows))
+    unit = {c: unit_of(kinds[c], units, axes)[0] for c in columns}
+    header = (row_label, *(_headed(COLUMNS.get(c) or kind_of(c)[0], unit[c]) for c in columns))
+    rows = tuple(
+        (str(i + 1), *(_bare(quantity(r.get(c), kinds[c], units, axes), unit[c]) for c in columns))
+        for i, r in enumerate(records)
+    )
+    return Nested(header, rows)
 
 
 #: Column labels of nested tables (other columns are read by their names).

@@ -5,13 +5,15 @@ Text only, from the study and the inputs read; file and column names as written.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 from matid.io.results import InputFile
 from matid.io.study import OPTIONAL_KEYS, TEST_KINDS, Test
 from matid.report.formats import format_value
+
+#: Set-up values shown in a unit of their own: kind -> (factor from SI, unit).
+SETUP_UNITS = {"length": (1e3, "mm"), "moment": (1.0, "A m^2")}
 
 
 @dataclass(frozen=True)
@@ -20,11 +22,9 @@ class TestView:
 
     file: str
     sha256: str
-    setup: str
+    details: tuple[str, ...]  # "Set-up: ...", "Note: ...", "Units as written: ...", those given
     exclude: bool
-    note: str
     metadata: tuple[tuple[str, str], ...]
-    units: tuple[tuple[str, str], ...]
     n_rows: int | None
 
     @property
@@ -34,21 +34,21 @@ class TestView:
 
 def record_view(test: Test, inputs: tuple[InputFile, ...]) -> TestView:
     source = _input_of(test, inputs)
+    details = (("Set-up", _setup(test)), ("Note", test.note), ("Units as written", _units_written(source)))
     return TestView(
         file=test.file.name,
         sha256=source.sha256 if source else "",
-        setup=_setup(test),
+        details=tuple(f"{name}: {text}" for name, text in details if text),
         exclude=test.exclude,
-        note=test.note,
         metadata=tuple((str(k), str(v)) for k, v in source.metadata.items()) if source else (),
-        units=_units_written(source.units) if source else (),
         n_rows=source.n_rows if source else None,
     )
 
 
-def _units_written(units: Mapping[str, str]) -> tuple[tuple[str, str], ...]:
-    """(column in words, "[unit]" or "(no unit)") of each column of a record."""
-    return tuple((str(k).replace("_", " "), f"[{v}]" if str(v) else "(no unit)") for k, v in units.items())
+def _units_written(source: InputFile | None) -> str:
+    """Each column of a record in words with its "[unit]" or "(no unit)"."""
+    units = source.units.items() if source else ()
+    return ", ".join(f"{str(k).replace('_', ' ')} {f'[{v}]' if str(v) else '(no unit)'}" for k, v in units)
 
 
 def _input_of(test: Test, inputs: tuple[InputFile, ...]) -> InputFile | None:
@@ -72,10 +72,7 @@ def _setup(test: Test) -> str:
     kinds = {**TEST_KINDS.get(test.kind, {}), **OPTIONAL_KEYS.get(test.kind, {})}
     parts = []
     for key, value in test.params.items():
-        if kinds.get(key) == "length":
-            parts.append(f"{key.replace('_', ' ')} {value * 1e3:.4g} mm")
-        elif kinds.get(key) == "moment":
-            parts.append(f"{key.replace('_', ' ')} {value:.4g} A m^2")
-        else:
-            parts.append(f"{key.replace('_', ' ')} {format_value(value)}")
+        shown = SETUP_UNITS.get(kinds.get(key))
+        text = f"{value * shown[0]:.4g} {shown[1]}" if shown else format_value(value)
+        parts.append(f"{key.replace('_', ' ')} {text}")
     return ", ".join(parts)

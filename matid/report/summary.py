@@ -20,15 +20,7 @@ from matid.physics.moduli import MODULUS_OF, agreement, modulus
 from matid.report.quantities import DISPLAY, fmt
 
 #: Page 1: the status of each value in words, the value and its 95 % interval, the reason.
-SUMMARY_COLUMNS = (
-    "specimen",
-    "parameter",
-    "status",
-    "value",
-    "95 % interval",
-    "unit",
-    "why",
-)
+SUMMARY_COLUMNS = ("specimen", "parameter", "status", "value", "95 % interval", "unit", "why")
 SUMMARY_NUMERIC = (False, False, False, True, True, False, False)
 #: A fit's own table: the same with the standard error, the points and the method.
 FIT_COLUMNS = (
@@ -85,14 +77,8 @@ def value_cells(item: Mapping) -> tuple[str, str, str, str, str, str]:
         return ("no value", "—", "—", "—", "—", str(item["unit"]))
     power, decimals = scale_of(value, stderr)
     rel = f"{abs(stderr / value) * 100:.2g} %" if stderr and value else "—"
-    return (
-        scaled(value, power, decimals),
-        scaled(stderr, power, decimals),
-        rel,
-        scaled(ci[0], power, decimals),
-        scaled(ci[1], power, decimals),
-        power_unit(power, str(item["unit"])),
-    )
+    shown, error, low, high = (scaled(x, power, decimals) for x in (value, stderr, ci[0], ci[1]))
+    return shown, error, rel, low, high, power_unit(power, str(item["unit"]))
 
 
 def interval_text(low: str, high: str) -> str:
@@ -104,10 +90,7 @@ def merged_names(params: Mapping[str, Mapping]) -> list[tuple[str, Mapping]]:
     """Parameters with their entries; one estimate under two names (E_e, sls_k1) once."""
     out: list[tuple[str, Mapping]] = []
     for name, item in params.items():
-        twin = next(
-            (i for i, (_, seen) in enumerate(out) if _same(seen, item)),
-            None,
-        )
+        twin = next((i for i, (_, seen) in enumerate(out) if _same(seen, item)), None)
         if twin is None:
             out.append((name, item))
         else:
@@ -177,18 +160,10 @@ def moduli_rows(result: StudyResult, units: str) -> list[tuple[str, ...]]:
             if statuses[(sid, source)].status == "check":
                 note = "; ".join(filter(None, (f"from {source}, a value to check", note)))
             section = {"E_e": "A", "E_b": "I", "E_t": "J"}[source]
-            power, decimals = scale_of(m.value * factor, None if m.stderr is None else m.stderr * factor)
-            rows.append(
-                (
-                    sid,
-                    m.name,
-                    f"{source} / {section}",
-                    scaled(m.value * factor, power, decimals),
-                    scaled(None if m.stderr is None else m.stderr * factor, power, decimals),
-                    power_unit(power, unit),
-                    note,
-                )
-            )
+            value, stderr = m.value * factor, None if m.stderr is None else m.stderr * factor
+            power, decimals = scale_of(value, stderr)
+            cells = (scaled(value, power, decimals), scaled(stderr, power, decimals), power_unit(power, unit))
+            rows.append((sid, m.name, f"{source} / {section}", *cells, note))
     return rows
 
 

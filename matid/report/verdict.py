@@ -80,10 +80,8 @@ def in_units(text: str, units: str) -> str:
         kind, si = _KIND_OF_UNIT[match.group(4)]
         unit, factor = DISPLAY[kind][units]
         factor *= si
-        low = f"{float(match.group(1)) * factor:.4g}"
-        if match.group(3) is None:
-            return f"{low} {unit}"
-        return f"{low}{match.group(2)}{float(match.group(3)) * factor:.4g} {unit}"
+        high = "" if match.group(3) is None else f"{match.group(2)}{float(match.group(3)) * factor:.4g}"
+        return f"{float(match.group(1)) * factor:.4g}{high} {unit}"
 
     return _QUANTITY.sub(convert, text)
 

@@ -17,8 +17,9 @@ from matid.io.study import Specimen, Study
 from matid.io.study import Test as LabTest
 from matid.report import render_report
 from matid.report.bend import TITLES, outline
-from matid.report.content import build_report, format_value
+from matid.report.content import build_report
 from matid.report.figures import axis_unit, png_bytes
+from matid.report.formats import format_value
 from matid.report.html import render_html
 from matid.report.quantities import Nested, info_cell
 from matid.report.summary import merged_names, scale_of, value_cells
