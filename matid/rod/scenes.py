@@ -251,6 +251,11 @@ def _tables(raw: dict, key: str) -> list[dict]:
     ]
 
 
+def _single(raw: dict, key: str, default: object = None) -> dict:
+    """The table ``[key]`` (``default`` when absent), checked to be a table with known keys."""
+    return _known(_table(raw.get(key, default), f"[{key}]"), key, f"[{key}]")
+
+
 def _short(value: object) -> str:
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
@@ -308,10 +313,21 @@ def _v(table: dict, key: str, kind: str, where: str) -> Vector:
         raise ValueError(f"{where}.{key}: {exc}") from exc
 
 
+#: Unit kind of each size and stiffness key of [rod]; all but the length are [[segment]] overrides.
+KINDS = {
+    "length": "length",
+    "E_b": "bending_stiffness",
+    "E_t": "bending_stiffness",
+    "E_s": "force",
+    "E_e": "force",
+    "outer_diameter": "length",
+}
+
+
 def _rod(raw: dict, root: Path | None) -> Rod:
     if "rod" not in raw:
         raise ValueError("missing [rod] table")
-    table = dict(_known(_table(raw["rod"], "[rod]"), "rod", "[rod]"))
+    table = dict(_single(raw, "rod"))
     if not table:
         raise ValueError("missing [rod] table")
     if "stiffness" in table:
@@ -319,20 +335,7 @@ def _rod(raw: dict, root: Path | None) -> Rod:
     segments = []
     for i, seg in enumerate(_tables(raw, "segment")):
         where = f"[[segment]] #{i + 1}"
-        overrides = {
-            k: _q(
-                seg,
-                k,
-                "bending_stiffness"
-                if k in ("E_b", "E_t")
-                else "length"
-                if k == "outer_diameter"
-                else "force",
-                where,
-            )
-            for k in ("E_b", "E_t", "E_s", "E_e", "outer_diameter")
-            if k in seg
-        }
+        overrides = {k: _q(seg, k, kind, where) for k, kind in KINDS.items() if k != "length" and k in seg}
         segments.append(
             SegmentSpec(
                 _q(seg, "from", "length", where),
@@ -342,16 +345,10 @@ def _rod(raw: dict, root: Path | None) -> Rod:
                 _v(seg, "precurvature", "curvature", where) if "precurvature" in seg else None,
             )
         )
-    return Rod(
-        length=_q(table, "length", "length", "rod"),
-        E_b=_q(table, "E_b", "bending_stiffness", "rod"),
-        E_t=_q(table, "E_t", "bending_stiffness", "rod"),
-        E_s=_q(table, "E_s", "force", "rod"),
-        E_e=_q(table, "E_e", "force", "rod"),
-        outer_diameter=_q(table, "outer_diameter", "length", "rod", default=0.0),
-        precurvature=_v(table, "precurvature", "curvature", "rod"),
-        segments=tuple(segments),
-    )
+    sizes = {
+        k: _q(table, k, kind, "rod", 0.0 if k == "outer_diameter" else None) for k, kind in KINDS.items()
+    }
+    return Rod(**sizes, precurvature=_v(table, "precurvature", "curvature", "rod"), segments=tuple(segments))
 
 
 def _stiffness_from_json(ref: dict, root: Path | None) -> dict:
@@ -399,21 +396,7 @@ def _stiffness_from_json(ref: dict, root: Path | None) -> dict:
 
 
 #: Top-level keys of a scene file (docs/contract.md section 6); anything else is a typo to report.
-SCENE_KEYS = {
-    "scene",
-    "elements",
-    "tolerance",
-    "rod",
-    "segment",
-    "load",
-    "magnet",
-    "magnetization",
-    "field",
-    "tip",
-    "three_point_bend",
-    "point_load",
-    "aim",
-}
+SCENE_KEYS = {"scene", "elements", "tolerance", *TABLE_KEYS}
 
 
 def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
@@ -423,9 +406,7 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
         raise ValueError(f"unknown key or table '{unknown[0]}' (known: {', '.join(sorted(SCENE_KEYS))})")
     kind = raw.get("scene", "cantilever")
     rod = _rod(raw, root)
-    load, field_, tip = (
-        _known(_table(raw.get(k, {}), f"[{k}]"), k, f"[{k}]") for k in ("load", "field", "tip")
-    )
+    load, field_, tip = (_single(raw, k, {}) for k in ("load", "field", "tip"))
     magnets = tuple(
         (_q(m, "at", "length", f"[[magnet]] #{i + 1}"), _q(m, "moment", "moment", f"[[magnet]] #{i + 1}"))
         for i, m in enumerate(_tables(raw, "magnet"))
@@ -452,9 +433,7 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     )
     bend = None
     if "three_point_bend" in raw:
-        t = _known(
-            _table(raw["three_point_bend"], "[three_point_bend]"), "three_point_bend", "[three_point_bend]"
-        )
+        t = _single(raw, "three_point_bend")
         deflections = t.get("deflection")
         if not isinstance(deflections, list) or not deflections:
             raise ValueError("three_point_bend.deflection: need a list of nose displacements")
@@ -521,7 +500,7 @@ def _point_loads(raw: dict, length: float) -> tuple[tuple[float, Vector, Vector]
 def _aim(raw: dict) -> Aim | None:
     if "aim" not in raw:
         return None
-    t = _known(_table(raw["aim"], "[aim]"), "aim", "[aim]")
+    t = _single(raw, "aim")
     if "tip_direction" not in t:
         raise ValueError("[aim]: missing 'tip_direction'")
     return Aim(_unit(t["tip_direction"], "aim.tip_direction"), _q(t, "field_magnitude", "field", "aim"))

@@ -33,11 +33,8 @@ RIGID_FACTOR = 1e6
 #: Quadrature order per element: 2 = two-point Gauss. Measured (bench): P2 with the
 #: three-point rule locks on slender rods, with two-point Gauss it does not. The cubic
 #: Hermite needs three points (two leave its tangent singular: no solve converges).
-DEFAULT_INTORDER = 2
-INTORDER = {"P2": DEFAULT_INTORDER, "P1": 2, "Hermite": 4}
+INTORDER = {"P2": 2, "P1": 2, "Hermite": 4}
 DEFAULT_ELEMENTS = 16
-#: Mixed-integration-point Newton per model (see RodSystem.mixed_update).
-MIXED = {PLANAR: True, FULL: True}
 
 
 @dataclass(frozen=True)
@@ -164,21 +161,9 @@ def breaks(scene: Scene) -> tuple[float, ...]:
 
 
 def solve_cantilever(scene: Scene, **options) -> Solution:
-    """Static equilibrium of a clamped rod (raises ConvergenceError, never returns a failed state).
-
-    ``options`` are those of :func:`solve_cantilever_state` (``elements``, ``model``,
-    ``variant``, ``c_u``, ``element``, ``intorder``, ``first_step``, ``start``).
-    """
-    return solve_cantilever_state(scene, **options)[0]
-
-
-def solve_cantilever_state(scene: Scene, **options) -> tuple[Solution, tuple[np.ndarray, np.ndarray] | None]:
-    """:func:`solve_cantilever` plus the scaled state (vertices, nodal values sorted by s) for a warm start.
-
-    ``options`` are those of :func:`equilibrium`.
-    """
-    eq = equilibrium(scene, **options)
-    return eq.solution(), eq.state()
+    """Static equilibrium of a clamped rod (raises ConvergenceError, never returns a failed state);
+    ``options`` are those of :func:`equilibrium`."""
+    return equilibrium(scene, **options).solution()
 
 
 def equilibrium(
@@ -211,7 +196,7 @@ def equilibrium(
         variant=variant,
         c_u=c_u or default_penalty(rod, variant),
         banded=True,
-        mixed=MIXED[chosen],
+        mixed=True,  # the mixed-integration-point Newton (RodSystem.mixed_update)
     )
     if isinstance(start, Equilibrium):
         system.stress_start = start.stress_at(disc)
@@ -275,9 +260,24 @@ class Equilibrium:
 
     def solution(self, **fields) -> Solution:
         """The state presented (SI, lab frame); ``fields``: further Solution fields (the estimate)."""
-        scene, disc, info = self.scene, self.disc, self.info
-        return _solution(
-            scene, self.model, disc, self.U, self.e_a, info, self.runtime_s, self.terms, **fields
+        L, disc, order = self.scene.rod.length, self.disc, self.disc.value_dofs
+        position, d1, d3 = _frames(self.model, self.U[order], self.e_a, L)
+        if not (np.isfinite(position).all() and np.isfinite(d1).all()):
+            raise FloatingPointError("non-finite solution")  # unreachable: Newton rejects NaN
+        return Solution(
+            scene=self.scene,
+            model=self.model,
+            elements=disc.ne,
+            element=disc.element,
+            newton_iterations=self.info.iterations,
+            load_steps=self.info.steps,
+            runtime_s=self.runtime_s,
+            s=disc.s_dof[order] * L,
+            position=position,
+            d1=d1,
+            d3=d3,
+            terms=self.terms,
+            **fields,
         )
 
     def state(self) -> tuple[np.ndarray, np.ndarray] | None:
@@ -421,27 +421,3 @@ def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.n
     q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
     R = np.array(kin.directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
     return position, R[:, :, 0], R[:, :, 2]
-
-
-def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms, **fields) -> Solution:
-    L = scene.rod.length
-    order = disc.value_dofs
-    s, U = disc.s_dof[order] * L, U[order]
-    position, d1, d3 = _frames(chosen, U, e_a, L)
-    if not (np.isfinite(position).all() and np.isfinite(d1).all()):
-        raise FloatingPointError("non-finite solution")  # unreachable: Newton rejects NaN
-    return Solution(
-        scene=scene,
-        model=chosen,
-        elements=disc.ne,
-        element=disc.element,
-        newton_iterations=info.iterations,
-        load_steps=info.steps,
-        runtime_s=runtime,
-        s=s,
-        position=position,
-        d1=d1,
-        d3=d3,
-        terms=tuple(terms),
-        **fields,
-    )
