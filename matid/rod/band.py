@@ -30,12 +30,8 @@ class BlockPattern:
 
 
 class Banded:
-    """A free-dof tangent in LAPACK band storage, dofs ordered along s (half-bandwidth ``u``).
-
-    ``ab[u + i - j, j] = K[i, j]`` in band order; ``order[k]`` is the free dof at band
-    position k. P2 couples three consecutive nodes, so u = 3 nf - 1 whatever the mesh
-    size: a Newton step costs O(n u^2) with no sparse bookkeeping.
-    """
+    """A free-dof tangent in the band storage of the module docstring; ``order[k]`` is the free
+    dof at band position k, ``position`` its inverse."""
 
     def __init__(self, ab: np.ndarray, u: int, order: np.ndarray, symmetric: bool):
         self.ab, self.u, self.order, self.symmetric = ab, u, order, symmetric
@@ -68,10 +64,7 @@ class Banded:
         return self.tocsr().tocsc()
 
     def factor(self) -> BandFactor:
-        """Cholesky (LAPACK pbtrf) when symmetric and positive definite, else banded LU (gbtrf).
-
-        A successful Cholesky is the stability test of the state (every pivot > 0).
-        """
+        """Cholesky (LAPACK pbtrf) when symmetric and positive definite, else banded LU (gbtrf)."""
         u, n = self.u, self.shape[0]
         if self.symmetric:
             c, info = lapack.dpbtrf(self.ab[u:], lower=1)

@@ -45,30 +45,11 @@ class Pattern:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
 
-@dataclass(frozen=True)
-class Tables:
-    """What the rod needs of a scikit-fem ``Basis`` on a ``MeshLine``, built once per mesh.
-
-    phi, dphi: (nloc, ne, nq) shape functions and their s-derivatives at the quadrature
-    points; dx: (ne, nq) quadrature weights times Jacobian; edofs: (nloc, ne) the DOF map;
-    s_dof: the reference arc length of each scalar dof; slope: which dofs are derivatives
-    (the cubic Hermite's ``u_x``: a clamp holds only the values, an affine field a + b s has
-    b there); s_quad: (ne, nq) the quadrature points.
-    """
-
-    basis: Basis
-    phi: np.ndarray
-    dphi: np.ndarray
-    dx: np.ndarray
-    edofs: np.ndarray
-    s_dof: np.ndarray
-    slope: np.ndarray
-    s_quad: np.ndarray
-
-
 @functools.lru_cache(maxsize=64)
-def tables(vertices: bytes, element: str, intorder: int | None) -> Tables:
-    """The basis tables of ``element`` on the mesh with these vertices (cached: one Basis per mesh)."""
+def tables(vertices: bytes, element: str, intorder: int | None) -> tuple:
+    """(basis, phi, dphi, dx, edofs, s_dof, slope, s_quad) of ``element`` on the mesh with these
+    vertices (see :class:`Discretisation`), read-only: one Basis per mesh, shared by every
+    Discretisation on it."""
     mesh = MeshLine(np.frombuffer(vertices).copy())
     elem = ELEMENTS[element]()
     basis = Basis(mesh, elem) if intorder is None else Basis(mesh, elem, intorder=intorder)
@@ -77,35 +58,33 @@ def tables(vertices: bytes, element: str, intorder: int | None) -> Tables:
     slope = np.zeros(basis.N, dtype=bool)
     for row, name in enumerate(elem.dofnames[: elem.nodal_dofs]):
         slope[basis.nodal_dofs[row]] = name == "u_x"
-    out = Tables(
-        basis,
-        phi,
-        dphi,
-        basis.dx,
-        basis.element_dofs,
-        basis.doflocs[0],
-        slope,
-        np.asarray(basis.global_coordinates())[0],
-    )
-    for a in (out.phi, out.dphi, out.dx, out.edofs, out.s_dof, out.slope, out.s_quad):
-        a.flags.writeable = False  # shared by every Discretisation on this mesh
-    return out
+    s_quad = np.asarray(basis.global_coordinates())[0]
+    out = (phi, dphi, basis.dx, basis.element_dofs, basis.doflocs[0], slope, s_quad)
+    for a in out:
+        a.flags.writeable = False
+    return (basis, *out)
 
 
 class Discretisation:
-    """Mesh, scikit-fem basis tables and vectorised assembly for ``nf`` scalar fields on [0, L]."""
+    """Mesh, scikit-fem basis tables and vectorised assembly for ``nf`` scalar fields on [0, L].
+
+    phi, dphi: (nloc, ne, nq) shape functions and their s-derivatives at the quadrature
+    points; dx: (ne, nq) quadrature weights times Jacobian; edofs: (nloc, ne) the DOF map;
+    s_dof: the reference arc length of each scalar dof; slope: which dofs are derivatives
+    (the cubic Hermite's ``u_x``: a clamp holds only the values, an affine field a + b s has
+    b there); s_quad: (ne, nq) the quadrature points.
+    """
 
     def __init__(self, vertices: np.ndarray, nf: int, *, element: str = "P2", intorder: int | None = None):
         vertices = np.asarray(vertices, dtype=float)
+        self.element, self.nf = element, nf
         t = tables(vertices.tobytes(), element, intorder)
-        self.element, self.nf, self.basis = element, nf, t.basis
-        self.phi, self.dphi, self.dx, self.edofs = t.phi, t.dphi, t.dx, t.edofs
-        self.s_dof, self.slope, self.s_quad = t.s_dof, t.slope, t.s_quad
-        self.nscalar = t.s_dof.size
+        self.basis, self.phi, self.dphi, self.dx, self.edofs, self.s_dof, self.slope, self.s_quad = t
+        self.nscalar = self.s_dof.size
         values = np.flatnonzero(~self.slope)
         #: scalar dofs that are point values, ordered along s (the output points of a solution)
         self.value_dofs = values[np.argsort(self.s_dof[values], kind="stable")]
-        elem, nodal = t.basis.elem, t.basis.nodal_dofs
+        elem, nodal = self.basis.elem, self.basis.nodal_dofs
         rows = [r for r, name in enumerate(elem.dofnames[: elem.nodal_dofs]) if name == "u_x"]
         #: (value dof, slope dof) of each vertex of an element with slopes (Hermite), else empty
         self.slope_pairs = (nodal[0], nodal[rows[0]]) if rows else (np.zeros(0, int), np.zeros(0, int))

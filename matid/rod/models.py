@@ -150,26 +150,25 @@ class RodSystem:
         verts = self.disc.vertices
         node = lambda s_p: self.disc.vertex_dof(int(np.argmin(np.abs(verts - s_p))))  # noqa: E731
         self.magnet_nodes = [(node(s_m), m) for s_m, m in self.rod.magnets]
-        self.terms = ["bending", "shear", "extension"] + (
-            ["twist", "unity penalty"] if self.model == FULL else []
-        )
-        if self.rod.has_field:
-            self.terms.append("magnetic")
         #: per-segment precurvature and off-axis magnetisation at the points, point loads at nodes
         self.kappa = self.rod.kappa_ref_at(self.disc.s_quad)
-        self.mu_directed = self.rod.directed_mu_at(self.disc.s_quad) if self.rod.has_field else None
+        directed = self.mu_directed = (
+            self.rod.directed_mu_at(self.disc.s_quad) if self.rod.has_field else None
+        )
         #: their maps M (points, 4, 4) of physics.full.directed_maps, built once per system
         self._directed_point_M = (
-            None
-            if self.mu_directed is None
-            else full.directed_maps(self.rod.B, self.mu_directed.reshape(-1, 3))
+            None if directed is None else full.directed_maps(self.rod.B, directed.reshape(-1, 3))
         )
         self.directed_nodes = [(node(s_m), m, np.asarray(a)) for s_m, m, a in self.rod.directed_magnets]
         self.point_nodes = [(node(s_p), np.asarray(F), np.asarray(M)) for s_p, F, M in self.rod.point_loads]
-        if any(self.rod.kappa_ref) or self.kappa is not None:
-            self.terms.append("precurvature")
-        if self.point_nodes:
-            self.terms.append("point loads")
+        optional = {
+            "twist": self.model == FULL,
+            "unity penalty": self.model == FULL,
+            "magnetic": self.rod.has_field,
+            "precurvature": any(self.rod.kappa_ref) or self.kappa is not None,
+            "point loads": bool(self.point_nodes),
+        }
+        self.terms = ["bending", "shear", "extension"] + [name for name, on in optional.items() if on]
         self._node_patterns()
 
     # -- states -------------------------------------------------------------
