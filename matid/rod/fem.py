@@ -175,12 +175,8 @@ class Discretisation:
         (remembered per mesh and free set: the systems of a scene share them)."""
         dofs = np.atleast_2d(dofs)
         key = (dofs.shape, dofs.tobytes())
-        hit = self._blocks.get(key)
-        if hit is None:
-            hit = self._blocks[key] = self._block_pattern(dofs)
-        return hit
-
-    def _block_pattern(self, dofs: np.ndarray) -> BlockPattern:
+        if key in self._blocks:
+            return self._blocks[key]
         k, m = dofs.shape
         idx = self.free_index[dofs]
         ii = np.broadcast_to(idx[:, :, None], (k, m, m)).ravel()
@@ -191,7 +187,8 @@ class Discretisation:
         if rows.size and np.max(np.abs(pos[rows] - pos[cols])) > u:
             raise ValueError("block_pattern: the blocks do not fit in the band (not node-local)")
         flat = (u + pos[rows] - pos[cols]) * self.band_order.size + pos[cols]
-        return BlockPattern(dofs, keep, rows, cols, flat)
+        hit = self._blocks[key] = BlockPattern(dofs, keep, rows, cols, flat)
+        return hit
 
     @property
     def pattern(self) -> Pattern:

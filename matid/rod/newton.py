@@ -114,7 +114,11 @@ def newton(
             return x + dx, it, lu
         if len(sizes) >= 3 and size > sizes[-1] and size > sizes[-3]:
             if size < 1e-3 and max(sizes[-3:]) < 10 * min(sizes[-3:]) and size < 1e-2 * sizes[0]:
-                raise _stagnation(size, sizes[0])
+                raise RoundoffStagnation(
+                    f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
+                    f"{sizes[0]:.2g}: the precision double arithmetic allows for this mesh and stiffness "
+                    "spread; use fewer elements or a less extreme stiffness ratio"
+                )
             raise NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}")
         sizes.append(size)
         alpha = min(1.0, max_step / size)
@@ -131,14 +135,6 @@ def _max_abs(d: np.ndarray) -> float:
 def _finite(v: np.ndarray) -> bool:
     """No NaN or infinity in v (one dot product: any NaN, infinity or overflow makes it non-finite)."""
     return bool(np.isfinite(v @ v))
-
-
-def _stagnation(size: float, first: float) -> RoundoffStagnation:
-    return RoundoffStagnation(
-        f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
-        f"{first:.2g}: the precision double arithmetic allows for this mesh and stiffness "
-        "spread; use fewer elements or a less extreme stiffness ratio"
-    )
 
 
 def _factor(K) -> object:
