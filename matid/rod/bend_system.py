@@ -50,12 +50,10 @@ class BendSystem:
             for name in ("E_s", "E_e")
         }
 
-    def _inside(self, sigma: float) -> None:
+    def at(self, sigma: float) -> None:
+        """Build the mesh around the support vertex at arc length sigma (scaled)."""
         if not 0.0 < sigma < self.model.half:
             raise NewtonFailure(f"the support contact section left the rod (s = {sigma:.4g} span)")
-
-    def at(self, sigma: float) -> None:
-        self._inside(sigma)
         if getattr(self, "_sigma", None) != sigma:
             self.rod.disc = self.base.moved(self.model.vertices(sigma))
             self._sigma = sigma
@@ -72,14 +70,11 @@ class BendSystem:
         """Trust region and convergence on the displacements and sigma (multipliers follow them)."""
         return float(max(np.max(np.abs(dx[: self.nu])), abs(dx[-1])))
 
-    def _vertex(self, U: np.ndarray, vertex: int) -> tuple[float, float, float]:
-        return float(U[3 * vertex]), float(U[3 * vertex + 1]), float(U[3 * vertex + 2])
-
     def _gaps(self, U: np.ndarray, lam: float) -> list[tuple[float, float, float, float]]:
         """[(g, n_x, n_z, |r - c|)] of the support (at vertex k) and the nose (at vertex 0)."""
-        xs, zs, _ = self._vertex(U, self.k)
-        x0, z0, _ = self._vertex(U, 0)
-        return [self.support.gap(xs, zs), self.nose(lam).gap(x0, z0)]
+        k = 3 * self.k
+        support = self.support.gap(float(U[k]), float(U[k + 1]))
+        return [support, self.nose(lam).gap(float(U[0]), float(U[1]))]
 
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
         n = self.nu

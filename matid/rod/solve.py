@@ -297,42 +297,38 @@ class Equilibrium:
         return np.array(row[:3] + kin.d3(row[3:7]))  # d3 of q/|q|, as _frames
 
 
-_PREPARED: list = [None]
-_PLANE: list = [None]
+#: The last scene's plane and its prepared (model, plane, scaled rod, breaks) per model asked.
+_LAST: dict[str, tuple] = {}
 
 
-def _same(last, scene: Scene) -> bool:
-    """The remembered scene is this one, unchanged: scenes are frozen, but a segment's
-    ``overrides`` is a dict that could be edited in place between two solves."""
-    return last is not None and last[0] is scene and last[1] == _overrides(scene)
-
-
-def _overrides(scene: Scene) -> tuple:
-    return tuple(tuple(sorted(seg.overrides.items())) for seg in scene.rod.segments)
+def _remembered(slot: str, scene: Scene, make):
+    """``make()`` for the last scene asked in ``slot``, remembered while it is this scene, unchanged:
+    scenes are frozen, but a segment's ``overrides`` is a dict that could be edited in place."""
+    overrides = tuple(tuple(sorted(seg.overrides.items())) for seg in scene.rod.segments)
+    last = _LAST.get(slot)
+    if last is None or last[0] is not scene or last[1] != overrides:
+        last = _LAST[slot] = (scene, overrides, make())
+    return last[2]
 
 
 def scene_plane(scene: Scene) -> tuple[float, float, float] | None:
-    """:func:`matid.rod.scenes.plane_of`, remembered for the last scene asked (see :func:`_same`)."""
-    last = _PLANE[0]
-    if not _same(last, scene):
-        last = _PLANE[0] = (scene, _overrides(scene), plane_of(scene))
-    return last[2]
+    """:func:`matid.rod.scenes.plane_of`, remembered for the last scene asked."""
+    return _remembered("plane", scene, lambda: plane_of(scene))
 
 
 def _prepare(scene: Scene, model: str) -> tuple[str, np.ndarray | None, ScaledRod, tuple[float, ...]]:
     """(model, plane direction, scaled rod, mesh breaks) of a scene; the last one is remembered
     (scenes are frozen), so the meshes of one error estimate compute them once."""
-    last = _PREPARED[0]
-    if _same(last, scene) and last[2] == model:
-        return last[3]
-    plane = scene_plane(scene) if model in ("auto", PLANAR) else None
-    if model == PLANAR and plane is None:
-        raise ValueError("the scene is not planar: use model='full' or 'auto'")
-    chosen = PLANAR if plane is not None else FULL
-    e_a = None if chosen == FULL else np.asarray(plane)
-    prepared = (chosen, e_a, scaled_rod(scene, e_a), breaks(scene))
-    _PREPARED[0] = (scene, _overrides(scene), model, prepared)
-    return prepared
+
+    def make():
+        plane = scene_plane(scene) if model in ("auto", PLANAR) else None
+        if model == PLANAR and plane is None:
+            raise ValueError("the scene is not planar: use model='full' or 'auto'")
+        chosen = PLANAR if plane is not None else FULL
+        e_a = None if chosen == FULL else np.asarray(plane)
+        return chosen, e_a, scaled_rod(scene, e_a), breaks(scene)
+
+    return _remembered(model, scene, make)
 
 
 @functools.lru_cache(maxsize=64)
