@@ -58,7 +58,9 @@ class Banded:
         offsets = list(range(-u, u + 1))
         diagonals = [self.ab[u + k, max(0, -k) : min(n, n - k)] for k in offsets]
         band = sp.diags(diagonals, [-k for k in offsets], shape=(n, n), format="coo")
-        return sp.csr_matrix((band.data, (self.order[band.row], self.order[band.col])), shape=(n, n))
+        out = sp.csr_matrix((band.data, (self.order[band.row], self.order[band.col])), shape=(n, n))
+        out.eliminate_zeros()  # as a dense matrix's: the structure SuperLU orders by
+        return out
 
     def tocsc(self) -> sp.csc_matrix:
         return self.tocsr().tocsc()

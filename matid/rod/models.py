@@ -401,9 +401,9 @@ class RodSystem:
         Y = U[dofs]  # (k, 8): q, q'
         q, p = Y[:, :4], Y[:, 4:]
         w = np.einsum("ka,ka->k", q, p)
-        R = np.zeros_like(U)
-        R[dofs] = self.c_u * w[:, None] * Y[:, [4, 5, 6, 7, 0, 1, 2, 3]]
         swapped = Y[:, [4, 5, 6, 7, 0, 1, 2, 3]]  # d(q.q')/d(q, q') = (q', q)
+        R = np.zeros_like(U)
+        R[dofs] = self.c_u * w[:, None] * swapped
         H = self.c_u * (swapped[:, :, None] * swapped[:, None, :])
         H[:, _DIAG4, _DIAG4 + 4] += self.c_u * w[:, None]
         H[:, _DIAG4 + 4, _DIAG4] += self.c_u * w[:, None]
@@ -483,7 +483,15 @@ class RodSystem:
         if not self.symmetric:
             K = K.tocsr()
             K = ((K + K.T) * 0.5).tocsr()
-        return ldl_negative(K)
+        try:
+            lu = spla.splu(
+                K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+            )
+        except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
+            return 1
+        if not np.array_equal(lu.perm_r, lu.perm_c):
+            return None
+        return int(np.sum(lu.U.diagonal() <= 0.0))
 
     def expand(self, X: np.ndarray) -> np.ndarray:
         U = self._reference().copy()
@@ -492,20 +500,6 @@ class RodSystem:
 
     def reduce(self, U: np.ndarray) -> np.ndarray:
         return U[self.disc.free].copy()
-
-
-def ldl_negative(K) -> int | None:
-    """Non-positive pivots of a symmetric K (CSR or band-stored) by SuperLU's L D L^T without
-    off-diagonal pivoting (:meth:`RodSystem.negative_modes`); None when SuperLU pivoted."""
-    try:
-        lu = spla.splu(
-            K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-        )
-    except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
-        return 1
-    if not np.array_equal(lu.perm_r, lu.perm_c):
-        return None
-    return int(np.sum(lu.U.diagonal() <= 0.0))
 
 
 def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray]:
