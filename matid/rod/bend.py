@@ -34,7 +34,7 @@ from matid.physics.contact import Circle
 from matid.rod.bend_system import BendSystem
 from matid.rod.fem import Discretisation
 from matid.rod.models import PLANAR, RodSystem, ScaledRod
-from matid.rod.newton import NewtonFailure, NewtonInfo, follow, newton
+from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follow, newton
 
 #: Default elements of the half model (measured: see ``matid bench``).
 DEFAULT_ELEMENTS = 24
@@ -225,12 +225,11 @@ class BendModel:
         if warm is not None:
             try:
                 X_new, its, lu = newton(system, warm, target)
-                if system.reject(X_new, target) is None:
-                    info.iterations += its
-                    info.steps += 1
-                    info.lu = lu
-                    return X_new
-                info.rejected += 1
+                _check_admissible(system, X_new, target)
+                info.iterations += its
+                info.steps += 1
+                info.lu = lu
+                return X_new
             except NewtonFailure:
                 info.rejected += 1
         if target == lam:  # e.g. a d = 0 row: converge there for the tangent the sensitivities need

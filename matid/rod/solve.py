@@ -60,11 +60,7 @@ class Solution:
 
     @property
     def tip(self) -> dict:
-        return {
-            "position": self.position[-1].tolist(),
-            "d1": self.d1[-1].tolist(),
-            "d3": self.d3[-1].tolist(),
-        }
+        return {key: getattr(self, key)[-1].tolist() for key in ("position", "d1", "d3")}
 
 
 def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
@@ -93,20 +89,16 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
         for k, v in seg.overrides.items():
             if k in scaled:
                 scaled[k] = v / Eb * (1.0 if k in ("E_b", "E_t") else L**2)
-        if seg.rigid:
+        if seg.rigid:  # bending and twist RIGID_FACTOR times, shear and extension at least RIGID_FACTOR
             scaled = {
-                "E_b": RIGID_FACTOR * scaled["E_b"],
-                "E_t": RIGID_FACTOR * scaled["E_t"],
-                "E_s": max(scaled["E_s"], RIGID_FACTOR),
-                "E_e": max(scaled["E_e"], RIGID_FACTOR),
+                k: RIGID_FACTOR * v if k in ("E_b", "E_t") else max(v, RIGID_FACTOR)
+                for k, v in scaled.items()
             }
         kappa = None if seg.precurvature is None else moment(seg.precurvature, L)
         segments.append(Segment(seg.start / L, seg.end / L, **scaled, kappa_ref=kappa))
     magnets, mu, directed = directed_magnetisation(loads, L, Eb)
     return ScaledRod(
-        E_t=base["E_t"],
-        E_s=base["E_s"],
-        E_e=base["E_e"],
+        **{k: base[k] for k in ("E_t", "E_s", "E_e")},
         segments=tuple(segments),
         kappa_ref=moment(rod.precurvature, L),
         mu=mu,
