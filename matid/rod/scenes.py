@@ -238,17 +238,19 @@ def _table(value: object, where: str) -> dict:
     return value
 
 
-def _tables(raw: dict, key: str) -> list[dict]:
-    """An array of tables (``[[key]]``), each checked to be a table with known keys."""
+def _tables(raw: dict, key: str) -> list[tuple[str, dict]]:
+    """An array of tables (``[[key]]``) as (``[[key]] #n``, table), each checked to be a table with
+    known keys."""
     items = raw.get(key, [])
     if not isinstance(items, list):
         raise ValueError(
             f"[[{key}]]: expected an array of tables, got {type(items).__name__} {_short(items)}"
         )
-    return [
-        _known(_table(item, f"[[{key}]] #{i + 1}"), key, f"[[{key}]] #{i + 1}")
-        for i, item in enumerate(items)
-    ]
+    out = []
+    for i, item in enumerate(items):
+        where = f"[[{key}]] #{i + 1}"
+        out.append((where, _known(_table(item, where), key, where)))
+    return out
 
 
 def _single(raw: dict, key: str, default: object = None) -> dict:
@@ -333,8 +335,7 @@ def _rod(raw: dict, root: Path | None) -> Rod:
     if "stiffness" in table:
         table.update(_stiffness_from_json(_table(table.pop("stiffness"), "rod.stiffness"), root))
     segments = []
-    for i, seg in enumerate(_tables(raw, "segment")):
-        where = f"[[segment]] #{i + 1}"
+    for where, seg in _tables(raw, "segment"):
         overrides = {k: _q(seg, k, kind, where) for k, kind in KINDS.items() if k != "length" and k in seg}
         segments.append(
             SegmentSpec(
@@ -408,13 +409,11 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     rod = _rod(raw, root)
     load, field_, tip = (_single(raw, k, {}) for k in ("load", "field", "tip"))
     magnets = tuple(
-        (_q(m, "at", "length", f"[[magnet]] #{i + 1}"), _q(m, "moment", "moment", f"[[magnet]] #{i + 1}"))
-        for i, m in enumerate(_tables(raw, "magnet"))
+        (_q(m, "at", "length", w), _q(m, "moment", "moment", w)) for w, m in _tables(raw, "magnet")
     )
     magnetization = tuple(
         (_q(m, "from", "length", w), _q(m, "to", "length", w), _q(m, "per_length", "moment_per_length", w))
-        for i, m in enumerate(_tables(raw, "magnetization"))
-        for w in [f"[[magnetization]] #{i + 1}"]
+        for w, m in _tables(raw, "magnetization")
     )
     for at, _ in magnets:
         if not 0 < at <= rod.length * (1 + 1e-12):
@@ -439,12 +438,8 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
             raise ValueError("three_point_bend.deflection: need a list of nose displacements")
         if len(deflections) > MAX_DEFLECTIONS:
             raise ValueError(f"three_point_bend.deflection: at most {MAX_DEFLECTIONS} nose displacements")
-        bend = BendSetup(
-            span=_q(t, "span", "length", "three_point_bend"),
-            support_radius=_q(t, "support_radius", "length", "three_point_bend"),
-            nose_radius=_q(t, "nose_radius", "length", "three_point_bend"),
-            deflections=tuple(to_si(d, "length") for d in deflections),
-        )
+        sizes = {k: _q(t, k, "length", "three_point_bend") for k in ("span", "support_radius", "nose_radius")}
+        bend = BendSetup(**sizes, deflections=tuple(to_si(d, "length") for d in deflections))
     elements = raw.get("elements")
     if elements is not None and (not isinstance(elements, int) or isinstance(elements, bool)):
         raise ValueError(f"elements must be a whole number, got {_short(elements)}")
@@ -478,16 +473,15 @@ def _unit(value: object, where: str) -> Vector:
 def _directions(raw: dict, key: str) -> tuple[Vector, ...]:
     """The ``direction`` of each [[magnet]] / [[magnetization]] (director frame), d3 by default."""
     return tuple(
-        _unit(t["direction"], f"[[{key}]] #{i + 1}.direction") if "direction" in t else (0.0, 0.0, 1.0)
-        for i, t in enumerate(_tables(raw, key))
+        _unit(t["direction"], f"{where}.direction") if "direction" in t else (0.0, 0.0, 1.0)
+        for where, t in _tables(raw, key)
     )
 
 
 def _point_loads(raw: dict, length: float) -> tuple[tuple[float, Vector, Vector], ...]:
     """[[point_load]]: a dead force and moment at a point of the rod (0, L]."""
     out = []
-    for i, t in enumerate(_tables(raw, "point_load")):
-        where = f"[[point_load]] #{i + 1}"
+    for where, t in _tables(raw, "point_load"):
         at = _q(t, "at", "length", where)
         if not 0 < at <= length * (1 + 1e-12):
             raise ValueError(f"{where}: at {at} m is not on the rod (0, {length}] m")
