@@ -33,8 +33,8 @@ class Banded:
     """A free-dof tangent in the band storage of the module docstring; ``order[k]`` is the free
     dof at band position k, ``position`` its inverse."""
 
-    def __init__(self, ab: np.ndarray, u: int, order: np.ndarray, symmetric: bool):
-        self.ab, self.u, self.order, self.symmetric = ab, u, order, symmetric
+    def __init__(self, ab: np.ndarray, u: int, order: np.ndarray, position: np.ndarray, symmetric: bool):
+        self.ab, self.u, self.order, self.position, self.symmetric = ab, u, order, position, symmetric
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -234,8 +234,7 @@ class Bordered:
         K, C = self.K, self.C
         u = K.u
         self.rho = max(1.0, float(np.max(np.abs(K.ab[u]))))
-        aug = Banded(K.ab.copy(), u, K.order, K.symmetric)
-        aug.position = K.position
+        aug = Banded(K.ab.copy(), u, K.order, K.position, K.symmetric)
         for row in C[:2]:  # each contact row lives on its own vertex: rho g g^T is in the band
             nz = np.flatnonzero(row)
             pos = K.position[nz]

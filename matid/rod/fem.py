@@ -192,7 +192,7 @@ class Discretisation:
 
     @property
     def pattern(self) -> Pattern:
-        """CSR pattern of the free-free block (the sparse path: the bend's bordered system)."""
+        """CSR pattern of the free-free block (the tangent of an unbanded system)."""
         if self._pattern is None:
             index, m, nfree = self.free_index, self.gdofs.shape[1], int(self.free.sum())
             rows = np.broadcast_to(index[self.gdofs][:, :, None], (self.ne, m, m)).ravel()
@@ -274,9 +274,7 @@ class Discretisation:
         n, u = self.band_order.size, self.band_u
         size = (2 * u + 1) * n
         ab = np.bincount(self.band_all, weights=self.element_blocks(H).ravel(), minlength=size + 1)
-        out = Banded(ab[:size].reshape(2 * u + 1, n), u, self.band_order, symmetric)
-        out.position = self.band_position
-        return out
+        return Banded(ab[:size].reshape(2 * u + 1, n), u, self.band_order, self.band_position, symmetric)
 
     def residual(self, g: np.ndarray) -> np.ndarray:
         """Residual on all dofs from the pointwise gradient (see :meth:`assemble`)."""
