@@ -12,14 +12,15 @@ and the load factor moves the nose: d = lam d_max. A point contact puts a
 corner into the centreline of a shear-deformable rod, so each contact sits on
 a mesh vertex: the nose on vertex 0 (mid-span, by symmetry), the support on the
 vertex at sigma, the mesh built around it, and h = 0 makes that vertex the
-contact section. Sensitivities of the nose
-force to the stiffnesses come from the linearised equilibrium at each converged
-point: A dX/dp = -dR/dp, one back-substitution with the factorised tangent
-(the energy is linear in each stiffness, so dR/dp is the residual of that one
-energy term). The force is homogeneous of degree one in (E_b, E_s, E_e), so
-dF/dE_b = (F - E_s dF/dE_s - E_e dF/dE_e) / E_b. The same back-substitution
-gives the load tangent dX/dd (dR/dlam in closed form), which predicts the next
-point of the path and gives dF/dd.
+contact section.
+
+Sensitivities of the nose force to the stiffnesses come from the linearised
+equilibrium at each converged point: A dX/dp = -dR/dp, one back-substitution
+with the factorised tangent (the energy is linear in each stiffness, so dR/dp
+is the residual of that one energy term). The force is homogeneous of degree
+one in (E_b, E_s, E_e), so dF/dE_b = (F - E_s dF/dE_s - E_e dF/dE_e) / E_b.
+The same back-substitution gives the load tangent dX/dd (dR/dlam in closed
+form), which predicts the next point of the path and gives dF/dd.
 """
 
 from __future__ import annotations
