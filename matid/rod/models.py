@@ -238,14 +238,14 @@ class RodSystem:
         kappa_ref = rod.kappa_ref if self.kappa is None else self.kappa  # per point: per segment
         args = (z, lam, self.props, kappa_ref, mu, rod.B, rod.f, tangent)
         if self.model == PLANAR:
-            out = planar.derivatives(*args, **options)
+            g, H, strain = planar.derivatives(*args, **options)
         else:
-            out = full.derivatives(*args, variant=self.variant, c_u=self.c_u, **options)
+            g, H, strain = full.derivatives(*args, variant=self.variant, c_u=self.c_u, **options)
             if self.mu_directed is not None:  # magnetisation off d3 (contract section 9)
-                full.directed_magnetic(out[0], out[1], z, lam, self._directed_point_M, self.variant)
+                full.directed_magnetic(g, H, z, lam, self._directed_point_M, self.variant)
         if self.mixed and tangent:
-            self._strain = out[2]
-        return out[0], out[1]
+            self._strain = strain
+        return g, H
 
     # -- mixed-integration-point Newton (independent stresses at the quadrature points) ----------
     def mixed_reset(self) -> None:
