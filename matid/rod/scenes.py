@@ -169,13 +169,12 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     moments += [np.asarray(seg.precurvature, float) for seg in rod.segments if seg.precurvature]
     scale = max([np.abs(v).max() for v in forces + moments] + [1e-300])
     candidates = [v[:2] for v in forces] + [np.array([m[1], -m[0]]) for m in moments]  # n x e3
-    direction = next((c / np.linalg.norm(c) for c in candidates if np.linalg.norm(c) > tol * scale), None)
-    if direction is None:
-        direction = np.array([1.0, 0.0])
+    unit = (c / np.linalg.norm(c) for c in candidates if np.linalg.norm(c) > tol * scale)
+    direction = next(unit, np.array([1.0, 0.0]))
     if any(abs(m[2]) > tol * scale for m in moments):
         return None  # twist moment or twist precurvature
     for c in candidates:
-        if abs(c[0] * direction[1] - c[1] * direction[0]) > tol * max(scale, 1e-300):
+        if abs(c[0] * direction[1] - c[1] * direction[0]) > tol * scale:
             return None
     return (float(direction[0]), float(direction[1]), 0.0)
 
