@@ -88,7 +88,7 @@ class Discretisation:
         rows = [r for r, name in enumerate(elem.dofnames[: elem.nodal_dofs]) if name == "u_x"]
         #: (value dof, slope dof) of each vertex of an element with slopes (Hermite), else empty
         self.slope_pairs = (nodal[0], nodal[rows[0]]) if rows else (np.zeros(0, int), np.zeros(0, int))
-        self._vertices = vertices.copy()
+        self.vertices, self.ne = vertices.copy(), vertices.size - 1
         self.n = self.nscalar * nf
         self.weighted = np.stack([self.phi, self.dphi]) * self.dx[None, None]  # (2, nloc, ne, nq)
         self.both = np.stack([self.phi, self.dphi])
@@ -100,14 +100,6 @@ class Discretisation:
         """Scalar dofs of the field a + b s (values at point dofs, b at derivative dofs): exact
         in every element here, since each holds the affine fields."""
         return np.where(self.slope, b, a + b * self.s_dof)
-
-    @property
-    def ne(self) -> int:
-        return self._vertices.size - 1
-
-    @property
-    def vertices(self) -> np.ndarray:
-        return self._vertices
 
     def moved(self, vertices: np.ndarray) -> Discretisation:
         """A copy on moved vertices (same topology), by rescaling the affine 1D basis tables.
@@ -122,11 +114,11 @@ class Discretisation:
         new.__dict__.update(self.__dict__)
         vertices = np.asarray(vertices, float)
         h_new = np.diff(vertices)
-        r = (h_new / np.diff(self._vertices))[:, None]
-        new._vertices = vertices
+        r = (h_new / np.diff(self.vertices))[:, None]
+        new.vertices = vertices
         new.dphi = self.dphi / r[None]
         new.dx = self.dx * r
-        new.s_quad = vertices[:-1, None] + (self.s_quad - self._vertices[:-1, None]) * r
+        new.s_quad = vertices[:-1, None] + (self.s_quad - self.vertices[:-1, None]) * r
         new.s_dof = np.empty(self.nscalar)  # each dof keeps its place in its element
         new.s_dof[self.edofs] = vertices[:-1] + self._local() * h_new
         one = np.ones_like(r)
@@ -144,7 +136,7 @@ class Discretisation:
         """Local coordinate in [0, 1] of each element dof (nloc, ne): where a moved mesh puts it."""
         cached = self.__dict__.get("_t")
         if cached is None:
-            v = self._vertices
+            v = self.vertices
             cached = self._t = (self.s_dof[self.edofs] - v[:-1]) / np.diff(v)
         return cached
 
