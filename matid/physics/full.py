@@ -91,14 +91,14 @@ def derivatives(
     variant=kin.NORMALISED,
     c_u=0.0,
 ):
-    """(g, H) of the full-model density at every point: shapes P + (14,), P + (14, 14).
+    """(g, H, strain) of the full-model density at every point: shapes P + (14,), P + (14, 14).
 
     z: P + (14,) the point values (r, q, r', q'); props: stiffness arrays (P); mu:
     magnetisation per length (P) or None; B, f: 3-vectors; kappa_ref: 3-vector (scaled by lam
     here); ``variant``: directors from q/|q| or the raw q (then with the integrated penalty
     c_u/2 (|q|^2 - 1)^2). ``stress`` (P + (6,)): independent point stresses for the geometric
-    part of the Hessian (the mixed tangent, see RodSystem.mixed_update); ``want_strain``: also
-    return (C (e - e_ref), C de/dz) for that update.
+    part of the Hessian (the mixed tangent, see RodSystem.mixed_update); strain: (C (e - e_ref),
+    C de/dz) for that update with ``want_strain`` and ``tangent``, else None.
     """
     shape = z.shape[:-1]
     z = z.reshape(-1, 14)
@@ -130,7 +130,7 @@ def derivatives(
     g[:, :3] = -lam * np.asarray(f, float)
     g[:, 3:] = _gradient(s, a, a1, F, gF, gn2, penalty)
     if not tangent:
-        return g.reshape(shape + (14,)), None
+        return g.reshape(shape + (14,)), None, None
     ge6 = a[:, :6, None] * gF[:, :6] + (a1[:, :6] * F[:, :6])[:, :, None] * gn2[:, None, :]
     Cge = C[:, :, None] * ge6
     strain = None
@@ -143,8 +143,7 @@ def derivatives(
         s[:, :6] = stress.reshape(n, 6)
     H = np.zeros((n, 14, 14))
     H[:, 3:, 3:] = _hessian(ge6, Cge, s, a, a1, power, n2, F, gF, gn2, dr, Qq, M, penalty, c_u)
-    g, H = g.reshape(shape + (14,)), H.reshape(shape + (14, 14))
-    return (g, H, strain) if want_strain else (g, H)
+    return g.reshape(shape + (14,)), H.reshape(shape + (14, 14)), strain
 
 
 def _numerators(z, Wz, magnetic):

@@ -96,9 +96,6 @@ class Jet:
     def __rtruediv__(self, other: object) -> Jet:
         return self.reciprocal() * other
 
-    def square(self) -> Jet:
-        return self * self
-
 
 def apply(f_v: np.ndarray, f_d: np.ndarray, f_dd: np.ndarray, x: Jet) -> Jet:
     """Chain rule for a scalar function with value, first and second derivative at x.v."""
@@ -121,7 +118,3 @@ def cos(x: Jet | np.ndarray) -> Jet | np.ndarray:
         s, c = np.sin(x.v), np.cos(x.v)
         return apply(c, -s, -c, x)
     return np.cos(x)
-
-
-def value(x: Jet | np.ndarray | float) -> np.ndarray:
-    return x.v if isinstance(x, Jet) else np.asarray(x)

@@ -34,18 +34,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numpy as np
-
 from matid.physics import jet
 
 #: Quaternion treatments of physics.md section 3.
 RAW, NORMALISED = "raw", "normalised"
-
-
-def per_point(value, n: int) -> np.ndarray:
-    """A rod-wide 3-vector (kappa_ref) or one per point (P + (3,)) as an (n, 3) array of the points."""
-    value = np.asarray(value, float)
-    return np.broadcast_to(value, (n, 3)) if value.ndim == 1 else value.reshape(n, 3)
 
 
 def directors(q: Sequence) -> list[list]:
@@ -89,8 +81,13 @@ def strains(dr: Sequence, q: Sequence, dq: Sequence, variant: str = NORMALISED) 
 
 def d3(q: Sequence, variant: str = NORMALISED) -> list:
     """The third director (tangent of an unsheared rod), raw or from q/|q|."""
+    return director(q, 2, variant)
+
+
+def director(q: Sequence, j: int, variant: str = NORMALISED) -> list:
+    """The director d_(j+1) (j = 0, 1, 2), raw or from q/|q|."""
     R = directors(q)
-    col = [R[0][2], R[1][2], R[2][2]]
+    col = [R[0][j], R[1][j], R[2][j]]
     if variant == RAW:
         return col
     inv = 1.0 / norm2(q)

@@ -38,8 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: Section quantity each stiffness is divided by, and the modulus it gives.
-MODULUS_OF = {"E_e": ("area", "E"), "E_b": ("second_moment", "E"), "E_t": ("polar_moment", "G")}
+#: Section quantity (a Section property) each stiffness is divided by, and the modulus it gives.
+MODULUS_OF = {"E_e": ("A", "E"), "E_b": ("I", "E"), "E_t": ("J", "G")}
 #: Section shapes (docs/contract.md section 10).
 SHAPES = ("tube", "slit", "rectangle")
 #: Terms of the rectangle's torsion series: the tail after n terms is below (c/a) 192/pi^5 / (4 n^4).
@@ -90,7 +90,7 @@ class Section:
     def I(self) -> float:  # noqa: E743 (the symbol of the formula)
         """Second moment of area about the bending axis [m^4]."""
         if self.shape == "rectangle":
-            return rectangle_second_moment(self.width, self.height)
+            return self.width * self.height**3 / 12.0  # b h^3 / 12, bent along its height
         return second_moment(*self.radii)
 
     @property
@@ -107,11 +107,6 @@ class Section:
             return f"rectangle {self.width * 1e3:.4g} mm x {self.height * 1e3:.4g} mm"
         kind = "slit (open) tube" if self.shape == "slit" else "tube" if self.inner_diameter else "rod"
         return f"{kind} {self.outer_diameter * 1e3:.4g}/{self.inner_diameter * 1e3:.4g} mm"
-
-
-def rectangle_second_moment(width: float, height: float) -> float:
-    """I = b h^3 / 12 of a rectangle bent along its height [m^4]."""
-    return width * height**3 / 12.0
 
 
 def rectangle_torsion_constant(width: float, height: float, terms: int = SERIES_TERMS) -> float:
@@ -193,8 +188,8 @@ def modulus(
         if outer_radius is None:
             raise ValueError("modulus needs a section or an outer radius")
         section = Section("tube", 2.0 * outer_radius, 2.0 * inner_radius)
-    size = {"E_e": section.A, "E_b": section.I, "E_t": section.J}[source]
-    name = MODULUS_OF[source][1]
+    quantity, name = MODULUS_OF[source]
+    size = getattr(section, quantity)
     return Modulus(name, source, stiffness / size, None if stderr is None else stderr / size)
 
 

@@ -24,14 +24,14 @@ import numpy as np
 
 
 def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None, want_strain=False):
-    """(g, H) of the planar density at every point: shapes P + (6,), P + (6, 6).
+    """(g, H, strain) of the planar density at every point: shapes P + (6,), P + (6, 6).
 
     z: P + (6,) point values (x, z, t, x', z', t'); props: stiffness arrays (P);
     mu: magnetisation per length (P) or None; B, f: 3-vectors (x, -, z) in the plane;
     kappa_ref: 3-vector or P + (3,) per point (its second entry, about the plane normal, scaled by
     lam here).
-    ``stress`` (P + (2,)): (n1, n3) for the geometric part of H (the mixed tangent);
-    ``want_strain``: also return ((n1, n3) of the displacements, C J) for that update.
+    ``stress`` (P + (2,)): (n1, n3) for the geometric part of H (the mixed tangent); strain:
+    ((n1, n3) of the displacements, C J) for that update with ``want_strain`` and ``tangent``, else None.
     """
     shape = z.shape[:-1]
     z = z.reshape(-1, 6)
@@ -52,7 +52,7 @@ def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None
         mu = lam * mu.ravel()
         g[:, 2] -= mu * (c * B[0] - s * B[2])
     if not tangent:
-        return (g.reshape(shape + (6,)), None, None) if want_strain else (g.reshape(shape + (6,)), None)
+        return g.reshape(shape + (6,)), None, None
     Esc, Ess, Eec, Ees = Es * c, Es * s, Ee * c, Ee * s
     a, b = -Es * nu3, Ee * nu1  # C J on t: (E_s dnu1/dt, E_e dnu3/dt)
     strain = None
@@ -77,5 +77,4 @@ def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None
     H[:, 3, 4] = H[:, 4, 3] = Ees * c - Ess * c
     H[:, 4, 4] = Ess * s + Eec * c
     H[:, 5, 5] = Eb
-    g, H = g.reshape(shape + (6,)), H.reshape(shape + (6, 6))
-    return (g, H, strain) if want_strain else (g, H)
+    return g.reshape(shape + (6,)), H.reshape(shape + (6, 6)), strain

@@ -62,9 +62,7 @@ def slerp(a: np.ndarray, b: np.ndarray, f: float) -> np.ndarray:
     if w < 1e-12:
         return np.asarray(b, float)
     if abs(np.pi - w) < 1e-9:  # antipodal: any great circle; one through a vector normal to a
-        c = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-        c /= np.linalg.norm(c)
-        return np.cos(f * w) * np.asarray(a) + np.sin(f * w) * c
+        return np.cos(f * w) * np.asarray(a) + np.sin(f * w) * _basis(a)[0]
     out = (np.sin((1 - f) * w) * np.asarray(a) + np.sin(f * w) * np.asarray(b)) / np.sin(w)
     return out / np.linalg.norm(out)
 

@@ -30,15 +30,11 @@ class BlockPattern:
 
 
 class Banded:
-    """A free-dof tangent in LAPACK band storage, dofs ordered along s (half-bandwidth ``u``).
+    """A free-dof tangent in the band storage of the module docstring; ``order[k]`` is the free
+    dof at band position k, ``position`` its inverse."""
 
-    ``ab[u + i - j, j] = K[i, j]`` in band order; ``order[k]`` is the free dof at band
-    position k. P2 couples three consecutive nodes, so u = 3 nf - 1 whatever the mesh
-    size: a Newton step costs O(n u^2) with no sparse bookkeeping.
-    """
-
-    def __init__(self, ab: np.ndarray, u: int, order: np.ndarray, symmetric: bool):
-        self.ab, self.u, self.order, self.symmetric = ab, u, order, symmetric
+    def __init__(self, ab: np.ndarray, u: int, order: np.ndarray, position: np.ndarray, symmetric: bool):
+        self.ab, self.u, self.order, self.position, self.symmetric = ab, u, order, position, symmetric
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -57,24 +53,20 @@ class Banded:
         flat[pattern.flat] += blocks.reshape(-1)[pattern.keep]
 
     def tocsr(self) -> sp.csr_matrix:
-        """The matrix in free-dof numbering (tests, eigenvalue checks)."""
+        """The matrix in free-dof numbering, in O(n u) (the stability test of dead moments, tests)."""
         n, u = self.shape[0], self.u
-        dense = np.zeros((n, n))
-        for k in range(-u, u + 1):
-            j = np.arange(max(0, -k), min(n, n - k))
-            dense[j + k, j] = self.ab[u + k, j]
-        out = np.empty_like(dense)
-        out[np.ix_(self.order, self.order)] = dense
-        return sp.csr_matrix(out)
+        offsets = list(range(-u, u + 1))
+        diagonals = [self.ab[u + k, max(0, -k) : min(n, n - k)] for k in offsets]
+        band = sp.diags(diagonals, [-k for k in offsets], shape=(n, n), format="coo")
+        out = sp.csr_matrix((band.data, (self.order[band.row], self.order[band.col])), shape=(n, n))
+        out.eliminate_zeros()  # as a dense matrix's: the structure SuperLU orders by
+        return out
 
     def tocsc(self) -> sp.csc_matrix:
         return self.tocsr().tocsc()
 
     def factor(self) -> BandFactor:
-        """Cholesky (LAPACK pbtrf) when symmetric and positive definite, else banded LU (gbtrf).
-
-        A successful Cholesky is the stability test of the state (every pivot > 0).
-        """
+        """Cholesky (LAPACK pbtrf) when symmetric and positive definite, else banded LU (gbtrf)."""
         u, n = self.u, self.shape[0]
         if self.symmetric:
             c, info = lapack.dpbtrf(self.ab[u:], lower=1)

@@ -12,14 +12,15 @@ and the load factor moves the nose: d = lam d_max. A point contact puts a
 corner into the centreline of a shear-deformable rod, so each contact sits on
 a mesh vertex: the nose on vertex 0 (mid-span, by symmetry), the support on the
 vertex at sigma, the mesh built around it, and h = 0 makes that vertex the
-contact section. Sensitivities of the nose
-force to the stiffnesses come from the linearised equilibrium at each converged
-point: A dX/dp = -dR/dp, one back-substitution with the factorised tangent
-(the energy is linear in each stiffness, so dR/dp is the residual of that one
-energy term). The force is homogeneous of degree one in (E_b, E_s, E_e), so
-dF/dE_b = (F - E_s dF/dE_s - E_e dF/dE_e) / E_b. The same back-substitution
-gives the load tangent dX/dd (dR/dlam in closed form), which predicts the next
-point of the path and gives dF/dd.
+contact section.
+
+Sensitivities of the nose force to the stiffnesses come from the linearised
+equilibrium at each converged point: A dX/dp = -dR/dp, one back-substitution
+with the factorised tangent (the energy is linear in each stiffness, so dR/dp
+is the residual of that one energy term). The force is homogeneous of degree
+one in (E_b, E_s, E_e), so dF/dE_b = (F - E_s dF/dE_s - E_e dF/dE_e) / E_b.
+The same back-substitution gives the load tangent dX/dd (dR/dlam in closed
+form), which predicts the next point of the path and gives dF/dd.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from matid.physics.contact import Circle
 from matid.rod.bend_system import BendSystem
 from matid.rod.fem import Discretisation
 from matid.rod.models import PLANAR, RodSystem, ScaledRod
-from matid.rod.newton import NewtonFailure, NewtonInfo, follow, newton
+from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follow, newton
 
 #: Default elements of the half model (measured: see ``matid bench``).
 DEFAULT_ELEMENTS = 24
@@ -225,12 +226,11 @@ class BendModel:
         if warm is not None:
             try:
                 X_new, its, lu = newton(system, warm, target)
-                if system.reject(X_new, target) is None:
-                    info.iterations += its
-                    info.steps += 1
-                    info.lu = lu
-                    return X_new
-                info.rejected += 1
+                _check_admissible(system, X_new, target)
+                info.iterations += its
+                info.steps += 1
+                info.lu = lu
+                return X_new
             except NewtonFailure:
                 info.rejected += 1
         if target == lam:  # e.g. a d = 0 row: converge there for the tangent the sensitivities need

@@ -1,30 +1,25 @@
 """Residual and bordered tangent of the three-point bend's half model (see :mod:`matid.rod.bend`).
 
-Unknowns X = (free planar dofs, lam_support, lam_nose, sigma). The contact terms
-live on two vertices, so they are computed in plain floats and put into the
-rod's banded tangent at positions found once per system; the derivatives the
-E_s fit needs at a converged point (dX/dE_s, dX/dE_e and dX/dd) are one
-back-substitution with three right-hand sides.
+The contact terms live on two vertices, so they are computed in plain floats and put into
+the rod's banded tangent at positions found once per system; the derivatives the E_s fit
+needs at a converged point (dX/dE_s, dX/dE_e and dX/dd) are one back-substitution with
+three right-hand sides.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from matid.physics.contact import Circle
-from matid.rod.bordered import Bordered
+from matid.rod.band import Banded
 from matid.rod.models import RodSystem
 from matid.rod.newton import NewtonFailure
 
 
 class BendSystem:
-    """Residual and tangent of the half-model bend at nose deflection lam * d_max (scaled).
-
-    Unknowns X = (free planar dofs, lam_support, lam_nose, sigma): sigma is the
-    arc length of the support vertex, on which the mesh is built (uniform
-    elements on each side of it). Its equation is h(vertex) = 0: the vertex is
-    the contact section. dR/dsigma is in closed form (:meth:`_mesh_derivative`).
-    """
+    """Residual and tangent of the half-model bend at nose deflection lam * d_max (scaled), in the
+    unknowns X = (free planar dofs, lam_support, lam_nose, sigma) of :mod:`matid.rod.bend`."""
 
     def __init__(self, rod: RodSystem, model, support: Circle, d_max: float):
         self.rod, self.model, self.support, self.d_max = rod, model, support, d_max
@@ -55,12 +50,10 @@ class BendSystem:
             for name in ("E_s", "E_e")
         }
 
-    def _inside(self, sigma: float) -> None:
+    def at(self, sigma: float) -> None:
+        """Build the mesh around the support vertex at arc length sigma (scaled)."""
         if not 0.0 < sigma < self.model.half:
             raise NewtonFailure(f"the support contact section left the rod (s = {sigma:.4g} span)")
-
-    def at(self, sigma: float) -> None:
-        self._inside(sigma)
         if getattr(self, "_sigma", None) != sigma:
             self.rod.disc = self.base.moved(self.model.vertices(sigma))
             self._sigma = sigma
@@ -77,14 +70,11 @@ class BendSystem:
         """Trust region and convergence on the displacements and sigma (multipliers follow them)."""
         return float(max(np.max(np.abs(dx[: self.nu])), abs(dx[-1])))
 
-    def _vertex(self, U: np.ndarray, vertex: int) -> tuple[float, float, float]:
-        return float(U[3 * vertex]), float(U[3 * vertex + 1]), float(U[3 * vertex + 2])
-
     def _gaps(self, U: np.ndarray, lam: float) -> list[tuple[float, float, float, float]]:
         """[(g, n_x, n_z, |r - c|)] of the support (at vertex k) and the nose (at vertex 0)."""
-        xs, zs, _ = self._vertex(U, self.k)
-        x0, z0, _ = self._vertex(U, 0)
-        return [self.support.gap(xs, zs), self.nose(lam).gap(x0, z0)]
+        k = 3 * self.k
+        support = self.support.gap(float(U[k]), float(U[k + 1]))
+        return [support, self.nose(lam).gap(float(U[0]), float(U[1]))]
 
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
         n = self.nu
@@ -144,9 +134,6 @@ class BendSystem:
 
     def lam_derivative(self, X: np.ndarray, lam: float) -> np.ndarray:
         """dR/dlam in closed form: lam moves only the nose centre, c = (rho - lam d_max, 0).
-
-        (Not named ``load_derivative``: newton.tangent may call that as R(x, 1) - R(x, 0), which
-        holds for loads linear in lam only; the nose moves the residual nonlinearly.)
 
         With n = (r - c)/|r - c|: dg/dlam = n_x d_max and dn/dlam = (I - n n^T)(d_max, 0)/|r - c|,
         which enters the residual through -G^T lam (zero when the nose vertex stays on the
@@ -215,3 +202,67 @@ class BendSystem:
     def initial(self) -> np.ndarray:
         self.at(0.5)
         return np.concatenate([self.rod.reduce(self.rod.reference()), np.zeros(2), [0.5]])
+
+
+class Bordered:
+    """The bend tangent [[K, B], [C, 0]]: the banded rod block K bordered by three columns
+    (contact normals -G^T, dR/dsigma) and three rows (-G, dh/du).
+
+    K alone is singular (nothing but the contacts holds the tube's vertical
+    translation), so the first two rows are added to the rod block with weight rho,
+    K_rho = K + rho G^T G, an equivalent system whose G^T G is node-local (in the
+    band). Then x = y - Z w with K_rho y = f, K_rho Z = B and the 3x3 Schur
+    complement (C Z) w = C y - g: one banded factorisation and four back-solves.
+    """
+
+    def __init__(self, K, B: np.ndarray, C: np.ndarray):
+        self.K, self.B, self.C = K, B, C
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        n = self.B.shape[0] + 3
+        return (n, n)
+
+    def tocsr(self) -> sp.csr_matrix:
+        n = self.B.shape[0]
+        A = np.zeros(self.shape)
+        A[:n, :n] = self.K.tocsr().toarray()
+        A[:n, n:], A[n:, :n] = self.B, self.C
+        return sp.csr_matrix(A)
+
+    def factor(self) -> Bordered:
+        K, C = self.K, self.C
+        u = K.u
+        self.rho = max(1.0, float(np.max(np.abs(K.ab[u]))))
+        aug = Banded(K.ab.copy(), u, K.order, K.position, K.symmetric)
+        for row in C[:2]:  # each contact row lives on its own vertex: rho g g^T is in the band
+            nz = np.flatnonzero(row)
+            pos = K.position[nz]
+            aug.ab[u + pos[:, None] - pos[None, :], pos[None, :]] += self.rho * np.outer(row[nz], row[nz])
+        self.F = aug.factor()
+        self.Z = self.F.solve(self.B)
+        self.S_inv = _inverse3(C @ self.Z)  # 3 x 3: applied to every right-hand side
+        return self
+
+    def solve(self, r: np.ndarray) -> np.ndarray:
+        """The solution for a right-hand side r of shape (n + 3,) or (n + 3, m)."""
+        n = self.B.shape[0]
+        f = r[:n] + self.rho * (self.C[:2].T @ r[n : n + 2])
+        y = self.F.solve(f)
+        w = self.S_inv @ (self.C @ y - r[n:])
+        return np.concatenate([y - self.Z @ w, w])
+
+
+def _inverse3(S: np.ndarray) -> np.ndarray:
+    """Inverse of a 3 x 3 matrix by its adjugate; LinAlgError when singular or not finite."""
+    (a, b, c), (d, e, f), (g, h, i) = S.tolist()
+    cof = [e * i - f * h, f * g - d * i, d * h - e * g]
+    det = a * cof[0] + b * cof[1] + c * cof[2]
+    if not (np.isfinite(det) and abs(det) > 1e-300):
+        raise np.linalg.LinAlgError("singular bordered tangent")
+    adj = [
+        [cof[0], c * h - b * i, b * f - c * e],
+        [cof[1], a * i - c * g, c * d - a * f],
+        [cof[2], b * g - a * h, a * e - b * d],
+    ]
+    return np.array(adj) / det

@@ -67,13 +67,11 @@ def strain_warnings(eq) -> list[str]:
 
 def _outer_diameter(scene, eq) -> np.ndarray | float:
     """The outer diameter at the quadrature points (segment overrides), or the rod's."""
-    d = np.full(eq.disc.s_quad.shape, scene.rod.outer_diameter)
+    s = eq.disc.s_quad * scene.rod.length
+    d = np.full(s.shape, scene.rod.outer_diameter)
     for seg in scene.rod.segments:
         if "outer_diameter" in seg.overrides:
-            inside = (eq.disc.s_quad * scene.rod.length >= seg.start) & (
-                eq.disc.s_quad * scene.rod.length < seg.end
-            )
-            d[inside] = seg.overrides["outer_diameter"]
+            d[(s >= seg.start) & (s < seg.end)] = seg.overrides["outer_diameter"]
     return d
 
 

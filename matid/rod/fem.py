@@ -45,30 +45,11 @@ class Pattern:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
 
-@dataclass(frozen=True)
-class Tables:
-    """What the rod needs of a scikit-fem ``Basis`` on a ``MeshLine``, built once per mesh.
-
-    phi, dphi: (nloc, ne, nq) shape functions and their s-derivatives at the quadrature
-    points; dx: (ne, nq) quadrature weights times Jacobian; edofs: (nloc, ne) the DOF map;
-    s_dof: the reference arc length of each scalar dof; slope: which dofs are derivatives
-    (the cubic Hermite's ``u_x``: a clamp holds only the values, an affine field a + b s has
-    b there); s_quad: (ne, nq) the quadrature points.
-    """
-
-    basis: Basis
-    phi: np.ndarray
-    dphi: np.ndarray
-    dx: np.ndarray
-    edofs: np.ndarray
-    s_dof: np.ndarray
-    slope: np.ndarray
-    s_quad: np.ndarray
-
-
 @functools.lru_cache(maxsize=64)
-def tables(vertices: bytes, element: str, intorder: int | None) -> Tables:
-    """The basis tables of ``element`` on the mesh with these vertices (cached: one Basis per mesh)."""
+def tables(vertices: bytes, element: str, intorder: int | None) -> tuple:
+    """(basis, phi, dphi, dx, edofs, s_dof, slope, s_quad) of ``element`` on the mesh with these
+    vertices (see :class:`Discretisation`), read-only: one Basis per mesh, shared by every
+    Discretisation on it."""
     mesh = MeshLine(np.frombuffer(vertices).copy())
     elem = ELEMENTS[element]()
     basis = Basis(mesh, elem) if intorder is None else Basis(mesh, elem, intorder=intorder)
@@ -77,39 +58,37 @@ def tables(vertices: bytes, element: str, intorder: int | None) -> Tables:
     slope = np.zeros(basis.N, dtype=bool)
     for row, name in enumerate(elem.dofnames[: elem.nodal_dofs]):
         slope[basis.nodal_dofs[row]] = name == "u_x"
-    out = Tables(
-        basis,
-        phi,
-        dphi,
-        basis.dx,
-        basis.element_dofs,
-        basis.doflocs[0],
-        slope,
-        np.asarray(basis.global_coordinates())[0],
-    )
-    for a in (out.phi, out.dphi, out.dx, out.edofs, out.s_dof, out.slope, out.s_quad):
-        a.flags.writeable = False  # shared by every Discretisation on this mesh
-    return out
+    s_quad = np.asarray(basis.global_coordinates())[0]
+    out = (phi, dphi, basis.dx, basis.element_dofs, basis.doflocs[0], slope, s_quad)
+    for a in out:
+        a.flags.writeable = False
+    return (basis, *out)
 
 
 class Discretisation:
-    """Mesh, scikit-fem basis tables and vectorised assembly for ``nf`` scalar fields on [0, L]."""
+    """Mesh, scikit-fem basis tables and vectorised assembly for ``nf`` scalar fields on [0, L].
+
+    phi, dphi: (nloc, ne, nq) shape functions and their s-derivatives at the quadrature
+    points; dx: (ne, nq) quadrature weights times Jacobian; edofs: (nloc, ne) the DOF map;
+    s_dof: the reference arc length of each scalar dof; slope: which dofs are derivatives
+    (the cubic Hermite's ``u_x``: a clamp holds only the values, an affine field a + b s has
+    b there); s_quad: (ne, nq) the quadrature points.
+    """
 
     def __init__(self, vertices: np.ndarray, nf: int, *, element: str = "P2", intorder: int | None = None):
         vertices = np.asarray(vertices, dtype=float)
+        self.element, self.nf = element, nf
         t = tables(vertices.tobytes(), element, intorder)
-        self.element, self.nf, self.basis = element, nf, t.basis
-        self.phi, self.dphi, self.dx, self.edofs = t.phi, t.dphi, t.dx, t.edofs
-        self.s_dof, self.slope, self.s_quad = t.s_dof, t.slope, t.s_quad
-        self.nscalar = t.s_dof.size
+        self.basis, self.phi, self.dphi, self.dx, self.edofs, self.s_dof, self.slope, self.s_quad = t
+        self.nscalar = self.s_dof.size
         values = np.flatnonzero(~self.slope)
         #: scalar dofs that are point values, ordered along s (the output points of a solution)
         self.value_dofs = values[np.argsort(self.s_dof[values], kind="stable")]
-        elem, nodal = t.basis.elem, t.basis.nodal_dofs
+        elem, nodal = self.basis.elem, self.basis.nodal_dofs
         rows = [r for r, name in enumerate(elem.dofnames[: elem.nodal_dofs]) if name == "u_x"]
         #: (value dof, slope dof) of each vertex of an element with slopes (Hermite), else empty
         self.slope_pairs = (nodal[0], nodal[rows[0]]) if rows else (np.zeros(0, int), np.zeros(0, int))
-        self._vertices = vertices.copy()
+        self.vertices, self.ne = vertices.copy(), vertices.size - 1
         self.n = self.nscalar * nf
         self.weighted = np.stack([self.phi, self.dphi]) * self.dx[None, None]  # (2, nloc, ne, nq)
         self.both = np.stack([self.phi, self.dphi])
@@ -121,14 +100,6 @@ class Discretisation:
         """Scalar dofs of the field a + b s (values at point dofs, b at derivative dofs): exact
         in every element here, since each holds the affine fields."""
         return np.where(self.slope, b, a + b * self.s_dof)
-
-    @property
-    def ne(self) -> int:
-        return self._vertices.size - 1
-
-    @property
-    def vertices(self) -> np.ndarray:
-        return self._vertices
 
     def moved(self, vertices: np.ndarray) -> Discretisation:
         """A copy on moved vertices (same topology), by rescaling the affine 1D basis tables.
@@ -143,11 +114,11 @@ class Discretisation:
         new.__dict__.update(self.__dict__)
         vertices = np.asarray(vertices, float)
         h_new = np.diff(vertices)
-        r = (h_new / np.diff(self._vertices))[:, None]
-        new._vertices = vertices
+        r = (h_new / np.diff(self.vertices))[:, None]
+        new.vertices = vertices
         new.dphi = self.dphi / r[None]
         new.dx = self.dx * r
-        new.s_quad = vertices[:-1, None] + (self.s_quad - self._vertices[:-1, None]) * r
+        new.s_quad = vertices[:-1, None] + (self.s_quad - self.vertices[:-1, None]) * r
         new.s_dof = np.empty(self.nscalar)  # each dof keeps its place in its element
         new.s_dof[self.edofs] = vertices[:-1] + self._local() * h_new
         one = np.ones_like(r)
@@ -165,7 +136,7 @@ class Discretisation:
         """Local coordinate in [0, 1] of each element dof (nloc, ne): where a moved mesh puts it."""
         cached = self.__dict__.get("_t")
         if cached is None:
-            v = self._vertices
+            v = self.vertices
             cached = self._t = (self.s_dof[self.edofs] - v[:-1]) / np.diff(v)
         return cached
 
@@ -196,12 +167,8 @@ class Discretisation:
         (remembered per mesh and free set: the systems of a scene share them)."""
         dofs = np.atleast_2d(dofs)
         key = (dofs.shape, dofs.tobytes())
-        hit = self._blocks.get(key)
-        if hit is None:
-            hit = self._blocks[key] = self._block_pattern(dofs)
-        return hit
-
-    def _block_pattern(self, dofs: np.ndarray) -> BlockPattern:
+        if key in self._blocks:
+            return self._blocks[key]
         k, m = dofs.shape
         idx = self.free_index[dofs]
         ii = np.broadcast_to(idx[:, :, None], (k, m, m)).ravel()
@@ -212,11 +179,12 @@ class Discretisation:
         if rows.size and np.max(np.abs(pos[rows] - pos[cols])) > u:
             raise ValueError("block_pattern: the blocks do not fit in the band (not node-local)")
         flat = (u + pos[rows] - pos[cols]) * self.band_order.size + pos[cols]
-        return BlockPattern(dofs, keep, rows, cols, flat)
+        hit = self._blocks[key] = BlockPattern(dofs, keep, rows, cols, flat)
+        return hit
 
     @property
     def pattern(self) -> Pattern:
-        """CSR pattern of the free-free block (the sparse path: the bend's bordered system)."""
+        """CSR pattern of the free-free block (the tangent of an unbanded system)."""
         if self._pattern is None:
             index, m, nfree = self.free_index, self.gdofs.shape[1], int(self.free.sum())
             rows = np.broadcast_to(index[self.gdofs][:, :, None], (self.ne, m, m)).ravel()
@@ -298,9 +266,7 @@ class Discretisation:
         n, u = self.band_order.size, self.band_u
         size = (2 * u + 1) * n
         ab = np.bincount(self.band_all, weights=self.element_blocks(H).ravel(), minlength=size + 1)
-        out = Banded(ab[:size].reshape(2 * u + 1, n), u, self.band_order, symmetric)
-        out.position = self.band_position
-        return out
+        return Banded(ab[:size].reshape(2 * u + 1, n), u, self.band_order, self.band_position, symmetric)
 
     def residual(self, g: np.ndarray) -> np.ndarray:
         """Residual on all dofs from the pointwise gradient (see :meth:`assemble`)."""

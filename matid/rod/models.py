@@ -34,7 +34,6 @@ from matid.rod.fem import Discretisation
 
 PLANAR, FULL = "planar", "full"
 _DIAG4 = np.arange(4)
-FIELDS = {PLANAR: ("x", "z", "theta"), FULL: ("x", "y", "z", "q0", "q1", "q2", "q3")}
 
 
 @dataclass(frozen=True)
@@ -140,8 +139,7 @@ class RodSystem:
         #: point stresses (ne, nq, ns) for the mixed tangent's first iteration (a warm start
         #: from a coarser mesh's recovered stresses)
         self.stress_start: np.ndarray | None = None
-        self.props, self.mu, roundoff = _fields(self.disc, self.rod)
-        self._roundoff = (self.props, roundoff)
+        self.props, self.mu = _fields(self.disc, self.rod)
         nf = self.disc.nf
         free = np.ones(self.disc.n, dtype=bool)
         clamp = self.disc.vertex_dof(0) * nf + np.arange(nf)  # values only (Hermite: slopes stay free)
@@ -149,32 +147,28 @@ class RodSystem:
         self.disc.set_free(free)  # a shared (cached) mesh keeps its patterns when the set is the same
         self.index = self.disc.free_index  # free dof number of each dof, -1 where fixed
         self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
-        magnets = [(s_m, m) for s_m, m in self.rod.magnets]
         verts = self.disc.vertices
-        self.magnet_nodes = [
-            (self.disc.vertex_dof(int(np.argmin(np.abs(verts - s_m)))), m) for s_m, m in magnets
-        ]
-        self.terms = ["bending", "shear", "extension"] + (
-            ["twist", "unity penalty"] if self.model == FULL else []
-        )
-        if self.rod.has_field:
-            self.terms.append("magnetic")
+        node = lambda s_p: self.disc.vertex_dof(int(np.argmin(np.abs(verts - s_p))))  # noqa: E731
+        self.magnet_nodes = [(node(s_m), m) for s_m, m in self.rod.magnets]
         #: per-segment precurvature and off-axis magnetisation at the points, point loads at nodes
         self.kappa = self.rod.kappa_ref_at(self.disc.s_quad)
-        self.mu_directed = self.rod.directed_mu_at(self.disc.s_quad) if self.rod.has_field else None
+        directed = self.mu_directed = (
+            self.rod.directed_mu_at(self.disc.s_quad) if self.rod.has_field else None
+        )
         #: their maps M (points, 4, 4) of physics.full.directed_maps, built once per system
         self._directed_point_M = (
-            None
-            if self.mu_directed is None
-            else full.directed_maps(self.rod.B, self.mu_directed.reshape(-1, 3))
+            None if directed is None else full.directed_maps(self.rod.B, directed.reshape(-1, 3))
         )
-        node = lambda s_p: self.disc.vertex_dof(int(np.argmin(np.abs(verts - s_p))))  # noqa: E731
         self.directed_nodes = [(node(s_m), m, np.asarray(a)) for s_m, m, a in self.rod.directed_magnets]
         self.point_nodes = [(node(s_p), np.asarray(F), np.asarray(M)) for s_p, F, M in self.rod.point_loads]
-        if any(self.rod.kappa_ref) or self.kappa is not None:
-            self.terms.append("precurvature")
-        if self.point_nodes:
-            self.terms.append("point loads")
+        optional = {
+            "twist": self.model == FULL,
+            "unity penalty": self.model == FULL,
+            "magnetic": self.rod.has_field,
+            "precurvature": any(self.rod.kappa_ref) or self.kappa is not None,
+            "point loads": bool(self.point_nodes),
+        }
+        self.terms = ["bending", "shear", "extension"] + [name for name, on in optional.items() if on]
         self._node_patterns()
 
     # -- states -------------------------------------------------------------
@@ -221,7 +215,7 @@ class RodSystem:
             w = w + kin.magnetic_energy(lam * self.mu, kin.d3(q, self.variant), rod.B)
         if self.mu_directed is not None:
             w = w + sum(
-                kin.magnetic_energy(lam * self.mu_directed[..., j], pointing(q, self.variant, j), rod.B)
+                kin.magnetic_energy(lam * self.mu_directed[..., j], kin.director(q, j, self.variant), rod.B)
                 for j in range(3)
             )
         if any(rod.f):
@@ -244,14 +238,14 @@ class RodSystem:
         kappa_ref = rod.kappa_ref if self.kappa is None else self.kappa  # per point: per segment
         args = (z, lam, self.props, kappa_ref, mu, rod.B, rod.f, tangent)
         if self.model == PLANAR:
-            out = planar.derivatives(*args, **options)
+            g, H, strain = planar.derivatives(*args, **options)
         else:
-            out = full.derivatives(*args, variant=self.variant, c_u=self.c_u, **options)
+            g, H, strain = full.derivatives(*args, variant=self.variant, c_u=self.c_u, **options)
             if self.mu_directed is not None:  # magnetisation off d3 (contract section 9)
-                full.directed_magnetic(out[0], out[1], z, lam, self._directed_point_M, self.variant)
+                full.directed_magnetic(g, H, z, lam, self._directed_point_M, self.variant)
         if self.mixed and tangent:
-            self._strain = out[2]
-        return out[0], out[1]
+            self._strain = strain
+        return g, H
 
     # -- mixed-integration-point Newton (independent stresses at the quadrature points) ----------
     def mixed_reset(self) -> None:
@@ -294,10 +288,8 @@ class RodSystem:
     @property
     def roundoff(self) -> float:
         """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
-        cached = self.__dict__.get("_roundoff")
-        if cached is None or cached[0] is not self.props:
-            cached = self._roundoff = (self.props, _roundoff_floor(self.props))
-        return cached[1]
+        stiff = max([float(v.max()) for v in self.props.values()])  # the method: no np.max dispatch
+        return 1e-15 * max(stiff, 1.0)
 
     # -- point terms (tip loads, lumped magnets, the nodal unity penalty) -------------------
     def _node_patterns(self) -> None:
@@ -409,9 +401,9 @@ class RodSystem:
         Y = U[dofs]  # (k, 8): q, q'
         q, p = Y[:, :4], Y[:, 4:]
         w = np.einsum("ka,ka->k", q, p)
-        R = np.zeros_like(U)
-        R[dofs] = self.c_u * w[:, None] * Y[:, [4, 5, 6, 7, 0, 1, 2, 3]]
         swapped = Y[:, [4, 5, 6, 7, 0, 1, 2, 3]]  # d(q.q')/d(q, q') = (q', q)
+        R = np.zeros_like(U)
+        R[dofs] = self.c_u * w[:, None] * swapped
         H = self.c_u * (swapped[:, :, None] * swapped[:, None, :])
         H[:, _DIAG4, _DIAG4 + 4] += self.c_u * w[:, None]
         H[:, _DIAG4 + 4, _DIAG4] += self.c_u * w[:, None]
@@ -478,22 +470,28 @@ class RodSystem:
         pivoting (checked: perm_r == perm_c) computes K = L D L^T, and every
         pivot of D is positive iff K is (for a positive definite K this
         elimination is backward stable, so a pivot <= 0 is no round-off).
-        With a dead moment in 3D (no potential): :meth:`dead_moment_modes`.
         None when the test cannot be made.
-        """
-        _, K = self.evaluate(X, lam)
-        if not self.symmetric:
-            return self.dead_moment_modes(X, lam, K)
-        return ldl_negative(K)
 
-    def dead_moment_modes(self, X: np.ndarray, lam: float, K) -> int | None:
-        """Stability with dead moments in 3D (physics.md section 8), which have no potential: the
-        test of the symmetrised tangent (K + K^T)/2, i.e. positive second-order work of every
+        With dead moments in 3D (physics.md section 8), which have no potential: the test of
+        the symmetrised tangent (K + K^T)/2, i.e. positive second-order work of every
         perturbation (Hill's criterion: sufficient, coordinate-free). Measured: it rejects the
         saddle of a magnet in a reversed field (two negative eigenvalues, so det K > 0 there: a
         sign change of det K would miss it), and pure dead tip moments above ~2.2 E_b/L in
-        3D (det K > 0 there too: stability is then not assured, rather than assumed)."""
-        return ldl_negative(symmetric_part(K))
+        3D (det K > 0 there too: stability is then not assured, rather than assumed).
+        """
+        _, K = self.evaluate(X, lam)
+        if not self.symmetric:
+            K = K.tocsr()
+            K = ((K + K.T) * 0.5).tocsr()
+        try:
+            lu = spla.splu(
+                K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+            )
+        except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
+            return 1
+        if not np.array_equal(lu.perm_r, lu.perm_c):
+            return None
+        return int(np.sum(lu.U.diagonal() <= 0.0))
 
     def expand(self, X: np.ndarray) -> np.ndarray:
         U = self._reference().copy()
@@ -504,62 +502,13 @@ class RodSystem:
         return U[self.disc.free].copy()
 
 
-def pointing(q, variant: str, j: int) -> list:
-    """The director d_j (j = 0, 1, 2) from q, raw or from q/|q| (a magnetisation along it)."""
-    R = kin.directors(q)
-    col = [R[0][j], R[1][j], R[2][j]]
-    if variant == kin.RAW:
-        return col
-    inv = 1.0 / kin.norm2(q)
-    return [c * inv for c in col]
-
-
-def ldl_negative(K) -> int | None:
-    """Non-positive pivots of a symmetric K (CSR or band-stored) by SuperLU's L D L^T without
-    off-diagonal pivoting (:meth:`RodSystem.negative_modes`); None when SuperLU pivoted."""
-    try:
-        lu = spla.splu(
-            K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-        )
-    except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
-        return 1
-    if not np.array_equal(lu.perm_r, lu.perm_c):
-        return None
-    return int(np.sum(lu.U.diagonal() <= 0.0))
-
-
-def symmetric_part(K) -> sp.csr_matrix:
-    """(K + K^T)/2 in free-dof numbering (CSR) of a CSR or band-stored (fem.Banded) tangent."""
-    K = free_csr(K)
-    return ((K + K.T) * 0.5).tocsr()
-
-
-def free_csr(K) -> sp.csr_matrix:
-    """A CSR or band-stored (fem.Banded) tangent as CSR in free-dof numbering, in O(n u)."""
-    if hasattr(K, "ab"):  # band storage ab[u + i - j, j] = K[i, j], band position -> free dof
-        n, u = K.shape[0], K.u
-        offsets = list(range(-u, u + 1))
-        diagonals = [K.ab[u + k, max(0, -k) : min(n, n - k)] for k in offsets]
-        band = sp.diags(diagonals, [-k for k in offsets], shape=(n, n), format="coo")
-        K = sp.csr_matrix((band.data, (K.order[band.row], K.order[band.col])), shape=(n, n))
-    return sp.csr_matrix(K)
-
-
-def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
-    """(stiffnesses, magnetisation, round-off floor) of the rod at the mesh's quadrature points,
-    remembered per mesh and rod (a cached mesh serves every solve of a scene); read-only arrays.
-    The floor is :func:`_roundoff_floor` (:attr:`RodSystem.roundoff`)."""
+def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """(stiffnesses, magnetisation) of the rod at the mesh's quadrature points, remembered per
+    mesh and rod (a cached mesh serves every solve of a scene); read-only arrays."""
     cache = disc.__dict__.setdefault("_fields", {})
     hit = cache.get(rod)
     if hit is None or hit[0] is not disc.s_quad:  # a moved mesh shares the dict, not the points
         if len(cache) > 32:
             cache.clear()
-        props = rod.stiffness_at(disc.s_quad)
-        hit = cache[rod] = (disc.s_quad, props, rod.mu_at(disc.s_quad), _roundoff_floor(props))
-    return hit[1], hit[2], hit[3]
-
-
-def _roundoff_floor(props: dict[str, np.ndarray]) -> float:
-    """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
-    stiff = max([float(v.max()) for v in props.values()])  # the method: no np.max dispatch (~2 us each)
-    return 1e-15 * max(stiff, 1.0)
+        hit = cache[rod] = (disc.s_quad, rod.stiffness_at(disc.s_quad), rod.mu_at(disc.s_quad))
+    return hit[1], hit[2]

@@ -17,7 +17,7 @@ failure, never a value.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -97,7 +97,7 @@ def newton(
     sizes: list[float] = []
     mixed = getattr(system, "mixed_update", None)
     if mixed is not None:
-        getattr(system, "mixed_begin", system.mixed_reset)()
+        system.mixed_begin()
     for it in range(1, max_iter + 1):
         if first is not None and it == 1:
             R, lu = first
@@ -114,7 +114,11 @@ def newton(
             return x + dx, it, lu
         if len(sizes) >= 3 and size > sizes[-1] and size > sizes[-3]:
             if size < 1e-3 and max(sizes[-3:]) < 10 * min(sizes[-3:]) and size < 1e-2 * sizes[0]:
-                raise _stagnation(size, sizes[0])
+                raise RoundoffStagnation(
+                    f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
+                    f"{sizes[0]:.2g}: the precision double arithmetic allows for this mesh and stiffness "
+                    "spread; use fewer elements or a less extreme stiffness ratio"
+                )
             raise NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}")
         sizes.append(size)
         alpha = min(1.0, max_step / size)
@@ -133,14 +137,6 @@ def _finite(v: np.ndarray) -> bool:
     return bool(np.isfinite(v @ v))
 
 
-def _stagnation(size: float, first: float) -> RoundoffStagnation:
-    return RoundoffStagnation(
-        f"Newton stagnated at corrections of {size:.2g} (scaled) after converging from "
-        f"{first:.2g}: the precision double arithmetic allows for this mesh and stiffness "
-        "spread; use fewer elements or a less extreme stiffness ratio"
-    )
-
-
 def _factor(K) -> object:
     if hasattr(K, "factor"):  # band.Banded: LAPACK banded Cholesky, or LU when not positive definite
         try:
@@ -154,15 +150,9 @@ def _factor(K) -> object:
 
 
 def tangent(system: System, x: np.ndarray, lam: float, lu: object) -> np.ndarray:
-    """dx/dlam on the equilibrium path: K dx/dlam = -dR/dlam.
-
-    Every load of the rod scenes is linear in lam, so dR/dlam = R(x, 1) - R(x, 0) exactly
-    (``system.load_derivative(x)`` when it offers it).
-    """
-    load = getattr(system, "load_derivative", None)
-    dR = load(x) if load is not None else None
-    if dR is None:
-        dR = system.evaluate(x, 1.0, tangent=False)[0] - system.evaluate(x, 0.0, tangent=False)[0]
+    """dx/dlam on the equilibrium path: K dx/dlam = -dR/dlam, where dR/dlam = R(x, 1) - R(x, 0)
+    exactly (every load of the rod scenes is linear in lam)."""
+    dR = system.evaluate(x, 1.0, tangent=False)[0] - system.evaluate(x, 0.0, tangent=False)[0]
     return lu.solve(-dR)
 
 
@@ -195,7 +185,7 @@ def definite(system: System, x: np.ndarray, lam: float) -> bool | None:
 
 def _probe(system: System, x: np.ndarray, lam: float) -> tuple[bool | None, tuple | None]:
     """(:func:`definite`, (R, factorised tangent) when it has them: Newton's first iteration)."""
-    getattr(system, "mixed_begin", getattr(system, "mixed_reset", lambda: None))()
+    getattr(system, "mixed_begin", lambda: None)()
     R, K = system.evaluate(x, lam)
     if not hasattr(K, "factor") or not _finite(R):
         return None, None
@@ -248,18 +238,14 @@ def follow(
     max_step: float = 1.0,
     fast: int = 4,
     info: NewtonInfo | None = None,
-    on_target: Callable[[float, np.ndarray, NewtonInfo], None] | None = None,
-    newton_options: dict | None = None,
     definite_start: bool = False,
 ) -> tuple[np.ndarray, NewtonInfo]:
     """Continue from (x, lam0) through each load factor in ``targets`` (increasing or not).
 
-    ``on_target(lam, x, info)`` is called at each target with the converged state.
     ``definite_start``: the first step is halved (before any Newton) until the tangent at the
     start x is positive definite at its load (see :func:`definite_step`).
     """
     info = info or NewtonInfo()
-    opts = newton_options or {}
     budget = max(MIN_ITERATIONS, int(WORK_BUDGET / max(x.size, 1)))
     lam, step, probe = lam0, first_step, None
     if definite_start and len(targets):
@@ -273,7 +259,7 @@ def follow(
             first = probe[1:] if probe is not None and probe[0] == lam_try and slope is None else None
             probe = None  # the probe was at the start: only the first attempt may use it
             try:
-                x_new, its, lu = newton(system, guess, lam_try, first=first, **opts)
+                x_new, its, lu = newton(system, guess, lam_try, first=first)
                 _check_admissible(system, x_new, lam_try, lu)
             except RoundoffStagnation as exc:
                 raise ConvergenceError(str(exc), load_factor=lam) from exc
@@ -301,6 +287,4 @@ def follow(
             slope = tangent(system, x, lam, lu) if lam != targets[-1] else None
             if its <= 2 * fast:  # grow with the observed effort: x2 when easy, x1.5 when moderate
                 step = min((2.0 if its <= fast else 1.5) * step, max_step)
-        if on_target is not None:
-            on_target(lam, x, info)
     return x, info

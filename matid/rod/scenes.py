@@ -169,13 +169,12 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     moments += [np.asarray(seg.precurvature, float) for seg in rod.segments if seg.precurvature]
     scale = max([np.abs(v).max() for v in forces + moments] + [1e-300])
     candidates = [v[:2] for v in forces] + [np.array([m[1], -m[0]]) for m in moments]  # n x e3
-    direction = next((c / np.linalg.norm(c) for c in candidates if np.linalg.norm(c) > tol * scale), None)
-    if direction is None:
-        direction = np.array([1.0, 0.0])
+    unit = (c / np.linalg.norm(c) for c in candidates if np.linalg.norm(c) > tol * scale)
+    direction = next(unit, np.array([1.0, 0.0]))
     if any(abs(m[2]) > tol * scale for m in moments):
         return None  # twist moment or twist precurvature
     for c in candidates:
-        if abs(c[0] * direction[1] - c[1] * direction[0]) > tol * max(scale, 1e-300):
+        if abs(c[0] * direction[1] - c[1] * direction[0]) > tol * scale:
             return None
     return (float(direction[0]), float(direction[1]), 0.0)
 
@@ -238,17 +237,24 @@ def _table(value: object, where: str) -> dict:
     return value
 
 
-def _tables(raw: dict, key: str) -> list[dict]:
-    """An array of tables (``[[key]]``), each checked to be a table with known keys."""
+def _tables(raw: dict, key: str) -> list[tuple[str, dict]]:
+    """An array of tables (``[[key]]``) as (``[[key]] #n``, table), each checked to be a table with
+    known keys."""
     items = raw.get(key, [])
     if not isinstance(items, list):
         raise ValueError(
             f"[[{key}]]: expected an array of tables, got {type(items).__name__} {_short(items)}"
         )
-    return [
-        _known(_table(item, f"[[{key}]] #{i + 1}"), key, f"[[{key}]] #{i + 1}")
-        for i, item in enumerate(items)
-    ]
+    out = []
+    for i, item in enumerate(items):
+        where = f"[[{key}]] #{i + 1}"
+        out.append((where, _known(_table(item, where), key, where)))
+    return out
+
+
+def _single(raw: dict, key: str, default: object = None) -> dict:
+    """The table ``[key]`` (``default`` when absent), checked to be a table with known keys."""
+    return _known(_table(raw.get(key, default), f"[{key}]"), key, f"[{key}]")
 
 
 def _short(value: object) -> str:
@@ -308,31 +314,28 @@ def _v(table: dict, key: str, kind: str, where: str) -> Vector:
         raise ValueError(f"{where}.{key}: {exc}") from exc
 
 
+#: Unit kind of each size and stiffness key of [rod]; all but the length are [[segment]] overrides.
+KINDS = {
+    "length": "length",
+    "E_b": "bending_stiffness",
+    "E_t": "bending_stiffness",
+    "E_s": "force",
+    "E_e": "force",
+    "outer_diameter": "length",
+}
+
+
 def _rod(raw: dict, root: Path | None) -> Rod:
     if "rod" not in raw:
         raise ValueError("missing [rod] table")
-    table = dict(_known(_table(raw["rod"], "[rod]"), "rod", "[rod]"))
+    table = dict(_single(raw, "rod"))
     if not table:
         raise ValueError("missing [rod] table")
     if "stiffness" in table:
         table.update(_stiffness_from_json(_table(table.pop("stiffness"), "rod.stiffness"), root))
     segments = []
-    for i, seg in enumerate(_tables(raw, "segment")):
-        where = f"[[segment]] #{i + 1}"
-        overrides = {
-            k: _q(
-                seg,
-                k,
-                "bending_stiffness"
-                if k in ("E_b", "E_t")
-                else "length"
-                if k == "outer_diameter"
-                else "force",
-                where,
-            )
-            for k in ("E_b", "E_t", "E_s", "E_e", "outer_diameter")
-            if k in seg
-        }
+    for where, seg in _tables(raw, "segment"):
+        overrides = {k: _q(seg, k, kind, where) for k, kind in KINDS.items() if k != "length" and k in seg}
         segments.append(
             SegmentSpec(
                 _q(seg, "from", "length", where),
@@ -342,16 +345,10 @@ def _rod(raw: dict, root: Path | None) -> Rod:
                 _v(seg, "precurvature", "curvature", where) if "precurvature" in seg else None,
             )
         )
-    return Rod(
-        length=_q(table, "length", "length", "rod"),
-        E_b=_q(table, "E_b", "bending_stiffness", "rod"),
-        E_t=_q(table, "E_t", "bending_stiffness", "rod"),
-        E_s=_q(table, "E_s", "force", "rod"),
-        E_e=_q(table, "E_e", "force", "rod"),
-        outer_diameter=_q(table, "outer_diameter", "length", "rod", default=0.0),
-        precurvature=_v(table, "precurvature", "curvature", "rod"),
-        segments=tuple(segments),
-    )
+    sizes = {
+        k: _q(table, k, kind, "rod", 0.0 if k == "outer_diameter" else None) for k, kind in KINDS.items()
+    }
+    return Rod(**sizes, precurvature=_v(table, "precurvature", "curvature", "rod"), segments=tuple(segments))
 
 
 def _stiffness_from_json(ref: dict, root: Path | None) -> dict:
@@ -399,21 +396,7 @@ def _stiffness_from_json(ref: dict, root: Path | None) -> dict:
 
 
 #: Top-level keys of a scene file (docs/contract.md section 6); anything else is a typo to report.
-SCENE_KEYS = {
-    "scene",
-    "elements",
-    "tolerance",
-    "rod",
-    "segment",
-    "load",
-    "magnet",
-    "magnetization",
-    "field",
-    "tip",
-    "three_point_bend",
-    "point_load",
-    "aim",
-}
+SCENE_KEYS = {"scene", "elements", "tolerance", *TABLE_KEYS}
 
 
 def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
@@ -423,17 +406,13 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
         raise ValueError(f"unknown key or table '{unknown[0]}' (known: {', '.join(sorted(SCENE_KEYS))})")
     kind = raw.get("scene", "cantilever")
     rod = _rod(raw, root)
-    load, field_, tip = (
-        _known(_table(raw.get(k, {}), f"[{k}]"), k, f"[{k}]") for k in ("load", "field", "tip")
-    )
+    load, field_, tip = (_single(raw, k, {}) for k in ("load", "field", "tip"))
     magnets = tuple(
-        (_q(m, "at", "length", f"[[magnet]] #{i + 1}"), _q(m, "moment", "moment", f"[[magnet]] #{i + 1}"))
-        for i, m in enumerate(_tables(raw, "magnet"))
+        (_q(m, "at", "length", w), _q(m, "moment", "moment", w)) for w, m in _tables(raw, "magnet")
     )
     magnetization = tuple(
         (_q(m, "from", "length", w), _q(m, "to", "length", w), _q(m, "per_length", "moment_per_length", w))
-        for i, m in enumerate(_tables(raw, "magnetization"))
-        for w in [f"[[magnetization]] #{i + 1}"]
+        for w, m in _tables(raw, "magnetization")
     )
     for at, _ in magnets:
         if not 0 < at <= rod.length * (1 + 1e-12):
@@ -452,20 +431,14 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     )
     bend = None
     if "three_point_bend" in raw:
-        t = _known(
-            _table(raw["three_point_bend"], "[three_point_bend]"), "three_point_bend", "[three_point_bend]"
-        )
+        t = _single(raw, "three_point_bend")
         deflections = t.get("deflection")
         if not isinstance(deflections, list) or not deflections:
             raise ValueError("three_point_bend.deflection: need a list of nose displacements")
         if len(deflections) > MAX_DEFLECTIONS:
             raise ValueError(f"three_point_bend.deflection: at most {MAX_DEFLECTIONS} nose displacements")
-        bend = BendSetup(
-            span=_q(t, "span", "length", "three_point_bend"),
-            support_radius=_q(t, "support_radius", "length", "three_point_bend"),
-            nose_radius=_q(t, "nose_radius", "length", "three_point_bend"),
-            deflections=tuple(to_si(d, "length") for d in deflections),
-        )
+        sizes = {k: _q(t, k, "length", "three_point_bend") for k in ("span", "support_radius", "nose_radius")}
+        bend = BendSetup(**sizes, deflections=tuple(to_si(d, "length") for d in deflections))
     elements = raw.get("elements")
     if elements is not None and (not isinstance(elements, int) or isinstance(elements, bool)):
         raise ValueError(f"elements must be a whole number, got {_short(elements)}")
@@ -499,16 +472,15 @@ def _unit(value: object, where: str) -> Vector:
 def _directions(raw: dict, key: str) -> tuple[Vector, ...]:
     """The ``direction`` of each [[magnet]] / [[magnetization]] (director frame), d3 by default."""
     return tuple(
-        _unit(t["direction"], f"[[{key}]] #{i + 1}.direction") if "direction" in t else (0.0, 0.0, 1.0)
-        for i, t in enumerate(_tables(raw, key))
+        _unit(t["direction"], f"{where}.direction") if "direction" in t else (0.0, 0.0, 1.0)
+        for where, t in _tables(raw, key)
     )
 
 
 def _point_loads(raw: dict, length: float) -> tuple[tuple[float, Vector, Vector], ...]:
     """[[point_load]]: a dead force and moment at a point of the rod (0, L]."""
     out = []
-    for i, t in enumerate(_tables(raw, "point_load")):
-        where = f"[[point_load]] #{i + 1}"
+    for where, t in _tables(raw, "point_load"):
         at = _q(t, "at", "length", where)
         if not 0 < at <= length * (1 + 1e-12):
             raise ValueError(f"{where}: at {at} m is not on the rod (0, {length}] m")
@@ -521,7 +493,7 @@ def _point_loads(raw: dict, length: float) -> tuple[tuple[float, Vector, Vector]
 def _aim(raw: dict) -> Aim | None:
     if "aim" not in raw:
         return None
-    t = _known(_table(raw["aim"], "[aim]"), "aim", "[aim]")
+    t = _single(raw, "aim")
     if "tip_direction" not in t:
         raise ValueError("[aim]: missing 'tip_direction'")
     return Aim(_unit(t["tip_direction"], "aim.tip_direction"), _q(t, "field_magnitude", "field", "aim"))

@@ -33,11 +33,8 @@ RIGID_FACTOR = 1e6
 #: Quadrature order per element: 2 = two-point Gauss. Measured (bench): P2 with the
 #: three-point rule locks on slender rods, with two-point Gauss it does not. The cubic
 #: Hermite needs three points (two leave its tangent singular: no solve converges).
-DEFAULT_INTORDER = 2
-INTORDER = {"P2": DEFAULT_INTORDER, "P1": 2, "Hermite": 4}
+INTORDER = {"P2": 2, "P1": 2, "Hermite": 4}
 DEFAULT_ELEMENTS = 16
-#: Mixed-integration-point Newton per model (see RodSystem.mixed_update).
-MIXED = {PLANAR: True, FULL: True}
 
 
 @dataclass(frozen=True)
@@ -63,11 +60,7 @@ class Solution:
 
     @property
     def tip(self) -> dict:
-        return {
-            "position": self.position[-1].tolist(),
-            "d1": self.d1[-1].tolist(),
-            "d3": self.d3[-1].tolist(),
-        }
+        return {key: getattr(self, key)[-1].tolist() for key in ("position", "d1", "d3")}
 
 
 def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
@@ -96,20 +89,16 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
         for k, v in seg.overrides.items():
             if k in scaled:
                 scaled[k] = v / Eb * (1.0 if k in ("E_b", "E_t") else L**2)
-        if seg.rigid:
+        if seg.rigid:  # bending and twist RIGID_FACTOR times, shear and extension at least RIGID_FACTOR
             scaled = {
-                "E_b": RIGID_FACTOR * scaled["E_b"],
-                "E_t": RIGID_FACTOR * scaled["E_t"],
-                "E_s": max(scaled["E_s"], RIGID_FACTOR),
-                "E_e": max(scaled["E_e"], RIGID_FACTOR),
+                k: RIGID_FACTOR * v if k in ("E_b", "E_t") else max(v, RIGID_FACTOR)
+                for k, v in scaled.items()
             }
         kappa = None if seg.precurvature is None else moment(seg.precurvature, L)
         segments.append(Segment(seg.start / L, seg.end / L, **scaled, kappa_ref=kappa))
     magnets, mu, directed = directed_magnetisation(loads, L, Eb)
     return ScaledRod(
-        E_t=base["E_t"],
-        E_s=base["E_s"],
-        E_e=base["E_e"],
+        **{k: base[k] for k in ("E_t", "E_s", "E_e")},
         segments=tuple(segments),
         kappa_ref=moment(rod.precurvature, L),
         mu=mu,
@@ -164,21 +153,9 @@ def breaks(scene: Scene) -> tuple[float, ...]:
 
 
 def solve_cantilever(scene: Scene, **options) -> Solution:
-    """Static equilibrium of a clamped rod (raises ConvergenceError, never returns a failed state).
-
-    ``options`` are those of :func:`solve_cantilever_state` (``elements``, ``model``,
-    ``variant``, ``c_u``, ``element``, ``intorder``, ``first_step``, ``start``).
-    """
-    return solve_cantilever_state(scene, **options)[0]
-
-
-def solve_cantilever_state(scene: Scene, **options) -> tuple[Solution, tuple[np.ndarray, np.ndarray] | None]:
-    """:func:`solve_cantilever` plus the scaled state (vertices, nodal values sorted by s) for a warm start.
-
-    ``options`` are those of :func:`equilibrium`.
-    """
-    eq = equilibrium(scene, **options)
-    return eq.solution(), eq.state()
+    """Static equilibrium of a clamped rod (raises ConvergenceError, never returns a failed state);
+    ``options`` are those of :func:`equilibrium`."""
+    return equilibrium(scene, **options).solution()
 
 
 def equilibrium(
@@ -211,7 +188,7 @@ def equilibrium(
         variant=variant,
         c_u=c_u or default_penalty(rod, variant),
         banded=True,
-        mixed=MIXED[chosen],
+        mixed=True,  # the mixed-integration-point Newton (RodSystem.mixed_update)
     )
     if isinstance(start, Equilibrium):
         system.stress_start = start.stress_at(disc)
@@ -275,9 +252,24 @@ class Equilibrium:
 
     def solution(self, **fields) -> Solution:
         """The state presented (SI, lab frame); ``fields``: further Solution fields (the estimate)."""
-        scene, disc, info = self.scene, self.disc, self.info
-        return _solution(
-            scene, self.model, disc, self.U, self.e_a, info, self.runtime_s, self.terms, **fields
+        L, disc, order = self.scene.rod.length, self.disc, self.disc.value_dofs
+        position, d1, d3 = _frames(self.model, self.U[order], self.e_a, L)
+        if not (np.isfinite(position).all() and np.isfinite(d1).all()):
+            raise FloatingPointError("non-finite solution")  # unreachable: Newton rejects NaN
+        return Solution(
+            scene=self.scene,
+            model=self.model,
+            elements=disc.ne,
+            element=disc.element,
+            newton_iterations=self.info.iterations,
+            load_steps=self.info.steps,
+            runtime_s=self.runtime_s,
+            s=disc.s_dof[order] * L,
+            position=position,
+            d1=d1,
+            d3=d3,
+            terms=self.terms,
+            **fields,
         )
 
     def state(self) -> tuple[np.ndarray, np.ndarray] | None:
@@ -297,42 +289,38 @@ class Equilibrium:
         return np.array(row[:3] + kin.d3(row[3:7]))  # d3 of q/|q|, as _frames
 
 
-_PREPARED: list = [None]
-_PLANE: list = [None]
+#: The last scene's plane and its prepared (model, plane, scaled rod, breaks) per model asked.
+_LAST: dict[str, tuple] = {}
 
 
-def _same(last, scene: Scene) -> bool:
-    """The remembered scene is this one, unchanged: scenes are frozen, but a segment's
-    ``overrides`` is a dict that could be edited in place between two solves."""
-    return last is not None and last[0] is scene and last[1] == _overrides(scene)
-
-
-def _overrides(scene: Scene) -> tuple:
-    return tuple(tuple(sorted(seg.overrides.items())) for seg in scene.rod.segments)
+def _remembered(slot: str, scene: Scene, make):
+    """``make()`` for the last scene asked in ``slot``, remembered while it is this scene, unchanged:
+    scenes are frozen, but a segment's ``overrides`` is a dict that could be edited in place."""
+    overrides = tuple(tuple(sorted(seg.overrides.items())) for seg in scene.rod.segments)
+    last = _LAST.get(slot)
+    if last is None or last[0] is not scene or last[1] != overrides:
+        last = _LAST[slot] = (scene, overrides, make())
+    return last[2]
 
 
 def scene_plane(scene: Scene) -> tuple[float, float, float] | None:
-    """:func:`matid.rod.scenes.plane_of`, remembered for the last scene asked (see :func:`_same`)."""
-    last = _PLANE[0]
-    if not _same(last, scene):
-        last = _PLANE[0] = (scene, _overrides(scene), plane_of(scene))
-    return last[2]
+    """:func:`matid.rod.scenes.plane_of`, remembered for the last scene asked."""
+    return _remembered("plane", scene, lambda: plane_of(scene))
 
 
 def _prepare(scene: Scene, model: str) -> tuple[str, np.ndarray | None, ScaledRod, tuple[float, ...]]:
     """(model, plane direction, scaled rod, mesh breaks) of a scene; the last one is remembered
     (scenes are frozen), so the meshes of one error estimate compute them once."""
-    last = _PREPARED[0]
-    if _same(last, scene) and last[2] == model:
-        return last[3]
-    plane = scene_plane(scene) if model in ("auto", PLANAR) else None
-    if model == PLANAR and plane is None:
-        raise ValueError("the scene is not planar: use model='full' or 'auto'")
-    chosen = PLANAR if plane is not None else FULL
-    e_a = None if chosen == FULL else np.asarray(plane)
-    prepared = (chosen, e_a, scaled_rod(scene, e_a), breaks(scene))
-    _PREPARED[0] = (scene, _overrides(scene), model, prepared)
-    return prepared
+
+    def make():
+        plane = scene_plane(scene) if model in ("auto", PLANAR) else None
+        if model == PLANAR and plane is None:
+            raise ValueError("the scene is not planar: use model='full' or 'auto'")
+        chosen = PLANAR if plane is not None else FULL
+        e_a = None if chosen == FULL else np.asarray(plane)
+        return chosen, e_a, scaled_rod(scene, e_a), breaks(scene)
+
+    return _remembered(model, scene, make)
 
 
 @functools.lru_cache(maxsize=64)
@@ -421,27 +409,3 @@ def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.n
     q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
     R = np.array(kin.directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
     return position, R[:, :, 0], R[:, :, 2]
-
-
-def _solution(scene, chosen, disc, U, e_a, info: NewtonInfo, runtime, terms, **fields) -> Solution:
-    L = scene.rod.length
-    order = disc.value_dofs
-    s, U = disc.s_dof[order] * L, U[order]
-    position, d1, d3 = _frames(chosen, U, e_a, L)
-    if not (np.isfinite(position).all() and np.isfinite(d1).all()):
-        raise FloatingPointError("non-finite solution")  # unreachable: Newton rejects NaN
-    return Solution(
-        scene=scene,
-        model=chosen,
-        elements=disc.ne,
-        element=disc.element,
-        newton_iterations=info.iterations,
-        load_steps=info.steps,
-        runtime_s=runtime,
-        s=s,
-        position=position,
-        d1=d1,
-        d3=d3,
-        terms=tuple(terms),
-        **fields,
-    )
