@@ -207,14 +207,14 @@ def select(
     return rec
 
 
-def left_out_info(records: Sequence[Record]) -> dict[str, dict[str, int]]:
-    """file -> reason -> rows left out (files with none omitted)."""
-    return {r.name: dict(r.left_out) for r in records if r.left_out}
-
-
-def rows_info(records: Sequence[Record]) -> dict[str, dict[str, list[list[int]]]]:
-    """file -> reason -> [first, last] row ranges left out (files with none omitted)."""
-    return {r.name: r.rows_left_out() for r in records if r.excluded}
+def left_out_info(records: Sequence[Record]) -> dict[str, object]:
+    """file -> reason -> rows left out (``left_out``) and their [first, last] row ranges
+    (``left_out_rows``), files with none omitted; the files whose sign was flipped."""
+    return {
+        "left_out": {r.name: dict(r.left_out) for r in records if r.left_out},
+        "left_out_rows": {r.name: r.rows_left_out() for r in records if r.excluded},
+        "sign_flipped": [r.name for r in records if r.flipped],
+    }
 
 
 def range_info(records: Sequence[Record]) -> dict[str, list[float]]:

@@ -45,6 +45,7 @@ import scipy.stats
 from matid.errors import FitError
 from matid.fits import branch, stats
 from matid.fits.branch import Record
+from matid.io.results import Estimate, Series, TestFit
 
 #: Tare offsets are fitted when the Wald test of "all offsets zero" gives p below this.
 #: Large on purpose: a real offset dropped biases the slope, an absent one kept only costs
@@ -301,22 +302,49 @@ def share_warnings(records: Sequence[Record]) -> list[Warning]:
     return out
 
 
-def misfit_warning(fit: LineFit, model: str, advice: str) -> list[Warning]:
-    """The lack-of-fit warning of :mod:`matid.fits.stats`, if the line misses the data."""
+def fit_slope(
+    records: Sequence[Record], *, specimen: str, parameter: str, against: str, model: str, advice: str
+) -> tuple[list[Record], LineFit, list[Warning]]:
+    """Records oriented (:func:`orient`), their joint line, and its warnings: sign, linear share
+    and the lack-of-fit warning of :mod:`matid.fits.stats` naming ``model``."""
+    records, warnings = orient(records, "torque", against)
+    try:
+        fit = fit_lines(records)
+        warnings += check_sign(fit, parameter, "torque", against)
+    except FitError as exc:
+        raise FitError(f"specimen {specimen}: {exc}") from exc
+    warnings += share_warnings(records)
     text = fit.lof.warning(model, fit.inflation, advice)
-    return [Warning("misfit", text)] if text else []
+    return records, fit, warnings + ([Warning("misfit", text)] if text else [])
 
 
-def warning_fields(
-    warnings: Sequence[Warning], records: Sequence[Record]
-) -> tuple[tuple[str, ...], dict[str, object]]:
-    """(texts for ``Estimate.warnings``, its extra: ``warning_kinds`` in the texts' order and
-    ``fitted_rows``, file -> rows fitted, for a status that weighs how much a slope rests on)."""
-    kinds = {"warning_kinds": tuple(w.kind for w in warnings)}
-    return tuple(w.text for w in warnings), {
-        **kinds,
+def slope_fit(kind: str, specimen: str, measurements, parameter: str, line, lengths, x_label: str, info):
+    """The TestFit of a slope: ``line`` = (records, fit, warnings) of :func:`fit_slope`, one series
+    per file labelled with its length. The estimate's extra holds ``warning_kinds`` (the
+    warnings' kinds in their order) and ``fitted_rows`` (file -> rows fitted), from which a
+    status per value weighs how much the slope rests on."""
+    records, fit, warnings = line
+    series = tuple(
+        Series(f"{r.name} (L = {length * 1e3:.4g} mm)", r.x, r.y, fit.model(r), r.used)
+        for r, length in zip(records, lengths, strict=True)
+    )
+    extra = {
+        "ci_method": "t-ar1" if fit.covariance.rho else "t",
+        "tare_offset_N_m": fit.intercepts,
+        "warning_kinds": tuple(w.kind for w in warnings),
         "fitted_rows": {r.name: int(r.used.sum()) for r in records},
     }
+    texts = tuple(w.text for w in warnings)
+    return TestFit(
+        kind=kind,
+        specimen=specimen,
+        tests=tuple(m.test for m in measurements),
+        estimates=(Estimate(parameter, *fit.value, "linear", texts, extra),),
+        series=series,
+        x_label=x_label,
+        y_label="torque [N m]",
+        info={**info, **fit.info()},
+    )
 
 
 def r2(records: Sequence[Record], fit: LineFit) -> float:
