@@ -54,16 +54,14 @@ def jacobian(params: lmfit.Parameters, runs, sigma, ref) -> np.ndarray:
     """d residual / d x over the used rows for the varied x, by central differences of step
     ``_STEP`` on a copy of the lmfit Parameters (a step past a bound stops there, as the
     Parameter clips it)."""
-    work, args, columns = params.copy(), (runs, sigma, ref, True), []
-    for name in (n for n in _ORDER if params[n].vary):
-        value = params[name].value
-        work[name].value = value + _STEP
-        up = residual(work, *args)
-        work[name].value = value - _STEP
-        down = residual(work, *args)
-        work[name].value = value
-        columns.append((up - down) / (2 * _STEP))
-    return np.column_stack(columns)
+    work, names = params.copy(), [n for n in _ORDER if params[n].vary]
+
+    def at(x: np.ndarray) -> np.ndarray:
+        for name, value in zip(names, x, strict=True):
+            work[name].value = value
+        return residual(work, runs, sigma, ref, True)
+
+    return stats.central_jacobian(at, np.array([params[n].value for n in names]), _STEP)
 
 
 def _sandwich(result, runs, sigma, ref, se):
