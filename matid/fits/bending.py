@@ -122,4 +122,6 @@ def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
         **branch.left_out_info(records),
     }
     line, x_label = (records, fit, warnings), "tip angle / free length [rad/m]"
-    return linear.slope_fit("magnetic_bending", specimen, measurements, "E_b", line, lengths, x_label, info)
+    return linear.slope_result(
+        "magnetic_bending", specimen, measurements, "E_b", line, lengths, x_label, info
+    )

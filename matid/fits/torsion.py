@@ -7,10 +7,8 @@ Twisting one end of a tube of length L by phi takes a torque::
 E_t is the slope of torque against twist_angle / length, fitted jointly over all files
 with an offset per file (:func:`matid.fits.linear.fit_lines`), on the rows of the test's
 ``window`` when it has one, else on each file's loading branch's linear range
-(:mod:`matid.fits.branch`): a record may start at an absolute angle or a tare, hold,
-unload or go past its linear range. The sign check runs on the rows fitted. Rows left
-out are marked in the series and listed by reason in ``info["left_out"]`` (counts) and
-``info["left_out_rows"]`` (row ranges).
+(:mod:`matid.fits.branch`: a record may start at an absolute angle or a tare, hold,
+unload or go past its linear range), each row left out listed with its reason.
 """
 
 from __future__ import annotations
@@ -64,4 +62,4 @@ def fit_torsion(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
     }
     lengths = [m.test.params["length"] for m in measurements]
     x_label = "twist angle / length [rad/m]"
-    return linear.slope_fit("torsion", specimen, measurements, "E_t", line, lengths, x_label, info)
+    return linear.slope_result("torsion", specimen, measurements, "E_t", line, lengths, x_label, info)
