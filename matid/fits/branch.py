@@ -77,14 +77,8 @@ def _holds(x: np.ndarray, tol: float) -> np.ndarray:
         if abs(x[i] - first) > tol:
             starts.append(i)
             first = x[i]
-    bounds = np.r_[starts, x.size]
-    lengths = np.diff(bounds)
-    limit = max(HOLD_ROWS, HOLD_RATIO * float(np.median(lengths)))
-    hold = np.zeros(x.size, dtype=bool)
-    for a, n in zip(bounds[:-1], lengths, strict=True):
-        if n >= limit:
-            hold[a : a + n] = True
-    return hold
+    lengths = np.diff(np.r_[starts, x.size])
+    return np.repeat(lengths >= max(HOLD_ROWS, HOLD_RATIO * float(np.median(lengths))), lengths)
 
 
 def branch(x: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
