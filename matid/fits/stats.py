@@ -179,7 +179,6 @@ class Covariance:
     cov: np.ndarray
     cov_iid: np.ndarray
     rho: float
-    n: int
     n_eff: float
     dof: float
 
@@ -217,14 +216,14 @@ def ar1_covariance(
     cov_iid = rss / (n - p) * jtj_inv
     rho = ar1_rho(r, segments, p)
     if rho == 0.0:
-        return Covariance(cov_iid, cov_iid, 0.0, n, float(n), float(n - p))
+        return Covariance(cov_iid, cov_iid, 0.0, float(n), float(n - p))
     rj = _ar1_apply(J, rho, bounds)
     middle = J.T @ rj
     trace = n - float(np.trace(jtj_inv @ middle))  # tr[(I - H) R]
     s2 = rss / max(trace, 1e-12 * n)
     cov = s2 * jtj_inv @ middle @ jtj_inv
     n_eff = sum(_neff(b - a, rho) for a, b in bounds)
-    return Covariance(cov, cov_iid, rho, n, n_eff, max(n_eff - p, 1.0))
+    return Covariance(cov, cov_iid, rho, n_eff, max(n_eff - p, 1.0))
 
 
 def central_jacobian(f, x: np.ndarray, step: float) -> np.ndarray:
@@ -249,8 +248,6 @@ class LackOfFit:
     (runs_p < MISFIT_RUNS_P); ``decided`` is False for fewer than MIN_POINTS residuals.
     """
 
-    n: int
-    n_params: int
     noise: float
     rms: float
     reduced_chi2: float
@@ -308,7 +305,7 @@ def lack_of_fit(residuals: np.ndarray, n_params: int, *, segments: Sequence[int]
     sd = difference_noise(r, segments)
     chi2 = (rms / sd) ** 2 if sd > 0 else (math.inf if rms > 0 else 1.0)
     observed, expected, p = runs(r, segments)
-    return LackOfFit(n, n_params, sd, rms, chi2, lag1(r, segments), observed, expected, p, n >= MIN_POINTS)
+    return LackOfFit(sd, rms, chi2, lag1(r, segments), observed, expected, p, n >= MIN_POINTS)
 
 
 def variance_factor(
