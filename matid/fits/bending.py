@@ -24,7 +24,7 @@ import scipy.stats
 
 from matid.errors import DataError, FitError
 from matid.fits import branch, linear
-from matid.io.results import Estimate, Series, TestFit
+from matid.io.results import TestFit
 
 if TYPE_CHECKING:
     from matid.io.ingest.read import Measurement, Table
@@ -99,14 +99,14 @@ def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
         raise FitError(f"specimen {specimen}: no magnetic bending tests to fit")
     pairs = [_record(m) for m in measurements]
     lengths = [length for _, length in pairs]
-    records, warnings = linear.orient([r for r, _ in pairs], "torque", "tip angle")
-    try:
-        fit = linear.fit_lines(records)
-        warnings += linear.check_sign(fit, "E_b", "torque", "tip angle")
-    except FitError as exc:
-        raise FitError(f"specimen {specimen}: {exc}") from exc
-    warnings += linear.share_warnings(records)
-    warnings += linear.misfit_warning(fit, "the line torque = c + E_b theta / L", _ADVICE)
+    records, fit, warnings = linear.fit_slope(
+        [r for r, _ in pairs],
+        specimen=specimen,
+        parameter="E_b",
+        against="tip angle",
+        model="the line torque = c + E_b theta / L",
+        advice=_ADVICE,
+    )
     per_length, p = _per_length(records, lengths)
     if p is not None and p < SLOPES_ALPHA:
         text = (
@@ -114,28 +114,14 @@ def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
             "E_b seems to depend on length; see the per-length slopes"
         )
         warnings.append(linear.Warning("slopes_disagree", text))
-    series = tuple(
-        Series(f"{r.name} (L = {length * 1e3:.4g} mm)", r.x, r.y, fit.model(r), r.used)
-        for r, length in zip(records, lengths, strict=True)
-    )
-    texts, kinds = linear.warning_fields(warnings, records)
-    extra = {"ci_method": "t-ar1" if fit.covariance.rho else "t", "tare_offset_N_m": fit.intercepts, **kinds}
-    return TestFit(
-        kind="magnetic_bending",
-        specimen=specimen,
-        tests=tuple(m.test for m in measurements),
-        estimates=(Estimate("E_b", *fit.value, "linear", texts, extra),),
-        series=series,
-        x_label="tip angle / free length [rad/m]",
-        y_label="torque [N m]",
-        info={
-            "free_lengths_m": sorted(set(lengths)),
-            "r2": linear.r2(records, fit),
-            "per_length_slopes": per_length,
-            "fitted_x_range": branch.range_info(records),
-            "left_out": branch.left_out_info(records),
-            "left_out_rows": branch.rows_info(records),
-            "sign_flipped": [r.name for r in records if r.flipped],
-            **fit.info(),
-        },
+    info = {
+        "free_lengths_m": sorted(set(lengths)),
+        "r2": linear.r2(records, fit),
+        "per_length_slopes": per_length,
+        "fitted_x_range": branch.range_info(records),
+        **branch.left_out_info(records),
+    }
+    line, x_label = (records, fit, warnings), "tip angle / free length [rad/m]"
+    return linear.slope_result(
+        "magnetic_bending", specimen, measurements, "E_b", line, lengths, x_label, info
     )

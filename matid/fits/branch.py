@@ -77,14 +77,8 @@ def _holds(x: np.ndarray, tol: float) -> np.ndarray:
         if abs(x[i] - first) > tol:
             starts.append(i)
             first = x[i]
-    bounds = np.r_[starts, x.size]
-    lengths = np.diff(bounds)
-    limit = max(HOLD_ROWS, HOLD_RATIO * float(np.median(lengths)))
-    hold = np.zeros(x.size, dtype=bool)
-    for a, n in zip(bounds[:-1], lengths, strict=True):
-        if n >= limit:
-            hold[a : a + n] = True
-    return hold
+    lengths = np.diff(np.r_[starts, x.size])
+    return np.repeat(lengths >= max(HOLD_ROWS, HOLD_RATIO * float(np.median(lengths))), lengths)
 
 
 def branch(x: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
@@ -207,14 +201,14 @@ def select(
     return rec
 
 
-def left_out_info(records: Sequence[Record]) -> dict[str, dict[str, int]]:
-    """file -> reason -> rows left out (files with none omitted)."""
-    return {r.name: dict(r.left_out) for r in records if r.left_out}
-
-
-def rows_info(records: Sequence[Record]) -> dict[str, dict[str, list[list[int]]]]:
-    """file -> reason -> [first, last] row ranges left out (files with none omitted)."""
-    return {r.name: r.rows_left_out() for r in records if r.excluded}
+def left_out_info(records: Sequence[Record]) -> dict[str, object]:
+    """file -> reason -> rows left out (``left_out``) and their [first, last] row ranges
+    (``left_out_rows``), files with none omitted; the files whose sign was flipped."""
+    return {
+        "left_out": {r.name: dict(r.left_out) for r in records if r.left_out},
+        "left_out_rows": {r.name: r.rows_left_out() for r in records if r.excluded},
+        "sign_flipped": [r.name for r in records if r.flipped],
+    }
 
 
 def range_info(records: Sequence[Record]) -> dict[str, list[float]]:

@@ -26,7 +26,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from matid.errors import FitError
-from matid.fits.shear.checks import MODEL_FORM_FLOOR, MODEL_FORM_SLOPE, shear_share
+from matid.fits.shear.checks import MODEL_FORM_FLOOR, MODEL_FORM_SLOPE, nose_ratio, shear_share
 from matid.fits.shear.torsion import e_s_torsion, local_compliance, reference_kGA, young_modulus
 from matid.io.results import Estimate
 from matid.io.study import Specimen
@@ -42,9 +42,7 @@ class Option:
     measurement: str  # "centreline" or "nose"
     share: float
     rel_sd: float
-    bias: tuple[
-        float, float
-    ]  # (low, high) relative error of E_s from the local compliance (0 for centreline)
+    bias: tuple[float, float]  # (low, high) relative error of E_s from the local compliance (0 centreline)
     ok: bool
 
 
@@ -80,8 +78,7 @@ def design(
         phi = shear_share(S, E_b, kGA)
         sd = math.hypot((1 - phi) / phi * rel_sd_E_b, noise / (phi * math.sqrt(rows / 3)), delta / phi)
         out.append(Option(S, "centreline", phi, sd, (0.0, 0.0), sd <= precision))
-        c_s = [S / (4 * kGA_hi), S / (4 * kGA_lo)]
-        bias = (c_s[1] / (c_s[1] + c_loc[0]) - 1, c_s[0] / (c_s[0] + c_loc[1]) - 1)
+        bias = (nose_ratio(S, kGA_lo, c_loc[0]) - 1, nose_ratio(S, kGA_hi, c_loc[1]) - 1)
         out.append(Option(S, "nose", phi, sd, bias, sd <= precision and abs(bias[1]) <= precision))
     return out
 

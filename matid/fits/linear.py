@@ -19,10 +19,7 @@ with n_eff - p dof, so it holds for dense records whose noise is correlated, and
 when the line misses the data; :func:`matid.fits.stats.lack_of_fit` then names the
 misfit in a warning.
 
-Which rows enter: the test's ``window`` when it has one (exactly its rows; too few is a
-DataError naming it), else the loading branch's linear range of
-:mod:`matid.fits.branch` (:func:`matid.fits.branch.select`). Each row left out keeps
-its reason.
+Which rows enter: :func:`matid.fits.branch.select`, each row left out with its reason.
 
 Sign: physics makes E > 0 (torque rises with twist, the magnet's torque with tip angle).
 A file whose slope on its fitted rows is clearly negative (t < -SIGN_T) has a flipped
@@ -39,12 +36,15 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+import lmfit
 import numpy as np
 import scipy.stats
+from scipy.linalg import block_diag
 
 from matid.errors import FitError
 from matid.fits import branch, stats
 from matid.fits.branch import Record
+from matid.io.results import Estimate, Series, TestFit
 
 #: Tare offsets are fitted when the Wald test of "all offsets zero" gives p below this.
 #: Large on purpose: a real offset dropped biases the slope, an absent one kept only costs
@@ -149,17 +149,8 @@ def tared_line(x: np.ndarray, slope: float = 1.0, offset: float = 0.0) -> np.nda
     return offset + slope * x
 
 
-def _lines(n_files: int):
-    """One :func:`tared_line` lmfit Model per file, parameters prefixed ``f<i>_``."""
-    import lmfit  # lazily: importing the pipeline stays light
-
-    return [lmfit.Model(tared_line, prefix=f"f{f}_") for f in range(n_files)]
-
-
 def _parameters(n_files: int, offsets: bool, slope: float):
     """The shared slope and one offset per file, held at 0 (``vary=False``) without offsets."""
-    import lmfit
-
     params = lmfit.Parameters()
     params.add("slope", value=slope)
     for f in range(n_files):
@@ -177,27 +168,21 @@ def _residual(params, models, xs, ys, w) -> np.ndarray:
 
 def _design(xs: Sequence[np.ndarray], w: Sequence[float], offsets: bool) -> np.ndarray:
     """Weighted Jacobian of the model: column 0 the slope, column 1 + f the offset of file f."""
-    n = sum(x.size for x in xs)
-    design = np.zeros((n, 1 + (len(xs) if offsets else 0)))
-    start = 0
-    for f, (x, wf) in enumerate(zip(xs, w, strict=True)):
-        design[start : start + x.size, 0] = wf * x
-        if offsets:
-            design[start : start + x.size, 1 + f] = wf
-        start += x.size
-    return design
+    slope = np.concatenate([wf * x for x, wf in zip(xs, w, strict=True)])[:, None]
+    if not offsets:
+        return slope
+    return np.hstack([slope, block_diag(*[np.full((x.size, 1), wf) for x, wf in zip(xs, w, strict=True)])])
 
 
 def _solve(xs, ys, offsets: bool):
     """Iteratively reweighted lmfit fit: (coef, weighted design, weighted residuals, sigma, covariance).
 
-    ``coef`` is (slope, offset of each file) as lmfit found them.
+    ``coef`` is (slope, offset of each file) as lmfit found them; one lmfit Model
+    :func:`tared_line` per file, parameters prefixed ``f<i>_``.
     """
-    import lmfit
-
     scale = float(np.max(np.abs(np.concatenate(ys)))) or 1.0
     sigma = [stats.difference_noise(y) or 1e-9 * scale for y in ys]
-    models = _lines(len(xs))
+    models = [lmfit.Model(tared_line, prefix=f"f{f}_") for f in range(len(xs))]
     params = _parameters(len(xs), offsets, _line(np.concatenate(xs), np.concatenate(ys))[0] or 1.0)
     for _ in range(4):
         w = [1.0 / s for s in sigma]
@@ -301,22 +286,49 @@ def share_warnings(records: Sequence[Record]) -> list[Warning]:
     return out
 
 
-def misfit_warning(fit: LineFit, model: str, advice: str) -> list[Warning]:
-    """The lack-of-fit warning of :mod:`matid.fits.stats`, if the line misses the data."""
+def fit_slope(
+    records: Sequence[Record], *, specimen: str, parameter: str, against: str, model: str, advice: str
+) -> tuple[list[Record], LineFit, list[Warning]]:
+    """Records oriented (:func:`orient`), their joint line, and its warnings: sign, linear share
+    and the lack-of-fit warning of :mod:`matid.fits.stats` naming ``model``."""
+    records, warnings = orient(records, "torque", against)
+    try:
+        fit = fit_lines(records)
+        warnings += check_sign(fit, parameter, "torque", against)
+    except FitError as exc:
+        raise FitError(f"specimen {specimen}: {exc}") from exc
+    warnings += share_warnings(records)
     text = fit.lof.warning(model, fit.inflation, advice)
-    return [Warning("misfit", text)] if text else []
+    return records, fit, warnings + ([Warning("misfit", text)] if text else [])
 
 
-def warning_fields(
-    warnings: Sequence[Warning], records: Sequence[Record]
-) -> tuple[tuple[str, ...], dict[str, object]]:
-    """(texts for ``Estimate.warnings``, its extra: ``warning_kinds`` in the texts' order and
-    ``fitted_rows``, file -> rows fitted, for a status that weighs how much a slope rests on)."""
-    kinds = {"warning_kinds": tuple(w.kind for w in warnings)}
-    return tuple(w.text for w in warnings), {
-        **kinds,
+def slope_result(kind: str, specimen: str, measurements, parameter: str, line, lengths, x_label: str, info):
+    """The TestFit of a slope: ``line`` = (records, fit, warnings) of :func:`fit_slope`, one series
+    per file labelled with its length. The estimate's extra holds ``warning_kinds`` (the
+    warnings' kinds in their order) and ``fitted_rows`` (file -> rows fitted), from which a
+    status per value weighs how much the slope rests on."""
+    records, fit, warnings = line
+    series = tuple(
+        Series(f"{r.name} (L = {length * 1e3:.4g} mm)", r.x, r.y, fit.model(r), r.used)
+        for r, length in zip(records, lengths, strict=True)
+    )
+    extra = {
+        "ci_method": "t-ar1" if fit.covariance.rho else "t",
+        "tare_offset_N_m": fit.intercepts,
+        "warning_kinds": tuple(w.kind for w in warnings),
         "fitted_rows": {r.name: int(r.used.sum()) for r in records},
     }
+    texts = tuple(w.text for w in warnings)
+    return TestFit(
+        kind=kind,
+        specimen=specimen,
+        tests=tuple(m.test for m in measurements),
+        estimates=(Estimate(parameter, *fit.value, "linear", texts, extra),),
+        series=series,
+        x_label=x_label,
+        y_label="torque [N m]",
+        info={**info, **fit.info()},
+    )
 
 
 def r2(records: Sequence[Record], fit: LineFit) -> float:

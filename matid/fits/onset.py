@@ -20,7 +20,7 @@ the noise); the range is found in x, with no start at zero or direction assumed:
       whole curve, unlike window tests that admit rows past an onset.
    c. While curvature is still significant inside, the end whose removal leaves the
       straighter stretch (p larger by ``TRIM_PREFERENCE``) is trimmed, else the end away
-      from the first recorded row, down to ``min_points``.
+      from the first recorded row, down to ``LINEAR_RANGE_MIN_POINTS``.
 """
 
 from __future__ import annotations
@@ -109,54 +109,45 @@ def _scan(fixed: np.ndarray, columns: np.ndarray, y: np.ndarray) -> np.ndarray:
     return float(ry @ ry) - gain
 
 
-#: Elements of one block of candidate columns in :func:`_chunked` (memory bound on long records).
+#: Elements of one block of candidate columns in :func:`_best` (memory bound on long records).
 SCAN_BLOCK = 4_000_000
 
 
-def _chunked(fixed: np.ndarray, make, candidates: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """:func:`_scan` over the columns ``make(block)`` of the candidates, a block at a time."""
+def _best(fixed: np.ndarray, make, candidates: np.ndarray, y: np.ndarray) -> int:
+    """The candidate onset whose column ``make(c)`` on top of ``fixed`` leaves the least RSS
+    (:func:`_scan` over the candidates, a block at a time)."""
     size = max(1, SCAN_BLOCK // y.size)
-    return np.concatenate(
-        [_scan(fixed, make(candidates[i : i + size]), y) for i in range(0, candidates.size, size)]
-    )
+    rss = [_scan(fixed, make(candidates[i : i + size]), y) for i in range(0, candidates.size, size)]
+    return int(candidates[np.argmin(np.concatenate(rss))])
 
 
-def _descent(
-    u: np.ndarray, y: np.ndarray, lo: int, hi: int, *, high_first: bool, min_points: int, windows: int
-):
+def _descent(u: np.ndarray, y: np.ndarray, lo: int, hi: int, *, high_first: bool):
     """Alternating scans of the onsets from (lo, hi), the upper one first or the lower one."""
-    n, one = u.size, np.ones_like(u)
+    n, one, m = u.size, np.ones_like(u), min(u.size, LINEAR_RANGE_WINDOWS)
     for k in range(6):
         if (k % 2 == 0) == high_first:
-            his = np.unique(np.linspace(lo + min_points - 1, n - 1, min(n, windows)).astype(int))
+            his = np.unique(np.linspace(lo + LINEAR_RANGE_MIN_POINTS - 1, n - 1, m).astype(int))
             fixed = np.column_stack([one, u, np.minimum(u - u[lo], 0.0) ** 2])
-            hi = int(
-                his[np.argmin(_chunked(fixed, lambda c: np.maximum(u[:, None] - u[c], 0.0) ** 2, his, y))]
-            )
+            hi = _best(fixed, lambda c: np.maximum(u[:, None] - u[c], 0.0) ** 2, his, y)
         else:
-            los = np.unique(np.linspace(0, hi - min_points + 1, min(n, windows)).astype(int))
+            los = np.unique(np.linspace(0, hi - LINEAR_RANGE_MIN_POINTS + 1, m).astype(int))
             fixed = np.column_stack([one, u, np.maximum(u - u[hi], 0.0) ** 2])
-            lo = int(
-                los[np.argmin(_chunked(fixed, lambda c: np.minimum(u[:, None] - u[c], 0.0) ** 2, los, y))]
-            )
+            lo = _best(fixed, lambda c: np.minimum(u[:, None] - u[c], 0.0) ** 2, los, y)
     return lo, hi
 
 
-def _onsets(u: np.ndarray, y: np.ndarray, order: np.ndarray, *, alpha: float, min_points: int, windows: int):
+def _onsets(u: np.ndarray, y: np.ndarray, order: np.ndarray):
     """(lo, hi) indices into the sorted u of the departures' onsets (module docstring, step b).
 
     The scans start from either end (a one-sided hinge at the far end is a quadratic over
     all the data and would trap a descent that began there); the better pair is kept.
     """
     n = u.size
-    pairs = [
-        _descent(u, y, 0, n - 1, high_first=first, min_points=min_points, windows=windows)
-        for first in (True, False)
-    ]
+    pairs = [_descent(u, y, 0, n - 1, high_first=first) for first in (True, False)]
     lo, hi = min(pairs, key=lambda p: _rss(_hinges(u, u[p[0]], u[p[1]]), y))
     full, noise = _hinges(u, u[lo], u[hi]), _noise_factor(u, y, order)
-    # each onset is the best of up to ``windows`` candidates: Bonferroni, or noise makes a side
-    strict = alpha / min(n, windows)
+    # each onset is the best of up to LINEAR_RANGE_WINDOWS candidates: Bonferroni, or noise makes a side
+    strict = LINEAR_RANGE_ALPHA / min(n, LINEAR_RANGE_WINDOWS)
     low = _extra_p(full[:, [0, 1, 3]], full, y, noise) < strict
     high = _extra_p(full[:, [0, 1, 2]], full, y, noise) < strict
     # a toe is a small part at the start of loading; "most of the record before the line"
@@ -178,17 +169,15 @@ TOE_SHARE = 0.5
 TRIM_PREFERENCE = 10.0
 
 
-def _trim(
-    u: np.ndarray, y: np.ndarray, order: np.ndarray, lo: int, hi: int, *, alpha: float, min_points: int
-):
+def _trim(u: np.ndarray, y: np.ndarray, order: np.ndarray, lo: int, hi: int):
     """Trim the end whose removal leaves the straighter stretch until no curvature is left.
 
     When neither end is clearly straighter (a curve bent alike everywhere), the end away
     from the first recorded row goes: the stiffness is the one at the start of loading.
     """
     first = int(np.argmin(order))  # the first recorded row, in the sorted order
-    while hi - lo + 1 > min_points and _p(u, y, order, lo, hi) < alpha:
-        step = min(max(1, (hi - lo + 1) // 50), hi - lo + 1 - min_points)
+    while hi - lo + 1 > LINEAR_RANGE_MIN_POINTS and _p(u, y, order, lo, hi) < LINEAR_RANGE_ALPHA:
+        step = min(max(1, (hi - lo + 1) // 50), hi - lo + 1 - LINEAR_RANGE_MIN_POINTS)
         left, right = _p(u, y, order, lo + step, hi), _p(u, y, order, lo, hi - step)
         if abs(first - lo) <= abs(first - hi):  # the start is at the low end: keep it
             trim_left = left > TRIM_PREFERENCE * right
@@ -198,35 +187,25 @@ def _trim(
     return lo, hi
 
 
-def linear_range(
-    x: np.ndarray,
-    y: np.ndarray,
-    *,
-    alpha: float = LINEAR_RANGE_ALPHA,
-    min_points: int = LINEAR_RANGE_MIN_POINTS,
-    max_windows: int = LINEAR_RANGE_WINDOWS,
-) -> np.ndarray:
+def linear_range(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Mask of the rows in the linear range ``x_lo <= x <= x_hi`` of ``y = c + a x`` data.
 
     Rows are taken as recorded (their order is the order of the noise); the range is
     found in x (module docstring, step 2), with no start at zero or direction assumed.
-    With ``min_points`` finite rows or fewer, all of them are returned.
+    With LINEAR_RANGE_MIN_POINTS finite rows or fewer, all of them are returned.
     """
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if x.ndim != 1 or x.shape != y.shape:
         raise ValueError("x and y must be 1-d arrays of the same length")
-    if min_points < 3:
-        raise ValueError(f"min_points must be at least 3, got {min_points}")
     ok = np.isfinite(x) & np.isfinite(y)
     index = np.flatnonzero(ok)[np.argsort(x[ok], kind="stable")]
-    if index.size <= min_points or np.ptp(x[index]) <= 0:
+    if index.size <= LINEAR_RANGE_MIN_POINTS or np.ptp(x[index]) <= 0:
         return ok
     xs = x[index]
     u, yy = (xs - 0.5 * (xs[0] + xs[-1])) / (0.5 * (xs[-1] - xs[0])), y[index]
-    if _curvature_p(u, yy, index) >= alpha:
+    if _curvature_p(u, yy, index) >= LINEAR_RANGE_ALPHA:
         return ok
-    lo, hi = _onsets(u, yy, index, alpha=alpha, min_points=min_points, windows=max_windows)
-    lo, hi = _trim(u, yy, index, lo, hi, alpha=alpha, min_points=min_points)
+    lo, hi = _trim(u, yy, index, *_onsets(u, yy, index))
     return ok & (x >= xs[lo]) & (x <= xs[hi])
 
 

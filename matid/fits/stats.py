@@ -30,18 +30,6 @@ size ``n_eff = n (1 - rho) / (1 + rho)`` (:func:`effective_n`). A misfit shows u
 a large rho and a large s^2, so it widens the interval too: the interval then says
 "the line/model cannot be trusted this closely", which is what the data support.
 
-Public API (stable, used by linear, extension, shear fits):
-
-- :func:`difference_noise` (y, segments) -> float
-- :func:`lag1` (residuals, segments) -> float
-- :func:`runs` (residuals, segments) -> (n_runs, expected, p_too_few)
-- :func:`effective_n` (residuals, segments) -> float
-- :func:`ar1_rho` (residuals, segments, n_params) -> float; :func:`mean_variance_factor` (m, rho)
-- :func:`variance_factor` (residuals, segments, n_params) -> ((1 + rho) / (1 - rho), n_eff)
-- :func:`ar1_covariance` (jacobian, residuals, segments) -> :class:`Covariance`
-- :func:`lack_of_fit` (residuals, n_params, noise=None, segments=None) -> :class:`LackOfFit`
-- :func:`interval` (value, se, dof) -> (low, high)
-
 Distributions (t, F, chi-square, normal) are scipy.stats' own, here and in every fit.
 
 ``segments`` is a sequence of segment lengths summing to ``len(residuals)`` (one per
@@ -129,7 +117,7 @@ def runs(residuals: np.ndarray, segments: Sequence[int] | None = None) -> tuple[
             continue
         observed += 1 + int(np.sum(s[1:] != s[:-1]))
         mean += 1.0 + 2.0 * n_pos * n_neg / n
-        var += 2.0 * n_pos * n_neg * (2.0 * n_pos * n_neg - n) / (n * n * (n - 1)) if n > 1 else 0.0
+        var += 2.0 * n_pos * n_neg * (2.0 * n_pos * n_neg - n) / (n * n * (n - 1))
     if var <= 0:
         return observed, mean, 1.0
     return observed, mean, float(sstats.norm.cdf((observed - mean + 0.5) / math.sqrt(var)))
@@ -162,8 +150,7 @@ def _neff(n: int, rho: float) -> float:
 
 def effective_n(residuals: np.ndarray, segments: Sequence[int] | None = None, n_params: int = 0) -> float:
     """Effective number of independent residuals: ``n (1 - rho) / (1 + rho)`` (AR(1))."""
-    r = np.asarray(residuals)
-    return _neff(r.size, ar1_rho(r, segments, n_params))
+    return variance_factor(residuals, segments, n_params)[1]
 
 
 def _ar1_apply(matrix: np.ndarray, rho: float, bounds) -> np.ndarray:
@@ -192,7 +179,6 @@ class Covariance:
     cov: np.ndarray
     cov_iid: np.ndarray
     rho: float
-    n: int
     n_eff: float
     dof: float
 
@@ -230,14 +216,19 @@ def ar1_covariance(
     cov_iid = rss / (n - p) * jtj_inv
     rho = ar1_rho(r, segments, p)
     if rho == 0.0:
-        return Covariance(cov_iid, cov_iid, 0.0, n, float(n), float(n - p))
+        return Covariance(cov_iid, cov_iid, 0.0, float(n), float(n - p))
     rj = _ar1_apply(J, rho, bounds)
     middle = J.T @ rj
     trace = n - float(np.trace(jtj_inv @ middle))  # tr[(I - H) R]
     s2 = rss / max(trace, 1e-12 * n)
     cov = s2 * jtj_inv @ middle @ jtj_inv
     n_eff = sum(_neff(b - a, rho) for a, b in bounds)
-    return Covariance(cov, cov_iid, rho, n, n_eff, max(n_eff - p, 1.0))
+    return Covariance(cov, cov_iid, rho, n_eff, max(n_eff - p, 1.0))
+
+
+def central_jacobian(f, x: np.ndarray, step: float) -> np.ndarray:
+    """Jacobian of the vector function ``f`` at ``x`` by central differences of ``step``."""
+    return np.column_stack([(f(x + step * e) - f(x - step * e)) / (2 * step) for e in np.eye(x.size)])
 
 
 def interval(value: float, se: float, dof: float, level: float = 0.95) -> tuple[float, float]:
@@ -257,8 +248,6 @@ class LackOfFit:
     (runs_p < MISFIT_RUNS_P); ``decided`` is False for fewer than MIN_POINTS residuals.
     """
 
-    n: int
-    n_params: int
     noise: float
     rms: float
     reduced_chi2: float
@@ -306,27 +295,17 @@ class LackOfFit:
         return f"{text}. {advice}" if advice else text
 
 
-def lack_of_fit(
-    residuals: np.ndarray,
-    n_params: int,
-    *,
-    noise: float | None = None,
-    segments: Sequence[int] | None = None,
-) -> LackOfFit:
-    """Compare residuals (recording order) with the noise: see :class:`LackOfFit`.
-
-    ``noise`` an independent noise sd (e.g. of a hold or a repeat); by default the
-    second-difference noise of the residuals themselves (:func:`difference_noise`),
-    which a smooth misfit does not reach.
-    """
+def lack_of_fit(residuals: np.ndarray, n_params: int, *, segments: Sequence[int] | None = None) -> LackOfFit:
+    """Compare residuals (recording order) with their second-difference noise
+    (:func:`difference_noise`, which a smooth misfit does not reach): see :class:`LackOfFit`."""
     r = np.asarray(residuals, dtype=float)
     n = r.size
     dof = max(n - n_params, 1)
     rms = math.sqrt(float(np.dot(r, r)) / dof)
-    sd = difference_noise(r, segments) if noise is None else float(noise)
+    sd = difference_noise(r, segments)
     chi2 = (rms / sd) ** 2 if sd > 0 else (math.inf if rms > 0 else 1.0)
     observed, expected, p = runs(r, segments)
-    return LackOfFit(n, n_params, sd, rms, chi2, lag1(r, segments), observed, expected, p, n >= MIN_POINTS)
+    return LackOfFit(sd, rms, chi2, lag1(r, segments), observed, expected, p, n >= MIN_POINTS)
 
 
 def variance_factor(

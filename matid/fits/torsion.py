@@ -7,10 +7,8 @@ Twisting one end of a tube of length L by phi takes a torque::
 E_t is the slope of torque against twist_angle / length, fitted jointly over all files
 with an offset per file (:func:`matid.fits.linear.fit_lines`), on the rows of the test's
 ``window`` when it has one, else on each file's loading branch's linear range
-(:mod:`matid.fits.branch`): a record may start at an absolute angle or a tare, hold,
-unload or go past its linear range. The sign check runs on the rows fitted. Rows left
-out are marked in the series and listed by reason in ``info["left_out"]`` (counts) and
-``info["left_out_rows"]`` (row ranges).
+(:mod:`matid.fits.branch`: a record may start at an absolute angle or a tare, hold,
+unload or go past its linear range), each row left out listed with its reason.
 """
 
 from __future__ import annotations
@@ -22,7 +20,7 @@ import numpy as np
 
 from matid.errors import DataError, FitError
 from matid.fits import branch, linear
-from matid.io.results import Estimate, Series, TestFit
+from matid.io.results import TestFit
 
 if TYPE_CHECKING:
     from matid.io.ingest.read import Measurement
@@ -47,37 +45,21 @@ def fit_torsion(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
     """E_t: slope of torque against twist_angle / length over each file's fitted rows, jointly."""
     if not measurements:
         raise FitError(f"specimen {specimen}: no torsion tests to fit")
-    records, warnings = linear.orient([_record(m) for m in measurements], "torque", "twist angle")
-    try:
-        fit = linear.fit_lines(records)
-        warnings += linear.check_sign(fit, "E_t", "torque", "twist angle")
-    except FitError as exc:
-        raise FitError(f"specimen {specimen}: {exc}") from exc
-    warnings += linear.share_warnings(records)
-    warnings += linear.misfit_warning(fit, "the line torque = c + E_t phi / L", _ADVICE)
-    series = tuple(
-        Series(f"{r.name} (L = {m.test.params['length'] * 1e3:.4g} mm)", r.x, r.y, fit.model(r), r.used)
-        for r, m in zip(records, measurements, strict=True)
-    )
-    texts, kinds = linear.warning_fields(warnings, records)
-    extra = {"ci_method": "t-ar1" if fit.covariance.rho else "t", "tare_offset_N_m": fit.intercepts, **kinds}
-    n_all = sum(r.x.size for r in records)
-    return TestFit(
-        kind="torsion",
+    records, fit, _ = line = linear.fit_slope(
+        [_record(m) for m in measurements],
         specimen=specimen,
-        tests=tuple(m.test for m in measurements),
-        estimates=(Estimate("E_t", *fit.value, "linear", texts, extra),),
-        series=series,
-        x_label="twist angle / length [rad/m]",
-        y_label="torque [N m]",
-        info={
-            "linear_range": {r.name: float(np.max(np.abs(r.x[r.used]), initial=0.0)) for r in records},
-            "fitted_x_range": branch.range_info(records),
-            "excluded_points": int(n_all - fit.n),
-            "left_out": branch.left_out_info(records),
-            "left_out_rows": branch.rows_info(records),
-            "sign_flipped": [r.name for r in records if r.flipped],
-            "r2": linear.r2(records, fit),
-            **fit.info(),
-        },
+        parameter="E_t",
+        against="twist angle",
+        model="the line torque = c + E_t phi / L",
+        advice=_ADVICE,
     )
+    info = {
+        "linear_range": {r.name: float(np.max(np.abs(r.x[r.used]), initial=0.0)) for r in records},
+        "fitted_x_range": branch.range_info(records),
+        "excluded_points": int(sum(r.x.size for r in records) - fit.n),
+        **branch.left_out_info(records),
+        "r2": linear.r2(records, fit),
+    }
+    lengths = [m.test.params["length"] for m in measurements]
+    x_label = "twist angle / length [rad/m]"
+    return linear.slope_result("torsion", specimen, measurements, "E_t", line, lengths, x_label, info)

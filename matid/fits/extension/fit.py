@@ -79,17 +79,8 @@ def _fixed(fixed: Mapping[str, float]) -> dict[str, float]:
 def _estimate(parameter, name, k, se, ci, n, fixed, warn=()) -> Estimate:
     if name in fixed:
         return Estimate(parameter, k[name], None, None, n, "fixed")
-    low, high, how = ci.get(name, (None, None, None))
-    return Estimate(
-        parameter,
-        k[name],
-        se[name],
-        None if low is None else (low, high),
-        n,
-        "sls",
-        tuple(warn),
-        {"ci_method": how},
-    )
+    ci95, how = ci.get(name, (None, None))
+    return Estimate(parameter, k[name], se[name], ci95, n, "sls", tuple(warn), {"ci_method": how})
 
 
 def _plotted(run: _Run, model: np.ndarray) -> dict[str, np.ndarray]:

@@ -122,11 +122,9 @@ def _model_residual(data, x: np.ndarray, n_terms: int) -> np.ndarray:
     """Weighted residuals for x = (log k0, log k_1..n, log tau_1..n)."""
     k = np.exp(x[: n_terms + 1])
     taus = np.exp(x[n_terms + 1 :])
-    out = []
-    for d in data:
-        f = prony_force(d.t, d.eps, k[0], k[1:], taus)
-        out.append((f - d.force)[d.used] / d.sigma)
-    return np.concatenate(out)
+    return np.concatenate(
+        [(prony_force(d.t, d.eps, k[0], k[1:], taus) - d.force)[d.used] / d.sigma for d in data]
+    )
 
 
 @dataclass(frozen=True)
@@ -149,14 +147,6 @@ class PronyFit:
     @property
     def n_params(self) -> int:
         return 2 * self.n_terms + 1
-
-    @property
-    def bic(self) -> float:
-        return self.bic_at(self.n)
-
-    @property
-    def aic(self) -> float:
-        return self.aic_at(self.n)
 
     def bic_at(self, n_eff: float) -> float:
         """BIC with the information of ``n_eff`` independent residuals."""
@@ -192,15 +182,10 @@ class PronyFit:
         return {name: values[name] * float(s) for name, s in zip(names, se_log, strict=True)}
 
 
-def _starts(data: Sequence[Data], n_terms: int) -> list[np.ndarray]:
-    """log tau starts spread over the observed window [min dt, max duration]."""
-    low = min(float(np.median(np.diff(d.t))) for d in data)
-    high = max(float(d.t[-1] - d.t[0]) for d in data)
-    starts = []
-    for shift in (0.0, 0.5, -0.5):
-        edges = np.linspace(math.log(low), math.log(high), n_terms + 2)[1:-1]
-        starts.append(edges + shift * (edges[1] - edges[0] if n_terms > 1 else 1.0))
-    return starts
+def _starts(low: float, high: float, n_terms: int) -> list[np.ndarray]:
+    """log tau starts spread over the observed window [low, high] (min dt, max duration)."""
+    edges = np.linspace(math.log(low), math.log(high), n_terms + 2)[1:-1]
+    return [edges + shift * (edges[1] - edges[0] if n_terms > 1 else 1.0) for shift in (0.0, 0.5, -0.5)]
 
 
 def _tau_params(start: np.ndarray, bounds: tuple[float, float]) -> lmfit.Parameters:
@@ -230,12 +215,12 @@ def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
     lmfit's ``least_squares`` (trust region reflective, within the bounds) on log tau;
     the stiffnesses are projected out by NNLS in each evaluation (variable projection).
     """
-    low = min(float(np.median(np.diff(d.t))) for d in data) / 100.0
-    high = max(float(d.t[-1] - d.t[0]) for d in data) * 100.0
-    bounds = (math.log(low), math.log(high))
+    low = min(float(np.median(np.diff(d.t))) for d in data)
+    high = max(float(d.t[-1] - d.t[0]) for d in data)
+    bounds = (math.log(low / 100.0), math.log(high * 100.0))
     best = None
     arms: Arms = {}
-    for start in _starts(data, n_terms):
+    for start in _starts(low, high, n_terms):
         minimizer = lmfit.Minimizer(_outer, _tau_params(start, bounds), fcn_args=(data, arms))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -266,13 +251,7 @@ def _cov(data, x: np.ndarray, n_terms: int) -> stats.Covariance | None:
     every used row (also where the fit itself ran on bin means: the rows carry the AR(1)
     structure the sandwich models)."""
     r0 = _model_residual(data, x, n_terms)
-    h = 1e-5
-    jac = np.column_stack(
-        [
-            (_model_residual(data, x + h * e, n_terms) - _model_residual(data, x - h * e, n_terms)) / (2 * h)
-            for e in np.eye(x.size)
-        ]
-    )
+    jac = stats.central_jacobian(lambda y: _model_residual(data, y, n_terms), x, 1e-5)
     try:
         return stats.ar1_covariance(jac, r0, [int(d.used.sum()) for d in data])
     except (ValueError, np.linalg.LinAlgError):
@@ -317,12 +296,11 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
     # correlated residuals carry less information than their count: the criteria use the
     # effective sample size of the richest fit (its residuals are the closest to the noise;
     # the SLS's own would count a misfit as correlated noise), else noise wander buys arms
-    cov = fits[max(fits)].covariance
     richest = fits[max(fits)]
     segments = [d.reduce.size for d in data]
     n_eff = (
         stats.effective_n(richest.residual, segments, richest.n_params)
-        if cov is not None
+        if richest.covariance is not None
         else float(fits[1].n)
     )
     # a model the data do not determine (an arm far faster than the sampling: singular

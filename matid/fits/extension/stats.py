@@ -54,16 +54,14 @@ def jacobian(params: lmfit.Parameters, runs, sigma, ref) -> np.ndarray:
     """d residual / d x over the used rows for the varied x, by central differences of step
     ``_STEP`` on a copy of the lmfit Parameters (a step past a bound stops there, as the
     Parameter clips it)."""
-    work, args, columns = params.copy(), (runs, sigma, ref, True), []
-    for name in (n for n in _ORDER if params[n].vary):
-        value = params[name].value
-        work[name].value = value + _STEP
-        up = residual(work, *args)
-        work[name].value = value - _STEP
-        down = residual(work, *args)
-        work[name].value = value
-        columns.append((up - down) / (2 * _STEP))
-    return np.column_stack(columns)
+    work, names = params.copy(), [n for n in _ORDER if params[n].vary]
+
+    def at(x: np.ndarray) -> np.ndarray:
+        for name, value in zip(names, x, strict=True):
+            work[name].value = value
+        return residual(work, runs, sigma, ref, True)
+
+    return stats.central_jacobian(at, np.array([params[n].value for n in names]), _STEP)
 
 
 def _sandwich(result, runs, sigma, ref, se):
@@ -122,7 +120,7 @@ def _profile(minimizer, result, ref, names: Sequence[str]) -> dict[str, tuple[fl
 
 
 def _intervals(minimizer, result, ref, se, *, profile: bool, dof: float) -> dict[str, tuple]:
-    """95 % intervals: (low, high, method) per fitted parameter.
+    """95 % intervals: ((low, high), method) per fitted parameter.
 
     k1 enters F linearly: a t-interval. k2 and eta act through exp(-t k2/eta), so the
     chi-square is not quadratic in them; when they are identifiable their interval is the
@@ -134,15 +132,15 @@ def _intervals(minimizer, result, ref, se, *, profile: bool, dof: float) -> dict
     for name in _ORDER:
         if se[name] is not None:
             if name == "k1":
-                out[name] = (*stats.interval(k[name], se[name], dof), "t")
+                out[name] = (stats.interval(k[name], se[name], dof), "t")
             else:
                 wald = stats.wald_log_interval(k[name], se[name], tq)
                 if wald is not None:
-                    out[name] = (*wald, "t-log")
+                    out[name] = (wald, "t-log")
     if profile:
         names = [n for n in ("k2", "eta") if result.params[n].vary and se[n] is not None]
-        for name, (low, high) in _profile(minimizer, result, ref, names).items():
-            out[name] = (low, high, "profile")
+        for name, interval in _profile(minimizer, result, ref, names).items():
+            out[name] = (interval, "profile")
     return out
 
 

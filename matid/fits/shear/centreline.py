@@ -93,11 +93,9 @@ def rate(model: BendModel, X: np.ndarray, v: np.ndarray) -> float:
 
 def centreline_path(centre: Centreline, path: BendPath) -> tuple[np.ndarray, np.ndarray, list]:
     """(c, dc/dn, gradients dc/dX) at every point of a path (dc/dn along the load tangent)."""
-    c, slope, grads = [], [], []
-    for X, t in zip(path.states, path.tangents, strict=True):
-        value, grad = centre.value_and_gradient(X)
-        c.append(value), slope.append(float(grad @ t["d"])), grads.append(grad)
-    return np.array(c), np.array(slope), grads
+    c, grads = zip(*(centre.value_and_gradient(X) for X in path.states), strict=True)
+    slope = [float(g @ t["d"]) for g, t in zip(grads, path.tangents, strict=True)]
+    return np.array(c), np.array(slope), list(grads)
 
 
 def at_fixed_centreline(

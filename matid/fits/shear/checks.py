@@ -116,8 +116,8 @@ def assess(
     out.info["local_compliance_m_per_N"] = list(local)
     if local[1] <= 0:
         return out
-    best = max(_ratio(S, lo, local[0]) for S in spans)
-    worst = min(_ratio(S, hi, local[1]) for S in spans)
+    best = max(nose_ratio(S, lo, local[0]) for S in spans)
+    worst = min(nose_ratio(S, hi, local[1]) for S in spans)
     out.info["nose_bias_ratio"] = [worst, best]
     S_best = max(spans)
     why = (
@@ -169,7 +169,8 @@ def model_form_variance(data, E_b: float, info: Mapping, E_s_fit: float, delta: 
     return {"relative_compliance": delta, "shear_share": share, "var_log": (delta / share) ** 2}
 
 
-def _ratio(S: float, kGA: float, c_loc: float) -> float:
+def nose_ratio(S: float, kGA: float, c_loc: float) -> float:
+    """E_s,fit / E_s = c_s / (c_s + c_loc) of a rod fit to nose travel (module docstring)."""
     c_s = S / (4 * kGA)
     return c_s / (c_s + c_loc)
 

@@ -79,8 +79,8 @@ class BendData:
     d: np.ndarray  # rows in the fit, increasing
     F: np.ndarray
     loading: np.ndarray  # mask over all rows of the file: the rows in the fit
-    centreline: bool = False
-    cut: Cut | None = None
+    centreline: bool
+    cut: Cut
 
 
 def bend_data(m: Measurement, specimen: Specimen, E_b: float) -> BendData:
@@ -140,14 +140,21 @@ class Outcome:
     x: np.ndarray
     r: np.ndarray
     J: np.ndarray
-    cov_log: np.ndarray  # covariance of (log E_s[, log E_b]) from the fit alone
-    sigma: float  # residual standard deviation [N]
+    covariance: Covariance  # of (log E_s[, log E_b]) from the fit alone (:func:`statistics`)
     fe_error: float  # relative discretisation error of E_s
     elements: int
     solves: int
     problem: Problem
     levels: list  # [{elements, discretization_error, runtime_s}] of every mesh tried
-    covariance: Covariance | None = None  # AR(1) sandwich of matid.fits.stats (rho, n_eff, dof)
+
+    @property
+    def cov_log(self) -> np.ndarray:
+        return self.covariance.cov
+
+    @property
+    def sigma(self) -> float:
+        """Residual standard deviation [N]."""
+        return float(np.sqrt(float(self.r @ self.r) / max(self.r.size - self.J.shape[1], 1)))
 
 
 def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progress) -> Outcome:
@@ -160,15 +167,15 @@ def _fit_adaptive(data, E_b, E_e, *, fit_E_b: bool, elements: int | None, progre
         while problem.refine(x):  # the knots chosen at the start miss the tolerance here
             x = least_squares(problem, x)
         r, J = problem.evaluate(x)
-        cov, sigma, full = statistics(r, J, [b.d.size for b in data])
+        cov = statistics(r, J, [b.d.size for b in data])
         fe, tried = fe_error(problem, x, data, E_e, fit_E_b)
         levels += [lvl for lvl in tried if lvl["elements"] not in {m["elements"] for m in levels}]
         solves += problem.solves + len(data)
         if progress:
             progress(f"E_s fit at {n} elements: E_s = {np.exp(x[0]):.6g} N, FE error {fe:.2e}")
-        target = max(FE_ERROR_FRACTION * float(np.sqrt(cov[0, 0])), FE_ERROR_FLOOR)
+        target = max(FE_ERROR_FRACTION * float(np.sqrt(cov.cov[0, 0])), FE_ERROR_FLOOR)
         if elements or fe <= target or 2 * n > MAX_ELEMENTS:
-            return Outcome(x, r, J, cov, sigma, fe, n, solves, problem, levels, full)
+            return Outcome(x, r, J, cov, fe, n, solves, problem, levels)
         n *= 2
 
 
@@ -223,7 +230,7 @@ def fit_three_point_bend(
     )
     E_s = float(np.exp(out.x[0]))
     var_log, held = _propagated_variance(out, E_b_est, E_e_est, fit_E_b)
-    mf = model_form_variance(data, E_b_est.value, check.info, float(np.exp(out.x[0])), model_form)
+    mf = model_form_variance(data, E_b_est.value, check.info, E_s, model_form)
     var_log += mf["var_log"]
     m = out.r.size
     t = float(scipy.stats.t.ppf(0.975, out.covariance.dof))
@@ -366,10 +373,8 @@ def _info(data, out: Outcome, shares, held, E_s: float, fe: dict) -> dict:
         "sensitivity_to_noise": change / out.sigma if out.sigma > 0 else float("inf"),
         "held_stiffness_propagation": held,
         "unloading_rows_excluded": int(sum((~b.loading).sum() for b in data)),
-        "rows_left_out": {
-            b.measurement.test.file.name: b.cut.reasons for b in data if b.cut and b.cut.reasons
-        },
-        "toe_offset_m": {b.measurement.test.file.name: b.cut.d0 for b in data if b.cut and b.cut.d0 > 0},
+        "rows_left_out": {b.measurement.test.file.name: b.cut.reasons for b in data if b.cut.reasons},
+        "toe_offset_m": {b.measurement.test.file.name: b.cut.d0 for b in data if b.cut.d0 > 0},
         "fe": fe,
         "plot_data": _plot_data(data, out, r10),
     }

@@ -276,17 +276,15 @@ class Problem:
         return np.concatenate([dF[name] for dF in self.dforce])
 
 
-def statistics(r: np.ndarray, J: np.ndarray, segments) -> tuple[np.ndarray, float, Covariance]:
+def statistics(r: np.ndarray, J: np.ndarray, segments) -> Covariance:
     """Covariance of the log parameters under AR(1)-correlated residuals within each file
     (:func:`matid.fits.stats.ar1_covariance`; the textbook one when rho is not significant)."""
-    dof = max(r.size - J.shape[1], 1)
     try:
-        cov = ar1_covariance(J, r, segments)
+        return ar1_covariance(J, r, segments)
     except np.linalg.LinAlgError as exc:  # J^T J singular: the fitted stiffnesses cannot be told apart
         raise FitError(
             f"E_s least squares: the bend data do not determine the fitted stiffnesses ({exc})"
         ) from exc
-    return cov.cov, float(np.sqrt(float(r @ r) / dof)), cov
 
 
 def fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) -> tuple[float, list]:
@@ -344,8 +342,7 @@ def span_fits(joint: Problem, x: np.ndarray, E_b: float, spans) -> list[dict]:
         problem.nose_rate = [joint.nose_rate[k] for k in idx]
         x_span = least_squares(problem, x[:1])
         r, J = problem.evaluate(x_span)
-        cov, _, _ = statistics(r, J, [b.d.size for b in group])
-        sd = float(np.sqrt(cov[0, 0]))
+        sd = float(np.sqrt(statistics(r, J, [b.d.size for b in group]).cov[0, 0]))
         rows.append({"span": S, "span_mm": 1e3 * S, "E_s": float(np.exp(x_span[0])), "sd_log": sd})
     return rows
 

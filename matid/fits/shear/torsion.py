@@ -129,7 +129,6 @@ def e_s_torsion(E_t: Estimate, specimen: Specimen) -> Estimate:
     sd_t = (E_t.stderr or 0.0) / E_t.value
     ci_t = math.log(E_t.ci95[1] / E_t.value) if E_t.ci95 else 1.96 * sd_t
     half = math.hypot(ci_t, 0.95 * h)
-    warnings = tuple(w for w in E_t.warnings)
     extra = {
         "k": k,
         "k_range": [k_lo, k_hi],
@@ -145,7 +144,7 @@ def e_s_torsion(E_t: Estimate, specimen: Specimen) -> Estimate:
         (value * math.exp(-half), value * math.exp(half)),
         n_points=E_t.n_points,
         method="shear-coefficient",
-        warnings=warnings,
+        warnings=tuple(E_t.warnings),
         extra=extra,
     )
 
@@ -176,9 +175,7 @@ def reference_kGA(known: Mapping[str, Estimate], specimen: Specimen) -> tuple[fl
     if est is not None and est.ci95 and not est.withheld:
         return est.ci95[0], est.ci95[1], f"E_s_torsion = {est.value:.4g} N"
     E_e = known.get("E_e")
-    if E_e is None:
-        return None
-    if shear_coefficient(0.3, specimen) is None:
+    if E_e is None or shear_coefficient(0.3, specimen) is None:
         return None
     values = [
         shear_coefficient(nu, specimen) * E_e.value / (2 * (1 + nu))
