@@ -255,13 +255,11 @@ def stiffness_matrix(basis: Basis, lam: float, mu: float, *, chunk: int = 256) -
     return K
 
 
-def facet_load(
-    mesh: MeshHex2, element, facets: np.ndarray, weight: Callable, total: float, intorder: int
-) -> np.ndarray:
-    """Scalar load vector of a traction weight(x) on the facets, scaled to the given total."""
-    fb = FacetBasis(mesh, element, facets=facets, intorder=intorder)
-    area = Functional(lambda w: weight(w.x)).assemble(fb)
-    return LinearForm(lambda v, w: total / area * weight(w.x) * v).assemble(fb)
+def scaled_load(basis: Basis | FacetBasis, weight: Callable, total: float) -> np.ndarray:
+    """Scalar load vector of the density weight(x) on the basis's domain (a traction on facets or a
+    body force), scaled to the given total."""
+    size = Functional(lambda w: weight(w.x)).assemble(basis)
+    return LinearForm(lambda v, w: total / size * weight(w.x) * v).assemble(basis)
 
 
 def solve_fixed(K: sp.csr_matrix, loads: list[np.ndarray], fixed: np.ndarray) -> list[np.ndarray]:
@@ -312,29 +310,32 @@ def cantilever_3d(
 ) -> Run:
     """3D clamped tube, parabolic end traction: tip deflection per unit force [m/N] (half model)."""
     t0 = time.perf_counter()
-    param, mesh = tube_mesh(grid)
-    elem = ELEMENTS_3D[element]()
-    basis = Basis(mesh, elem, intorder=intorder)
-    K = stiffness_matrix(basis, *sec.lame)
+    param, mesh, elem, basis, K = _tube(grid, element, intorder, sec)
     t1 = time.perf_counter()
-    length = grid.z[-1]
-    tip = param.facets_satisfying(lambda x: np.isclose(x[2], length))
+    tip = param.facets_satisfying(lambda x: np.isclose(x[2], grid.z[-1]))
     f = np.zeros(K.shape[0])
-    f[0::3] = facet_load(mesh, elem, tip, lambda x: _wall_parabola(x, sec), 0.5, intorder)  # half of P = 1
+    tip_basis = FacetBasis(mesh, elem, facets=tip, intorder=intorder)
+    f[0::3] = scaled_load(tip_basis, lambda x: _wall_parabola(x, sec), 0.5)  # half of P = 1
     clamp = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[2], 0.0))).all()
     sym = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[1], 0.0) | np.isclose(x[1], math.pi)))
     fixed = np.unique(np.concatenate([(3 * clamp[:, None] + np.arange(3)).ravel(), 3 * sym.all() + 1]))
     (u,) = solve_fixed(K, [f], fixed)
+    return _run_3d("cantilever", grid, element, intorder, K.shape[0] - fixed.size, t0, t1, float(f @ u / 0.5))
+
+
+def _tube(grid: TubeGrid, element: str, intorder: int, sec: Section):
+    """(parameter mesh, curved mesh, element, basis, stiffness matrix) of the tube on ``grid``."""
+    param, mesh = tube_mesh(grid)
+    elem = ELEMENTS_3D[element]()
+    basis = Basis(mesh, elem, intorder=intorder)
+    return param, mesh, elem, basis, stiffness_matrix(basis, *sec.lame)
+
+
+def _run_3d(case: str, grid: TubeGrid, element: str, intorder: int, dofs: int, t0, t1, value, **extra) -> Run:
+    """The Run of a 3D solve started at t0, assembled at t1 and solved now."""
     t2 = time.perf_counter()
-    return Run(
-        "3d",
-        "cantilever",
-        f"{element} {grid.label}",
-        K.shape[0] - fixed.size,
-        t2 - t0,
-        float(f @ u / 0.5),
-        {"assembly_s": t1 - t0, "solve_s": t2 - t1, "element": element, "intorder": intorder},
-    )
+    extra = {"assembly_s": t1 - t0, "solve_s": t2 - t1, "element": element, "intorder": intorder, **extra}
+    return Run("3d", case, f"{element} {grid.label}", dofs, t2 - t0, value, extra)
 
 
 def _wall_parabola(x: np.ndarray, sec: Section) -> np.ndarray:
@@ -367,18 +368,16 @@ def bend_grid(
     return TubeGrid(r=np.linspace(R_I, R_O, level + 1), phi=np.linspace(0.0, math.pi, 4 * level + 1), z=z)
 
 
-def _patch(x: np.ndarray, z0: float, phi0: float, b: float, alpha: float) -> np.ndarray:
-    """cos^2 bump in z (half-width b) times cos^2 bump in phi (half-width alpha) around (z0, phi0)."""
-    dz = x[2] - z0
-    dphi = np.abs(np.arctan2(x[1], x[0]) - phi0)
-    inside = (np.abs(dz) < b) & (dphi < alpha)
-    bump = np.cos(0.5 * math.pi * dz / b) ** 2 * np.cos(0.5 * math.pi * dphi / alpha) ** 2
-    return np.where(inside, bump, 0.0)
-
-
 def _band(x: np.ndarray, z0: float, b: float) -> np.ndarray:
+    """cos^2 bump in z (half-width b) around z0."""
     dz = x[2] - z0
     return np.where(np.abs(dz) < b, np.cos(0.5 * math.pi * dz / b) ** 2, 0.0)
+
+
+def _patch(x: np.ndarray, z0: float, phi0: float, b: float, alpha: float) -> np.ndarray:
+    """The band times a cos^2 bump in phi (half-width alpha) around phi0."""
+    dphi = np.abs(np.arctan2(x[1], x[0]) - phi0)
+    return _band(x, z0, b) * np.where(dphi < alpha, np.cos(0.5 * math.pi * dphi / alpha) ** 2, 0.0)
 
 
 def bend_3d(
@@ -394,47 +393,26 @@ def bend_3d(
     """3D quarter tube in three-point bend: stiffness F/d [N/m] under surface patches (value)
     and under the same axial profiles smeared over the section as body forces (extra)."""
     t0 = time.perf_counter()
-    param, mesh = tube_mesh(grid)
-    elem = ELEMENTS_3D[element]()
-    basis = Basis(mesh, elem, intorder=intorder)
-    K = stiffness_matrix(basis, *sec.lame)
+    param, mesh, elem, basis, K = _tube(grid, element, intorder, sec)
     t1 = time.perf_counter()
     outer = param.facets_satisfying(lambda x: np.isclose(x[0], sec.R_o))
     quarter = 0.25  # of F = 1: half the nose load on the quarter, one support's half
     f_surface, f_body = np.zeros(K.shape[0]), np.zeros(K.shape[0])
-    f_surface[0::3] = facet_load(
-        mesh, elem, outer, lambda x: _patch(x, 0.0, 0.0, b, alpha), -quarter, intorder
-    ) + facet_load(mesh, elem, outer, lambda x: _patch(x, span / 2, math.pi, b, alpha), quarter, intorder)
-    f_body[0::3] = _body_load(basis, lambda x: _band(x, 0.0, b), -quarter) + _body_load(
-        basis, lambda x: _band(x, span / 2, b), quarter
-    )
+    surface = FacetBasis(mesh, elem, facets=outer, intorder=intorder)
+    for z0, phi0, total in ((0.0, 0.0, -quarter), (span / 2, math.pi, quarter)):  # nose, support
+        f_surface[0::3] += scaled_load(
+            surface, lambda x, z0=z0, phi0=phi0: _patch(x, z0, phi0, b, alpha), total
+        )
+        f_body[0::3] += scaled_load(basis, lambda x, z0=z0: _band(x, z0, b), total)
     sym_y = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[1], 0) | np.isclose(x[1], math.pi)))
     sym_z = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[2], 0.0)))
     end = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[2], grid.z[-1]))).all()
     pin = end[np.argmax(basis.doflocs[1, end])]  # a node on top of the y-axis at the free end
     fixed = np.unique(np.concatenate([3 * sym_y.all() + 1, 3 * sym_z.all() + 2, [3 * pin]]))
     u_surface, u_body = solve_fixed(K, [f_surface, f_body], fixed)
-    t2 = time.perf_counter()
-    return Run(
-        "3d",
-        "bend",
-        f"{element} {grid.label}",
-        K.shape[0] - fixed.size,
-        t2 - t0,
-        float(quarter**2 / (f_surface @ u_surface) * 4),
-        {
-            "assembly_s": t1 - t0,
-            "solve_s": t2 - t1,
-            "element": element,
-            "intorder": intorder,
-            "body_force_value": float(quarter**2 / (f_body @ u_body) * 4),
-        },
-    )
-
-
-def _body_load(basis: Basis, weight: Callable, total: float) -> np.ndarray:
-    volume = Functional(lambda w: weight(w.x)).assemble(basis)
-    return LinearForm(lambda v, w: total / volume * weight(w.x) * v).assemble(basis)
+    stiffness = [float(quarter**2 / (f @ u) * 4) for f, u in ((f_surface, u_surface), (f_body, u_body))]
+    dofs = K.shape[0] - fixed.size
+    return _run_3d("bend", grid, element, intorder, dofs, t0, t1, stiffness[0], body_force_value=stiffness[1])
 
 
 # -- 1D model ------------------------------------------------------------------
@@ -778,10 +756,3 @@ def _element_notes(study: list[dict]) -> list[str]:
         "near 0.5); more Gauss points than 27 change the hex27 answer by less than its discretisation "
         "error and only cost assembly time."
     ]
-
-
-if __name__ == "__main__":  # pragma: no cover - manual run: python -m matid.bench.vs3d [--quick]
-    import json
-    import sys
-
-    print(json.dumps(run(quick="--quick" in sys.argv), indent=1))
