@@ -70,7 +70,7 @@ def run(quick: bool = False) -> dict:
     """Rows {scene, model, element, quadrature, elements, runtime_s, error, reference}, orders, highlights."""
     levels = QUICK_LEVELS if quick else LEVELS
     cases, checks = _cantilever_cases(quick)
-    rows = [row for case in cases for el, order in CHOICES for row in _levels(case, el, order, levels)]
+    rows = [_level(case, el, order, n) for case in cases for el, order in CHOICES for n in levels]
     bend_rows, checks["three-point bend"] = _bend_rows(quick)
     rows += bend_rows
     return {
@@ -146,39 +146,32 @@ def _circle_error(sol: Solution) -> float:
     return float(np.max(np.linalg.norm(np.asarray(sol.position)[:, [0, 2]] / S.L - exact, axis=1)))
 
 
-def _levels(case: Case, element: str, intorder: int, levels) -> list[dict]:
-    rows = []
-    for n in levels:
-        row = {
-            "scene": case.name,
-            "model": "planar",
-            "element": element,
-            "quadrature": QUADRATURE[intorder],
-            "intorder": intorder,
-            "elements": n,
-            "reference": case.reference,
-        }
-        try:
-            sol, runtime, _ = best_of(
-                lambda n=n: solve_cantilever(case.scene, elements=n, element=element, intorder=intorder)
-            )
-        except ConvergenceError as exc:
-            rows.append(
-                {**row, "runtime_s": None, "error": None, "status": f"raised ConvergenceError: {exc}"}
-            )
-            continue
-        rows.append(
-            {
-                **row,
-                "model": sol.model,
-                "runtime_s": runtime,
-                "error": case.error(sol),
-                "newton_iterations": sol.newton_iterations,
-                "load_steps": sol.load_steps,
-                "status": "ok",
-            }
+def _level(case: Case, element: str, intorder: int, n: int) -> dict:
+    """The case on ``n`` elements (best of 3), or the ConvergenceError it raised."""
+    row = {
+        "scene": case.name,
+        "model": "planar",
+        "element": element,
+        "quadrature": QUADRATURE[intorder],
+        "intorder": intorder,
+        "elements": n,
+        "reference": case.reference,
+    }
+    try:
+        sol, runtime, _ = best_of(
+            lambda: solve_cantilever(case.scene, elements=n, element=element, intorder=intorder)
         )
-    return rows
+    except ConvergenceError as exc:
+        return {**row, "runtime_s": None, "error": None, "status": f"raised ConvergenceError: {exc}"}
+    return {
+        **row,
+        "model": sol.model,
+        "runtime_s": runtime,
+        "error": case.error(sol),
+        "newton_iterations": sol.newton_iterations,
+        "load_steps": sol.load_steps,
+        "status": "ok",
+    }
 
 
 def _bend_rows(quick: bool) -> tuple[list[dict], dict]:
