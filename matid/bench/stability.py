@@ -31,7 +31,7 @@ import multiprocessing
 import time
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from matid.bench.common import REPEATS, best_of
 from matid.errors import ConvergenceError
@@ -74,7 +74,6 @@ class Case:
     check: Callable[[object], dict] | None = None
     quick: bool = False
     timeout_s: float | None = None
-    extra: dict = field(default_factory=dict)
 
 
 # -- running and classifying --------------------------------------------------------------------

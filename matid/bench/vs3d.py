@@ -294,11 +294,8 @@ class Run:
 
 
 def cantilever_grid(level: int, *, length: float = CANTILEVER_LENGTH) -> TubeGrid:
-    """Level n: n layers through the wall, 4n sectors on the half circle, 10n slices, h ~ 1/n.
-
-    Graded towards the singular clamped edges: the wall spacing as 1 - (1 - t)^2 towards
-    both surfaces, z = L s^2 towards the clamp.
-    """
+    """Level n: n layers through the wall, 4n sectors on the half circle, 10n slices, h ~ 1/n,
+    graded towards the singular clamped edges (module docstring)."""
     t = np.linspace(-1.0, 1.0, level + 1)
     wall = 0.5 * (1 + np.sign(t) * (1 - (1 - np.abs(t)) ** 2))
     return TubeGrid(
