@@ -1,8 +1,7 @@
 """``vs_3d``: the 1D rod against a 3D linear-elastic tube on the same small-deflection cases.
 
-Material and section (isotropic, Pebax-like): E = 50 MPa, nu = 0.45, hollow
-circular tube R_o = 1.2 mm, R_i = 0.8 mm. The 1D model gets the stiffnesses
-of that section,
+Material and section (isotropic, Pebax-like): E = 50 MPa, nu = 0.45, hollow circular tube
+R_o = 1.2 mm, R_i = 0.8 mm. The 1D model gets the stiffnesses of that section,
 
     E_b = E I,  E_e = E A,  E_t = G J,  E_s = k G A,  G = E / (2 (1 + nu)),
     k = 6 (1 + nu)(1 + m^2)^2 / ((7 + 6 nu)(1 + m^2)^2 + (20 + 12 nu) m^2),  m = R_i / R_o
@@ -11,67 +10,53 @@ of that section,
 
 Cases
 -----
-* Cantilever, L = 30 mm. 3D: the face z = 0 is clamped (u = 0); the end face
-  z = L carries a transverse traction t_x = c (r - R_i)(R_o - r), total P. The
-  parabolic profile vanishes on both free surfaces, so the load is compatible
-  with them (sigma_rz = 0 at the edges: no load singularity). Value: the
-  work-conjugate tip deflection per unit force, delta/P = (f . u) / P^2 [m/N].
-  Half model (symmetry plane y = 0: u_y = 0). 1D: ``solve_cantilever`` (planar,
-  tip force P = 1e-4 E_b / L^2, so geometric nonlinearity is ~1e-9 relative);
+* Cantilever, L = 30 mm, half model (symmetry plane y = 0). 3D: the face z = 0 is clamped
+  (u = 0); the end face carries a transverse traction t_x = c (r - R_i)(R_o - r), total P,
+  which vanishes on both free surfaces (sigma_rz = 0 there: no load singularity). Value: the
+  work-conjugate tip deflection per unit force, delta/P = (f . u) / P^2 [m/N]. 1D: planar
+  ``solve_cantilever`` under P = 1e-4 E_b / L^2 (geometric nonlinearity ~1e-9 relative);
   closed form delta/P = L^3 / (3 E I) + L / (k G A).
-* Three-point bend, 30 mm specimen, span S = 10 mm. 3D (quarter model,
-  symmetry planes y = 0 and z = 0, x up): frictionless contact is idealised by
-  smooth vertical traction patches on the outer surface, profile
-  cos^2(pi dz / 2b) cos^2(pi dphi / 2 alpha) with b = 0.5 mm, alpha = 45 deg: a
-  nose patch on top at mid-span (total F down) and a patch under each support
-  (F/2 up). The body is free (all Neumann, self-equilibrated load): one u_x dof
-  on the free end removes the translation; its reaction is zero. Value: the
-  stiffness F / d with d = (f . u) / F, nose displacement minus mean support
-  displacement, each weighted by its patch [N/m]. A second load case smears the
-  same axial profiles over the whole cross-section (body force): that is the
-  beam-theory idealisation without local indentation/ovalisation, and costs only
-  a back-substitution. 1D: ``BendModel`` (point contacts, support and nose radius
-  0) at d/S = 1e-5 and 2e-5, F/d extrapolated linearly to d = 0 (the contact
-  geometry adds ~1.07 d/S to F/d); closed forms: point loads
-  d/F = S^3/(48 E I) + S/(4 k G A), and the same Timoshenko beam under the
-  cos^2 load distributions of the 3D patches (unit-load integral of M^2/EI + V^2/kGA).
+* Three-point bend, 30 mm specimen, span S = 10 mm, quarter model (symmetry planes y = 0 and
+  z = 0, x up). Frictionless contact is idealised by smooth vertical traction patches
+  cos^2(pi dz / 2b) cos^2(pi dphi / 2 alpha), b = 0.5 mm, alpha = 45 deg, on the outer surface:
+  total F down on top at mid-span, F/2 up under each support. The body is free
+  (self-equilibrated load): one u_x dof on the free end removes the translation, its reaction is
+  zero. Value: F / d with d = (f . u) / F [N/m]. A second load case smears the same axial
+  profiles over the section (body force): beam theory's idealisation without local
+  indentation/ovalisation, for the cost of a back-substitution. 1D: ``BendModel`` with point
+  contacts at d/S = 1e-5 and 2e-5, F/d extrapolated linearly to d = 0 (the contact geometry adds
+  ~1.07 d/S to F/d); closed forms d/F = S^3/(48 E I) + S/(4 k G A) for point loads, and the same
+  Timoshenko beam under the cos^2 load profiles (unit-load integral of M^2/EI + V^2/kGA).
 
 3D discretisation
 -----------------
-A structured (r, phi, z) hex mesh mapped onto the tube as ``MeshHex2``
-(27-node quadratic geometry, circles to O(h^3)); unknowns on ``ElementHex2``
-(27-node Lagrange, default), ``ElementHexS2`` (20-node serendipity) or
-``ElementHex1`` (8-node, for the locking comparison). The stiffness is assembled
-here from scikit-fem's scalar basis tables, one einsum per chunk of elements:
-scikit-fem's generic ``asm`` of the vector form loops over the 81 x 81 local
-pairs in Python (measured on the 10k-DOF level-2 cantilever: 2.7 s against
-0.06 s at 27 points, 19.6 s against 0.26 s at the default 343 points; same
-matrix). 3 x 3 x 3 Gauss points (``intorder=5``) instead of the default
-7 x 7 x 7 = 343 that ``ElementHex2`` (maxdeg 6) asks for: 64 or 343 points move
-the answer by < 1e-6 relative. Direct sparse LU (SuperLU, MMD(A^T + A)
-ordering, symmetric mode, ``DiagPivotThresh=0``: K is SPD; with threshold
-pivoting the serendipity matrix took 195 s instead of 2 s at 33k DOF); no pyamg.
-The LU fill limits the sizes: the level-6 cantilever (226k DOF) took 163 s once
-(level 5, 133k DOF: 10-30 s), so the full run stops at level 5.
+A structured (r, phi, z) hex mesh mapped onto the tube as ``MeshHex2`` (27-node geometry,
+circles to O(h^3)); unknowns on ``ElementHex2`` (default), ``ElementHexS2`` (20-node) or
+``ElementHex1`` (8-node, for the locking comparison). The stiffness is assembled from
+scikit-fem's scalar basis tables, one einsum per chunk of elements, because scikit-fem's
+``asm`` of ``linear_elasticity`` on ``ElementVector`` loops over the 81 x 81 local pairs in
+Python: on the level-2 cantilever (10k DOF) 10 s against 0.8 s, level 3 48 s against 2.2 s
+(scikit-fem 12.0.2, loaded 2-core machine; same matrix). 3 x 3 x 3 Gauss points
+(``intorder=5``) instead of the 7 x 7 x 7 that ``ElementHex2`` asks for: 64 or 343 points move
+the answer by < 1e-6 relative. Direct sparse LU (SuperLU, MMD(A^T + A), symmetric mode,
+``DiagPivotThresh=0``: K is SPD; with threshold pivoting the serendipity matrix took 195 s
+instead of 2 s at 33k DOF). The LU fill limits the sizes: level 6 (226k DOF) took 163 s once,
+level 5 (133k DOF) 10-30 s, so the full run stops at level 5.
 
-The cantilever mesh is graded towards the singular clamped edges (clamped-free
-wedges at r = R_i and R_o): spacing 1 - (1 - t)^2 through the wall towards both
-surfaces and z = L s^2 along the tube. With uniform z slices (1 x 8 sectors,
-10/20/40 slices) the tip deflection was 3.4 %, 1.4 %, 0.6 % off (order ~1.2);
-graded, the family converges at order ~2 in h.
-The bend has no singularity (smooth C^1 patches on element boundaries).
+The cantilever mesh is graded towards the singular clamped edges (clamped-free wedges at r = R_i
+and R_o): spacing 1 - (1 - t)^2 through the wall towards both surfaces and z = L s^2 along the
+tube. With uniform z slices (1 x 8 sectors, 10/20/40 slices) the tip deflection was 3.4 %,
+1.4 %, 0.6 % off (order ~1.2); graded, the family converges at order ~2 in h. The bend has no
+singularity (smooth C^1 patches on element boundaries).
 
 Errors
 ------
-Each model's discretisation error is measured against its own converged limit:
-Richardson extrapolation from the three finest meshes with the observed order
-(mesh parameter h = 1 / level). The DOF and time at error 1e-4 come from log-log
-interpolation of error against DOF and against run time; outside the measured
-range they are extrapolated (3D: with the observed order, err ~ DOF^(-p/3), and a
-power-law fit of time against DOF) and flagged. The 1D P2 element with two-point
-Gauss is nodally exact for these piecewise-polynomial Timoshenko solutions: its
-error sits at round-off on every mesh, so its coarsest mesh already meets the
-target and the ratios are lower bounds (flagged).
+Each model's discretisation error is measured against its own converged limit: Richardson
+extrapolation from the three finest meshes with the observed order (h = 1 / level). The DOF and
+time at error 1e-4 come from log-log interpolation; outside the measured range they are
+extrapolated and flagged. The 1D P2 element with two-point Gauss is nodally exact for these
+piecewise-polynomial Timoshenko solutions: its error sits at round-off on every mesh, so its
+coarsest mesh already meets the target and the ratios are lower bounds (flagged).
 """
 
 from __future__ import annotations
@@ -96,7 +81,10 @@ from skfem import (
     LinearForm,
     MeshHex,
     MeshHex2,
+    condense,
+    solve,
 )
+from skfem.models.elasticity import lame_parameters
 from skfem.quadrature import get_quadrature
 
 from matid.bench.common import best_of, jsonable
@@ -154,10 +142,6 @@ class Section:
         """Cowper (1966) shear coefficient of a hollow circular section."""
         m2, nu = (self.R_i / self.R_o) ** 2, self.nu
         return 6 * (1 + nu) * (1 + m2) ** 2 / ((7 + 6 * nu) * (1 + m2) ** 2 + (20 + 12 * nu) * m2)
-
-    @property
-    def lame(self) -> tuple[float, float]:
-        return self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu)), self.G
 
     def stiffness(self) -> dict[str, float]:
         """E_b, E_s, E_e, E_t of the 1D rod [N m^2, N, N, N m^2]."""
@@ -267,16 +251,13 @@ def scaled_load(basis: Basis | FacetBasis, weight: Callable, total: float) -> np
 
 def solve_fixed(K: sp.csr_matrix, loads: list[np.ndarray], fixed: np.ndarray) -> list[np.ndarray]:
     """u with u[fixed] = 0 and K u = f on the rest, for each f (one factorisation)."""
-    free = np.setdiff1d(np.arange(K.shape[0]), fixed)
-    A = K[free][:, free].tocsc()
-    lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True, "DiagPivotThresh": 0.0})
-    out = []
-    for f in loads:
-        u = np.zeros(K.shape[0])
-        u[free] = lu.solve(f[free])
-        if not np.all(np.isfinite(u)):
-            raise FloatingPointError("3D solve returned non-finite displacements")
-        out.append(u)
+    A, _, u0, free = condense(K, loads[0], D=fixed)
+    lu = spla.splu(
+        A.tocsc(), permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True, "DiagPivotThresh": 0}
+    )
+    out = [solve(A, f[free], u0, free, solver=lambda _, b: lu.solve(b)) for f in loads]
+    if not np.all(np.isfinite(out)):
+        raise FloatingPointError("3D solve returned non-finite displacements")
     return out
 
 
@@ -328,7 +309,7 @@ def _tube(grid: TubeGrid, element: str, intorder: int, sec: Section):
     param, mesh = tube_mesh(grid)
     elem = ELEMENTS_3D[element]()
     basis = Basis(mesh, elem, intorder=intorder)
-    return param, mesh, elem, basis, stiffness_matrix(basis, *sec.lame)
+    return param, mesh, elem, basis, stiffness_matrix(basis, *lame_parameters(sec.E, sec.nu))
 
 
 def _run_3d(case: str, grid: TubeGrid, element: str, intorder: int, dofs: int, t0, t1, value, **extra) -> Run:
