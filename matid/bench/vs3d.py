@@ -32,11 +32,11 @@ Cases
 -----------------
 A structured (r, phi, z) hex mesh mapped onto the tube as ``MeshHex2`` (27-node geometry,
 circles to O(h^3)); unknowns on ``ElementHex2`` (default), ``ElementHexS2`` (20-node) or
-``ElementHex1`` (8-node, for the locking comparison). The stiffness is assembled from
-scikit-fem's scalar basis tables, one einsum per chunk of elements, because scikit-fem's
-``asm`` of ``linear_elasticity`` on ``ElementVector`` loops over the 81 x 81 local pairs in
-Python: on the level-2 cantilever (10k DOF) 10 s against 0.8 s, level 3 48 s against 2.2 s
-(scikit-fem 12.0.2, loaded 2-core machine; same matrix). 3 x 3 x 3 Gauss points
+``ElementHex1`` (8-node, for the locking comparison). The stiffness is assembled as six scalar
+forms d_a phi_i d_b phi_j on the scalar basis, because scikit-fem's ``asm`` of
+``linear_elasticity`` on ``ElementVector`` loops over the 81 x 81 local pairs in Python: on the
+level-2 cantilever (10k DOF) 10 s against 0.8 s, level 3 48 s against 3.4 s (scikit-fem
+12.0.2, loaded 2-core machine; same matrix to 1e-15). 3 x 3 x 3 Gauss points
 (``intorder=5``) instead of the 7 x 7 x 7 that ``ElementHex2`` asks for: 64 or 343 points move
 the answer by < 1e-6 relative. Direct sparse LU (SuperLU, MMD(A^T + A), symmetric mode,
 ``DiagPivotThresh=0``: K is SPD; with threshold pivoting the serendipity matrix took 195 s
@@ -73,6 +73,7 @@ import scipy.sparse.linalg as spla
 from scipy.integrate import cumulative_trapezoid, trapezoid
 from skfem import (
     Basis,
+    BilinearForm,
     ElementHex1,
     ElementHex2,
     ElementHexS2,
@@ -81,6 +82,7 @@ from skfem import (
     LinearForm,
     MeshHex,
     MeshHex2,
+    asm,
     condense,
     solve,
 )
@@ -218,28 +220,26 @@ def tube_mesh(grid: TubeGrid) -> tuple[MeshHex, MeshHex2]:
     return param, curved
 
 
-def stiffness_matrix(basis: Basis, lam: float, mu: float, *, chunk: int = 256) -> sp.csr_matrix:
-    """Isotropic linear elasticity, unknown 3 k + a = component a of scalar dof k.
+def stiffness_matrix(basis: Basis, lam: float, mu: float) -> sp.csr_matrix:
+    """Isotropic linear elasticity, unknown 3 k + a = component a of scalar dof k:
 
-    K_(i a)(j b) = int lam d_a phi_i d_b phi_j + mu (d_b phi_i d_a phi_j + delta_ab grad phi_i . grad phi_j),
-    from scikit-fem's basis tables, vectorised over elements in chunks.
+    K_(i a)(j b) = lam D^ab_ij + mu (D^ba_ij + delta_ab sum_c D^cc_ij),  D^ab_ij = int d_a phi_i d_b phi_j,
+
+    the six distinct D^ab assembled by scikit-fem on the scalar basis (module docstring: why not
+    ``linear_elasticity`` on ``ElementVector``).
     """
-    nloc, ne = len(basis.basis), basis.nelems
-    edofs = basis.element_dofs
-    K = sp.csr_matrix((3 * basis.N, 3 * basis.N))
-    for start in range(0, ne, chunk):
-        part = slice(start, min(start + chunk, ne))
-        G = np.array([basis.basis[i][0].grad[:, part] for i in range(nloc)])  # (i, a, e, q)
-        M = np.einsum("iaeq,jbeq->eiajb", G * basis.dx[None, None, part], G, optimize=True)
-        Ke = lam * M + mu * M.transpose(0, 1, 4, 3, 2)
-        trace = np.einsum("eicjc->eij", M)
-        for a in range(3):
-            Ke[:, :, a, :, a] += mu * trace
-        g = (3 * edofs[:, part].T[:, :, None] + np.arange(3)).reshape(Ke.shape[0], -1)  # (e, 3 nloc)
-        rows = np.broadcast_to(g[:, :, None], Ke.shape[:1] + (3 * nloc,) * 2)
-        cols = np.broadcast_to(g[:, None, :], rows.shape)
-        K = K + sp.csr_matrix((Ke.ravel(), (rows.ravel(), cols.ravel())), shape=K.shape)
-    return K
+    D = {
+        (a, b): asm(BilinearForm(lambda u, v, w, a=a, b=b: v.grad[a] * u.grad[b]), basis)
+        for a in range(3)
+        for b in range(a, 3)
+    }
+    D.update({(b, a): D[a, b].T for a, b in list(D) if a != b})
+    trace = D[0, 0] + D[1, 1] + D[2, 2]
+    K = sp.bmat(
+        [[lam * D[a, b] + mu * (D[b, a] + (trace if a == b else 0)) for b in range(3)] for a in range(3)]
+    )
+    order = (np.arange(3) * basis.N + np.arange(basis.N)[:, None]).ravel()  # (component, dof) -> 3 k + a
+    return K.tocsr()[order][:, order]
 
 
 def scaled_load(basis: Basis | FacetBasis, weight: Callable, total: float) -> np.ndarray:
