@@ -62,6 +62,7 @@ coarsest mesh already meets the target and the ratios are lower bounds (flagged)
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import time
 from collections.abc import Callable
@@ -71,6 +72,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.integrate import cumulative_trapezoid, trapezoid
+from scipy.optimize import brentq
 from skfem import (
     Basis,
     BilinearForm,
@@ -155,30 +157,25 @@ class Section:
         }
 
 
-def cantilever_compliance(sec: Section, length: float = CANTILEVER_LENGTH) -> float:
+def cantilever_compliance(sec: Section) -> float:
     """Timoshenko tip deflection per unit tip force: L^3/(3 E I) + L/(k G A) [m/N]."""
-    return length**3 / (3 * sec.E * sec.I) + length / (sec.k * sec.G * sec.A)
+    L = CANTILEVER_LENGTH
+    return L**3 / (3 * sec.E * sec.I) + L / (sec.k * sec.G * sec.A)
 
 
-def bend_stiffness_point(sec: Section, span: float = SPAN) -> float:
+def bend_stiffness_point(sec: Section) -> float:
     """Timoshenko three-point bend, point loads: F/d = 1 / (S^3/(48 E I) + S/(4 k G A)) [N/m]."""
-    return 1.0 / (span**3 / (48 * sec.E * sec.I) + span / (4 * sec.k * sec.G * sec.A))
+    return 1.0 / (SPAN**3 / (48 * sec.E * sec.I) + SPAN / (4 * sec.k * sec.G * sec.A))
 
 
-def bend_stiffness_patch(
-    sec: Section,
-    span: float = SPAN,
-    half_length: float = PATCH_HALF_LENGTH,
-    specimen: float = SPECIMEN_LENGTH,
-    samples: int = 400_001,
-) -> float:
+def bend_stiffness_patch(sec: Section, half_length: float = PATCH_HALF_LENGTH) -> float:
     """Timoshenko three-point bend under the cos^2 load profiles of the 3D patches [N/m].
 
     Unit-load theorem on the half beam z in [0, specimen/2] (F = 1):
     d = 2 int (M^2 / EI + V^2 / kGA) dz, with q = -psi(z) + psi(z - S/2)/2 and
     psi(z) = cos^2(pi z / 2b) / b on |z| < b (unit integral over the full beam).
     """
-    z = np.linspace(0.0, specimen / 2, samples)
+    z = np.linspace(0.0, SPECIMEN_LENGTH / 2, 400_001)
     b = half_length
 
     def cum(u):  # int_{-b}^{u} psi, clipped to [0, 1]
@@ -186,7 +183,7 @@ def bend_stiffness_patch(
         return (u + b) / (2 * b) + np.sin(math.pi * u / b) / (2 * math.pi)
 
     # shear force V(z) = sum of the loads beyond z (free end at specimen/2): nose half + support
-    V = -(1.0 - cum(z)) + 0.5 * (1.0 - cum(z - span / 2))
+    V = -(1.0 - cum(z)) + 0.5 * (1.0 - cum(z - SPAN / 2))
     M = cumulative_trapezoid(V, z, initial=0.0)
     M = M[-1] - M  # M(z) = int_z^end V: zero moment at the free end
     integrand = M**2 / (sec.E * sec.I) + V**2 / (sec.k * sec.G * sec.A)
@@ -274,7 +271,7 @@ class Run:
     extra: dict = field(default_factory=dict)
 
 
-def cantilever_grid(level: int, *, length: float = CANTILEVER_LENGTH) -> TubeGrid:
+def cantilever_grid(level: int) -> TubeGrid:
     """Level n: n layers through the wall, 4n sectors on the half circle, 10n slices, h ~ 1/n,
     graded towards the singular clamped edges (module docstring)."""
     t = np.linspace(-1.0, 1.0, level + 1)
@@ -282,7 +279,7 @@ def cantilever_grid(level: int, *, length: float = CANTILEVER_LENGTH) -> TubeGri
     return TubeGrid(
         r=R_I + (R_O - R_I) * wall,
         phi=np.linspace(0.0, math.pi, 4 * level + 1),
-        z=length * np.linspace(0.0, 1.0, 10 * level + 1) ** 2,
+        z=CANTILEVER_LENGTH * np.linspace(0.0, 1.0, 10 * level + 1) ** 2,
     )
 
 
@@ -324,28 +321,16 @@ def _wall_parabola(x: np.ndarray, sec: Section) -> np.ndarray:
     return np.clip((r - sec.R_i) * (sec.R_o - r), 0.0, None)
 
 
-def _segments(breaks: list[float], counts: list[int], grade_last: float = 1.0) -> np.ndarray:
-    """Uniform elements on each segment; the last one graded as s^grade away from its start."""
-    parts = [np.array([breaks[0]])]
-    for i, n in enumerate(counts):
-        s = np.linspace(0.0, 1.0, n + 1)[1:]
-        if i == len(counts) - 1:
-            s = s**grade_last
-        parts.append(breaks[i] + (breaks[i + 1] - breaks[i]) * s)
-    return np.concatenate(parts)
-
-
-def bend_grid(
-    level: int, *, span: float = SPAN, specimen: float = SPECIMEN_LENGTH, b: float = PATCH_HALF_LENGTH
-) -> TubeGrid:
+def bend_grid(level: int) -> TubeGrid:
     """Quarter specimen, level n, h ~ 1/n: n layers, 4n sectors (patch edges at 45 and 135 deg on
     nodes), z slices n on the nose patch, 3n to the support patch, 2n on it, 3n on the overhang
     (graded away from the support: it carries no moment)."""
-    z = _segments(
-        [0.0, b, span / 2 - b, span / 2 + b, specimen / 2],
-        [level, 3 * level, 2 * level, 3 * level],
-        grade_last=2.0,
-    )
+    b = PATCH_HALF_LENGTH
+    breaks = [0.0, b, SPAN / 2 - b, SPAN / 2 + b, SPECIMEN_LENGTH / 2]
+    steps = [np.linspace(0.0, 1.0, n + 1)[1:] for n in (level, 3 * level, 2 * level, 3 * level)]
+    steps[-1] = steps[-1] ** 2
+    segments = zip(itertools.pairwise(breaks), steps, strict=True)
+    z = np.concatenate([[0.0], *(z0 + (z1 - z0) * t for (z0, z1), t in segments)])
     return TubeGrid(r=np.linspace(R_I, R_O, level + 1), phi=np.linspace(0.0, math.pi, 4 * level + 1), z=z)
 
 
@@ -362,14 +347,7 @@ def _patch(x: np.ndarray, z0: float, phi0: float, b: float, alpha: float) -> np.
 
 
 def bend_3d(
-    grid: TubeGrid,
-    *,
-    element: str = "hex27",
-    intorder: int = DEFAULT_INTORDER,
-    sec: Section = Section(),
-    span: float = SPAN,
-    b: float = PATCH_HALF_LENGTH,
-    alpha: float = PATCH_HALF_ANGLE,
+    grid: TubeGrid, *, element: str = "hex27", intorder: int = DEFAULT_INTORDER, sec: Section = Section()
 ) -> Run:
     """3D quarter tube in three-point bend: stiffness F/d [N/m] under surface patches (value)
     and under the same axial profiles smeared over the section as body forces (extra)."""
@@ -380,7 +358,8 @@ def bend_3d(
     quarter = 0.25  # of F = 1: half the nose load on the quarter, one support's half
     f_surface, f_body = np.zeros(K.shape[0]), np.zeros(K.shape[0])
     surface = FacetBasis(mesh, elem, facets=outer, intorder=intorder)
-    for z0, phi0, total in ((0.0, 0.0, -quarter), (span / 2, math.pi, quarter)):  # nose, support
+    b, alpha = PATCH_HALF_LENGTH, PATCH_HALF_ANGLE
+    for z0, phi0, total in ((0.0, 0.0, -quarter), (SPAN / 2, math.pi, quarter)):  # nose, support
         f_surface[0::3] += scaled_load(
             surface, lambda x, z0=z0, phi0=phi0: _patch(x, z0, phi0, b, alpha), total
         )
@@ -399,54 +378,31 @@ def bend_3d(
 # -- 1D model ------------------------------------------------------------------
 
 
-def cantilever_1d(
-    elements: int, *, sec: Section = Section(), length: float = CANTILEVER_LENGTH, repeats: int = 3
-) -> Run:
+def cantilever_1d(elements: int, *, sec: Section = Section()) -> Run:
     """``solve_cantilever`` (planar) under a tip force P = 1e-4 E_b / L^2: tip deflection / P [m/N]."""
     stiff = sec.stiffness()
-    P = 1e-4 * stiff["E_b"] / length**2
+    L = CANTILEVER_LENGTH
+    P = 1e-4 * stiff["E_b"] / L**2
     scene = scene_from_dict(
-        {"scene": "cantilever", "rod": {"length": length, **stiff}, "tip": {"force": [P, 0.0, 0.0]}}
+        {"scene": "cantilever", "rod": {"length": L, **stiff}, "tip": {"force": [P, 0.0, 0.0]}}
     )
-    sol, runtime, _ = best_of(lambda: solve_cantilever(scene, elements=elements), repeats)
+    sol, runtime, _ = best_of(lambda: solve_cantilever(scene, elements=elements))
     dofs = 3 * (2 * elements + 1) - 3  # (x, z, theta) on P2 nodes, clamped at s = 0
-    return Run(
-        "1d",
-        "cantilever",
-        f"P2 x {elements}",
-        dofs,
-        runtime,
-        float(sol.position[-1][0] / P),
-        {"rod_model": sol.model, "newton_iterations": sol.newton_iterations},
-    )
+    extra = {"rod_model": sol.model, "newton_iterations": sol.newton_iterations}
+    return Run("1d", "cantilever", f"P2 x {elements}", dofs, runtime, float(sol.position[-1][0] / P), extra)
 
 
-def bend_1d(
-    elements: int,
-    *,
-    sec: Section = Section(),
-    span: float = SPAN,
-    specimen: float = SPECIMEN_LENGTH,
-    repeats: int = 3,
-) -> Run:
+def bend_1d(elements: int, *, sec: Section = Section()) -> Run:
     """``BendModel`` half model, point contacts: F/d [N/m] extrapolated linearly to d = 0 from
     d/S = 1e-5 and 2e-5 (one continuation path)."""
     stiff = sec.stiffness()
-    model = BendModel(BendGeometry(span, specimen, 0.0, 0.0, 2 * sec.R_o), elements=elements)
-    d = span * np.asarray(BEND_D_OVER_S)
-    path, runtime, _ = best_of(lambda: model.solve(stiff["E_b"], stiff["E_s"], stiff["E_e"], d), repeats)
+    model = BendModel(BendGeometry(SPAN, SPECIMEN_LENGTH, 0.0, 0.0, 2 * sec.R_o), elements=elements)
+    d = SPAN * np.asarray(BEND_D_OVER_S)
+    path, runtime, _ = best_of(lambda: model.solve(stiff["E_b"], stiff["E_s"], stiff["E_e"], d))
     k1, k2 = path.force / d
     value = k1 - (k2 - k1) * d[0] / (d[1] - d[0])
     dofs = 3 * (2 * elements + 1) - 2 + 3  # planar dofs, z(0) = theta(0) = 0, two multipliers, support s
-    return Run(
-        "1d",
-        "bend",
-        f"P2 x {elements} (half)",
-        dofs,
-        runtime,
-        float(value),
-        {"F_over_d": [float(k1), float(k2)]},
-    )
+    return Run("1d", "bend", f"P2 x {elements} (half)", dofs, runtime, float(value), {"F_over_d": [k1, k2]})
 
 
 # -- convergence analysis ------------------------------------------------------
@@ -459,8 +415,6 @@ def richardson(h: np.ndarray, values: np.ndarray, *, roundoff: float = 1e-10) ->
     differences are at round-off the finest value is the limit (order None); when
     they change sign the sequence is not monotone and the finest value is kept.
     """
-    from scipy.optimize import brentq
-
     h1, h2, h3 = (float(x) for x in h[-3:])
     v1, v2, v3 = (float(x) for x in values[-3:])
     d12, d23 = v1 - v2, v2 - v3
@@ -541,15 +495,11 @@ def _converge(runs: list[Run], h: np.ndarray) -> tuple[dict, np.ndarray]:
 
 
 def _rows(runs: list[Run], errors: np.ndarray) -> list[dict]:
+    fields = ("model", "case", "mesh", "dofs", "runtime_s", "value")
     return [
         {
             **r.extra,
-            "model": r.model,
-            "case": r.case,
-            "mesh": r.mesh,
-            "dofs": r.dofs,
-            "runtime_s": r.runtime_s,
-            "value": r.value,
+            **{k: getattr(r, k) for k in fields},
             "discretization_error": float(e),
             "unit": UNITS[r.case],
         }
@@ -579,7 +529,7 @@ def element_study(sec: Section, reference: float, plan=ELEMENT_STUDY) -> list[di
     return out
 
 
-def run(quick: bool = False, *, element: str = "hex27") -> dict:
+def run(quick: bool = False) -> dict:
     """The ``vs_3d`` section: rows per model and mesh, converged values and gaps, cost ratios at 1e-4."""
     sec = Section()
     levels = np.array(QUICK_LEVELS_3D if quick else LEVELS_3D)
@@ -590,7 +540,7 @@ def run(quick: bool = False, *, element: str = "hex27") -> dict:
         ("bend", bend_3d, bend_grid, bend_1d),
     )
     for case, solve_3d, grid, solve_1d in models:
-        runs3 = [solve_3d(grid(int(n)), element=element, sec=sec) for n in levels]
+        runs3 = [solve_3d(grid(int(n)), sec=sec) for n in levels]
         runs1 = [solve_1d(n, sec=sec) for n in counts[case]]
         h1 = 1.0 / np.array(counts[case], float)
         case_rows, converged[case], ratios[case] = _compare(case, runs3, 1.0 / levels, runs1, h1)
