@@ -48,10 +48,8 @@ def _first_branch(q: float, psi_deg: float) -> np.ndarray:
 
 @cache
 def _spatial(elements: int, stiff: float = 1e6, rigid: bool = False) -> np.ndarray:
-    return (
-        np.asarray(solve_cantilever(S.spatial(stiff=stiff, rigid=rigid), elements=elements).position[-1])
-        / S.L
-    )
+    sol = solve_cantilever(S.spatial(stiff=stiff, rigid=rigid), elements=elements)
+    return np.asarray(sol.position[-1]) / S.L
 
 
 @cache
@@ -73,13 +71,14 @@ def _tip3_error(reference: Callable[[], np.ndarray]) -> Callable[[object], float
 
 def _arc_error(turns: float) -> Callable[[object], float]:
     def error(sol) -> float:
-        exact = circle_shape(np.asarray(sol.s) / S.L, turns)
-        p = np.asarray(sol.position) / S.L
-        return float(
-            np.max(np.sqrt((p[:, 0] - exact[:, 0]) ** 2 + p[:, 1] ** 2 + (p[:, 2] - exact[:, 1]) ** 2))
-        )
+        exact = np.insert(circle_shape(np.asarray(sol.s) / S.L, turns), 1, 0.0, axis=1)  # (x, 0, z)
+        return float(np.max(np.linalg.norm(np.asarray(sol.position) / S.L - exact, axis=1)))
 
     return error
+
+
+def _relative_error(value: np.ndarray, reference: np.ndarray) -> float:
+    return float(np.max(np.abs(value - reference) / np.abs(reference)))
 
 
 def _straight_error(sol) -> float:
@@ -286,12 +285,7 @@ def _bend_cases(quick: bool) -> list[Case]:
             "to 20 % of the span (d = 2 mm)",
             {"span (mm)": 10, "specimen (mm)": 30, "deflections (mm)": [1e3 * v for v in d], "elements": 24},
             lambda: model.solve(*E, d),
-            lambda p: float(
-                np.max(
-                    np.abs(p.force - _bend_reference(n_ref, 0.03, d))
-                    / np.abs(_bend_reference(n_ref, 0.03, d))
-                )
-            ),
+            lambda p: _relative_error(p.force, _bend_reference(n_ref, 0.03, d)),
             f"Richardson extrapolation of BendModel on {n_ref} and {2 * n_ref} elements",
             tolerance=1e-4,
             basis="relative force; 24 elements give ~1e-6 (convergence section); factor 100",
