@@ -56,6 +56,7 @@ FIT_LEVELS = 4
 TARGET = 1e-6  # error of the "time to reach" highlight
 PRINTED = {"tip_angle_deg": 98.636, "tip_xz": (0.83419, 0.29063)}
 BEND_DEFLECTION = 0.001
+SERIES = ("scene", "element", "quadrature")
 
 
 @dataclass(frozen=True)
@@ -211,16 +212,17 @@ def _bend_rows(quick: bool) -> tuple[list[dict], dict]:
 
 
 def _series(rows: list[dict]) -> dict[tuple[str, str, str], list[dict]]:
+    """Rows by series (scene, element, quadrature)."""
     out: dict[tuple[str, str, str], list[dict]] = {}
     for row in rows:
-        out.setdefault((row["scene"], row["element"], row["quadrature"]), []).append(row)
+        out.setdefault(tuple(row[k] for k in SERIES), []).append(row)
     return out
 
 
 def observed_orders(rows: list[dict]) -> list[dict]:
     """Least-squares slope of log error against log h over the asymptotic range, per series."""
     out = []
-    for (scene, element, quad), series in _series(rows).items():
+    for key, series in _series(rows).items():
         pts = [(r["elements"], r["error"]) for r in series if r["error"] is not None and r["error"] > FLOOR]
         used = pts[-FIT_LEVELS:]
         order = None
@@ -234,9 +236,7 @@ def observed_orders(rows: list[dict]) -> list[dict]:
         )
         out.append(
             {
-                "scene": scene,
-                "element": element,
-                "quadrature": quad,
+                **dict(zip(SERIES, key, strict=True)),
                 "observed_order": order,
                 "levels": [int(u[0]) for u in used],
                 "local_orders": local,
@@ -249,13 +249,11 @@ def observed_orders(rows: list[dict]) -> list[dict]:
 def time_to_target(rows: list[dict], target: float) -> list[dict]:
     """Per series, the coarsest level whose error is <= target and its run time (None if none)."""
     out = []
-    for (scene, element, quad), series in _series(rows).items():
+    for key, series in _series(rows).items():
         hit = next((r for r in series if r["error"] is not None and r["error"] <= target), None)
         out.append(
             {
-                "scene": scene,
-                "element": element,
-                "quadrature": quad,
+                **dict(zip(SERIES, key, strict=True)),
                 "target": target,
                 "elements": None if hit is None else hit["elements"],
                 "runtime_s": None if hit is None else hit["runtime_s"],
