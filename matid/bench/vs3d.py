@@ -448,27 +448,23 @@ def cost_at(
         e0, e1 = errors[i], errors[i + 1]
         if e0 >= target > e1 and e1 > 0:
             w = math.log(e0 / target) / math.log(e0 / e1)
-            return {
-                "dofs": float(dofs[i] * (dofs[i + 1] / dofs[i]) ** w),
-                "time_s": float(times[i] * (times[i + 1] / times[i]) ** w),
-                "status": "interpolated",
-            }
+            return _cost(
+                dofs[i] * (dofs[i + 1] / dofs[i]) ** w,
+                times[i] * (times[i + 1] / times[i]) ** w,
+                "interpolated",
+            )
     if errors[0] <= target:
-        return {
-            "dofs": float(dofs[0]),
-            "time_s": float(times[0]),
-            "status": "coarsest mesh already below the target (an upper bound of the cost)",
-        }
+        return _cost(dofs[0], times[0], "coarsest mesh already below the target (an upper bound of the cost)")
     if order is None:
-        return {"dofs": math.nan, "time_s": math.nan, "status": "not reached and no order to extrapolate"}
+        return _cost(math.nan, math.nan, "not reached and no order to extrapolate")
     slope = np.polyfit(np.log(dofs[-3:]), np.log(times[-3:]), 1)[0]
     n = dofs[-1] * (errors[-1] / target) ** (dim / order)
-    return {
-        "dofs": float(n),
-        "time_s": float(times[-1] * (n / dofs[-1]) ** slope),
-        "status": f"extrapolated beyond the finest mesh (err ~ DOF^-{order / dim:.2f}, "
-        f"time ~ DOF^{slope:.2f})",
-    }
+    status = f"extrapolated beyond the finest mesh (err ~ DOF^-{order / dim:.2f}, time ~ DOF^{slope:.2f})"
+    return _cost(n, times[-1] * (n / dofs[-1]) ** slope, status)
+
+
+def _cost(dofs: float, time_s: float, status: str) -> dict:
+    return {"dofs": float(dofs), "time_s": float(time_s), "status": status}
 
 
 # -- the section -----------------------------------------------------------------
