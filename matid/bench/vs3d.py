@@ -107,7 +107,7 @@ PATCH_HALF_LENGTH = 0.5e-3
 PATCH_HALF_ANGLE = math.pi / 4
 TARGET = 1e-4
 ELEMENTS_3D = {"hex27": ElementHex2, "hex20": ElementHexS2, "hex8": ElementHex1}
-#: 3 x 3 x 3 Gauss points: exact for the trilinear-geometry Q2 stiffness, no spurious modes.
+#: 3 x 3 x 3 Gauss points (module docstring: 64 or 343 move the answer by < 1e-6).
 DEFAULT_INTORDER = 5
 #: Bend deflections of the 1D model (fractions of the span), extrapolated linearly to zero.
 BEND_D_OVER_S = (1e-5, 2e-5)
