@@ -8,7 +8,8 @@ Sections (each a module with ``run(quick) -> dict``):
   "ok", "raised ConvergenceError", or a loud failure ("wrong", ...);
 - :mod:`matid.bench.leave_out`: which model and energy terms ran, and the time
   the planar reduction saves;
-- ``vs_3d``: :mod:`matid.bench.vs3d` when it is installed.
+- :mod:`matid.bench.vs3d`: the 1D rod against a 3D scikit-fem tube;
+- :mod:`matid.bench.peers`: ``solve()`` against a scipy ``solve_bvp`` baseline.
 
 :func:`matid.bench.cli.run_bench` writes ``bench.json``, ``bench.html`` and the
 plots; references are computed at run time, never stored.

@@ -48,10 +48,8 @@ def _first_branch(q: float, psi_deg: float) -> np.ndarray:
 
 @cache
 def _spatial(elements: int, stiff: float = 1e6, rigid: bool = False) -> np.ndarray:
-    return (
-        np.asarray(solve_cantilever(S.spatial(stiff=stiff, rigid=rigid), elements=elements).position[-1])
-        / S.L
-    )
+    sol = solve_cantilever(S.spatial(stiff=stiff, rigid=rigid), elements=elements)
+    return np.asarray(sol.position[-1]) / S.L
 
 
 @cache
@@ -73,13 +71,14 @@ def _tip3_error(reference: Callable[[], np.ndarray]) -> Callable[[object], float
 
 def _arc_error(turns: float) -> Callable[[object], float]:
     def error(sol) -> float:
-        exact = circle_shape(np.asarray(sol.s) / S.L, turns)
-        p = np.asarray(sol.position) / S.L
-        return float(
-            np.max(np.sqrt((p[:, 0] - exact[:, 0]) ** 2 + p[:, 1] ** 2 + (p[:, 2] - exact[:, 1]) ** 2))
-        )
+        exact = np.insert(circle_shape(np.asarray(sol.s) / S.L, turns), 1, 0.0, axis=1)  # (x, 0, z)
+        return float(np.max(np.linalg.norm(np.asarray(sol.position) / S.L - exact, axis=1)))
 
     return error
+
+
+def _relative_error(value: np.ndarray, reference: np.ndarray) -> float:
+    return float(np.max(np.abs(value - reference) / np.abs(reference)))
 
 
 def _straight_error(sol) -> float:
@@ -87,15 +86,38 @@ def _straight_error(sol) -> float:
     return float(np.max(np.abs(p - np.column_stack([0 * p[:, 0], 0 * p[:, 0], sol.s])))) / S.L
 
 
-def _solver(scene, **options) -> Callable[[], object]:
-    return lambda: solve_cantilever(scene, **options)
-
-
-def _planar_check(scene) -> Callable[[object], dict]:
-    return lambda sol: planar_state_check(scene, sol)
+def _case(
+    family: str,
+    name: str,
+    parameters: dict,
+    scene,
+    error: Callable[[object], float],
+    reference: str,
+    *,
+    elements: int = 16,
+    solve: dict | None = None,
+    check: bool = False,
+    **options,
+) -> Case:
+    """A cantilever case: ``solve_cantilever(scene, elements, **solve)``, its elements appended to
+    ``parameters``; ``check``: rebuild the returned planar state (residual, stability)."""
+    return Case(
+        family,
+        name,
+        {**parameters, "elements": elements},
+        lambda: solve_cantilever(scene, elements=elements, **(solve or {})),
+        error,
+        reference,
+        check=(lambda sol: planar_state_check(scene, sol)) if check else None,
+        **options,
+    )
 
 
 # -- the cases --------------------------------------------------------------------------------------
+
+SPATIAL = "3D: precurved, tip magnet, tip force; E_s = E_e = 1e6 E_b/L^2"
+BVP = "planar rod BVP with the same E_s, E_e (solve_bvp, checked by shooting)"
+EXACT = "exact (round-off)"
 
 
 def cases(quick: bool = False) -> list[Case]:
@@ -113,172 +135,129 @@ def cases(quick: bool = False) -> list[Case]:
 
 
 def _penalty_cases() -> list[Case]:
-    out = []
     scene = S.spatial(stiff=1e6)
-    for c_u in (1e2, 1e4, 1e6, 1e8, 1e10, 1e12):
-        out.append(
-            Case(
-                "raw-quaternion penalty",
-                f"raw q, c_u = {c_u:.0e}",
-                {
-                    "scene": "3D: precurved, tip magnet, tip force; E_s = E_e = 1e6 E_b/L^2",
-                    "model": "full",
-                    "variant": "raw",
-                    "c_u (scaled)": c_u,
-                    "elements": 16,
-                },
-                _solver(scene, elements=16, model="full", variant="raw", c_u=c_u),
-                _tip3_error(lambda: _spatial(16)),
-                "normalised variant on the same mesh (isolates the penalty error)",
-                tolerance=1e-3,
-                penalty_c_u=c_u,
-                quick=c_u in (1e2, 1e6),
-                basis=f"0.1 % of L; the raw penalty's own error is <= {PENALTY_C:g}/c_u (measured ~1.4/c_u)",
-            )
+    raw = [
+        _case(
+            "raw-quaternion penalty",
+            f"raw q, c_u = {c_u:.0e}",
+            {"scene": SPATIAL, "model": "full", "variant": "raw", "c_u (scaled)": c_u},
+            scene,
+            _tip3_error(lambda: _spatial(16)),
+            "normalised variant on the same mesh (isolates the penalty error)",
+            solve={"model": "full", "variant": "raw", "c_u": c_u},
+            tolerance=1e-3,
+            penalty_c_u=c_u,
+            quick=c_u in (1e2, 1e6),
+            basis=f"0.1 % of L; the raw penalty's own error is <= {PENALTY_C:g}/c_u (measured ~1.4/c_u)",
         )
-    out.append(
-        Case(
-            "precurved 3D rod",
-            "normalised q, default c_u",
-            {
-                "scene": "3D: precurved, tip magnet, tip force; E_s = E_e = 1e6 E_b/L^2",
-                "model": "full",
-                "variant": "normalised",
-                "elements": 16,
-            },
-            _solver(scene, elements=16, model="full"),
-            _tip3_error(lambda: richardson(_spatial(64), _spatial(128))),
-            "Richardson extrapolation of the normalised variant on 64 and 128 elements",
-            quick=True,
-        )
+        for c_u in (1e2, 1e4, 1e6, 1e8, 1e10, 1e12)
+    ]
+    normalised = _case(
+        "precurved 3D rod",
+        "normalised q, default c_u",
+        {"scene": SPATIAL, "model": "full", "variant": "normalised"},
+        scene,
+        _tip3_error(lambda: richardson(_spatial(64), _spatial(128))),
+        "Richardson extrapolation of the normalised variant on 64 and 128 elements",
+        solve={"model": "full"},
+        quick=True,
     )
-    return out
+    return [*raw, normalised]
+
+
+def _tip_force_case(family: str, name: str, E_s: float, E_e: float, quick: bool) -> Case:
+    """Tip force F L^2/E_b = 2 against the planar rod BVP with the same E_s, E_e."""
+    return _case(
+        family,
+        name,
+        {"scene": "tip force F L^2/E_b = 2", "E_s L^2/E_b": E_s, "E_e L^2/E_b": E_e},
+        S.tip_force(2.0, E_s=E_s, E_e=E_e),
+        _tip_error(lambda: _elastica(2.0, E_s, E_e)),
+        BVP,
+        check=True,
+        quick=quick,
+    )
 
 
 def _stiffness_cases() -> list[Case]:
-    out = []
-    for E in (1e2, 1e4, 1e6, 1e8, 1e10):
-        scene = S.tip_force(2.0, E_s=E, E_e=E)
-        out.append(
-            Case(
-                "slenderness",
-                f"tip force, E_s = E_e = {E:.0e}",
-                {"scene": "tip force F L^2/E_b = 2", "E_s L^2/E_b": E, "E_e L^2/E_b": E, "elements": 16},
-                _solver(scene, elements=16),
-                _tip_error(lambda E=E: _elastica(2.0, E, E)),
-                "planar rod BVP with the same E_s, E_e (solve_bvp, checked by shooting)",
-                check=_planar_check(scene),
-                quick=E in (1e2, 1e10),
-            )
+    slender = [
+        _tip_force_case("slenderness", f"tip force, E_s = E_e = {E:.0e}", E, E, E in (1e2, 1e10))
+        for E in (1e2, 1e4, 1e6, 1e8, 1e10)
+    ]
+    magnetic = [
+        _case(
+            "slenderness",
+            f"magnetic cantilever, E_s = E_e = {E:.0e}",
+            {"scene": "magnetic cantilever q = 6.4, 120 deg", "E_s L^2/E_b": E, "E_e L^2/E_b": E},
+            S.magnetic(6.4, 120.0, E_s=E, E_e=E),
+            _tip_error(lambda: _elastica(q=6.4, psi_deg=120.0)),
+            "elastica BVP (exact for any E_s, E_e: a uniform field exerts no force)",
+            check=True,
         )
-    for E in (1e2, 1e10):
-        scene = S.magnetic(6.4, 120.0, E_s=E, E_e=E)
-        out.append(
-            Case(
-                "slenderness",
-                f"magnetic cantilever, E_s = E_e = {E:.0e}",
-                {
-                    "scene": "magnetic cantilever q = 6.4, 120 deg",
-                    "E_s L^2/E_b": E,
-                    "E_e L^2/E_b": E,
-                    "elements": 16,
-                },
-                _solver(scene, elements=16),
-                _tip_error(lambda: _elastica(q=6.4, psi_deg=120.0)),
-                "elastica BVP (exact for any E_s, E_e: a uniform field exerts no force)",
-                check=_planar_check(scene),
-            )
-        )
-    for name, E_s, E_e, quick in (
-        ("Kirchhoff limit, E_s = 1e12", 1e12, 1e8, False),
-        ("soft shear, E_s = 1", 1.0, 1e4, True),
-    ):
-        scene = S.tip_force(2.0, E_s=E_s, E_e=E_e)
-        out.append(
-            Case(
-                "shear stiffness",
-                name,
-                {"scene": "tip force F L^2/E_b = 2", "E_s L^2/E_b": E_s, "E_e L^2/E_b": E_e, "elements": 16},
-                _solver(scene, elements=16),
-                _tip_error(lambda E_s=E_s, E_e=E_e: _elastica(2.0, E_s, E_e)),
-                "planar rod BVP with the same E_s, E_e (solve_bvp, checked by shooting)",
-                check=_planar_check(scene),
-                quick=quick,
-            )
-        )
-    return out
+        for E in (1e2, 1e10)
+    ]
+    shear = [
+        _tip_force_case("shear stiffness", "Kirchhoff limit, E_s = 1e12", 1e12, 1e8, False),
+        _tip_force_case("shear stiffness", "soft shear, E_s = 1", 1.0, 1e4, True),
+    ]
+    return slender + magnetic + shear
 
 
 def _rotation_cases() -> list[Case]:
-    out = []
-    for turns, model, quick in (
-        (0.625, "auto", True),
-        (1.0, "auto", False),
-        (1.5, "auto", False),
-        (1.0, "full", False),
-    ):
-        scene = S.end_moment(turns)
-        out.append(
-            Case(
-                "large rotation",
-                f"end moment, tip at {360 * turns:.0f} deg ({model})",
-                {"scene": "pure end moment", "M L/E_b": 2 * math.pi * turns, "model": model, "elements": 16},
-                _solver(scene, elements=16, model=model),
-                _arc_error(turns),
-                "closed form (circular arc), largest nodal error",
-                tolerance=1e-4,
-                basis="P2 at 16 elements: 3e-6 per turn^4 (convergence section, circle); factor >= 10",
-                check=_planar_check(scene) if model == "auto" else None,
-                quick=quick,
-            )
+    return [
+        _case(
+            "large rotation",
+            f"end moment, tip at {360 * turns:.0f} deg ({model})",
+            {"scene": "pure end moment", "M L/E_b": 2 * math.pi * turns, "model": model},
+            S.end_moment(turns),
+            _arc_error(turns),
+            "closed form (circular arc), largest nodal error",
+            solve={"model": model},
+            check=model == "auto",
+            tolerance=1e-4,
+            basis="P2 at 16 elements: 3e-6 per turn^4 (convergence section, circle); factor >= 10",
+            quick=quick,
         )
-    return out
+        for turns, model, quick in (
+            (0.625, "auto", True),
+            (1.0, "auto", False),
+            (1.5, "auto", False),
+            (1.0, "full", False),
+        )
+    ]
 
 
 def _bifurcation_cases() -> list[Case]:
-    out = []
-    for factor, quick in ((0.95, False), (1.05, True)):
-        q = factor * Q_CRIT
-        scene = S.magnetic(q, 179.5)
-        out.append(
-            Case(
-                "near bifurcation",
-                f"field 179.5 deg, q = {factor:g} q_c",
-                {
-                    "scene": "magnetic cantilever",
-                    "q": q,
-                    "q_c": Q_CRIT,
-                    "field angle (deg)": 179.5,
-                    "elements": 16,
-                },
-                _solver(scene, elements=16),
-                _tip_error(lambda q=q: _first_branch(q, 179.5)),
-                "elastica, first-mode branch towards +x (shooting scan, checked by solve_bvp); "
-                "stability: tangent eigenvalues",
-                check=_planar_check(scene),
-                quick=quick,
-            )
+    near = [
+        _case(
+            "near bifurcation",
+            f"field 179.5 deg, q = {factor:g} q_c",
+            {"scene": "magnetic cantilever", "q": factor * Q_CRIT, "q_c": Q_CRIT, "field angle (deg)": 179.5},
+            S.magnetic(factor * Q_CRIT, 179.5),
+            _tip_error(lambda q=factor * Q_CRIT: _first_branch(q, 179.5)),
+            "elastica, first-mode branch towards +x (shooting scan, checked by solve_bvp); "
+            "stability: tangent eigenvalues",
+            check=True,
+            quick=quick,
         )
-    scene = S.magnetic(0.9 * Q_CRIT, 180.0)
-    out.append(
-        Case(
+        for factor, quick in ((0.95, False), (1.05, True))
+    ]
+    q = 1.2 * Q_CRIT
+    reversal = [
+        _case(
             "field reversal",
             "field 180 deg, q = 0.9 q_c",
-            {"scene": "magnetic cantilever", "q": 0.9 * Q_CRIT, "field angle (deg)": 180.0, "elements": 16},
-            _solver(scene, elements=16),
+            {"scene": "magnetic cantilever", "q": 0.9 * Q_CRIT, "field angle (deg)": 180.0},
+            S.magnetic(0.9 * Q_CRIT, 180.0),
             _tip_error(lambda: np.array([0.0, 1.0])),
             "the straight rod (stable below q_c)",
-            check=_planar_check(scene),
-        )
-    )
-    q = 1.2 * Q_CRIT
-    scene = S.magnetic(q, 180.0)
-    out.append(
-        Case(
+            check=True,
+        ),
+        _case(
             "field reversal",
             "field 180 deg, q = 1.2 q_c",
-            {"scene": "magnetic cantilever", "q": q, "field angle (deg)": 180.0, "elements": 16},
-            _solver(scene, elements=16),
+            {"scene": "magnetic cantilever", "q": q, "field angle (deg)": 180.0},
+            S.magnetic(q, 180.0),
             lambda sol: float(
                 min(
                     np.linalg.norm(tip_xz(sol, S.L) - _first_branch(q, 180.0) * [sign, 1.0])
@@ -287,11 +266,11 @@ def _bifurcation_cases() -> list[Case]:
             ),
             "the buckled state (either mirror image; elastica, shooting scan): the straight "
             "rod is an equilibrium but unstable beyond q_c",
-            check=_planar_check(scene),
+            check=True,
             quick=True,
-        )
-    )
-    return out
+        ),
+    ]
+    return near + reversal
 
 
 def _bend_cases(quick: bool) -> list[Case]:
@@ -306,12 +285,7 @@ def _bend_cases(quick: bool) -> list[Case]:
             "to 20 % of the span (d = 2 mm)",
             {"span (mm)": 10, "specimen (mm)": 30, "deflections (mm)": [1e3 * v for v in d], "elements": 24},
             lambda: model.solve(*E, d),
-            lambda p: float(
-                np.max(
-                    np.abs(p.force - _bend_reference(n_ref, 0.03, d))
-                    / np.abs(_bend_reference(n_ref, 0.03, d))
-                )
-            ),
+            lambda p: _relative_error(p.force, _bend_reference(n_ref, 0.03, d)),
             f"Richardson extrapolation of BendModel on {n_ref} and {2 * n_ref} elements",
             tolerance=1e-4,
             basis="relative force; 24 elements give ~1e-6 (convergence section); factor 100",
@@ -338,104 +312,97 @@ def _bend_cases(quick: bool) -> list[Case]:
 
 
 def _mesh_cases() -> list[Case]:
-    magnetic = S.magnetic(6.4, 120.0)
+    magnetic = "magnetic cantilever q = 6.4"
     mag_ref = _tip_error(lambda: _elastica(q=6.4, psi_deg=120.0))
-    zero = S.magnetic(0.0, 120.0)
-    return [
-        Case(
+    zero = [
+        _case(
             "zero load",
             "no field (planar)",
-            {"scene": "magnetic cantilever, q = 0", "elements": 16},
-            _solver(zero, elements=16),
+            {"scene": "magnetic cantilever, q = 0"},
+            S.magnetic(0.0, 120.0),
             _straight_error,
             "the straight rod",
+            check=True,
             tolerance=1e-12,
-            basis="exact (round-off)",
-            check=_planar_check(zero),
+            basis=EXACT,
             quick=True,
         ),
-        Case(
+        _case(
             "zero load",
             "no load (full model)",
-            {"scene": "tip force 0", "model": "full", "elements": 16},
-            _solver(S.tip_force(0.0), elements=16, model="full"),
+            {"scene": "tip force 0", "model": "full"},
+            S.tip_force(0.0),
             _straight_error,
             "the straight rod",
+            solve={"model": "full"},
             tolerance=1e-12,
-            basis="exact (round-off)",
-        ),
-        Case(
-            "mesh extremes",
-            "a single element",
-            {"scene": "magnetic cantilever q = 6.4", "elements": 1},
-            _solver(magnetic, elements=1),
-            mag_ref,
-            "elastica BVP",
-            tolerance=0.1,
-            basis="P2 error at 2 elements is 3e-3 and grows ~h^4: one element may be off by a few %",
-            quick=True,
-        ),
-        Case(
-            "mesh extremes",
-            "10^4 elements, E_s = E_e = 1e6",
-            {"scene": "magnetic cantilever q = 6.4", "E_s L^2/E_b": 1e6, "elements": 10_000},
-            _solver(S.magnetic(6.4, 120.0, E_s=1e6, E_e=1e6), elements=10_000),
-            mag_ref,
-            "elastica BVP",
-            tolerance=1e-6,
-            basis="discretisation error ~1e-16: only round-off (condition ~E h^-2)",
-        ),
-        Case(
-            "mesh extremes",
-            "10^4 elements, E_s = E_e = 1e8",
-            {"scene": "magnetic cantilever q = 6.4", "E_s L^2/E_b": 1e8, "elements": 10_000},
-            _solver(magnetic, elements=10_000),
-            mag_ref,
-            "elastica BVP",
-            tolerance=1e-6,
-            basis="discretisation error ~1e-16: only round-off (condition ~E h^-2 = 1e16)",
-            timeout_s=90.0,
+            basis=EXACT,
         ),
     ]
+    single = _case(
+        "mesh extremes",
+        "a single element",
+        {"scene": magnetic},
+        S.magnetic(6.4, 120.0),
+        mag_ref,
+        "elastica BVP",
+        elements=1,
+        tolerance=0.1,
+        basis="P2 error at 2 elements is 3e-3 and grows ~h^4: one element may be off by a few %",
+        quick=True,
+    )
+    many = [
+        _case(
+            "mesh extremes",
+            f"10^4 elements, E_s = E_e = 1e{math.log10(E):.0f}",
+            {"scene": magnetic, "E_s L^2/E_b": E},
+            S.magnetic(6.4, 120.0, E_s=E, E_e=E),
+            mag_ref,
+            "elastica BVP",
+            elements=10_000,
+            tolerance=1e-6,
+            basis=f"discretisation error ~1e-16: only round-off (condition ~E h^-2{condition})",
+            timeout_s=timeout,
+        )
+        for E, condition, timeout in ((1e6, "", None), (1e8, " = 1e16", 90.0))
+    ]
+    return [*zero, single, *many]
 
 
 def _rigid_cases() -> list[Case]:
-    out = []
     ref = rigid_tip_magnet(0.9, 0.1, 2.0, math.radians(120.0))[:2]
-    for stiff, n, quick in ((1e4, 16, False), (1e8, 16, True), (1e8, 64, False)):
-        scene = S.rigid_tip_magnet(stiff=stiff)
-        out.append(
-            Case(
-                "rigid segment",
-                f"rigid magnet body, E_s = E_e = {stiff:.0e}, {n} elements",
-                {
-                    "scene": "tip magnet m B L/E_b = 2 at 120 deg in a rigid body over the last 10 %",
-                    "E_s L^2/E_b": stiff,
-                    "E_e L^2/E_b": stiff,
-                    "elements": n,
-                },
-                _solver(scene, elements=n),
-                _tip_error(lambda: ref),
-                "closed form: arc under the magnet's torque, then the straight rigid body",
-                check=_planar_check(scene),
-                quick=quick,
-                basis="10 x the rigid body's own compliance (matid.rod.solve.RIGID_FACTOR = 1e6: ~1e-6)",
-            )
+    planar = [
+        _case(
+            "rigid segment",
+            f"rigid magnet body, E_s = E_e = {stiff:.0e}, {n} elements",
+            {
+                "scene": "tip magnet m B L/E_b = 2 at 120 deg in a rigid body over the last 10 %",
+                "E_s L^2/E_b": stiff,
+                "E_e L^2/E_b": stiff,
+            },
+            S.rigid_tip_magnet(stiff=stiff),
+            _tip_error(lambda: ref),
+            "closed form: arc under the magnet's torque, then the straight rigid body",
+            elements=n,
+            check=True,
+            quick=quick,
+            basis="10 x the rigid body's own compliance (matid.rod.solve.RIGID_FACTOR = 1e6: ~1e-6)",
         )
-    for stiff in (1e3, 1e6):
-        out.append(
-            Case(
-                "rigid segment",
-                f"3D, rigid magnet body, E_s = E_e = {stiff:.0e}",
-                {
-                    "scene": "3D: precurved, tip magnet in a rigid body (last 10 %), tip force",
-                    "E_s L^2/E_b": stiff,
-                    "model": "full",
-                    "elements": 16,
-                },
-                _solver(S.spatial(stiff=stiff, rigid=True), elements=16),
-                _tip3_error(lambda stiff=stiff: _spatial(48, stiff, True)),
-                "the same scene on 48 elements (self-convergence: no independent 3D reference)",
-            )
+        for stiff, n, quick in ((1e4, 16, False), (1e8, 16, True), (1e8, 64, False))
+    ]
+    spatial = [
+        _case(
+            "rigid segment",
+            f"3D, rigid magnet body, E_s = E_e = {stiff:.0e}",
+            {
+                "scene": "3D: precurved, tip magnet in a rigid body (last 10 %), tip force",
+                "E_s L^2/E_b": stiff,
+                "model": "full",
+            },
+            S.spatial(stiff=stiff, rigid=True),
+            _tip3_error(lambda stiff=stiff: _spatial(48, stiff, True)),
+            "the same scene on 48 elements (self-convergence: no independent 3D reference)",
         )
-    return out
+        for stiff in (1e3, 1e6)
+    ]
+    return planar + spatial

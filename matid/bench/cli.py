@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
-import importlib
-import importlib.util
 import json
 import sys
 import time
@@ -20,12 +18,19 @@ import traceback
 from collections.abc import Iterable
 from pathlib import Path
 
-from matid.bench import convergence, leave_out, peers, stability
+from matid.bench import convergence, leave_out, peers, stability, vs3d
 from matid.bench.common import jsonable, machine
 from matid.bench.html import page
 from matid.bench.plots import convergence_figure, penalty_figure
 
-SECTIONS = ("convergence", "stability", "vs_3d", "leave_out", "peers")
+#: The sections in their order, each a module with ``run(quick) -> dict``.
+SECTIONS = {
+    "convergence": convergence,
+    "stability": stability,
+    "vs_3d": vs3d,
+    "leave_out": leave_out,
+    "peers": peers,
+}
 DEFAULT_OUT = Path("reports/bench")
 
 
@@ -103,29 +108,14 @@ def run_bench(
     (out / "bench.json").write_text(json.dumps(doc, indent=1), encoding="utf-8")
     (out / "bench.html").write_text(page(doc, figures), encoding="utf-8")
     _say(quiet, f"matid bench: wrote {out / 'bench.json'}, {out / 'bench.html'} ({doc['runtime_s']:.1f} s)")
-    return 1 if _problems(doc["sections"]) else 0
+    return 1 if _failed(doc["sections"]) else 0
 
 
 def _run_section(name: str, quick: bool) -> dict:
     try:
-        if name == "vs_3d":
-            return _vs_3d(quick)
-        module = {"convergence": convergence, "stability": stability, "leave_out": leave_out, "peers": peers}[
-            name
-        ]
-        return module.run(quick)
+        return SECTIONS[name].run(quick)
     except Exception as exc:  # noqa: BLE001 - one failing section must not hide the others
         return {"status": f"failed: {type(exc).__name__}: {exc}", "traceback": traceback.format_exc()}
-
-
-def _vs_3d(quick: bool) -> dict:
-    """matid.bench.vs3d.run(quick) when that module is installed; otherwise say so."""
-    if importlib.util.find_spec("matid.bench.vs3d") is None:
-        return {"status": "not available: matid.bench.vs3d is not installed (module missing)"}
-    module = importlib.import_module("matid.bench.vs3d")
-    if not hasattr(module, "run"):
-        return {"status": "not available: matid.bench.vs3d has no run(quick)"}
-    return module.run(quick)
 
 
 def _figures(sections: dict) -> dict[str, bytes]:
@@ -141,14 +131,10 @@ def _figures(sections: dict) -> dict[str, bytes]:
     return figures
 
 
-def _problems(sections: dict) -> list[str]:
-    problems = [
-        f"{name}: {s['status']}"
-        for name, s in sections.items()
-        if str(s.get("status", "")).startswith("failed")
-    ]
-    problems += [f"stability: {case}" for case in sections.get("stability", {}).get("not_acceptable", [])]
-    return problems
+def _failed(sections: dict) -> bool:
+    """A section failed, or a stability case ended neither ok, raised, nor flagged inaccurate."""
+    failed = any(str(s.get("status", "")).startswith("failed") for s in sections.values())
+    return failed or bool(sections.get("stability", {}).get("not_acceptable"))
 
 
 def _say(quiet: bool, message: str) -> None:

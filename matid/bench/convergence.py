@@ -56,6 +56,7 @@ FIT_LEVELS = 4
 TARGET = 1e-6  # error of the "time to reach" highlight
 PRINTED = {"tip_angle_deg": 98.636, "tip_xz": (0.83419, 0.29063)}
 BEND_DEFLECTION = 0.001
+SERIES = ("scene", "element", "quadrature")
 
 
 @dataclass(frozen=True)
@@ -70,7 +71,7 @@ def run(quick: bool = False) -> dict:
     """Rows {scene, model, element, quadrature, elements, runtime_s, error, reference}, orders, highlights."""
     levels = QUICK_LEVELS if quick else LEVELS
     cases, checks = _cantilever_cases(quick)
-    rows = [row for case in cases for el, order in CHOICES for row in _levels(case, el, order, levels)]
+    rows = [_level(case, el, order, n) for case in cases for el, order in CHOICES for n in levels]
     bend_rows, checks["three-point bend"] = _bend_rows(quick)
     rows += bend_rows
     return {
@@ -146,39 +147,32 @@ def _circle_error(sol: Solution) -> float:
     return float(np.max(np.linalg.norm(np.asarray(sol.position)[:, [0, 2]] / S.L - exact, axis=1)))
 
 
-def _levels(case: Case, element: str, intorder: int, levels) -> list[dict]:
-    rows = []
-    for n in levels:
-        row = {
-            "scene": case.name,
-            "model": "planar",
-            "element": element,
-            "quadrature": QUADRATURE[intorder],
-            "intorder": intorder,
-            "elements": n,
-            "reference": case.reference,
-        }
-        try:
-            sol, runtime, _ = best_of(
-                lambda n=n: solve_cantilever(case.scene, elements=n, element=element, intorder=intorder)
-            )
-        except ConvergenceError as exc:
-            rows.append(
-                {**row, "runtime_s": None, "error": None, "status": f"raised ConvergenceError: {exc}"}
-            )
-            continue
-        rows.append(
-            {
-                **row,
-                "model": sol.model,
-                "runtime_s": runtime,
-                "error": case.error(sol),
-                "newton_iterations": sol.newton_iterations,
-                "load_steps": sol.load_steps,
-                "status": "ok",
-            }
+def _level(case: Case, element: str, intorder: int, n: int) -> dict:
+    """The case on ``n`` elements (best of 3), or the ConvergenceError it raised."""
+    row = {
+        "scene": case.name,
+        "model": "planar",
+        "element": element,
+        "quadrature": QUADRATURE[intorder],
+        "intorder": intorder,
+        "elements": n,
+        "reference": case.reference,
+    }
+    try:
+        sol, runtime, _ = best_of(
+            lambda: solve_cantilever(case.scene, elements=n, element=element, intorder=intorder)
         )
-    return rows
+    except ConvergenceError as exc:
+        return {**row, "runtime_s": None, "error": None, "status": f"raised ConvergenceError: {exc}"}
+    return {
+        **row,
+        "model": sol.model,
+        "runtime_s": runtime,
+        "error": case.error(sol),
+        "newton_iterations": sol.newton_iterations,
+        "load_steps": sol.load_steps,
+        "status": "ok",
+    }
 
 
 def _bend_rows(quick: bool) -> tuple[list[dict], dict]:
@@ -218,16 +212,17 @@ def _bend_rows(quick: bool) -> tuple[list[dict], dict]:
 
 
 def _series(rows: list[dict]) -> dict[tuple[str, str, str], list[dict]]:
+    """Rows by series (scene, element, quadrature)."""
     out: dict[tuple[str, str, str], list[dict]] = {}
     for row in rows:
-        out.setdefault((row["scene"], row["element"], row["quadrature"]), []).append(row)
+        out.setdefault(tuple(row[k] for k in SERIES), []).append(row)
     return out
 
 
 def observed_orders(rows: list[dict]) -> list[dict]:
     """Least-squares slope of log error against log h over the asymptotic range, per series."""
     out = []
-    for (scene, element, quad), series in _series(rows).items():
+    for key, series in _series(rows).items():
         pts = [(r["elements"], r["error"]) for r in series if r["error"] is not None and r["error"] > FLOOR]
         used = pts[-FIT_LEVELS:]
         order = None
@@ -241,9 +236,7 @@ def observed_orders(rows: list[dict]) -> list[dict]:
         )
         out.append(
             {
-                "scene": scene,
-                "element": element,
-                "quadrature": quad,
+                **dict(zip(SERIES, key, strict=True)),
                 "observed_order": order,
                 "levels": [int(u[0]) for u in used],
                 "local_orders": local,
@@ -256,13 +249,11 @@ def observed_orders(rows: list[dict]) -> list[dict]:
 def time_to_target(rows: list[dict], target: float) -> list[dict]:
     """Per series, the coarsest level whose error is <= target and its run time (None if none)."""
     out = []
-    for (scene, element, quad), series in _series(rows).items():
+    for key, series in _series(rows).items():
         hit = next((r for r in series if r["error"] is not None and r["error"] <= target), None)
         out.append(
             {
-                "scene": scene,
-                "element": element,
-                "quadrature": quad,
+                **dict(zip(SERIES, key, strict=True)),
                 "target": target,
                 "elements": None if hit is None else hit["elements"],
                 "runtime_s": None if hit is None else hit["runtime_s"],

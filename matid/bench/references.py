@@ -71,26 +71,30 @@ def solve_elastica(rod: Elastica, *, guess: tuple[np.ndarray, np.ndarray] | None
     if sol.status != 0:
         raise RuntimeError(f"reference BVP did not converge: {sol.message}")
     bvp_tip = sol.y[[2, 3, 0], -1]
-    shot_tip, m0 = _shoot(rod, float(sol.y[1, 0]))
+    shot_tip = _shoot(rod, float(sol.y[1, 0]))
     return {
         "tip": shot_tip,
-        "bvp_tip": bvp_tip,
-        "m0": m0,
         "agreement": float(np.max(np.abs(shot_tip - bvp_tip))),
         "solution": (sol.x, sol.y),
     }
 
 
-def _shoot(rod: Elastica, m0: float) -> tuple[np.ndarray, float]:
-    def end(m_start: float) -> np.ndarray:
-        out = solve_ivp(
-            rod.rhs, (0.0, 1.0), [0.0, m_start, 0.0, 0.0], method="DOP853", rtol=IVP_TOL, atol=IVP_TOL
-        )
-        return out.y[:, -1]
+def _integrate(rod: Elastica, m0: float, **options):
+    """The initial-value problem from the clamp with m(0) = m0 (DOP853 at IVP_TOL)."""
+    return solve_ivp(
+        rod.rhs, (0.0, 1.0), [0.0, m0, 0.0, 0.0], method="DOP853", rtol=IVP_TOL, atol=IVP_TOL, **options
+    )
 
-    m0 = float(newton(lambda a: end(a)[1] - rod.moment, m0, tol=1e-14, maxiter=50))
-    y = end(m0)
-    return np.array([y[2], y[3], y[0]]), m0
+
+def _moment_miss(rod: Elastica, m0: float) -> float:
+    """m(1) - M of the initial-value problem: the shooting function."""
+    return _integrate(rod, m0).y[1, -1] - rod.moment
+
+
+def _shoot(rod: Elastica, m0: float) -> np.ndarray:
+    """Tip (x, z, theta) of the shooting solution, Newton on m(0) from ``m0``."""
+    y = _integrate(rod, newton(lambda a: _moment_miss(rod, a), m0, tol=1e-14, maxiter=50)).y[:, -1]
+    return np.array([y[2], y[3], y[0]])
 
 
 def follow_elastica(rod: Elastica, steps: int = 8) -> dict:
@@ -113,28 +117,14 @@ def first_branch(rod: Elastica, *, k_max: float = 20.0, samples: int = 400) -> d
     upwards from 0+ finds the first-mode branch bending towards +x, the natural
     branch of a field slightly to the +x side of the reversed axis.
     """
-
-    def end(m0: float) -> np.ndarray:
-        return solve_ivp(
-            rod.rhs, (0.0, 1.0), [0.0, m0, 0.0, 0.0], method="DOP853", rtol=IVP_TOL, atol=IVP_TOL
-        ).y[:, -1]
-
     grid = np.geomspace(1e-4, k_max, samples)
-    g = np.array([end(k)[1] - rod.moment for k in grid])
+    g = np.array([_moment_miss(rod, k) for k in grid])
     cross = np.nonzero(np.sign(g[:-1]) != np.sign(g[1:]))[0]
     if cross.size == 0:
         raise RuntimeError("no root of the shooting function on the scanned interval")
     k = cross[0]
-    m0 = brentq(lambda a: end(a)[1] - rod.moment, grid[k], grid[k + 1], xtol=1e-15, rtol=1e-15)
-    ivp = solve_ivp(
-        rod.rhs,
-        (0.0, 1.0),
-        [0.0, m0, 0.0, 0.0],
-        method="DOP853",
-        rtol=IVP_TOL,
-        atol=IVP_TOL,
-        dense_output=True,
-    )
+    m0 = brentq(lambda a: _moment_miss(rod, a), grid[k], grid[k + 1], xtol=1e-15, rtol=1e-15)
+    ivp = _integrate(rod, m0, dense_output=True)
     s = np.linspace(0.0, 1.0, 200)
     return solve_elastica(rod, guess=(s, ivp.sol(s)))
 

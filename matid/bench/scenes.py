@@ -81,14 +81,7 @@ def spatial(*, stiff: float = 1e6, rigid: bool = False) -> Scene:
     """
     scale = E_B / L**2
     raw = {
-        "rod": {
-            "length": L,
-            "E_b": E_B,
-            "E_t": 0.7 * E_B,
-            "E_s": stiff * scale,
-            "E_e": stiff * scale,
-            "precurvature": [0.0, 20.0, 0.0],
-        },
+        "rod": _rod(stiff, stiff, E_t=0.7 * E_B, precurvature=[0.0, 20.0, 0.0]),
         "magnet": [{"at": L, "moment": 0.0125}],
         "field": {"B": [0.0, 0.005, 0.0]},
         "tip": {"force": [-scale, 0.0, -scale]},

@@ -29,10 +29,11 @@ from __future__ import annotations
 import math
 import multiprocessing
 import time
+from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-from matid.bench.common import best_of
+from matid.bench.common import REPEATS, best_of
 from matid.errors import ConvergenceError
 
 OK, RAISED, INACCURATE, WRONG, TIMED_OUT, CRASHED, UNVERIFIED = (
@@ -73,7 +74,6 @@ class Case:
     check: Callable[[object], dict] | None = None
     quick: bool = False
     timeout_s: float | None = None
-    extra: dict = field(default_factory=dict)
 
 
 # -- running and classifying --------------------------------------------------------------------
@@ -83,12 +83,9 @@ def run(quick: bool = False) -> dict:
     from matid.bench.catalogue import cases  # the catalogue builds on Case: import it here, not at the top
 
     rows = [run_case(case) for case in cases(quick)]
-    counts: dict[str, int] = {}
-    for row in rows:
-        counts[row["outcome"]] = counts.get(row["outcome"], 0) + 1
     return {
         "rows": rows,
-        "outcomes": counts,
+        "outcomes": dict(Counter(row["outcome"] for row in rows)),
         "wrong": [r["case"] for r in rows if r["outcome"] == WRONG],
         "not_acceptable": [r["case"] for r in rows if r["outcome"] not in ACCEPTABLE],
         "outcome_rules": __doc__.split("Tolerances")[0].split("one outcome:")[1].strip(),
@@ -110,16 +107,20 @@ def run_case(case: Case) -> dict:
         "runtime_s": None,
         "error": None,
     }
-    if case.timeout_s is not None:
-        return {**row, **_limited(case)}
+    return {**row, **(_attempt(case) if case.timeout_s is None else _limited(case))}
+
+
+def _attempt(case: Case, repeats: int = REPEATS) -> dict:
+    """Solve (best of ``repeats``) and judge; a ConvergenceError is recorded, any other exception
+    is a crash: recorded, never hidden."""
     t0 = time.perf_counter()
     try:
-        result, runtime, runs = best_of(case.solve)
-        return {**row, **_judge(case, result, runtime, runs)}
+        result, runtime, runs = best_of(case.solve, repeats)
+        return _judge(case, result, runtime, runs)
     except ConvergenceError as exc:
-        return {**row, **_raised(case, exc, time.perf_counter() - t0)}
-    except Exception as exc:  # noqa: BLE001 - any other exception is a crash: recorded, never hidden
-        return {**row, "outcome": CRASHED, "message": f"{type(exc).__name__}: {exc}"}
+        return _raised(case, exc, time.perf_counter() - t0)
+    except Exception as exc:  # noqa: BLE001 - see the docstring
+        return {"outcome": CRASHED, "message": f"{type(exc).__name__}: {exc}"}
 
 
 def _raised(case: Case, exc: ConvergenceError, runtime: float) -> dict:
@@ -164,7 +165,7 @@ def _limited(case: Case) -> dict:
     """Run the case once in a child process; stop it (by its pid) after ``case.timeout_s``."""
     ctx = multiprocessing.get_context("fork")
     queue = ctx.Queue()
-    child = ctx.Process(target=_child, args=(case, queue), daemon=True)
+    child = ctx.Process(target=lambda: queue.put(_attempt(case, 1)), daemon=True)
     t0 = time.perf_counter()
     child.start()
     child.join(case.timeout_s)
@@ -180,15 +181,3 @@ def _limited(case: Case) -> dict:
         return queue.get(timeout=5.0)
     except Exception:  # noqa: BLE001 - the child died without a word
         return {"outcome": TIMED_OUT, "message": f"the child process ended with code {child.exitcode}"}
-
-
-def _child(case: Case, queue) -> None:
-    t0 = time.perf_counter()
-    try:
-        result = case.solve()
-        out = _judge(case, result, time.perf_counter() - t0, 1)
-    except ConvergenceError as exc:
-        out = _raised(case, exc, time.perf_counter() - t0)
-    except Exception as exc:  # noqa: BLE001 - reported as a crash by the parent
-        out = {"outcome": CRASHED, "message": f"{type(exc).__name__}: {exc}"}
-    queue.put(out)

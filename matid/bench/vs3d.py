@@ -1,8 +1,7 @@
 """``vs_3d``: the 1D rod against a 3D linear-elastic tube on the same small-deflection cases.
 
-Material and section (isotropic, Pebax-like): E = 50 MPa, nu = 0.45, hollow
-circular tube R_o = 1.2 mm, R_i = 0.8 mm. The 1D model gets the stiffnesses
-of that section,
+Material and section (isotropic, Pebax-like): E = 50 MPa, nu = 0.45, hollow circular tube
+R_o = 1.2 mm, R_i = 0.8 mm. The 1D model gets the stiffnesses of that section,
 
     E_b = E I,  E_e = E A,  E_t = G J,  E_s = k G A,  G = E / (2 (1 + nu)),
     k = 6 (1 + nu)(1 + m^2)^2 / ((7 + 6 nu)(1 + m^2)^2 + (20 + 12 nu) m^2),  m = R_i / R_o
@@ -11,72 +10,59 @@ of that section,
 
 Cases
 -----
-* Cantilever, L = 30 mm. 3D: the face z = 0 is clamped (u = 0); the end face
-  z = L carries a transverse traction t_x = c (r - R_i)(R_o - r), total P. The
-  parabolic profile vanishes on both free surfaces, so the load is compatible
-  with them (sigma_rz = 0 at the edges: no load singularity). Value: the
-  work-conjugate tip deflection per unit force, delta/P = (f . u) / P^2 [m/N].
-  Half model (symmetry plane y = 0: u_y = 0). 1D: ``solve_cantilever`` (planar,
-  tip force P = 1e-4 E_b / L^2, so geometric nonlinearity is ~1e-9 relative);
+* Cantilever, L = 30 mm, half model (symmetry plane y = 0). 3D: the face z = 0 is clamped
+  (u = 0); the end face carries a transverse traction t_x = c (r - R_i)(R_o - r), total P,
+  which vanishes on both free surfaces (sigma_rz = 0 there: no load singularity). Value: the
+  work-conjugate tip deflection per unit force, delta/P = (f . u) / P^2 [m/N]. 1D: planar
+  ``solve_cantilever`` under P = 1e-4 E_b / L^2 (geometric nonlinearity ~1e-9 relative);
   closed form delta/P = L^3 / (3 E I) + L / (k G A).
-* Three-point bend, 30 mm specimen, span S = 10 mm. 3D (quarter model,
-  symmetry planes y = 0 and z = 0, x up): frictionless contact is idealised by
-  smooth vertical traction patches on the outer surface, profile
-  cos^2(pi dz / 2b) cos^2(pi dphi / 2 alpha) with b = 0.5 mm, alpha = 45 deg: a
-  nose patch on top at mid-span (total F down) and a patch under each support
-  (F/2 up). The body is free (all Neumann, self-equilibrated load): one u_x dof
-  on the free end removes the translation; its reaction is zero. Value: the
-  stiffness F / d with d = (f . u) / F, nose displacement minus mean support
-  displacement, each weighted by its patch [N/m]. A second load case smears the
-  same axial profiles over the whole cross-section (body force): that is the
-  beam-theory idealisation without local indentation/ovalisation, and costs only
-  a back-substitution. 1D: ``BendModel`` (point contacts, support and nose radius
-  0) at d/S = 1e-5 and 2e-5, F/d extrapolated linearly to d = 0 (the contact
-  geometry adds ~1.07 d/S to F/d); closed forms: point loads
-  d/F = S^3/(48 E I) + S/(4 k G A), and the same Timoshenko beam under the
-  cos^2 load distributions of the 3D patches (unit-load integral of M^2/EI + V^2/kGA).
+* Three-point bend, 30 mm specimen, span S = 10 mm, quarter model (symmetry planes y = 0 and
+  z = 0, x up). Frictionless contact is idealised by smooth vertical traction patches
+  cos^2(pi dz / 2b) cos^2(pi dphi / 2 alpha), b = 0.5 mm, alpha = 45 deg, on the outer surface:
+  total F down on top at mid-span, F/2 up under each support. The body is free
+  (self-equilibrated load): one u_x dof on the free end removes the translation, its reaction is
+  zero. Value: F / d with d = (f . u) / F [N/m]. A second load case smears the same axial
+  profiles over the section (body force): beam theory's idealisation without local
+  indentation/ovalisation, for the cost of a back-substitution. 1D: ``BendModel`` with point
+  contacts at d/S = 1e-5 and 2e-5, F/d extrapolated linearly to d = 0 (the contact geometry adds
+  ~1.07 d/S to F/d); closed forms d/F = S^3/(48 E I) + S/(4 k G A) for point loads, and the same
+  Timoshenko beam under the cos^2 load profiles (unit-load integral of M^2/EI + V^2/kGA).
 
 3D discretisation
 -----------------
-A structured (r, phi, z) hex mesh mapped onto the tube as ``MeshHex2``
-(27-node quadratic geometry, circles to O(h^3)); unknowns on ``ElementHex2``
-(27-node Lagrange, default), ``ElementHexS2`` (20-node serendipity) or
-``ElementHex1`` (8-node, for the locking comparison). The stiffness is assembled
-here from scikit-fem's scalar basis tables, one einsum per chunk of elements:
-scikit-fem's generic ``asm`` of the vector form loops over the 81 x 81 local
-pairs in Python (measured on the 10k-DOF level-2 cantilever: 2.7 s against
-0.06 s at 27 points, 19.6 s against 0.26 s at the default 343 points; same
-matrix). 3 x 3 x 3 Gauss points (``intorder=5``) instead of the default
-7 x 7 x 7 = 343 that ``ElementHex2`` (maxdeg 6) asks for: 64 or 343 points move
-the answer by < 1e-6 relative. Direct sparse LU (SuperLU, MMD(A^T + A)
-ordering, symmetric mode, ``DiagPivotThresh=0``: K is SPD; with threshold
-pivoting the serendipity matrix took 195 s instead of 2 s at 33k DOF); no pyamg.
-The LU fill limits the sizes: the level-6 cantilever (226k DOF) took 163 s once
-(level 5, 133k DOF: 10-30 s), so the full run stops at level 5.
+A structured (r, phi, z) hex mesh mapped onto the tube as ``MeshHex2`` (27-node geometry,
+circles to O(h^3)); unknowns on ``ElementHex2`` (default), ``ElementHexS2`` (20-node) or
+``ElementHex1`` (8-node, for the locking comparison). The stiffness is assembled as six scalar
+forms d_a phi_i d_b phi_j on the scalar basis, because scikit-fem's ``asm`` of
+``linear_elasticity`` on ``ElementVector`` loops over the 81 x 81 local pairs in Python: on the
+level-2 cantilever (10k DOF) 10 s against 0.8 s, level 3 48 s against 3.4 s (scikit-fem
+12.0.2, loaded 2-core machine; same matrix to 1e-15). 3 x 3 x 3 Gauss points
+(``intorder=5``) instead of the 7 x 7 x 7 that ``ElementHex2`` asks for: 64 or 343 points move
+the answer by < 1e-6 relative. Direct sparse LU (SuperLU, MMD(A^T + A), symmetric mode,
+``DiagPivotThresh=0``: K is SPD; with threshold pivoting the serendipity matrix took 195 s
+instead of 2 s at 33k DOF). The LU fill limits the sizes: level 6 (226k DOF) took 163 s once,
+level 5 (133k DOF) 10-30 s, so the full run stops at level 5.
 
-The cantilever mesh is graded towards the singular clamped edges (clamped-free
-wedges at r = R_i and R_o): spacing 1 - (1 - t)^2 through the wall towards both
-surfaces and z = L s^2 along the tube. With uniform z slices (1 x 8 sectors,
-10/20/40 slices) the tip deflection was 3.4 %, 1.4 %, 0.6 % off (order ~1.2);
-graded, the family converges at order ~2 in h.
-The bend has no singularity (smooth C^1 patches on element boundaries).
+The cantilever mesh is graded towards the singular clamped edges (clamped-free wedges at r = R_i
+and R_o): spacing 1 - (1 - t)^2 through the wall towards both surfaces and z = L s^2 along the
+tube. With uniform z slices (1 x 8 sectors, 10/20/40 slices) the tip deflection was 3.4 %,
+1.4 %, 0.6 % off (order ~1.2); graded, the family converges at order ~2 in h. The bend has no
+singularity (smooth C^1 patches on element boundaries).
 
 Errors
 ------
-Each model's discretisation error is measured against its own converged limit:
-Richardson extrapolation from the three finest meshes with the observed order
-(mesh parameter h = 1 / level). The DOF and time at error 1e-4 come from log-log
-interpolation of error against DOF and against run time; outside the measured
-range they are extrapolated (3D: with the observed order, err ~ DOF^(-p/3), and a
-power-law fit of time against DOF) and flagged. The 1D P2 element with two-point
-Gauss is nodally exact for these piecewise-polynomial Timoshenko solutions: its
-error sits at round-off on every mesh, so its coarsest mesh already meets the
-target and the ratios are lower bounds (flagged).
+Each model's discretisation error is measured against its own converged limit: Richardson
+extrapolation from the three finest meshes with the observed order (h = 1 / level). The DOF and
+time at error 1e-4 come from log-log interpolation; outside the measured range they are
+extrapolated and flagged. The 1D P2 element with two-point Gauss is nodally exact for these
+piecewise-polynomial Timoshenko solutions: its error sits at round-off on every mesh, so its
+coarsest mesh already meets the target and the ratios are lower bounds (flagged).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import time
 from collections.abc import Callable
@@ -85,9 +71,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.integrate import trapezoid
+from scipy.integrate import cumulative_trapezoid, trapezoid
+from scipy.optimize import brentq
 from skfem import (
     Basis,
+    BilinearForm,
     ElementHex1,
     ElementHex2,
     ElementHexS2,
@@ -96,10 +84,17 @@ from skfem import (
     LinearForm,
     MeshHex,
     MeshHex2,
+    asm,
+    condense,
+    solve,
 )
+from skfem.models.elasticity import lame_parameters
 from skfem.quadrature import get_quadrature
 
 from matid.bench.common import best_of, jsonable
+from matid.rod.bend import BendGeometry, BendModel
+from matid.rod.scenes import scene_from_dict
+from matid.rod.solve import solve_cantilever
 
 E = 50e6
 NU = 0.45
@@ -112,7 +107,7 @@ PATCH_HALF_LENGTH = 0.5e-3
 PATCH_HALF_ANGLE = math.pi / 4
 TARGET = 1e-4
 ELEMENTS_3D = {"hex27": ElementHex2, "hex20": ElementHexS2, "hex8": ElementHex1}
-#: 3 x 3 x 3 Gauss points: exact for the trilinear-geometry Q2 stiffness, no spurious modes.
+#: 3 x 3 x 3 Gauss points (module docstring: 64 or 343 move the answer by < 1e-6).
 DEFAULT_INTORDER = 5
 #: Bend deflections of the 1D model (fractions of the span), extrapolated linearly to zero.
 BEND_D_OVER_S = (1e-5, 2e-5)
@@ -152,10 +147,6 @@ class Section:
         m2, nu = (self.R_i / self.R_o) ** 2, self.nu
         return 6 * (1 + nu) * (1 + m2) ** 2 / ((7 + 6 * nu) * (1 + m2) ** 2 + (20 + 12 * nu) * m2)
 
-    @property
-    def lame(self) -> tuple[float, float]:
-        return self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu)), self.G
-
     def stiffness(self) -> dict[str, float]:
         """E_b, E_s, E_e, E_t of the 1D rod [N m^2, N, N, N m^2]."""
         return {
@@ -166,30 +157,25 @@ class Section:
         }
 
 
-def cantilever_compliance(sec: Section, length: float = CANTILEVER_LENGTH) -> float:
+def cantilever_compliance(sec: Section) -> float:
     """Timoshenko tip deflection per unit tip force: L^3/(3 E I) + L/(k G A) [m/N]."""
-    return length**3 / (3 * sec.E * sec.I) + length / (sec.k * sec.G * sec.A)
+    L = CANTILEVER_LENGTH
+    return L**3 / (3 * sec.E * sec.I) + L / (sec.k * sec.G * sec.A)
 
 
-def bend_stiffness_point(sec: Section, span: float = SPAN) -> float:
+def bend_stiffness_point(sec: Section) -> float:
     """Timoshenko three-point bend, point loads: F/d = 1 / (S^3/(48 E I) + S/(4 k G A)) [N/m]."""
-    return 1.0 / (span**3 / (48 * sec.E * sec.I) + span / (4 * sec.k * sec.G * sec.A))
+    return 1.0 / (SPAN**3 / (48 * sec.E * sec.I) + SPAN / (4 * sec.k * sec.G * sec.A))
 
 
-def bend_stiffness_patch(
-    sec: Section,
-    span: float = SPAN,
-    half_length: float = PATCH_HALF_LENGTH,
-    specimen: float = SPECIMEN_LENGTH,
-    samples: int = 400_001,
-) -> float:
+def bend_stiffness_patch(sec: Section, half_length: float = PATCH_HALF_LENGTH) -> float:
     """Timoshenko three-point bend under the cos^2 load profiles of the 3D patches [N/m].
 
     Unit-load theorem on the half beam z in [0, specimen/2] (F = 1):
     d = 2 int (M^2 / EI + V^2 / kGA) dz, with q = -psi(z) + psi(z - S/2)/2 and
     psi(z) = cos^2(pi z / 2b) / b on |z| < b (unit integral over the full beam).
     """
-    z = np.linspace(0.0, specimen / 2, samples)
+    z = np.linspace(0.0, SPECIMEN_LENGTH / 2, 400_001)
     b = half_length
 
     def cum(u):  # int_{-b}^{u} psi, clipped to [0, 1]
@@ -197,8 +183,8 @@ def bend_stiffness_patch(
         return (u + b) / (2 * b) + np.sin(math.pi * u / b) / (2 * math.pi)
 
     # shear force V(z) = sum of the loads beyond z (free end at specimen/2): nose half + support
-    V = -(1.0 - cum(z)) + 0.5 * (1.0 - cum(z - span / 2))
-    M = np.concatenate([[0.0], np.cumsum(0.5 * (V[1:] + V[:-1]) * np.diff(z))])
+    V = -(1.0 - cum(z)) + 0.5 * (1.0 - cum(z - SPAN / 2))
+    M = cumulative_trapezoid(V, z, initial=0.0)
     M = M[-1] - M  # M(z) = int_z^end V: zero moment at the free end
     integrand = M**2 / (sec.E * sec.I) + V**2 / (sec.k * sec.G * sec.A)
     d = 2 * trapezoid(integrand, z)
@@ -231,51 +217,44 @@ def tube_mesh(grid: TubeGrid) -> tuple[MeshHex, MeshHex2]:
     return param, curved
 
 
-def stiffness_matrix(basis: Basis, lam: float, mu: float, *, chunk: int = 256) -> sp.csr_matrix:
-    """Isotropic linear elasticity, unknown 3 k + a = component a of scalar dof k.
+def stiffness_matrix(basis: Basis, lam: float, mu: float) -> sp.csr_matrix:
+    """Isotropic linear elasticity, unknown 3 k + a = component a of scalar dof k:
 
-    K_(i a)(j b) = int lam d_a phi_i d_b phi_j + mu (d_b phi_i d_a phi_j + delta_ab grad phi_i . grad phi_j),
-    from scikit-fem's basis tables, vectorised over elements in chunks.
+    K_(i a)(j b) = lam D^ab_ij + mu (D^ba_ij + delta_ab sum_c D^cc_ij),  D^ab_ij = int d_a phi_i d_b phi_j,
+
+    the six distinct D^ab assembled by scikit-fem on the scalar basis (module docstring: why not
+    ``linear_elasticity`` on ``ElementVector``).
     """
-    nloc, ne = len(basis.basis), basis.nelems
-    edofs = basis.element_dofs
-    K = sp.csr_matrix((3 * basis.N, 3 * basis.N))
-    for start in range(0, ne, chunk):
-        part = slice(start, min(start + chunk, ne))
-        G = np.array([basis.basis[i][0].grad[:, part] for i in range(nloc)])  # (i, a, e, q)
-        M = np.einsum("iaeq,jbeq->eiajb", G * basis.dx[None, None, part], G, optimize=True)
-        Ke = lam * M + mu * M.transpose(0, 1, 4, 3, 2)
-        trace = np.einsum("eicjc->eij", M)
-        for a in range(3):
-            Ke[:, :, a, :, a] += mu * trace
-        g = (3 * edofs[:, part].T[:, :, None] + np.arange(3)).reshape(Ke.shape[0], -1)  # (e, 3 nloc)
-        rows = np.broadcast_to(g[:, :, None], Ke.shape[:1] + (3 * nloc,) * 2)
-        cols = np.broadcast_to(g[:, None, :], rows.shape)
-        K = K + sp.csr_matrix((Ke.ravel(), (rows.ravel(), cols.ravel())), shape=K.shape)
-    return K
+    D = {
+        (a, b): asm(BilinearForm(lambda u, v, w, a=a, b=b: v.grad[a] * u.grad[b]), basis)
+        for a in range(3)
+        for b in range(a, 3)
+    }
+    D.update({(b, a): D[a, b].T for a, b in list(D) if a != b})
+    trace = D[0, 0] + D[1, 1] + D[2, 2]
+    K = sp.bmat(
+        [[lam * D[a, b] + mu * (D[b, a] + (trace if a == b else 0)) for b in range(3)] for a in range(3)]
+    )
+    order = (np.arange(3) * basis.N + np.arange(basis.N)[:, None]).ravel()  # (component, dof) -> 3 k + a
+    return K.tocsr()[order][:, order]
 
 
-def facet_load(
-    mesh: MeshHex2, element, facets: np.ndarray, weight: Callable, total: float, intorder: int
-) -> np.ndarray:
-    """Scalar load vector of a traction weight(x) on the facets, scaled to the given total."""
-    fb = FacetBasis(mesh, element, facets=facets, intorder=intorder)
-    area = Functional(lambda w: weight(w.x)).assemble(fb)
-    return LinearForm(lambda v, w: total / area * weight(w.x) * v).assemble(fb)
+def scaled_load(basis: Basis | FacetBasis, weight: Callable, total: float) -> np.ndarray:
+    """Scalar load vector of the density weight(x) on the basis's domain (a traction on facets or a
+    body force), scaled to the given total."""
+    size = Functional(lambda w: weight(w.x)).assemble(basis)
+    return LinearForm(lambda v, w: total / size * weight(w.x) * v).assemble(basis)
 
 
 def solve_fixed(K: sp.csr_matrix, loads: list[np.ndarray], fixed: np.ndarray) -> list[np.ndarray]:
     """u with u[fixed] = 0 and K u = f on the rest, for each f (one factorisation)."""
-    free = np.setdiff1d(np.arange(K.shape[0]), fixed)
-    A = K[free][:, free].tocsc()
-    lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True, "DiagPivotThresh": 0.0})
-    out = []
-    for f in loads:
-        u = np.zeros(K.shape[0])
-        u[free] = lu.solve(f[free])
-        if not np.all(np.isfinite(u)):
-            raise FloatingPointError("3D solve returned non-finite displacements")
-        out.append(u)
+    A, _, u0, free = condense(K, loads[0], D=fixed)
+    lu = spla.splu(
+        A.tocsc(), permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True, "DiagPivotThresh": 0}
+    )
+    out = [solve(A, f[free], u0, free, solver=lambda _, b: lu.solve(b)) for f in loads]
+    if not np.all(np.isfinite(out)):
+        raise FloatingPointError("3D solve returned non-finite displacements")
     return out
 
 
@@ -292,18 +271,15 @@ class Run:
     extra: dict = field(default_factory=dict)
 
 
-def cantilever_grid(level: int, *, length: float = CANTILEVER_LENGTH) -> TubeGrid:
-    """Level n: n layers through the wall, 4n sectors on the half circle, 10n slices, h ~ 1/n.
-
-    Graded towards the singular clamped edges: the wall spacing as 1 - (1 - t)^2 towards
-    both surfaces, z = L s^2 towards the clamp.
-    """
+def cantilever_grid(level: int) -> TubeGrid:
+    """Level n: n layers through the wall, 4n sectors on the half circle, 10n slices, h ~ 1/n,
+    graded towards the singular clamped edges (module docstring)."""
     t = np.linspace(-1.0, 1.0, level + 1)
     wall = 0.5 * (1 + np.sign(t) * (1 - (1 - np.abs(t)) ** 2))
     return TubeGrid(
         r=R_I + (R_O - R_I) * wall,
         phi=np.linspace(0.0, math.pi, 4 * level + 1),
-        z=length * np.linspace(0.0, 1.0, 10 * level + 1) ** 2,
+        z=CANTILEVER_LENGTH * np.linspace(0.0, 1.0, 10 * level + 1) ** 2,
     )
 
 
@@ -312,29 +288,32 @@ def cantilever_3d(
 ) -> Run:
     """3D clamped tube, parabolic end traction: tip deflection per unit force [m/N] (half model)."""
     t0 = time.perf_counter()
-    param, mesh = tube_mesh(grid)
-    elem = ELEMENTS_3D[element]()
-    basis = Basis(mesh, elem, intorder=intorder)
-    K = stiffness_matrix(basis, *sec.lame)
+    param, mesh, elem, basis, K = _tube(grid, element, intorder, sec)
     t1 = time.perf_counter()
-    length = grid.z[-1]
-    tip = param.facets_satisfying(lambda x: np.isclose(x[2], length))
+    tip = param.facets_satisfying(lambda x: np.isclose(x[2], grid.z[-1]))
     f = np.zeros(K.shape[0])
-    f[0::3] = facet_load(mesh, elem, tip, lambda x: _wall_parabola(x, sec), 0.5, intorder)  # half of P = 1
+    tip_basis = FacetBasis(mesh, elem, facets=tip, intorder=intorder)
+    f[0::3] = scaled_load(tip_basis, lambda x: _wall_parabola(x, sec), 0.5)  # half of P = 1
     clamp = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[2], 0.0))).all()
     sym = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[1], 0.0) | np.isclose(x[1], math.pi)))
     fixed = np.unique(np.concatenate([(3 * clamp[:, None] + np.arange(3)).ravel(), 3 * sym.all() + 1]))
     (u,) = solve_fixed(K, [f], fixed)
+    return _run_3d("cantilever", grid, element, intorder, K.shape[0] - fixed.size, t0, t1, float(f @ u / 0.5))
+
+
+def _tube(grid: TubeGrid, element: str, intorder: int, sec: Section):
+    """(parameter mesh, curved mesh, element, basis, stiffness matrix) of the tube on ``grid``."""
+    param, mesh = tube_mesh(grid)
+    elem = ELEMENTS_3D[element]()
+    basis = Basis(mesh, elem, intorder=intorder)
+    return param, mesh, elem, basis, stiffness_matrix(basis, *lame_parameters(sec.E, sec.nu))
+
+
+def _run_3d(case: str, grid: TubeGrid, element: str, intorder: int, dofs: int, t0, t1, value, **extra) -> Run:
+    """The Run of a 3D solve started at t0, assembled at t1 and solved now."""
     t2 = time.perf_counter()
-    return Run(
-        "3d",
-        "cantilever",
-        f"{element} {grid.label}",
-        K.shape[0] - fixed.size,
-        t2 - t0,
-        float(f @ u / 0.5),
-        {"assembly_s": t1 - t0, "solve_s": t2 - t1, "element": element, "intorder": intorder},
-    )
+    extra = {"assembly_s": t1 - t0, "solve_s": t2 - t1, "element": element, "intorder": intorder, **extra}
+    return Run("3d", case, f"{element} {grid.label}", dofs, t2 - t0, value, extra)
 
 
 def _wall_parabola(x: np.ndarray, sec: Section) -> np.ndarray:
@@ -342,157 +321,88 @@ def _wall_parabola(x: np.ndarray, sec: Section) -> np.ndarray:
     return np.clip((r - sec.R_i) * (sec.R_o - r), 0.0, None)
 
 
-def _segments(breaks: list[float], counts: list[int], grade_last: float = 1.0) -> np.ndarray:
-    """Uniform elements on each segment; the last one graded as s^grade away from its start."""
-    parts = [np.array([breaks[0]])]
-    for i, n in enumerate(counts):
-        s = np.linspace(0.0, 1.0, n + 1)[1:]
-        if i == len(counts) - 1:
-            s = s**grade_last
-        parts.append(breaks[i] + (breaks[i + 1] - breaks[i]) * s)
-    return np.concatenate(parts)
-
-
-def bend_grid(
-    level: int, *, span: float = SPAN, specimen: float = SPECIMEN_LENGTH, b: float = PATCH_HALF_LENGTH
-) -> TubeGrid:
+def bend_grid(level: int) -> TubeGrid:
     """Quarter specimen, level n, h ~ 1/n: n layers, 4n sectors (patch edges at 45 and 135 deg on
     nodes), z slices n on the nose patch, 3n to the support patch, 2n on it, 3n on the overhang
     (graded away from the support: it carries no moment)."""
-    z = _segments(
-        [0.0, b, span / 2 - b, span / 2 + b, specimen / 2],
-        [level, 3 * level, 2 * level, 3 * level],
-        grade_last=2.0,
-    )
+    b = PATCH_HALF_LENGTH
+    breaks = [0.0, b, SPAN / 2 - b, SPAN / 2 + b, SPECIMEN_LENGTH / 2]
+    steps = [np.linspace(0.0, 1.0, n + 1)[1:] for n in (level, 3 * level, 2 * level, 3 * level)]
+    steps[-1] = steps[-1] ** 2
+    segments = zip(itertools.pairwise(breaks), steps, strict=True)
+    z = np.concatenate([[0.0], *(z0 + (z1 - z0) * t for (z0, z1), t in segments)])
     return TubeGrid(r=np.linspace(R_I, R_O, level + 1), phi=np.linspace(0.0, math.pi, 4 * level + 1), z=z)
 
 
-def _patch(x: np.ndarray, z0: float, phi0: float, b: float, alpha: float) -> np.ndarray:
-    """cos^2 bump in z (half-width b) times cos^2 bump in phi (half-width alpha) around (z0, phi0)."""
-    dz = x[2] - z0
-    dphi = np.abs(np.arctan2(x[1], x[0]) - phi0)
-    inside = (np.abs(dz) < b) & (dphi < alpha)
-    bump = np.cos(0.5 * math.pi * dz / b) ** 2 * np.cos(0.5 * math.pi * dphi / alpha) ** 2
-    return np.where(inside, bump, 0.0)
-
-
 def _band(x: np.ndarray, z0: float, b: float) -> np.ndarray:
+    """cos^2 bump in z (half-width b) around z0."""
     dz = x[2] - z0
     return np.where(np.abs(dz) < b, np.cos(0.5 * math.pi * dz / b) ** 2, 0.0)
 
 
+def _patch(x: np.ndarray, z0: float, phi0: float, b: float, alpha: float) -> np.ndarray:
+    """The band times a cos^2 bump in phi (half-width alpha) around phi0."""
+    dphi = np.abs(np.arctan2(x[1], x[0]) - phi0)
+    return _band(x, z0, b) * np.where(dphi < alpha, np.cos(0.5 * math.pi * dphi / alpha) ** 2, 0.0)
+
+
 def bend_3d(
-    grid: TubeGrid,
-    *,
-    element: str = "hex27",
-    intorder: int = DEFAULT_INTORDER,
-    sec: Section = Section(),
-    span: float = SPAN,
-    b: float = PATCH_HALF_LENGTH,
-    alpha: float = PATCH_HALF_ANGLE,
+    grid: TubeGrid, *, element: str = "hex27", intorder: int = DEFAULT_INTORDER, sec: Section = Section()
 ) -> Run:
     """3D quarter tube in three-point bend: stiffness F/d [N/m] under surface patches (value)
     and under the same axial profiles smeared over the section as body forces (extra)."""
     t0 = time.perf_counter()
-    param, mesh = tube_mesh(grid)
-    elem = ELEMENTS_3D[element]()
-    basis = Basis(mesh, elem, intorder=intorder)
-    K = stiffness_matrix(basis, *sec.lame)
+    param, mesh, elem, basis, K = _tube(grid, element, intorder, sec)
     t1 = time.perf_counter()
     outer = param.facets_satisfying(lambda x: np.isclose(x[0], sec.R_o))
     quarter = 0.25  # of F = 1: half the nose load on the quarter, one support's half
     f_surface, f_body = np.zeros(K.shape[0]), np.zeros(K.shape[0])
-    f_surface[0::3] = facet_load(
-        mesh, elem, outer, lambda x: _patch(x, 0.0, 0.0, b, alpha), -quarter, intorder
-    ) + facet_load(mesh, elem, outer, lambda x: _patch(x, span / 2, math.pi, b, alpha), quarter, intorder)
-    f_body[0::3] = _body_load(basis, lambda x: _band(x, 0.0, b), -quarter) + _body_load(
-        basis, lambda x: _band(x, span / 2, b), quarter
-    )
+    surface = FacetBasis(mesh, elem, facets=outer, intorder=intorder)
+    b, alpha = PATCH_HALF_LENGTH, PATCH_HALF_ANGLE
+    for z0, phi0, total in ((0.0, 0.0, -quarter), (SPAN / 2, math.pi, quarter)):  # nose, support
+        f_surface[0::3] += scaled_load(
+            surface, lambda x, z0=z0, phi0=phi0: _patch(x, z0, phi0, b, alpha), total
+        )
+        f_body[0::3] += scaled_load(basis, lambda x, z0=z0: _band(x, z0, b), total)
     sym_y = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[1], 0) | np.isclose(x[1], math.pi)))
     sym_z = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[2], 0.0)))
     end = basis.get_dofs(param.facets_satisfying(lambda x: np.isclose(x[2], grid.z[-1]))).all()
     pin = end[np.argmax(basis.doflocs[1, end])]  # a node on top of the y-axis at the free end
     fixed = np.unique(np.concatenate([3 * sym_y.all() + 1, 3 * sym_z.all() + 2, [3 * pin]]))
     u_surface, u_body = solve_fixed(K, [f_surface, f_body], fixed)
-    t2 = time.perf_counter()
-    return Run(
-        "3d",
-        "bend",
-        f"{element} {grid.label}",
-        K.shape[0] - fixed.size,
-        t2 - t0,
-        float(quarter**2 / (f_surface @ u_surface) * 4),
-        {
-            "assembly_s": t1 - t0,
-            "solve_s": t2 - t1,
-            "element": element,
-            "intorder": intorder,
-            "body_force_value": float(quarter**2 / (f_body @ u_body) * 4),
-        },
-    )
-
-
-def _body_load(basis: Basis, weight: Callable, total: float) -> np.ndarray:
-    volume = Functional(lambda w: weight(w.x)).assemble(basis)
-    return LinearForm(lambda v, w: total / volume * weight(w.x) * v).assemble(basis)
+    stiffness = [float(quarter**2 / (f @ u) * 4) for f, u in ((f_surface, u_surface), (f_body, u_body))]
+    dofs = K.shape[0] - fixed.size
+    return _run_3d("bend", grid, element, intorder, dofs, t0, t1, stiffness[0], body_force_value=stiffness[1])
 
 
 # -- 1D model ------------------------------------------------------------------
 
 
-def cantilever_1d(
-    elements: int, *, sec: Section = Section(), length: float = CANTILEVER_LENGTH, repeats: int = 3
-) -> Run:
+def cantilever_1d(elements: int, *, sec: Section = Section()) -> Run:
     """``solve_cantilever`` (planar) under a tip force P = 1e-4 E_b / L^2: tip deflection / P [m/N]."""
-    from matid.rod.scenes import scene_from_dict
-    from matid.rod.solve import solve_cantilever
-
     stiff = sec.stiffness()
-    P = 1e-4 * stiff["E_b"] / length**2
+    L = CANTILEVER_LENGTH
+    P = 1e-4 * stiff["E_b"] / L**2
     scene = scene_from_dict(
-        {"scene": "cantilever", "rod": {"length": length, **stiff}, "tip": {"force": [P, 0.0, 0.0]}}
+        {"scene": "cantilever", "rod": {"length": L, **stiff}, "tip": {"force": [P, 0.0, 0.0]}}
     )
-    sol, runtime, _ = best_of(lambda: solve_cantilever(scene, elements=elements), repeats)
+    sol, runtime, _ = best_of(lambda: solve_cantilever(scene, elements=elements))
     dofs = 3 * (2 * elements + 1) - 3  # (x, z, theta) on P2 nodes, clamped at s = 0
-    return Run(
-        "1d",
-        "cantilever",
-        f"P2 x {elements}",
-        dofs,
-        runtime,
-        float(sol.position[-1][0] / P),
-        {"rod_model": sol.model, "newton_iterations": sol.newton_iterations},
-    )
+    extra = {"rod_model": sol.model, "newton_iterations": sol.newton_iterations}
+    return Run("1d", "cantilever", f"P2 x {elements}", dofs, runtime, float(sol.position[-1][0] / P), extra)
 
 
-def bend_1d(
-    elements: int,
-    *,
-    sec: Section = Section(),
-    span: float = SPAN,
-    specimen: float = SPECIMEN_LENGTH,
-    repeats: int = 3,
-) -> Run:
+def bend_1d(elements: int, *, sec: Section = Section()) -> Run:
     """``BendModel`` half model, point contacts: F/d [N/m] extrapolated linearly to d = 0 from
     d/S = 1e-5 and 2e-5 (one continuation path)."""
-    from matid.rod.bend import BendGeometry, BendModel
-
     stiff = sec.stiffness()
-    model = BendModel(BendGeometry(span, specimen, 0.0, 0.0, 2 * sec.R_o), elements=elements)
-    d = span * np.asarray(BEND_D_OVER_S)
-    path, runtime, _ = best_of(lambda: model.solve(stiff["E_b"], stiff["E_s"], stiff["E_e"], d), repeats)
+    model = BendModel(BendGeometry(SPAN, SPECIMEN_LENGTH, 0.0, 0.0, 2 * sec.R_o), elements=elements)
+    d = SPAN * np.asarray(BEND_D_OVER_S)
+    path, runtime, _ = best_of(lambda: model.solve(stiff["E_b"], stiff["E_s"], stiff["E_e"], d))
     k1, k2 = path.force / d
     value = k1 - (k2 - k1) * d[0] / (d[1] - d[0])
     dofs = 3 * (2 * elements + 1) - 2 + 3  # planar dofs, z(0) = theta(0) = 0, two multipliers, support s
-    return Run(
-        "1d",
-        "bend",
-        f"P2 x {elements} (half)",
-        dofs,
-        runtime,
-        float(value),
-        {"F_over_d": [float(k1), float(k2)]},
-    )
+    return Run("1d", "bend", f"P2 x {elements} (half)", dofs, runtime, float(value), {"F_over_d": [k1, k2]})
 
 
 # -- convergence analysis ------------------------------------------------------
@@ -505,8 +415,6 @@ def richardson(h: np.ndarray, values: np.ndarray, *, roundoff: float = 1e-10) ->
     differences are at round-off the finest value is the limit (order None); when
     they change sign the sequence is not monotone and the finest value is kept.
     """
-    from scipy.optimize import brentq
-
     h1, h2, h3 = (float(x) for x in h[-3:])
     v1, v2, v3 = (float(x) for x in values[-3:])
     d12, d23 = v1 - v2, v2 - v3
@@ -540,27 +448,23 @@ def cost_at(
         e0, e1 = errors[i], errors[i + 1]
         if e0 >= target > e1 and e1 > 0:
             w = math.log(e0 / target) / math.log(e0 / e1)
-            return {
-                "dofs": float(dofs[i] * (dofs[i + 1] / dofs[i]) ** w),
-                "time_s": float(times[i] * (times[i + 1] / times[i]) ** w),
-                "status": "interpolated",
-            }
+            return _cost(
+                dofs[i] * (dofs[i + 1] / dofs[i]) ** w,
+                times[i] * (times[i + 1] / times[i]) ** w,
+                "interpolated",
+            )
     if errors[0] <= target:
-        return {
-            "dofs": float(dofs[0]),
-            "time_s": float(times[0]),
-            "status": "coarsest mesh already below the target (an upper bound of the cost)",
-        }
+        return _cost(dofs[0], times[0], "coarsest mesh already below the target (an upper bound of the cost)")
     if order is None:
-        return {"dofs": math.nan, "time_s": math.nan, "status": "not reached and no order to extrapolate"}
+        return _cost(math.nan, math.nan, "not reached and no order to extrapolate")
     slope = np.polyfit(np.log(dofs[-3:]), np.log(times[-3:]), 1)[0]
     n = dofs[-1] * (errors[-1] / target) ** (dim / order)
-    return {
-        "dofs": float(n),
-        "time_s": float(times[-1] * (n / dofs[-1]) ** slope),
-        "status": f"extrapolated beyond the finest mesh (err ~ DOF^-{order / dim:.2f}, "
-        f"time ~ DOF^{slope:.2f})",
-    }
+    status = f"extrapolated beyond the finest mesh (err ~ DOF^-{order / dim:.2f}, time ~ DOF^{slope:.2f})"
+    return _cost(n, times[-1] * (n / dofs[-1]) ** slope, status)
+
+
+def _cost(dofs: float, time_s: float, status: str) -> dict:
+    return {"dofs": float(dofs), "time_s": float(time_s), "status": status}
 
 
 # -- the section -----------------------------------------------------------------
@@ -587,15 +491,11 @@ def _converge(runs: list[Run], h: np.ndarray) -> tuple[dict, np.ndarray]:
 
 
 def _rows(runs: list[Run], errors: np.ndarray) -> list[dict]:
+    fields = ("model", "case", "mesh", "dofs", "runtime_s", "value")
     return [
         {
             **r.extra,
-            "model": r.model,
-            "case": r.case,
-            "mesh": r.mesh,
-            "dofs": r.dofs,
-            "runtime_s": r.runtime_s,
-            "value": r.value,
+            **{k: getattr(r, k) for k in fields},
             "discretization_error": float(e),
             "unit": UNITS[r.case],
         }
@@ -625,46 +525,25 @@ def element_study(sec: Section, reference: float, plan=ELEMENT_STUDY) -> list[di
     return out
 
 
-def run(quick: bool = False, *, element: str = "hex27") -> dict:
+def run(quick: bool = False) -> dict:
     """The ``vs_3d`` section: rows per model and mesh, converged values and gaps, cost ratios at 1e-4."""
     sec = Section()
     levels = np.array(QUICK_LEVELS_3D if quick else LEVELS_3D)
     counts = QUICK_ELEMENTS_1D if quick else ELEMENTS_1D
-    solvers_3d = {
-        "cantilever": lambda n: cantilever_3d(cantilever_grid(n), element=element, sec=sec),
-        "bend": lambda n: bend_3d(bend_grid(n), element=element, sec=sec),
-    }
-    solvers_1d = {"cantilever": lambda n: cantilever_1d(n, sec=sec), "bend": lambda n: bend_1d(n, sec=sec)}
-    rows, converged, ratios, fits = [], {}, {}, {}
-    for case in ("cantilever", "bend"):
-        runs3 = [solvers_3d[case](int(n)) for n in levels]
-        runs1 = [solvers_1d[case](n) for n in counts[case]]
-        fit3, err3 = _converge(runs3, 1.0 / levels)
-        fit1, err1 = _converge(runs1, 1.0 / np.array(counts[case], float))
-        rows += _rows(runs3, err3) + _rows(runs1, err1)
-        fits[case] = runs3
-        converged[case] = {
-            "3d": fit3["limit"],
-            "1d": fit1["limit"],
-            "gap_rel": (fit1["limit"] - fit3["limit"]) / fit3["limit"],
-            "order_3d": fit3["order"],
-            "status_3d": fit3["status"],
-            "order_1d": fit1["order"],
-            "status_1d": fit1["status"],
-            "unit": UNITS[case],
-        }
-        cost3 = cost_at(runs3, err3, order=fit3["order"], dim=3)
-        cost1 = cost_at(runs1, err1, order=fit1["order"], dim=1)
-        ratios[case] = {
-            "dof_ratio_at_1e-4": cost3["dofs"] / cost1["dofs"],
-            "time_ratio_at_1e-4": cost3["time_s"] / cost1["time_s"],
-            "3d": cost3,
-            "1d": cost1,
-            "lower_bound": cost1["status"].startswith("coarsest"),
-            "extrapolated_3d": cost3["status"].startswith("extrapolated"),
-        }
+    rows, converged, ratios = [], {}, {}
+    models = (
+        ("cantilever", cantilever_3d, cantilever_grid, cantilever_1d),
+        ("bend", bend_3d, bend_grid, bend_1d),
+    )
+    for case, solve_3d, grid, solve_1d in models:
+        runs3 = [solve_3d(grid(int(n)), sec=sec) for n in levels]
+        runs1 = [solve_1d(n, sec=sec) for n in counts[case]]
+        h1 = 1.0 / np.array(counts[case], float)
+        case_rows, converged[case], ratios[case] = _compare(case, runs3, 1.0 / levels, runs1, h1)
+        rows += case_rows
+        if case == "bend":  # closed forms and the body-force variant split the bend's gap
+            _bend_references(converged[case], runs3, levels.astype(float), sec)
     converged["cantilever"]["timoshenko"] = cantilever_compliance(sec)
-    _bend_references(converged["bend"], fits["bend"], levels.astype(float), sec)
     study = element_study(sec, converged["cantilever"]["3d"], QUICK_ELEMENT_STUDY if quick else ELEMENT_STUDY)
     section = {"E": sec.E, "nu": sec.nu, "R_o": sec.R_o, "R_i": sec.R_i, "k": sec.k, **sec.stiffness()}
     out = {
@@ -677,6 +556,33 @@ def run(quick: bool = False, *, element: str = "hex27") -> dict:
     }
     out["notes"] = notes(out)
     return jsonable(out)
+
+
+def _compare(case: str, runs3: list[Run], h3: np.ndarray, runs1: list[Run], h1: np.ndarray):
+    """(rows, converged values and gap, costs at 1e-4) of one case's 3D and 1D mesh families."""
+    fit3, err3 = _converge(runs3, h3)
+    fit1, err1 = _converge(runs1, h1)
+    converged = {
+        "3d": fit3["limit"],
+        "1d": fit1["limit"],
+        "gap_rel": (fit1["limit"] - fit3["limit"]) / fit3["limit"],
+        "order_3d": fit3["order"],
+        "status_3d": fit3["status"],
+        "order_1d": fit1["order"],
+        "status_1d": fit1["status"],
+        "unit": UNITS[case],
+    }
+    cost3 = cost_at(runs3, err3, order=fit3["order"], dim=3)
+    cost1 = cost_at(runs1, err1, order=fit1["order"], dim=1)
+    ratios = {
+        "dof_ratio_at_1e-4": cost3["dofs"] / cost1["dofs"],
+        "time_ratio_at_1e-4": cost3["time_s"] / cost1["time_s"],
+        "3d": cost3,
+        "1d": cost1,
+        "lower_bound": cost1["status"].startswith("coarsest"),
+        "extrapolated_3d": cost3["status"].startswith("extrapolated"),
+    }
+    return _rows(runs3, err3) + _rows(runs1, err1), converged, ratios
 
 
 def _bend_references(conv: dict, runs3: list[Run], levels: np.ndarray, sec: Section) -> None:
@@ -778,10 +684,3 @@ def _element_notes(study: list[dict]) -> list[str]:
         "near 0.5); more Gauss points than 27 change the hex27 answer by less than its discretisation "
         "error and only cost assembly time."
     ]
-
-
-if __name__ == "__main__":  # pragma: no cover - manual run: python -m matid.bench.vs3d [--quick]
-    import json
-    import sys
-
-    print(json.dumps(run(quick="--quick" in sys.argv), indent=1))

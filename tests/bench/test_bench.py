@@ -148,16 +148,18 @@ def test_unknown_section_is_named():
         parse_sections("convergence,nope")
 
 
-def test_missing_vs3d_is_reported_not_faked(monkeypatch, tmp_path):
-    import importlib.util
+def test_a_failing_section_is_reported_not_faked(monkeypatch, tmp_path):
+    """A section that raises is recorded as failed (exit 1); the other sections still run."""
+    from matid.bench import vs3d
 
-    real = importlib.util.find_spec
-    monkeypatch.setattr(
-        importlib.util, "find_spec", lambda name, *a: None if name == "matid.bench.vs3d" else real(name, *a)
-    )
-    run_bench(tmp_path, quick=True, sections="vs_3d")
+    def fail(quick):
+        raise RuntimeError("no 3D today")
+
+    monkeypatch.setattr(vs3d, "run", fail)
+    assert run_bench(tmp_path, quick=True, sections="vs_3d,leave_out") == 1
     doc = json.loads((tmp_path / "bench.json").read_text())
-    assert doc["sections"]["vs_3d"]["status"].startswith("not available")
+    assert doc["sections"]["vs_3d"]["status"] == "failed: RuntimeError: no 3D today"
+    assert doc["sections"]["leave_out"]["rows"]
 
 
 def test_quick_bench_writes_json_html_and_plots(tmp_path):
