@@ -85,6 +85,18 @@ def study_folder_name(source: str | Path) -> str:
     return path.parent.name if path.suffix.lower() == ".toml" else path.name
 
 
+class Stopped(BaseException):
+    """Raised in a worker whose batch was stopped, at the last moment before a study would be published
+    (a BaseException: no ``except Exception`` on the way may turn it into an outcome)."""
+
+
+def _unless_stopped() -> None:
+    """Raise :class:`Stopped` once the batch's stop event is set (a worker's last look before publishing:
+    the watching thread ends the process within WATCH_S, this closes that window)."""
+    if _STOP is not None and _STOP.is_set():
+        raise Stopped
+
+
 def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> StudyOutcome:
     """Load, fit and write one study into ``out``; never raises: errors become the outcome's code."""
     from matid.app.cli import error_message, exit_code
@@ -96,9 +108,10 @@ def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> S
     name = study_folder_name(source)
     try:
         result = run_study(load_study(source))
-        if _STOP is not None and _STOP.is_set():  # the batch was stopped: publish nothing more
-            os._exit(Terminated.exit_code)
-        paths = write_outputs(result, Path(out), units=units)
+        _unless_stopped()
+        paths = write_outputs(result, Path(out), units=units, before_swap=_unless_stopped)
+    except Stopped:  # the batch was stopped: publish nothing more (the new folder is already gone)
+        os._exit(Terminated.exit_code)
     except Exception as exc:  # the code and message of `matid fit`; a bug keeps its traceback for --debug
         code = exit_code(exc)
         error = error_message(exc) + (f"\n{traceback.format_exc()}" if code == 3 else "")

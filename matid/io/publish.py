@@ -37,7 +37,7 @@ import shutil
 import stat
 import tempfile
 import weakref
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from matid.errors import DataError, MatidError
@@ -161,8 +161,14 @@ class Claim:
         for stale in [*olds, *parent.glob(_hidden(real, NEW) + "*")]:
             shutil.rmtree(stale, ignore_errors=True)
 
-    def publish(self, files: Mapping[str, bytes | str]) -> list[Path]:
-        """Write ``files`` (name -> content) into a new folder and swap it in; returns the output paths."""
+    def publish(
+        self, files: Mapping[str, bytes | str], *, before_swap: Callable[[], None] | None = None
+    ) -> list[Path]:
+        """Write ``files`` (name -> content) into a new folder and swap it in; returns the output paths.
+
+        ``before_swap`` is called last before the swap; if it raises, the new folder is removed and the
+        old contents stay (a stopped batch's worker: nothing published after the stop).
+        """
         if self.fd is None:
             raise RuntimeError("publish on a released claim")
         check_output(self.out, OUTPUT_NAMES | frozenset(files))
@@ -175,6 +181,8 @@ class Claim:
             ) from exc
         try:
             _fill(new, files, mode=_folder_mode(real))
+            if before_swap is not None:
+                before_swap()
             _swap_in(new, real)
         except OSError as exc:
             shutil.rmtree(new, ignore_errors=True)
@@ -276,7 +284,9 @@ def claim_output(out: Path) -> Claim:
     return claim
 
 
-def publish(files: Mapping[str, bytes | str], out: Path) -> list[Path]:
-    """Publish ``files`` as the folder ``out`` whole, under this process's claim or a short one of its own."""
-    claim = claim_output(out)
-    return claim.publish(files)
+def publish(
+    files: Mapping[str, bytes | str], out: Path, *, before_swap: Callable[[], None] | None = None
+) -> list[Path]:
+    """Publish ``files`` as the folder ``out`` whole, under this process's claim or a short one of its own
+    (``before_swap``: see :meth:`Claim.publish`)."""
+    return claim_output(out).publish(files, before_swap=before_swap)

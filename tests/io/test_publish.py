@@ -53,6 +53,29 @@ def test_publish_creates_then_replaces_the_whole_folder(tmp_path):
     assert _beside(out) == []
 
 
+def test_a_raising_before_swap_publishes_nothing_and_leaves_no_folder_behind(tmp_path):
+    """A stopped batch's worker raises in ``before_swap`` (matid.app.batch.Stopped, a BaseException):
+    the old folder stays whole, the filled new folder is removed, the exception reaches the caller;
+    a ``before_swap`` that returns lets the swap happen."""
+    from matid.app.batch import Stopped
+
+    out = tmp_path / "out"
+    publish.publish(OLD, out)
+    calls = []
+
+    def stop():
+        calls.append(sorted(p.name for p in tmp_path.iterdir()))  # the new folder is filled by now
+        raise Stopped
+
+    with pytest.raises(Stopped):
+        publish.publish(NEW, out, before_swap=stop)
+    assert any(name.startswith(".out.matid-") for name in calls[0])
+    assert _contents(out) == OLD
+    assert _beside(out) == []
+    publish.publish(NEW, out, before_swap=lambda: calls.append("called"))
+    assert calls[-1] == "called" and _contents(out) == _encoded(NEW)
+
+
 @pytest.mark.skipif(publish._RENAMEAT2 is None, reason="no renameat2 in this libc")
 def test_exchange_swaps_two_folders(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
