@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import os
 import tempfile
@@ -23,12 +22,13 @@ import numpy as np
 
 from matid import __version__
 from matid.io.cells import text_cell
-from matid.io.status import parameter_statuses, status_text
+from matid.io.status import Status, each_value, parameter_statuses, status_text
 from matid.io.study import Study, Test
 from matid.io.views import PicklesViews
 from matid.units import from_si
 
-#: Quantity kind of every reported parameter (for unit conversion).
+#: Quantity kind of every reported parameter (for unit conversion); ``prony_*``: the n-term Prony
+#: (generalised Maxwell) solid of matid.fits.extension.prony.
 PARAMETER_KINDS: dict[str, str] = {
     "E_e": "force",
     "sls_k1": "force",
@@ -38,14 +38,8 @@ PARAMETER_KINDS: dict[str, str] = {
     "E_t": "bending_stiffness",
     "E_s": "force",
     "E_s_torsion": "force",
-    # n-term Prony (generalised Maxwell) solid, matid.fits.extension.prony
-    "prony_k0": "force",
-    "prony_k1": "force",
-    "prony_k2": "force",
-    "prony_k3": "force",
-    "prony_tau1": "time",
-    "prony_tau2": "time",
-    "prony_tau3": "time",
+    **{f"prony_k{i}": "force" for i in range(4)},
+    **{f"prony_tau{i}": "time" for i in range(1, 4)},
 }
 #: Order of parameters in tables.
 PARAMETER_ORDER = ["E_b", "E_t", "E_s", "E_s_torsion", "E_e", "sls_k1", "sls_k2", "sls_eta"]
@@ -167,22 +161,24 @@ class StudyResult:
     def estimates(self) -> dict[str, dict[str, Estimate]]:
         """specimen -> parameter -> estimate; fixed entries stand where no fit gives the parameter."""
         table: dict[str, dict[str, Estimate]] = {s.id: {} for s in self.study.specimens}
-        for fit in self.fits:
-            for est in fit.estimates:
-                table[fit.specimen][est.parameter] = est
-        for est in self.fixed:
-            specimen = est.extra.get("specimen")
-            table[str(specimen)].setdefault(est.parameter, est)
+        for (sid, name), est in each_value(self, lambda est, fit: est).items():
+            table[sid][name] = est
         return {
             k: dict(sorted(v.items(), key=lambda kv: PARAMETER_ORDER.index(kv[0]))) for k, v in table.items()
         }
 
 
-def _convert(est: Estimate, units: str) -> tuple[float, float | None, tuple[float, float] | None, str]:
+def _reported(
+    est: Estimate, verdict: Status, units: str
+) -> tuple[float | None, float | None, tuple | None, str]:
+    """Value, stderr and 95 % interval in ``units`` (non-finite ones None; all None when the value
+    is not printed: contract section 10), and the unit."""
     value, unit = from_si(est.value, est.kind, units)
+    if not verdict.printed:
+        return None, None, None, unit
     factor = value / est.value if est.value else from_si(1.0, est.kind, units)[0]
-    stderr = None if est.stderr is None else est.stderr * factor
-    ci = None if est.ci95 is None else (est.ci95[0] * factor, est.ci95[1] * factor)
+    stderr = None if est.stderr is None else _clean(est.stderr * factor)
+    ci = None if est.ci95 is None else (_clean(est.ci95[0] * factor), _clean(est.ci95[1] * factor))
     return value, stderr, ci, unit
 
 
@@ -198,14 +194,12 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
     for sid, params in result.estimates().items():
         entry = {}
         for name, est in params.items():
-            value, stderr, ci, unit = _convert(est, units)
             verdict = statuses[(sid, name)]
-            if not verdict.printed:
-                value, stderr, ci = None, None, None
+            value, stderr, ci, unit = _reported(est, verdict, units)
             item: dict[str, object] = {
                 "value": value,
-                "stderr": _clean(stderr),
-                "ci95": None if ci is None else [_clean(ci[0]), _clean(ci[1])],
+                "stderr": stderr,
+                "ci95": None if ci is None else list(ci),
                 "status": verdict.status,
                 "status_reason": verdict.reason,
                 "measure_instead": verdict.instead if not verdict.printed else "",
@@ -228,19 +222,9 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
     }
 
 
-CSV_COLUMNS = [
-    "specimen",
-    "parameter",
-    "value",
-    "stderr",
-    "ci95_low",
-    "ci95_high",
-    "unit",
-    "n_points",
-    "method",
-    "warnings",
-    "status",
-]
+#: Columns of stiffness.csv: the value and its interval, then how it was found and what to read with it.
+CSV_COLUMNS = ["specimen", "parameter", "value", "stderr", "ci95_low", "ci95_high", "unit"]
+CSV_COLUMNS += ["n_points", "method", "warnings", "status"]
 #: Separator of the warnings of one parameter in the ``warnings`` column.
 WARNING_SEPARATOR = "; "
 
@@ -251,13 +235,7 @@ def parameter_warnings(result: StudyResult) -> dict[tuple[str, str], list[str]]:
     A warning of a fit (e.g. lack of fit of the extension model) concerns every
     parameter of that fit, so each of them carries it (docs/contract.md section 7).
     """
-    out: dict[tuple[str, str], list[str]] = {}
-    for fit in result.fits:
-        for est in fit.estimates:
-            out[(fit.specimen, est.parameter)] = [*fit.warnings, *est.warnings]
-    for est in result.fixed:
-        out.setdefault((str(est.extra.get("specimen")), est.parameter), list(est.warnings))
-    return out
+    return each_value(result, lambda est, fit: [*(fit.warnings if fit else ()), *est.warnings])
 
 
 def rows_used(result: StudyResult) -> dict[Path, int]:
@@ -326,17 +304,15 @@ def table_rows(result: StudyResult, units: str = "SI") -> list[dict[str, object]
     rows = []
     for sid, params in result.estimates().items():
         for name, est in params.items():
-            value, stderr, ci, unit = _convert(est, units)
             verdict = statuses[(sid, name)]
-            if not verdict.printed:
-                value, stderr, ci = None, None, None
-            low, high = (None, None) if ci is None else (_clean(ci[0]), _clean(ci[1]))
+            value, stderr, ci, unit = _reported(est, verdict, units)
+            low, high = ci or (None, None)
             text = WARNING_SEPARATOR.join(status_text(verdict, warns.get((sid, name), [])))
             rows.append(
                 dict(
                     zip(
                         CSV_COLUMNS,
-                        [sid, name, value, _clean(stderr), low, high, unit, est.n_points, est.method,
+                        [sid, name, value, stderr, low, high, unit, est.n_points, est.method,
                          text, verdict.status],
                         strict=True,
                     )
@@ -395,11 +371,3 @@ def atomic_write(path: Path, data: str | bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-
-
-def write_tables(result: StudyResult, out: Path, units: str = "SI") -> list[Path]:
-    """Write stiffness.csv and stiffness.json into ``out``; returns the paths."""
-    json_path, csv_path = out / "stiffness.json", out / "stiffness.csv"
-    atomic_write(json_path, json.dumps(stiffness_json(result, units), indent=2) + "\n")
-    atomic_write(csv_path, stiffness_csv(result, units))
-    return [json_path, csv_path]
