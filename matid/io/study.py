@@ -33,16 +33,9 @@ TEST_KINDS: dict[str, dict[str, str]] = {
     "extension": {"gauge_length": "length"},
     "magnetic_bending": {"free_length": "length"},
     "torsion": {"length": "length"},
-    "three_point_bend": {
-        "span": "length",
-        "specimen_length": "length",
-        "support_radius": "length",
-        "nose_radius": "length",
-    },
+    "three_point_bend": dict.fromkeys(("span", "specimen_length", "support_radius", "nose_radius"), "length"),
 }
-OPTIONAL_KEYS: dict[str, dict[str, str]] = {
-    "magnetic_bending": {"magnet_moment": "moment"},
-}
+OPTIONAL_KEYS: dict[str, dict[str, str]] = {"magnetic_bending": {"magnet_moment": "moment"}}
 
 #: Keys every [[test]] may carry besides its kind's quantities (sections 1 and 7).
 TEST_COMMON_KEYS = ("kind", "specimen", "file", "exclude", "note", *keys.READING_KEYS)
@@ -323,9 +316,7 @@ def _test(source: Path, index: int, entry: dict, ids: set[str], outside: bool = 
             file=source,
         )
     _check_test_keys(source, where, entry, kind)
-    specimen = str(entry.get("specimen", ""))
-    if specimen not in ids:
-        raise DataError(f"{where}: unknown specimen '{shown(specimen)}'", file=source)
+    specimen = _specimen_of(source, where, entry, ids)
     if not entry.get("file") or not isinstance(entry["file"], str):
         raise DataError(f"{where}: missing 'file' (a file name string)", file=source)
     params = {key: _quantity(source, where, entry, key, q) for key, q in TEST_KINDS[kind].items()}
@@ -352,6 +343,13 @@ def _test(source: Path, index: int, entry: dict, ids: set[str], outside: bool = 
         raise DataError(f"{where}: {exc}", file=source) from exc
 
 
+def _specimen_of(source: Path, where: str, entry: dict, ids: set[str]) -> str:
+    specimen = str(entry.get("specimen", ""))
+    if specimen not in ids:
+        raise DataError(f"{where}: unknown specimen '{shown(specimen)}'", file=source)
+    return specimen
+
+
 def _kind_keys(kind: str) -> tuple[str, ...]:
     """The keys of a [[test]] of ``kind`` beyond :data:`TEST_COMMON_KEYS`."""
     bend = ("deflection_at",) if kind == "three_point_bend" else ()
@@ -370,9 +368,7 @@ def _check_test_keys(source: Path, where: str, entry: dict, kind: str) -> None:
 def _fixed(source: Path, index: int, entry: dict, ids: set[str]) -> Fixed:
     where = f"[[fixed]] #{index + 1}"
     _check_keys(source, where, entry, TABLE_KEYS["fixed"])
-    specimen = str(entry.get("specimen", ""))
-    if specimen not in ids:
-        raise DataError(f"{where}: unknown specimen '{shown(specimen)}'", file=source)
+    specimen = _specimen_of(source, where, entry, ids)
     parameter = str(entry.get("parameter", ""))
     if parameter not in PARAMETERS:
         hint = nearest(parameter, list(PARAMETERS))

@@ -17,22 +17,8 @@ from matid.errors import DataError
 from matid.io.ingest.detect import Layout, header_names, names
 from matid.io.study import TEST_COLUMNS, bounded_text
 
-#: Known columns and the quantity kind of their unit.
-KNOWN: dict[str, str] = {
-    "time": "time",
-    "force": "force",
-    "elongation": "length",
-    "strain": "strain",
-    "tip_angle": "angle",
-    "torque": "torque",
-    "field": "field",
-    "field_angle": "angle",
-    "twist_angle": "angle",
-    "deflection": "length",
-}
-
-#: Columns that may go without a unit: dimensionless by name.
-DIMENSIONLESS_NAMES = frozenset({"cycle", "index", "step", "point"})
+#: Known columns (those of every test kind) and the quantity kind of their unit.
+KNOWN: dict[str, str] = {name: q for used in TEST_COLUMNS.values() for name, q in used.items()}
 
 #: Per test kind, groups of alternatives: each group needs at least one of its
 #: columns. "torque, or both field and field_angle" is written as the two groups
@@ -82,7 +68,7 @@ def header(
     written = [_name_and_unit(c) for c in cells]
     units = [(unit, header_row) for _, unit in written]
     if layout.units_at is not None:
-        row_units = _units_row(lines[layout.units_at], layout, path)
+        row_units = _units_row(lines[layout.units_at], layout)
         units = [(r, layout.units_at + 1) if r else u for r, u in zip(row_units, units, strict=True)]
     names_ = _matid_names(cells, written, mapping, path, header_row)
     columns = []
@@ -130,7 +116,7 @@ def _name_and_unit(cell: str) -> tuple[str, str]:
     return match["name"].strip(), match["unit"].strip()
 
 
-def _units_row(line: str, layout: Layout, path: Path) -> list[str]:
+def _units_row(line: str, layout: Layout) -> list[str]:
     """The units of the units row, padded to the header's cell count."""
     cells = names(line, layout.delimiter, layout.n_cells) or []
     cells += [""] * (layout.n_cells - len(cells))

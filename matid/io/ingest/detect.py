@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from matid.errors import DataError
-from matid.io.ingest.spaced import spaced_names
+from matid.io.ingest.spaced import kinds_of, spaced_names
 from matid.io.study_keys import MAX_TEXT, bounded_text
 
 #: Delimiters tried, in order of preference on a tie; " " means runs of whitespace.
@@ -244,22 +244,11 @@ def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layou
 
 
 def _units_like(cells: list[str] | None, n: int) -> bool:
-    """A units row: at most n short cells, none a ``name (unit)`` header cell, one a unit."""
-    from matid.units import UnitError, si_factor
-
+    """A units row: at most n short cells, none a ``name (unit)`` header cell, one a unit
+    (bracketed, or of a quantity but strain: a ratio such as mm/mm is not taken for a unit here)."""
     if cells is None or len(cells) > n or any(len(c) > 24 or _NAME_UNIT.match(c) for c in cells):
         return False
-    for cell in cells:
-        unit = cell.strip("()[] ")
-        if cell != unit or unit in ("%", "-", "1"):
-            return True
-        for kind in ("length", "force", "time", "torque", "angle", "field"):
-            try:
-                si_factor(unit, kind)
-                return True
-            except UnitError:
-                continue
-    return False
+    return any(c != c.strip("()[] ") or c in ("%", "-", "1") or kinds_of(c) - {"strain"} for c in cells)
 
 
 def detect(lines: list[str], path: Path, encoding: str) -> Layout:

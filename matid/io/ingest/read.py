@@ -1,20 +1,15 @@
-"""CSV ingest: test-machine exports turned into named columns in SI.
+"""CSV ingest: test-machine exports turned into named columns in SI (docs/contract.md sections 2, 7).
 
-Implements docs/contract.md sections 2 and 7. :mod:`matid.io.ingest.detect` finds
-the layout (encoding, delimiter, preamble, header, optional units row); here the
-header cells become columns: ``force [N]``, ``force (N)`` or a units row give
-the unit, the test's ``columns`` maps its own names to the file's header text
-and ``units`` overrides a unit. Names match case-insensitively with spaces and
-``_`` alike (``"Tip Angle [deg]"`` is ``tip_angle``). The columns the test kind
-uses (:data:`matid.io.study.TEST_COLUMNS`) must have a known unit and numbers in
-every row; other columns are kept as floats (in SI when pint knows their unit)
-and never stop the run. ``negate`` flips signs, then
-:mod:`matid.io.ingest.checks` rejects values beyond physical bounds and data of
-the wrong sign.
+:mod:`~matid.io.ingest.detect` finds the layout (encoding, delimiter, preamble, header,
+units row), :mod:`~matid.io.ingest.columns` names the columns and their units,
+:mod:`~matid.io.ingest.frame` parses the numbers, ``negate`` flips signs and
+:mod:`~matid.io.ingest.checks` rejects values beyond physical bounds or of the wrong sign.
+The columns the test kind uses (:data:`matid.io.study.TEST_COLUMNS`) must have a known unit
+and numbers in every row; other columns are kept as floats (in SI when pint knows their
+unit) and never stop the run.
 
-Every problem raises :class:`DataError` naming the file and the row (the
-1-based line number an editor shows) and/or the column, and how the file was
-read (encoding, delimiter, header row).
+Every problem raises :class:`DataError` naming the file and the row (the 1-based line an
+editor shows) and/or the column, and how the file was read (encoding, delimiter, header row).
 """
 
 from __future__ import annotations
@@ -31,15 +26,7 @@ import numpy as np
 
 from matid.errors import DataError
 from matid.io.ingest import checks as ingest_checks
-from matid.io.ingest.columns import (  # noqa: F401 - KNOWN, REQUIRED, canonical re-exported
-    DIMENSIONLESS_NAMES,
-    KNOWN,
-    REQUIRED,
-    Column,
-    canonical,
-    check_required,
-    header,
-)
+from matid.io.ingest.columns import KNOWN, REQUIRED, Column, check_required, header
 from matid.io.ingest.detect import HEAD_LINES, Layout, decode, detect, lines_of, preamble
 from matid.io.ingest.frame import Rows, Start, locate, read_rows
 from matid.io.ingest.frame import column as frame_column
@@ -82,9 +69,8 @@ class Table(PicklesViews):
             columns[name] = array
         object.__setattr__(self, "path", Path(self.path))
         object.__setattr__(self, "columns", MappingProxyType(columns))
-        object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
-        object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
-        object.__setattr__(self, "written", MappingProxyType(dict(self.written)))
+        for name in ("units", "metadata", "written"):
+            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
         object.__setattr__(self, "preamble", tuple(self.preamble))
 
     def __getitem__(self, name: str) -> np.ndarray:
