@@ -150,12 +150,17 @@ class StudyResult:
 
     def warnings(self) -> list[str]:
         """Every warning of the study, prefixed by where it arose."""
-        out = [f"{f.specimen} {f.kind}: {f.reason}" for f in self.failures]
-        out += [f"{p.specimen} {p.kind}: not fitted: {p.reason}" for p in self.pending]
+        return [f"{specimen} {concerns}: {text}" for specimen, concerns, text in self.warning_list()]
+
+    def warning_list(self, failed: str = "") -> list[tuple[str, str, str]]:
+        """Every warning as (specimen, the test kind or parameter it concerns, text): failures
+        first (their reason after ``failed``), then tests not fitted, fits, values."""
+        out = [(f.specimen, f.kind, failed + f.reason) for f in self.failures]
+        out += [(p.specimen, p.kind, f"not fitted: {p.reason}") for p in self.pending]
         for fit in self.fits:
-            out += [f"{fit.specimen} {fit.kind}: {w}" for w in fit.warnings]
+            out += [(fit.specimen, fit.kind, w) for w in fit.warnings]
             for est in fit.estimates:
-                out += [f"{fit.specimen} {est.parameter}: {w}" for w in est.warnings]
+                out += [(fit.specimen, est.parameter, w) for w in est.warnings]
         return out
 
     def estimates(self) -> dict[str, dict[str, Estimate]]:

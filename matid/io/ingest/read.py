@@ -62,11 +62,9 @@ class Table(PicklesViews):
         lengths = {len(v) for v in self.columns.values()}
         if len(lengths) > 1:
             raise ValueError(f"{self.path}: columns of unequal length {sorted(lengths)}")
-        columns = {}
-        for name, values in self.columns.items():
-            array = np.array(values, dtype=float)
+        columns = {name: np.array(values, dtype=float) for name, values in self.columns.items()}
+        for array in columns.values():
             array.setflags(write=False)
-            columns[name] = array
         object.__setattr__(self, "path", Path(self.path))
         object.__setattr__(self, "columns", MappingProxyType(columns))
         for name in ("units", "metadata", "written"):
@@ -97,7 +95,7 @@ class Measurement:
         A window on a column the table lacks selects nothing; the study loader
         rejects such windows at input, so this does not happen for loaded studies.
         """
-        n = len(next(iter(self.table.columns.values()), ()))
+        n = self.table.n_rows
         mask = np.ones(n, dtype=bool)
         for name, (low, high) in self.test.window.items():
             values = self.table.columns.get(name)
