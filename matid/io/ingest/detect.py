@@ -16,6 +16,7 @@ import codecs
 import csv
 import re
 from dataclasses import dataclass
+from itertools import islice
 from pathlib import Path
 
 from matid.errors import DataError
@@ -114,16 +115,17 @@ def _detected(raw: bytes) -> tuple[str, str]:
     return raw.decode("latin-1"), "latin-1"
 
 
-def lines_of(text: str, limit: int | None = None) -> list[str]:
-    """Lines split on line breaks only (``str.splitlines`` would also split on \\x0c, \\x85, ...
-    and shift the row numbers from what an editor shows); trailing blank lines dropped.
-    With ``limit``, only the first ``limit`` lines (the head that layout detection reads)."""
-    if limit is not None:
-        for k, match in enumerate(LINE_BREAK.finditer(text), start=1):
-            if k == limit:
-                text = text[: match.start()]
-                break
-    lines = LINE_BREAK.split(text)
+def nth_break(text: str, n: int) -> re.Match | None:
+    """The ``n``-th line break of ``text`` (1-based); None when it has fewer."""
+    return next(islice(LINE_BREAK.finditer(text), n - 1, None), None)
+
+
+def lines_of(text: str, limit: int) -> list[str]:
+    """The first ``limit`` lines (the head that layout detection reads), split on line breaks only
+    (``str.splitlines`` would also split on \\x0c, \\x85, ... and shift the row numbers from what
+    an editor shows); trailing blank lines dropped."""
+    end = nth_break(text, limit)
+    lines = LINE_BREAK.split(text if end is None else text[: end.start()])
     while lines and not lines[-1].strip():
         lines.pop()
     return lines

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from matid.errors import DataError
-from matid.io.ingest.detect import BOMS, LINE_BREAK, Layout, number, split
+from matid.io.ingest.detect import BOMS, LINE_BREAK, Layout, nth_break, number, split
 from matid.io.study import bounded_text
 
 if TYPE_CHECKING:  # pandas is imported when a record is read, so `import matid` stays light
@@ -172,10 +172,8 @@ def _line_start(text: str, line: int) -> int:
     """Character offset of 0-based ``line`` (as :func:`matid.io.ingest.detect.lines_of` counts)."""
     if line == 0:
         return 0
-    for k, match in enumerate(LINE_BREAK.finditer(text), start=1):
-        if k == line:
-            return match.end()
-    return len(text)
+    match = nth_break(text, line)
+    return len(text) if match is None else match.end()
 
 
 def _tail_codec(raw: bytes, encoding: str) -> tuple[str, int]:
