@@ -23,24 +23,10 @@ import numpy as np
 from matid import __version__
 from matid.io.cells import text_cell
 from matid.io.status import Status, each_value, parameter_statuses, status_text
-from matid.io.study import Study, Test
+from matid.io.study import PARAMETER_KINDS, Study, Test
 from matid.io.views import PicklesViews
 from matid.units import from_si
 
-#: Quantity kind of every reported parameter (for unit conversion); ``prony_*``: the n-term Prony
-#: (generalised Maxwell) solid of matid.fits.extension.prony.
-PARAMETER_KINDS: dict[str, str] = {
-    "E_e": "force",
-    "sls_k1": "force",
-    "sls_k2": "force",
-    "sls_eta": "viscosity",
-    "E_b": "bending_stiffness",
-    "E_t": "bending_stiffness",
-    "E_s": "force",
-    "E_s_torsion": "force",
-    **{f"prony_k{i}": "force" for i in range(4)},
-    **{f"prony_tau{i}": "time" for i in range(1, 4)},
-}
 #: Order of parameters in tables.
 PARAMETER_ORDER = ["E_b", "E_t", "E_s", "E_s_torsion", "E_e", "sls_k1", "sls_k2", "sls_eta"]
 PARAMETER_ORDER += ["prony_k0", "prony_k1", "prony_tau1", "prony_k2", "prony_tau2", "prony_k3", "prony_tau3"]

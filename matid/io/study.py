@@ -46,16 +46,22 @@ TABLE_KEYS: dict[str, tuple[str, ...]] = {
     "fixed": ("specimen", "parameter", "value"),
 }
 
-#: Parameters a study may fix, with their quantity kinds (docs/contract.md section 3).
-PARAMETERS: dict[str, str] = {
+#: Quantity kind of every parameter matid reports (for unit conversion); ``prony_*``: the n-term Prony
+#: (generalised Maxwell) solid of matid.fits.extension.prony.
+PARAMETER_KINDS: dict[str, str] = {
     "E_e": "force",
-    "E_b": "bending_stiffness",
-    "E_t": "bending_stiffness",
-    "E_s": "force",
     "sls_k1": "force",
     "sls_k2": "force",
     "sls_eta": "viscosity",
+    "E_b": "bending_stiffness",
+    "E_t": "bending_stiffness",
+    "E_s": "force",
+    "E_s_torsion": "force",
+    **{f"prony_k{i}": "force" for i in range(4)},
+    **{f"prony_tau{i}": "time" for i in range(1, 4)},
 }
+#: Parameters a study may fix, with their quantity kinds (docs/contract.md section 3).
+PARAMETERS = {p: PARAMETER_KINDS[p] for p in ("E_e", "E_b", "E_t", "E_s", "sls_k1", "sls_k2", "sls_eta")}
 
 
 @dataclass(frozen=True)
