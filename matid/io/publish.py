@@ -278,5 +278,4 @@ def claim_output(out: Path) -> Claim:
 
 def publish(files: Mapping[str, bytes | str], out: Path) -> list[Path]:
     """Publish ``files`` as the folder ``out`` whole, under this process's claim or a short one of its own."""
-    claim = claim_output(out)
-    return claim.publish(files)
+    return claim_output(out).publish(files)

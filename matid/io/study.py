@@ -187,10 +187,9 @@ class Study:
         raise KeyError(specimen_id)
 
     def fixed_value(self, specimen_id: str, parameter: str) -> float | None:
-        for item in self.fixed:
-            if item.specimen == specimen_id and item.parameter == parameter:
-                return item.value
-        return None
+        return next(
+            (f.value for f in self.fixed if (f.specimen, f.parameter) == (specimen_id, parameter)), None
+        )
 
     def tests_of(self, kind: str, specimen_id: str, *, included: bool = True) -> list[Test]:
         return [

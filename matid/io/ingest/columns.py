@@ -65,7 +65,9 @@ def header(
     """Columns from the header row (and units row), the test's ``columns`` and ``units`` applied."""
     header_row = layout.header_at + 1
     cells = header_names(lines, layout.header_at, layout.units_at, layout.delimiter, layout.n_cells) or []
-    written = [_name_and_unit(c) for c in cells]
+    written = [
+        (m["name"].strip(), m["unit"].strip()) if (m := _NAME_UNIT.match(c)) else (c, "") for c in cells
+    ]
     units = [(unit, header_row) for _, unit in written]
     if layout.units_at is not None:
         row_units = _units_row(lines[layout.units_at], layout)
@@ -107,13 +109,6 @@ def _matid_names(
                 result[i] = f"{current}_col{i + 1}"  # the file's own 'force' when 'Load' is mapped to force
         result[hits[0]] = name
     return result
-
-
-def _name_and_unit(cell: str) -> tuple[str, str]:
-    match = _NAME_UNIT.match(cell)
-    if match is None:
-        return cell, ""
-    return match["name"].strip(), match["unit"].strip()
 
 
 def _units_row(line: str, layout: Layout) -> list[str]:
