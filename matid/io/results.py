@@ -221,11 +221,8 @@ WARNING_SEPARATOR = "; "
 
 
 def parameter_warnings(result: StudyResult) -> dict[tuple[str, str], list[str]]:
-    """(specimen, parameter) -> its warnings: those of the fit that gave it, then its own.
-
-    A warning of a fit (e.g. lack of fit of the extension model) concerns every
-    parameter of that fit, so each of them carries it (docs/contract.md section 7).
-    """
+    """(specimen, parameter) -> its warnings: those of the fit that gave it (a fit's warning, e.g. lack
+    of fit, concerns each of its parameters: docs/contract.md section 7), then its own."""
     return each_value(result, lambda est, fit: [*(fit.warnings if fit else ()), *est.warnings])
 
 
