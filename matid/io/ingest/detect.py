@@ -149,6 +149,14 @@ def split(line: str, delimiter: str) -> list[str]:
     return cells
 
 
+def _cells(line: str, delimiter: str) -> list[str] | None:
+    """:func:`split`, or None for a line with a cell longer than csv's field limit."""
+    try:
+        return split(line, delimiter)
+    except csv.Error:
+        return None
+
+
 def number(text: str, decimal_comma: bool) -> float:
     """A float from a cell; ValueError if it is not a plain number."""
     if decimal_comma and text.count(",") == 1 and "." not in text:
@@ -168,14 +176,11 @@ def is_number(text: str, decimal_comma: bool) -> bool:
 
 def names(line: str, delimiter: str, n: int) -> list[str] | None:
     """Header or units cells; with whitespace, names may hold single spaces (``Axial Force``)."""
-    try:
-        if delimiter == " ":
-            wide = [c.strip() for c in _WIDE_GAP.split(line.strip()) if c.strip()]
-            if len(wide) == n:
-                return wide
-        return split(line, delimiter)
-    except csv.Error:
-        return None
+    if delimiter == " ":
+        wide = [c.strip() for c in _WIDE_GAP.split(line.strip()) if c.strip()]
+        if len(wide) == n:
+            return wide
+    return _cells(line, delimiter)
 
 
 class Ambiguous(ValueError):
@@ -201,10 +206,7 @@ def header_names(lines: list[str], h: int, units_at: int | None, delimiter: str,
 
 def _is_data(line: str, delimiter: str) -> int:
     """Cell count of a numeric row (at least two cells and most of them numbers), else 0."""
-    try:
-        cells = split(line, delimiter)
-    except csv.Error:
-        return 0
+    cells = _cells(line, delimiter) or []
     comma = delimiter != ","
     numeric = sum(is_number(c, comma) for c in cells)
     # A status or remark column ("ok") may hold text; most cells must be numbers.
@@ -213,10 +215,7 @@ def _is_data(line: str, delimiter: str) -> int:
 
 def _width(line: str, delimiter: str) -> int:
     """Cell count of a line (0 when it does not split)."""
-    try:
-        return len(split(line, delimiter))
-    except csv.Error:
-        return 0
+    return len(_cells(line, delimiter) or [])
 
 
 def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layout | None:
@@ -307,10 +306,9 @@ def _key_value(line: str, delimiter: str) -> tuple[str, str] | None:
     for d in dict.fromkeys(("\t", delimiter, ",", ";")):
         if d == " ":
             continue
-        try:
-            cells = split(text, d)
-        except csv.Error:
+        cells = _cells(text, d)
+        if cells is None:
             return None
-        if len(cells) >= 2 and cells[0].strip().rstrip(":").strip():
-            return cells[0].strip().rstrip(":").strip(), " ".join(c for c in cells[1:] if c)
+        if len(cells) >= 2 and (first := cells[0].strip().rstrip(":").strip()):
+            return first, " ".join(c for c in cells[1:] if c)
     return None
