@@ -147,10 +147,6 @@ class Test(PicklesViews):
             if value is None or not value > 0:
                 raise ValueError(f"{self.kind} test needs a positive {key}")
 
-    @property
-    def label(self) -> str:
-        return f"{self.kind} {self.specimen} ({self.file.name})"
-
 
 @dataclass(frozen=True)
 class Fixed:
@@ -175,10 +171,6 @@ class Study:
     tests: tuple[Test, ...]
     fixed: tuple[Fixed, ...] = ()
     temperature: str = ""
-
-    @property
-    def root(self) -> Path:
-        return self.source.parent
 
     def specimen(self, specimen_id: str) -> Specimen:
         for spec in self.specimens:

@@ -23,27 +23,17 @@ WARNING_COLUMNS = ["specimen", "concerns", "warning"]
 INPUT_COLUMNS = ["file", "sha256", "rows_used", "rows_read"]
 
 
-def warning_rows(result: StudyResult) -> list[dict[str, object]]:
-    """Every warning of a study as (specimen, parameter or test kind, text), failures first."""
-    return [dict(zip(WARNING_COLUMNS, w, strict=True)) for w in result.warning_list("could not be fitted: ")]
-
-
-def input_rows(result: StudyResult) -> list[dict[str, object]]:
-    """One row per input file: name, SHA-256, rows that entered a fit (None: not known), rows read."""
-    used = rows_used(result)
-    return [
-        {"file": f.path.name, "sha256": f.sha256, "rows_used": used.get(f.path), "rows_read": f.n_rows}
-        for f in result.inputs
-    ]
-
-
 def stiffness_xlsx(result: StudyResult, units: str = "SI") -> bytes:
-    """The ``stiffness.xlsx`` workbook (sheets ``stiffness``, ``warnings``, ``inputs``) as bytes."""
+    """The ``stiffness.xlsx`` workbook (sheets ``stiffness``, ``warnings``, ``inputs``) as bytes;
+    an input's ``rows_used`` is None where the fits do not tell (:func:`matid.io.results.rows_used`)."""
+    used = rows_used(result)
+    inputs = [(f.path.name, f.sha256, used.get(f.path), f.n_rows) for f in result.inputs]
+    warnings = result.warning_list("could not be fitted: ")
     return workbook(
         {
             "stiffness": (CSV_COLUMNS, table_rows(result, units)),
-            "warnings": (WARNING_COLUMNS, warning_rows(result)),
-            "inputs": (INPUT_COLUMNS, input_rows(result)),
+            "warnings": (WARNING_COLUMNS, [dict(zip(WARNING_COLUMNS, w, strict=True)) for w in warnings]),
+            "inputs": (INPUT_COLUMNS, [dict(zip(INPUT_COLUMNS, f, strict=True)) for f in inputs]),
         }
     )
 
