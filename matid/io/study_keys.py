@@ -1,4 +1,4 @@
-"""Parsing of the section-7 keys of a ``[[test]]`` and of free text, for :mod:`matid.io.study`.
+"""Parsing of the section-7 keys of a ``[[test]]``, booleans and free text, for :mod:`matid.io.study`.
 
 ``columns``, ``units``, ``negate``, ``window`` and ``encoding`` (docs/contract.md
 section 7): each names a data column the test kind uses (:data:`TEST_COLUMNS`),
