@@ -6,12 +6,8 @@ exception: it is kept, cut and marked. The bounds are far beyond any bench test 
 close enough that no input can take the machine's memory or minutes of its time
 before it is refused: sizes and row counts are checked before anything is parsed.
 
-Bounds owned by other modules, listed in docs/limits.md with these: the scene file
-and the stiffness JSON a scene reads (``matid.rod.scenes.MAX_FILE_BYTES``, 1 MiB),
-scene elements (``matid.rod.accuracy.MAX_ELEMENTS``), scene deflections
-(``matid.rod.scenes.MAX_DEFLECTIONS``), unit text (``matid.units.MAX_UNIT_CHARS``)
-and the preamble lines kept of a data file (``matid.io.ingest.detect.MAX_PREAMBLE``,
-``MAX_LINES``).
+docs/limits.md lists these with the bounds other modules own (scene files and elements,
+unit text, preamble lines).
 """
 
 from __future__ import annotations

@@ -74,9 +74,8 @@ def _hidden(real: Path, suffix: str) -> str:
 def _is_own_leftover(name: str) -> bool:
     """matid's own hidden files: a temp file of the older per-file writes (``.report.html.ab12cd``),
     or the lock or a temp folder of an output folder nested in this one. They go with the old folder."""
-    if not name.startswith("."):
-        return False
-    return any(name.startswith(f".{n}.") for n in OUTPUT_NAMES) or any(t in name for t in (NEW, OLD, LOCK))
+    own = any(name.startswith(f".{n}.") for n in OUTPUT_NAMES) or any(t in name for t in (NEW, OLD, LOCK))
+    return name.startswith(".") and own
 
 
 def check_output(out: Path, names: frozenset[str] = OUTPUT_NAMES) -> Path:

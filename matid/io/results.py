@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import os
 import tempfile
@@ -23,30 +22,11 @@ import numpy as np
 
 from matid import __version__
 from matid.io.cells import text_cell
-from matid.io.status import parameter_statuses, status_text
-from matid.io.study import Study, Test
+from matid.io.status import Status, each_value, parameter_statuses, status_text
+from matid.io.study import PARAMETER_KINDS, Study, Test
 from matid.io.views import PicklesViews
 from matid.units import from_si
 
-#: Quantity kind of every reported parameter (for unit conversion).
-PARAMETER_KINDS: dict[str, str] = {
-    "E_e": "force",
-    "sls_k1": "force",
-    "sls_k2": "force",
-    "sls_eta": "viscosity",
-    "E_b": "bending_stiffness",
-    "E_t": "bending_stiffness",
-    "E_s": "force",
-    "E_s_torsion": "force",
-    # n-term Prony (generalised Maxwell) solid, matid.fits.extension.prony
-    "prony_k0": "force",
-    "prony_k1": "force",
-    "prony_k2": "force",
-    "prony_k3": "force",
-    "prony_tau1": "time",
-    "prony_tau2": "time",
-    "prony_tau3": "time",
-}
 #: Order of parameters in tables.
 PARAMETER_ORDER = ["E_b", "E_t", "E_s", "E_s_torsion", "E_e", "sls_k1", "sls_k2", "sls_eta"]
 PARAMETER_ORDER += ["prony_k0", "prony_k1", "prony_tau1", "prony_k2", "prony_tau2", "prony_k3", "prony_tau3"]
@@ -156,33 +136,40 @@ class StudyResult:
 
     def warnings(self) -> list[str]:
         """Every warning of the study, prefixed by where it arose."""
-        out = [f"{f.specimen} {f.kind}: {f.reason}" for f in self.failures]
-        out += [f"{p.specimen} {p.kind}: not fitted: {p.reason}" for p in self.pending]
+        return [f"{specimen} {concerns}: {text}" for specimen, concerns, text in self.warning_list()]
+
+    def warning_list(self, failed: str = "") -> list[tuple[str, str, str]]:
+        """Every warning as (specimen, the test kind or parameter it concerns, text): failures
+        first (their reason after ``failed``), then tests not fitted, fits, values."""
+        out = [(f.specimen, f.kind, failed + f.reason) for f in self.failures]
+        out += [(p.specimen, p.kind, f"not fitted: {p.reason}") for p in self.pending]
         for fit in self.fits:
-            out += [f"{fit.specimen} {fit.kind}: {w}" for w in fit.warnings]
+            out += [(fit.specimen, fit.kind, w) for w in fit.warnings]
             for est in fit.estimates:
-                out += [f"{fit.specimen} {est.parameter}: {w}" for w in est.warnings]
+                out += [(fit.specimen, est.parameter, w) for w in est.warnings]
         return out
 
     def estimates(self) -> dict[str, dict[str, Estimate]]:
         """specimen -> parameter -> estimate; fixed entries stand where no fit gives the parameter."""
         table: dict[str, dict[str, Estimate]] = {s.id: {} for s in self.study.specimens}
-        for fit in self.fits:
-            for est in fit.estimates:
-                table[fit.specimen][est.parameter] = est
-        for est in self.fixed:
-            specimen = est.extra.get("specimen")
-            table[str(specimen)].setdefault(est.parameter, est)
+        for (sid, name), est in each_value(self, lambda est, fit: est).items():
+            table[sid][name] = est
         return {
             k: dict(sorted(v.items(), key=lambda kv: PARAMETER_ORDER.index(kv[0]))) for k, v in table.items()
         }
 
 
-def _convert(est: Estimate, units: str) -> tuple[float, float | None, tuple[float, float] | None, str]:
+def _reported(
+    est: Estimate, verdict: Status, units: str
+) -> tuple[float | None, float | None, tuple | None, str]:
+    """Value, stderr and 95 % interval in ``units`` (non-finite ones None; all None when the value
+    is not printed: contract section 10), and the unit."""
     value, unit = from_si(est.value, est.kind, units)
+    if not verdict.printed:
+        return None, None, None, unit
     factor = value / est.value if est.value else from_si(1.0, est.kind, units)[0]
-    stderr = None if est.stderr is None else est.stderr * factor
-    ci = None if est.ci95 is None else (est.ci95[0] * factor, est.ci95[1] * factor)
+    stderr = None if est.stderr is None else _clean(est.stderr * factor)
+    ci = None if est.ci95 is None else (_clean(est.ci95[0] * factor), _clean(est.ci95[1] * factor))
     return value, stderr, ci, unit
 
 
@@ -198,14 +185,12 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
     for sid, params in result.estimates().items():
         entry = {}
         for name, est in params.items():
-            value, stderr, ci, unit = _convert(est, units)
             verdict = statuses[(sid, name)]
-            if not verdict.printed:
-                value, stderr, ci = None, None, None
+            value, stderr, ci, unit = _reported(est, verdict, units)
             item: dict[str, object] = {
                 "value": value,
-                "stderr": _clean(stderr),
-                "ci95": None if ci is None else [_clean(ci[0]), _clean(ci[1])],
+                "stderr": stderr,
+                "ci95": None if ci is None else list(ci),
                 "status": verdict.status,
                 "status_reason": verdict.reason,
                 "measure_instead": verdict.instead if not verdict.printed else "",
@@ -228,36 +213,17 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
     }
 
 
-CSV_COLUMNS = [
-    "specimen",
-    "parameter",
-    "value",
-    "stderr",
-    "ci95_low",
-    "ci95_high",
-    "unit",
-    "n_points",
-    "method",
-    "warnings",
-    "status",
-]
+#: Columns of stiffness.csv: the value and its interval, then how it was found and what to read with it.
+CSV_COLUMNS = ["specimen", "parameter", "value", "stderr", "ci95_low", "ci95_high", "unit"]
+CSV_COLUMNS += ["n_points", "method", "warnings", "status"]
 #: Separator of the warnings of one parameter in the ``warnings`` column.
 WARNING_SEPARATOR = "; "
 
 
 def parameter_warnings(result: StudyResult) -> dict[tuple[str, str], list[str]]:
-    """(specimen, parameter) -> its warnings: those of the fit that gave it, then its own.
-
-    A warning of a fit (e.g. lack of fit of the extension model) concerns every
-    parameter of that fit, so each of them carries it (docs/contract.md section 7).
-    """
-    out: dict[tuple[str, str], list[str]] = {}
-    for fit in result.fits:
-        for est in fit.estimates:
-            out[(fit.specimen, est.parameter)] = [*fit.warnings, *est.warnings]
-    for est in result.fixed:
-        out.setdefault((str(est.extra.get("specimen")), est.parameter), list(est.warnings))
-    return out
+    """(specimen, parameter) -> its warnings: those of the fit that gave it (a fit's warning, e.g. lack
+    of fit, concerns each of its parameters: docs/contract.md section 7), then its own."""
+    return each_value(result, lambda est, fit: [*(fit.warnings if fit else ()), *est.warnings])
 
 
 def rows_used(result: StudyResult) -> dict[Path, int]:
@@ -326,17 +292,15 @@ def table_rows(result: StudyResult, units: str = "SI") -> list[dict[str, object]
     rows = []
     for sid, params in result.estimates().items():
         for name, est in params.items():
-            value, stderr, ci, unit = _convert(est, units)
             verdict = statuses[(sid, name)]
-            if not verdict.printed:
-                value, stderr, ci = None, None, None
-            low, high = (None, None) if ci is None else (_clean(ci[0]), _clean(ci[1]))
+            value, stderr, ci, unit = _reported(est, verdict, units)
+            low, high = ci or (None, None)
             text = WARNING_SEPARATOR.join(status_text(verdict, warns.get((sid, name), [])))
             rows.append(
                 dict(
                     zip(
                         CSV_COLUMNS,
-                        [sid, name, value, _clean(stderr), low, high, unit, est.n_points, est.method,
+                        [sid, name, value, stderr, low, high, unit, est.n_points, est.method,
                          text, verdict.status],
                         strict=True,
                     )
@@ -395,11 +359,3 @@ def atomic_write(path: Path, data: str | bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-
-
-def write_tables(result: StudyResult, out: Path, units: str = "SI") -> list[Path]:
-    """Write stiffness.csv and stiffness.json into ``out``; returns the paths."""
-    json_path, csv_path = out / "stiffness.json", out / "stiffness.csv"
-    atomic_write(json_path, json.dumps(stiffness_json(result, units), indent=2) + "\n")
-    atomic_write(csv_path, stiffness_csv(result, units))
-    return [json_path, csv_path]

@@ -33,30 +33,12 @@ TEST_KINDS: dict[str, dict[str, str]] = {
     "extension": {"gauge_length": "length"},
     "magnetic_bending": {"free_length": "length"},
     "torsion": {"length": "length"},
-    "three_point_bend": {
-        "span": "length",
-        "specimen_length": "length",
-        "support_radius": "length",
-        "nose_radius": "length",
-    },
+    "three_point_bend": dict.fromkeys(("span", "specimen_length", "support_radius", "nose_radius"), "length"),
 }
-OPTIONAL_KEYS: dict[str, dict[str, str]] = {
-    "magnetic_bending": {"magnet_moment": "moment"},
-}
+OPTIONAL_KEYS: dict[str, dict[str, str]] = {"magnetic_bending": {"magnet_moment": "moment"}}
 
 #: Keys every [[test]] may carry besides its kind's quantities (sections 1 and 7).
-TEST_COMMON_KEYS = (
-    "kind",
-    "specimen",
-    "file",
-    "exclude",
-    "note",
-    "columns",
-    "units",
-    "negate",
-    "window",
-    "encoding",
-)
+TEST_COMMON_KEYS = ("kind", "specimen", "file", "exclude", "note", *keys.READING_KEYS)
 TABLE_KEYS: dict[str, tuple[str, ...]] = {
     "": ("study", "specimen", "test", "fixed"),
     "study": ("name", "temperature", "allow_outside"),
@@ -64,16 +46,22 @@ TABLE_KEYS: dict[str, tuple[str, ...]] = {
     "fixed": ("specimen", "parameter", "value"),
 }
 
-#: Parameters a study may fix, with their quantity kinds (docs/contract.md section 3).
-PARAMETERS: dict[str, str] = {
+#: Quantity kind of every parameter matid reports (for unit conversion); ``prony_*``: the n-term Prony
+#: (generalised Maxwell) solid of matid.fits.extension.prony.
+PARAMETER_KINDS: dict[str, str] = {
     "E_e": "force",
-    "E_b": "bending_stiffness",
-    "E_t": "bending_stiffness",
-    "E_s": "force",
     "sls_k1": "force",
     "sls_k2": "force",
     "sls_eta": "viscosity",
+    "E_b": "bending_stiffness",
+    "E_t": "bending_stiffness",
+    "E_s": "force",
+    "E_s_torsion": "force",
+    **{f"prony_k{i}": "force" for i in range(4)},
+    **{f"prony_tau{i}": "time" for i in range(1, 4)},
 }
+#: Parameters a study may fix, with their quantity kinds (docs/contract.md section 3).
+PARAMETERS = {p: PARAMETER_KINDS[p] for p in ("E_e", "E_b", "E_t", "E_s", "sls_k1", "sls_k2", "sls_eta")}
 
 
 @dataclass(frozen=True)
@@ -117,10 +105,6 @@ class Specimen:
             return Section("rectangle", width=self.width, height=self.height)
         return Section("slit" if self.slit else "tube", self.outer_diameter, self.inner_diameter)
 
-    @property
-    def outer_radius(self) -> float:
-        return 0.5 * self.outer_diameter
-
 
 @dataclass(frozen=True)
 class Test(PicklesViews):
@@ -152,10 +136,8 @@ class Test(PicklesViews):
     def __post_init__(self) -> None:
         if self.kind not in TEST_KINDS:
             raise ValueError(f"unknown test kind {self.kind!r}")
-        object.__setattr__(self, "params", MappingProxyType(dict(self.params)))
-        object.__setattr__(self, "window", MappingProxyType(dict(self.window)))
-        object.__setattr__(self, "columns", MappingProxyType(dict(self.columns)))
-        object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
+        for name in ("params", "window", "columns", "units"):
+            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
         object.__setattr__(self, "negate", tuple(self.negate))
         if self.deflection_at not in ("nose", "centreline"):
             got = shown(self.deflection_at)
@@ -164,10 +146,6 @@ class Test(PicklesViews):
             value = self.params.get(key)
             if value is None or not value > 0:
                 raise ValueError(f"{self.kind} test needs a positive {key}")
-
-    @property
-    def label(self) -> str:
-        return f"{self.kind} {self.specimen} ({self.file.name})"
 
 
 @dataclass(frozen=True)
@@ -194,10 +172,6 @@ class Study:
     fixed: tuple[Fixed, ...] = ()
     temperature: str = ""
 
-    @property
-    def root(self) -> Path:
-        return self.source.parent
-
     def specimen(self, specimen_id: str) -> Specimen:
         for spec in self.specimens:
             if spec.id == specimen_id:
@@ -205,10 +179,9 @@ class Study:
         raise KeyError(specimen_id)
 
     def fixed_value(self, specimen_id: str, parameter: str) -> float | None:
-        for item in self.fixed:
-            if item.specimen == specimen_id and item.parameter == parameter:
-                return item.value
-        return None
+        return next(
+            (f.value for f in self.fixed if (f.specimen, f.parameter) == (specimen_id, parameter)), None
+        )
 
     def tests_of(self, kind: str, specimen_id: str, *, included: bool = True) -> list[Test]:
         return [
@@ -237,7 +210,7 @@ def load_study(path: str | Path) -> Study:
     if not isinstance(head, dict):
         raise DataError("[study] must be a table", file=source)
     _check_keys(source, "[study]", head, TABLE_KEYS["study"])
-    outside = _boolean(source, "[study]", head, "allow_outside")
+    outside = keys.boolean(source, "[study]", head, "allow_outside")
     specimens = tuple(_specimen(source, i, entry) for i, entry in enumerate(_list(raw, "specimen", source)))
     ids = [s.id for s in specimens]
     duplicates = {i for i in ids if ids.count(i) > 1}
@@ -309,23 +282,6 @@ def _value(source: Path, where: str, key: str, value: object, kind: str) -> floa
     return number
 
 
-def _boolean(source: Path, where: str, entry: dict, key: str) -> bool:
-    value = entry.get(key, False)
-    if not isinstance(value, bool):
-        raise DataError(
-            f"{where}: {key} must be a boolean (true or false, unquoted), got '{shown(value)}'",
-            file=source,
-        )
-    return value
-
-
-def _text(source: Path, where: str, entry: dict, key: str, default: str = "") -> str:
-    value = entry.get(key, default)
-    if not isinstance(value, str):
-        raise DataError(f"{where}: {key} must be a string, got '{shown(value)}'", file=source)
-    return bounded_text(value)
-
-
 def _specimen(source: Path, index: int, entry: dict) -> Specimen:
     where = f"[[specimen]] #{index + 1}"
     _check_keys(source, where, entry, TABLE_KEYS["specimen"])
@@ -357,9 +313,7 @@ def _test(source: Path, index: int, entry: dict, ids: set[str], outside: bool = 
             file=source,
         )
     _check_test_keys(source, where, entry, kind)
-    specimen = str(entry.get("specimen", ""))
-    if specimen not in ids:
-        raise DataError(f"{where}: unknown specimen '{shown(specimen)}'", file=source)
+    specimen = _specimen_of(source, where, entry, ids)
     if not entry.get("file") or not isinstance(entry["file"], str):
         raise DataError(f"{where}: missing 'file' (a file name string)", file=source)
     params = {key: _quantity(source, where, entry, key, q) for key, q in TEST_KINDS[kind].items()}
@@ -372,11 +326,11 @@ def _test(source: Path, index: int, entry: dict, ids: set[str], outside: bool = 
             specimen=specimen,
             file=keys.data_file(source, where, entry["file"], outside),
             params=params,
-            exclude=_boolean(source, where, entry, "exclude"),
-            note=_text(source, where, entry, "note"),
+            exclude=keys.boolean(source, where, entry, "exclude"),
+            note=keys.text(source, where, entry, "note"),
             index=index,
             window=keys.window(source, where, entry, kind, _value),
-            deflection_at=_text(source, where, entry, "deflection_at", "nose"),
+            deflection_at=keys.text(source, where, entry, "deflection_at", "nose"),
             columns=keys.columns(source, where, entry, kind),
             units=keys.units(source, where, entry, kind),
             negate=keys.negate(source, where, entry, kind),
@@ -386,26 +340,32 @@ def _test(source: Path, index: int, entry: dict, ids: set[str], outside: bool = 
         raise DataError(f"{where}: {exc}", file=source) from exc
 
 
+def _specimen_of(source: Path, where: str, entry: dict, ids: set[str]) -> str:
+    specimen = str(entry.get("specimen", ""))
+    if specimen not in ids:
+        raise DataError(f"{where}: unknown specimen '{shown(specimen)}'", file=source)
+    return specimen
+
+
+def _kind_keys(kind: str) -> tuple[str, ...]:
+    """The keys of a [[test]] of ``kind`` beyond :data:`TEST_COMMON_KEYS`."""
+    bend = ("deflection_at",) if kind == "three_point_bend" else ()
+    return (*TEST_KINDS[kind], *OPTIONAL_KEYS.get(kind, {}), *bend)
+
+
 def _check_test_keys(source: Path, where: str, entry: dict, kind: str) -> None:
-    own = (*TEST_COMMON_KEYS, *TEST_KINDS[kind], *OPTIONAL_KEYS.get(kind, {}))
-    if kind == "three_point_bend":
-        own = (*own, "deflection_at")
+    own = (*TEST_COMMON_KEYS, *_kind_keys(kind))
     for key in entry:
-        if key in own:
-            continue
-        owners = [k for k in TEST_KINDS if key in TEST_KINDS[k] or key in OPTIONAL_KEYS.get(k, {})]
-        if key == "deflection_at":
-            owners = ["three_point_bend"]
-        other = f", a key of {' and '.join(owners)} tests, not of {kind} tests" if owners else ""
-        _check_keys(source, where, {key: None}, own, other)
+        if key not in own:
+            owners = [k for k in TEST_KINDS if key in _kind_keys(k)]
+            other = f", a key of {' and '.join(owners)} tests, not of {kind} tests" if owners else ""
+            _check_keys(source, where, {key: None}, own, other)
 
 
 def _fixed(source: Path, index: int, entry: dict, ids: set[str]) -> Fixed:
     where = f"[[fixed]] #{index + 1}"
     _check_keys(source, where, entry, TABLE_KEYS["fixed"])
-    specimen = str(entry.get("specimen", ""))
-    if specimen not in ids:
-        raise DataError(f"{where}: unknown specimen '{shown(specimen)}'", file=source)
+    specimen = _specimen_of(source, where, entry, ids)
     parameter = str(entry.get("parameter", ""))
     if parameter not in PARAMETERS:
         hint = nearest(parameter, list(PARAMETERS))

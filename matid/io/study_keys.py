@@ -1,4 +1,4 @@
-"""Parsing of the section-7 keys of a ``[[test]]`` and of free text, for :mod:`matid.io.study`.
+"""Parsing of the section-7 keys of a ``[[test]]``, booleans and free text, for :mod:`matid.io.study`.
 
 ``columns``, ``units``, ``negate``, ``window`` and ``encoding`` (docs/contract.md
 section 7): each names a data column the test kind uses (:data:`TEST_COLUMNS`),
@@ -28,6 +28,8 @@ TEST_COLUMNS: dict[str, dict[str, str]] = {
     "three_point_bend": {"deflection": "length", "force": "force"},
 }
 
+#: Keys of a [[test]] on how its file is read (section 7), parsed here.
+READING_KEYS = ("columns", "units", "negate", "window", "encoding")
 #: Keys of a [[specimen]] that give a section other than a closed tube (docs/contract.md section 10).
 SECTION_KEYS = ("width", "height", "slit")
 
@@ -44,6 +46,23 @@ def nearest(word: str, valid: tuple[str, ...] | list[str]) -> str:
     """`` (did you mean `x`?)`` for the closest valid word, or ``""``."""
     match = difflib.get_close_matches(word, list(valid), n=1, cutoff=0.5)
     return f" (did you mean `{match[0]}`?)" if match else ""
+
+
+def boolean(source: Path, where: str, entry: dict, key: str) -> bool:
+    value = entry.get(key, False)
+    if not isinstance(value, bool):
+        raise DataError(
+            f"{where}: {key} must be a boolean (true or false, unquoted), got '{shown(value)}'",
+            file=source,
+        )
+    return value
+
+
+def text(source: Path, where: str, entry: dict, key: str, default: str = "") -> str:
+    value = entry.get(key, default)
+    if not isinstance(value, str):
+        raise DataError(f"{where}: {key} must be a string, got '{shown(value)}'", file=source)
+    return bounded_text(value)
 
 
 def _column_key(source: Path, where: str, key: str, name: object, kind: str) -> str:
@@ -159,12 +178,7 @@ def section(source: Path, where: str, entry: dict, length: Callable[[str], float
                 file=source,
             )
         return {"width": length("width"), "height": length("height")}
-    slit = entry.get("slit", False)
-    if not isinstance(slit, bool):
-        raise DataError(
-            f"{where}: slit must be a boolean (true or false, unquoted), got '{shown(slit)}'",
-            file=source,
-        )
+    slit = boolean(source, where, entry, "slit")
     if slit and "inner_diameter" not in entry:
         raise DataError(f"{where}: a slit (open) tube needs inner_diameter", file=source)
     inner = length("inner_diameter") if "inner_diameter" in entry else 0.0

@@ -23,37 +23,17 @@ WARNING_COLUMNS = ["specimen", "concerns", "warning"]
 INPUT_COLUMNS = ["file", "sha256", "rows_used", "rows_read"]
 
 
-def warning_rows(result: StudyResult) -> list[dict[str, object]]:
-    """Every warning of a study as (specimen, parameter or test kind, text), failures first."""
-    rows = [{"specimen": f.specimen, "concerns": f.kind, "warning": f"could not be fitted: {f.reason}"}
-            for f in result.failures]  # fmt: skip
-    rows += [{"specimen": p.specimen, "concerns": p.kind, "warning": f"not fitted: {p.reason}"}
-             for p in result.pending]  # fmt: skip
-    for fit in result.fits:
-        rows += [{"specimen": fit.specimen, "concerns": fit.kind, "warning": w} for w in fit.warnings]
-        for est in fit.estimates:
-            rows += [
-                {"specimen": fit.specimen, "concerns": est.parameter, "warning": w} for w in est.warnings
-            ]
-    return rows
-
-
-def input_rows(result: StudyResult) -> list[dict[str, object]]:
-    """One row per input file: name, SHA-256, rows that entered a fit (None: not known), rows read."""
-    used = rows_used(result)
-    return [
-        {"file": f.path.name, "sha256": f.sha256, "rows_used": used.get(f.path), "rows_read": f.n_rows}
-        for f in result.inputs
-    ]
-
-
 def stiffness_xlsx(result: StudyResult, units: str = "SI") -> bytes:
-    """The ``stiffness.xlsx`` workbook (sheets ``stiffness``, ``warnings``, ``inputs``) as bytes."""
+    """The ``stiffness.xlsx`` workbook (sheets ``stiffness``, ``warnings``, ``inputs``) as bytes;
+    an input's ``rows_used`` is None where the fits do not tell (:func:`matid.io.results.rows_used`)."""
+    used = rows_used(result)
+    inputs = [(f.path.name, f.sha256, used.get(f.path), f.n_rows) for f in result.inputs]
+    warnings = result.warning_list("could not be fitted: ")
     return workbook(
         {
             "stiffness": (CSV_COLUMNS, table_rows(result, units)),
-            "warnings": (WARNING_COLUMNS, warning_rows(result)),
-            "inputs": (INPUT_COLUMNS, input_rows(result)),
+            "warnings": (WARNING_COLUMNS, [dict(zip(WARNING_COLUMNS, w, strict=True)) for w in warnings]),
+            "inputs": (INPUT_COLUMNS, [dict(zip(INPUT_COLUMNS, f, strict=True)) for f in inputs]),
         }
     )
 
@@ -62,6 +42,7 @@ def workbook(sheets: Mapping[str, Sheet]) -> bytes:
     """An .xlsx file with one sheet per entry: a bold, frozen header row, then the rows."""
     from openpyxl import Workbook
     from openpyxl.styles import Font
+    from openpyxl.utils import get_column_letter
 
     book = Workbook()
     book.remove(book.active)
@@ -73,9 +54,9 @@ def workbook(sheets: Mapping[str, Sheet]) -> bytes:
         for row in rows:
             _append(sheet, [row.get(c) for c in columns])
         sheet.freeze_panes = "A2"
-        for letter, column in zip(_letters(len(columns)), columns, strict=True):
+        for i, column in enumerate(columns, start=1):
             width = max([len(str(column))] + [len(str(r.get(column) or "")) for r in rows])
-            sheet.column_dimensions[letter].width = min(width + 2, 80)
+            sheet.column_dimensions[get_column_letter(i)].width = min(width + 2, 80)
     buffer = io.BytesIO()
     book.save(buffer)
     return buffer.getvalue()
@@ -87,9 +68,3 @@ def _append(sheet, values: list[object]) -> None:
     for written in sheet[sheet.max_row]:
         if isinstance(written.value, str):
             written.data_type = "s"  # openpyxl would type "#N/A" as an error; "=..." is prefixed already
-
-
-def _letters(n: int) -> list[str]:
-    from openpyxl.utils import get_column_letter
-
-    return [get_column_letter(i + 1) for i in range(n)]

@@ -17,22 +17,8 @@ from matid.errors import DataError
 from matid.io.ingest.detect import Layout, header_names, names
 from matid.io.study import TEST_COLUMNS, bounded_text
 
-#: Known columns and the quantity kind of their unit.
-KNOWN: dict[str, str] = {
-    "time": "time",
-    "force": "force",
-    "elongation": "length",
-    "strain": "strain",
-    "tip_angle": "angle",
-    "torque": "torque",
-    "field": "field",
-    "field_angle": "angle",
-    "twist_angle": "angle",
-    "deflection": "length",
-}
-
-#: Columns that may go without a unit: dimensionless by name.
-DIMENSIONLESS_NAMES = frozenset({"cycle", "index", "step", "point"})
+#: Known columns (those of every test kind) and the quantity kind of their unit.
+KNOWN: dict[str, str] = {name: q for used in TEST_COLUMNS.values() for name, q in used.items()}
 
 #: Per test kind, groups of alternatives: each group needs at least one of its
 #: columns. "torque, or both field and field_angle" is written as the two groups
@@ -79,10 +65,12 @@ def header(
     """Columns from the header row (and units row), the test's ``columns`` and ``units`` applied."""
     header_row = layout.header_at + 1
     cells = header_names(lines, layout.header_at, layout.units_at, layout.delimiter, layout.n_cells) or []
-    written = [_name_and_unit(c) for c in cells]
+    written = [
+        (m["name"].strip(), m["unit"].strip()) if (m := _NAME_UNIT.match(c)) else (c, "") for c in cells
+    ]
     units = [(unit, header_row) for _, unit in written]
     if layout.units_at is not None:
-        row_units = _units_row(lines[layout.units_at], layout, path)
+        row_units = _units_row(lines[layout.units_at], layout)
         units = [(r, layout.units_at + 1) if r else u for r, u in zip(row_units, units, strict=True)]
     names_ = _matid_names(cells, written, mapping, path, header_row)
     columns = []
@@ -123,14 +111,7 @@ def _matid_names(
     return result
 
 
-def _name_and_unit(cell: str) -> tuple[str, str]:
-    match = _NAME_UNIT.match(cell)
-    if match is None:
-        return cell, ""
-    return match["name"].strip(), match["unit"].strip()
-
-
-def _units_row(line: str, layout: Layout, path: Path) -> list[str]:
+def _units_row(line: str, layout: Layout) -> list[str]:
     """The units of the units row, padded to the header's cell count."""
     cells = names(line, layout.delimiter, layout.n_cells) or []
     cells += [""] * (layout.n_cells - len(cells))

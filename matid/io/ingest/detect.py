@@ -16,10 +16,11 @@ import codecs
 import csv
 import re
 from dataclasses import dataclass
+from itertools import islice
 from pathlib import Path
 
 from matid.errors import DataError
-from matid.io.ingest.spaced import spaced_names
+from matid.io.ingest.spaced import kinds_of, spaced_names
 from matid.io.study_keys import MAX_TEXT, bounded_text
 
 #: Delimiters tried, in order of preference on a tie; " " means runs of whitespace.
@@ -114,16 +115,17 @@ def _detected(raw: bytes) -> tuple[str, str]:
     return raw.decode("latin-1"), "latin-1"
 
 
-def lines_of(text: str, limit: int | None = None) -> list[str]:
-    """Lines split on line breaks only (``str.splitlines`` would also split on \\x0c, \\x85, ...
-    and shift the row numbers from what an editor shows); trailing blank lines dropped.
-    With ``limit``, only the first ``limit`` lines (the head that layout detection reads)."""
-    if limit is not None:
-        for k, match in enumerate(LINE_BREAK.finditer(text), start=1):
-            if k == limit:
-                text = text[: match.start()]
-                break
-    lines = LINE_BREAK.split(text)
+def nth_break(text: str, n: int) -> re.Match | None:
+    """The ``n``-th line break of ``text`` (1-based); None when it has fewer."""
+    return next(islice(LINE_BREAK.finditer(text), n - 1, None), None)
+
+
+def lines_of(text: str, limit: int) -> list[str]:
+    """The first ``limit`` lines (the head that layout detection reads), split on line breaks only
+    (``str.splitlines`` would also split on \\x0c, \\x85, ... and shift the row numbers from what
+    an editor shows); trailing blank lines dropped."""
+    end = nth_break(text, limit)
+    lines = LINE_BREAK.split(text if end is None else text[: end.start()])
     while lines and not lines[-1].strip():
         lines.pop()
     return lines
@@ -147,6 +149,14 @@ def split(line: str, delimiter: str) -> list[str]:
     return cells
 
 
+def _cells(line: str, delimiter: str) -> list[str] | None:
+    """:func:`split`, or None for a line with a cell longer than csv's field limit."""
+    try:
+        return split(line, delimiter)
+    except csv.Error:
+        return None
+
+
 def number(text: str, decimal_comma: bool) -> float:
     """A float from a cell; ValueError if it is not a plain number."""
     if decimal_comma and text.count(",") == 1 and "." not in text:
@@ -166,14 +176,11 @@ def is_number(text: str, decimal_comma: bool) -> bool:
 
 def names(line: str, delimiter: str, n: int) -> list[str] | None:
     """Header or units cells; with whitespace, names may hold single spaces (``Axial Force``)."""
-    try:
-        if delimiter == " ":
-            wide = [c.strip() for c in _WIDE_GAP.split(line.strip()) if c.strip()]
-            if len(wide) == n:
-                return wide
-        return split(line, delimiter)
-    except csv.Error:
-        return None
+    if delimiter == " ":
+        wide = [c.strip() for c in _WIDE_GAP.split(line.strip()) if c.strip()]
+        if len(wide) == n:
+            return wide
+    return _cells(line, delimiter)
 
 
 class Ambiguous(ValueError):
@@ -199,10 +206,7 @@ def header_names(lines: list[str], h: int, units_at: int | None, delimiter: str,
 
 def _is_data(line: str, delimiter: str) -> int:
     """Cell count of a numeric row (at least two cells and most of them numbers), else 0."""
-    try:
-        cells = split(line, delimiter)
-    except csv.Error:
-        return 0
+    cells = _cells(line, delimiter) or []
     comma = delimiter != ","
     numeric = sum(is_number(c, comma) for c in cells)
     # A status or remark column ("ok") may hold text; most cells must be numbers.
@@ -211,10 +215,7 @@ def _is_data(line: str, delimiter: str) -> int:
 
 def _width(line: str, delimiter: str) -> int:
     """Cell count of a line (0 when it does not split)."""
-    try:
-        return len(split(line, delimiter))
-    except csv.Error:
-        return 0
+    return len(_cells(line, delimiter) or [])
 
 
 def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layout | None:
@@ -244,22 +245,11 @@ def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layou
 
 
 def _units_like(cells: list[str] | None, n: int) -> bool:
-    """A units row: at most n short cells, none a ``name (unit)`` header cell, one a unit."""
-    from matid.units import UnitError, si_factor
-
+    """A units row: at most n short cells, none a ``name (unit)`` header cell, one a unit
+    (bracketed, or of a quantity but strain: a ratio such as mm/mm is not taken for a unit here)."""
     if cells is None or len(cells) > n or any(len(c) > 24 or _NAME_UNIT.match(c) for c in cells):
         return False
-    for cell in cells:
-        unit = cell.strip("()[] ")
-        if cell != unit or unit in ("%", "-", "1"):
-            return True
-        for kind in ("length", "force", "time", "torque", "angle", "field"):
-            try:
-                si_factor(unit, kind)
-                return True
-            except UnitError:
-                continue
-    return False
+    return any(c != c.strip("()[] ") or c in ("%", "-", "1") or kinds_of(c) - {"strain"} for c in cells)
 
 
 def detect(lines: list[str], path: Path, encoding: str) -> Layout:
@@ -316,10 +306,9 @@ def _key_value(line: str, delimiter: str) -> tuple[str, str] | None:
     for d in dict.fromkeys(("\t", delimiter, ",", ";")):
         if d == " ":
             continue
-        try:
-            cells = split(text, d)
-        except csv.Error:
+        cells = _cells(text, d)
+        if cells is None:
             return None
-        if len(cells) >= 2 and cells[0].strip().rstrip(":").strip():
-            return cells[0].strip().rstrip(":").strip(), " ".join(c for c in cells[1:] if c)
+        if len(cells) >= 2 and (first := cells[0].strip().rstrip(":").strip()):
+            return first, " ".join(c for c in cells[1:] if c)
     return None

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from matid.errors import DataError
-from matid.io.ingest.detect import BOMS, LINE_BREAK, Layout, number, split
+from matid.io.ingest.detect import BOMS, LINE_BREAK, Layout, nth_break, number, split
 from matid.io.study import bounded_text
 
 if TYPE_CHECKING:  # pandas is imported when a record is read, so `import matid` stays light
@@ -43,10 +43,6 @@ class Rows:
     raw: bytes
     layout: Layout
     path: Path
-
-    def text(self) -> str:
-        """The decoded file (for messages only: decoded again, not kept)."""
-        return self.raw.decode(self.layout.encoding, errors="replace")
 
 
 @dataclass(frozen=True)
@@ -124,8 +120,7 @@ def _exact_floats(version: str) -> dict[str, str]:
 
 def _widest(raw: bytes, layout: Layout) -> int:
     """An upper bound of the fields of any data row (delimiters + 1, empty trailing cells counted)."""
-    text = raw.decode(layout.encoding, errors="replace")
-    rows = LINE_BREAK.split(text[_line_start(text, layout.data_at) :])
+    rows = _data_lines(raw, layout)
     if layout.delimiter == " ":
         return max((len(r.split()) for r in rows), default=1)
     return max((r.count(layout.delimiter) + 1 for r in rows), default=1)
@@ -177,10 +172,8 @@ def _line_start(text: str, line: int) -> int:
     """Character offset of 0-based ``line`` (as :func:`matid.io.ingest.detect.lines_of` counts)."""
     if line == 0:
         return 0
-    for k, match in enumerate(LINE_BREAK.finditer(text), start=1):
-        if k == line:
-            return match.end()
-    return len(text)
+    match = nth_break(text, line)
+    return len(text) if match is None else match.end()
 
 
 def _tail_codec(raw: bytes, encoding: str) -> tuple[str, int]:
@@ -192,20 +185,26 @@ def _tail_codec(raw: bytes, encoding: str) -> tuple[str, int]:
     return {"utf-8-sig": "utf-8", "utf-16": "utf-16-le", "utf-32": "utf-32-le"}.get(family, family), 0
 
 
-def _line_of(text: str, file_line: int) -> str:
-    """The text of 1-based ``file_line``."""
-    start = _line_start(text, file_line - 1)
-    end = LINE_BREAK.search(text, start)
-    return text[start : end.start() if end else len(text)]
+def _data_lines(raw: bytes, layout: Layout) -> list[str]:
+    """The decoded lines from the first data row on (for messages and a re-parse only: not kept)."""
+    text = raw.decode(layout.encoding, errors="replace")
+    return LINE_BREAK.split(text[_line_start(text, layout.data_at) :])
 
 
-def _cells(rows: Rows, file_line: int) -> list[str]:
+def _cells(lines: list[str], k: int, layout: Layout, path: Path) -> list[str]:
+    """The cells of ``lines[k]``, file line ``data_at + k + 1`` (a line past the end has none)."""
     try:
-        return split(_line_of(rows.text(), file_line), rows.layout.delimiter)
+        return split(lines[k] if k < len(lines) else "", layout.delimiter)
     except csv.Error:
         raise DataError(
-            f"a cell is longer than {csv.field_size_limit()} characters", file=rows.path, row=file_line
+            f"a cell is longer than {csv.field_size_limit()} characters",
+            file=path,
+            row=layout.data_at + k + 1,
         ) from None
+
+
+def _too_many_cells(cells: list[str], layout: Layout, path: Path, row: int) -> DataError:
+    return DataError(f"row has {len(cells)} cells, header has {layout.n_cells}", file=path, row=row)
 
 
 def _check_width(
@@ -213,45 +212,33 @@ def _check_width(
 ) -> pd.DataFrame:
     """The frame without cells beyond the header's (empty: a trailing delimiter); a row with
     values there has more cells than the header and is an error."""
-    n = layout.n_cells
-    extra = [c for c in frame.columns if c >= n]
+    extra = [c for c in frame.columns if c >= layout.n_cells]
     if not extra:
         return frame
     wide = np.flatnonzero(frame[extra].notna().any(axis=1).to_numpy())
     if wide.size:
         line = int(lines[wide[0]])
-        cells = split(_line_of(raw.decode(layout.encoding, errors="replace"), line), layout.delimiter)
-        raise DataError(f"row has {len(cells)} cells, header has {n}", file=path, row=line)
+        cells = _cells(_data_lines(raw, layout), line - layout.data_at - 1, layout, path)
+        raise _too_many_cells(cells, layout, path, line)
     return frame.drop(columns=extra)
 
 
 def _first_bad_row(raw: bytes, layout: Layout, path: Path) -> None:
     """Raise the DataError of the first row pandas could not parse (a row wider than the header)."""
-    n = layout.n_cells
-    text = raw.decode(layout.encoding, errors="replace")
-    for k, line in enumerate(LINE_BREAK.split(text[_line_start(text, layout.data_at) :])):
-        try:
-            cells = split(line, layout.delimiter)
-        except csv.Error:
-            raise DataError(
-                f"a cell is longer than {csv.field_size_limit()} characters",
-                file=path,
-                row=layout.data_at + k + 1,
-            ) from None
-        if len(cells) > n:
-            raise DataError(
-                f"row has {len(cells)} cells, header has {n}", file=path, row=layout.data_at + k + 1
-            )
+    lines = _data_lines(raw, layout)
+    for k in range(len(lines)):
+        cells = _cells(lines, k, layout, path)
+        if len(cells) > layout.n_cells:
+            raise _too_many_cells(cells, layout, path, layout.data_at + k + 1)
 
 
 def _cell_error(rows: Rows, k: int, index: int, name: str) -> None:
     """Raise the DataError of row ``k``'s cell ``index``, as a short file's reader words it."""
     line = int(rows.lines[k])
-    cells = _cells(rows, line)
-    n = rows.layout.n_cells
-    if index >= len(cells) or not cells[index]:
-        if index >= len(cells):
-            raise DataError(f"row has {len(cells)} cells, header has {n}", file=rows.path, row=line)
+    cells = _cells(_data_lines(rows.raw, rows.layout), line - rows.layout.data_at - 1, rows.layout, rows.path)
+    if index >= len(cells):
+        raise _too_many_cells(cells, rows.layout, rows.path, line)
+    if not cells[index]:
         raise DataError("empty cell", file=rows.path, row=line, column=name)
     text = cells[index]
     try:

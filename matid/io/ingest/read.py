@@ -1,20 +1,15 @@
-"""CSV ingest: test-machine exports turned into named columns in SI.
+"""CSV ingest: test-machine exports turned into named columns in SI (docs/contract.md sections 2, 7).
 
-Implements docs/contract.md sections 2 and 7. :mod:`matid.io.ingest.detect` finds
-the layout (encoding, delimiter, preamble, header, optional units row); here the
-header cells become columns: ``force [N]``, ``force (N)`` or a units row give
-the unit, the test's ``columns`` maps its own names to the file's header text
-and ``units`` overrides a unit. Names match case-insensitively with spaces and
-``_`` alike (``"Tip Angle [deg]"`` is ``tip_angle``). The columns the test kind
-uses (:data:`matid.io.study.TEST_COLUMNS`) must have a known unit and numbers in
-every row; other columns are kept as floats (in SI when pint knows their unit)
-and never stop the run. ``negate`` flips signs, then
-:mod:`matid.io.ingest.checks` rejects values beyond physical bounds and data of
-the wrong sign.
+:mod:`~matid.io.ingest.detect` finds the layout (encoding, delimiter, preamble, header,
+units row), :mod:`~matid.io.ingest.columns` names the columns and their units,
+:mod:`~matid.io.ingest.frame` parses the numbers, ``negate`` flips signs and
+:mod:`~matid.io.ingest.checks` rejects values beyond physical bounds or of the wrong sign.
+The columns the test kind uses (:data:`matid.io.study.TEST_COLUMNS`) must have a known unit
+and numbers in every row; other columns are kept as floats (in SI when pint knows their
+unit) and never stop the run.
 
-Every problem raises :class:`DataError` naming the file and the row (the
-1-based line number an editor shows) and/or the column, and how the file was
-read (encoding, delimiter, header row).
+Every problem raises :class:`DataError` naming the file and the row (the 1-based line an
+editor shows) and/or the column, and how the file was read (encoding, delimiter, header row).
 """
 
 from __future__ import annotations
@@ -31,15 +26,7 @@ import numpy as np
 
 from matid.errors import DataError
 from matid.io.ingest import checks as ingest_checks
-from matid.io.ingest.columns import (  # noqa: F401 - KNOWN, REQUIRED, canonical re-exported
-    DIMENSIONLESS_NAMES,
-    KNOWN,
-    REQUIRED,
-    Column,
-    canonical,
-    check_required,
-    header,
-)
+from matid.io.ingest.columns import KNOWN, REQUIRED, Column, check_required, header
 from matid.io.ingest.detect import HEAD_LINES, Layout, decode, detect, lines_of, preamble
 from matid.io.ingest.frame import Rows, Start, locate, read_rows
 from matid.io.ingest.frame import column as frame_column
@@ -75,16 +62,13 @@ class Table(PicklesViews):
         lengths = {len(v) for v in self.columns.values()}
         if len(lengths) > 1:
             raise ValueError(f"{self.path}: columns of unequal length {sorted(lengths)}")
-        columns = {}
-        for name, values in self.columns.items():
-            array = np.array(values, dtype=float)
+        columns = {name: np.array(values, dtype=float) for name, values in self.columns.items()}
+        for array in columns.values():
             array.setflags(write=False)
-            columns[name] = array
         object.__setattr__(self, "path", Path(self.path))
         object.__setattr__(self, "columns", MappingProxyType(columns))
-        object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
-        object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
-        object.__setattr__(self, "written", MappingProxyType(dict(self.written)))
+        for name in ("units", "metadata", "written"):
+            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
         object.__setattr__(self, "preamble", tuple(self.preamble))
 
     def __getitem__(self, name: str) -> np.ndarray:
@@ -111,7 +95,7 @@ class Measurement:
         A window on a column the table lacks selects nothing; the study loader
         rejects such windows at input, so this does not happen for loaded studies.
         """
-        n = len(next(iter(self.table.columns.values()), ()))
+        n = self.table.n_rows
         mask = np.ones(n, dtype=bool)
         for name, (low, high) in self.test.window.items():
             values = self.table.columns.get(name)

@@ -32,23 +32,9 @@ MAX_CUTS = 20_000
 #: quantity kind of the unit under them (lowercase).
 QUANTITY_WORDS: dict[str, frozenset[str]] = {
     "time": frozenset({"time", "sec", "seconds"}),
-    "length": frozenset(
-        {
-            "displacement",
-            "disp",
-            "position",
-            "extension",
-            "elongation",
-            "crosshead",
-            "stroke",
-            "deflection",
-            "extensometer",
-            "travel",
-            "lvdt",
-            "length",
-            "deformation",
-        }
-    ),  # fmt: skip
+    # what the machine moves, and what the specimen does
+    "length": frozenset({"displacement", "disp", "position", "crosshead", "stroke", "travel", "lvdt"})
+    | {"extension", "elongation", "deflection", "extensometer", "length", "deformation"},
     "force": frozenset({"force", "load"}),
     "angle": frozenset({"angle", "rotation", "twist"}),
     "torque": frozenset({"torque", "moment"}),
