@@ -658,3 +658,35 @@ def test_single_spaced_names_qualifier_then_head_noun_are_recovered(columns):
     units = [unit for _, (_, unit) in columns]
     words = " ".join(names).split()
     assert spaced_names(words, len(names), units) == names
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    numbers=st.lists(st.tuples(_CELL, _CELL), min_size=3, max_size=20),
+    style=st.sampled_from([(",", "."), (";", ","), ("\t", "."), (" ", ".")]),
+    where=st.tuples(st.integers(min_value=0), st.integers(min_value=0)),
+)
+def test_a_quote_that_never_closes_is_bad_input_naming_its_row(tmp_path, numbers, style, where):
+    """A '"' put anywhere in a data row of a record opens a quoted cell that never closes: pandas'
+    C parser then reads to the end of the file and raised ParserError (exit 3). Now the reader says
+    which row opens it (exit 2); a quote the reader can read past (a quoted number) still reads."""
+    delimiter, decimal = style
+    lines = [delimiter.join(repr(x).replace(".", decimal) for x in row) for row in numbers]
+    k = where[0] % len(lines)
+    at = where[1] % (len(lines[k]) + 1)
+    lines[k] = lines[k][:at] + '"' + lines[k][at:]
+    path = write(tmp_path, f"tip_angle [rad]{delimiter}torque [N m]\n" + "\n".join(lines) + "\n")
+    try:
+        table = read_table(path, "magnetic_bending")
+    except DataError as exc:  # any bad-input message (e.g. no header found on a short record) ...
+        if "never closed" in str(exc):  # ... and the quote's names the line that holds it
+            assert exc.row == k + 2, str(exc)
+    else:
+        assert len(table["tip_angle"]) == len(lines)
+
+
+def test_an_unclosed_quote_names_the_row_that_opens_it(tmp_path):
+    path = write(tmp_path, 'twist_angle [rad],torque [N m]\n0,0\n0.1,"0.5\n0.2,1.0\n0.3,1.5\n')
+    message = r"a quote \(\"\) opens a cell and is never closed"
+    with pytest.raises(DataError, match=where(path, row=3) + message):
+        read_table(path, "torsion")

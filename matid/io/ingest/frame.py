@@ -74,7 +74,10 @@ def read_rows(raw: bytes, start: Start, layout: Layout, path: Path) -> Rows:
         frame = _parse(raw, start, layout, None)
     except pd.errors.ParserError:
         _first_bad_row(raw, layout, path)
-        frame = _parse(raw, start, layout, _widest(raw, layout))
+        try:
+            frame = _parse(raw, start, layout, _widest(raw, layout))
+        except pd.errors.ParserError as exc:  # not a width: a quote that never closes, say
+            raise _unparsable(raw, layout, path, exc) from None
     except (UnicodeDecodeError, ValueError):
         _first_bad_row(raw, layout, path)
         raise
@@ -230,6 +233,16 @@ def _first_bad_row(raw: bytes, layout: Layout, path: Path) -> None:
         cells = _cells(lines, k, layout, path)
         if len(cells) > layout.n_cells:
             raise _too_many_cells(cells, layout, path, layout.data_at + k + 1)
+
+
+def _unparsable(raw: bytes, layout: Layout, path: Path, exc: Exception) -> DataError:
+    """The DataError of rows pandas cannot tokenise at any width: the first line with an odd number of
+    quotes opens a quoted cell that never closes (the parser then reads to the end of the file)."""
+    lines = _data_lines(raw, layout)
+    k = next((k for k, line in enumerate(lines) if line.count('"') % 2), None)
+    if k is None:
+        return DataError(f"the data rows cannot be read: {bounded_text(str(exc), 80)}", file=path)
+    return DataError('a quote (") opens a cell and is never closed', file=path, row=layout.data_at + k + 1)
 
 
 def _cell_error(rows: Rows, k: int, index: int, name: str) -> None:
