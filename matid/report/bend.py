@@ -42,6 +42,7 @@ from matid.report.figures import (
     Drawing,
     Rect,
     axis_unit,
+    data_axes,
     quiet_legend,
     style_axes,
 )
@@ -133,20 +134,23 @@ def bend_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
     if fit.kind != "three_point_bend" or not isinstance(fit.info.get("plot_data"), Mapping):
         return []
     plots = bend_plots(fit.info["plot_data"])
-    who = f"specimen {fit.specimen}"
+
+    def drawing(title: str, caption: str, alt: str, height: float, draw) -> Drawing:
+        return Drawing(title, caption, f"{alt}, specimen {fit.specimen}", (FIT_SIZE[0], height), draw)
+
     drawings = [
-        Drawing(
+        drawing(
             TITLES[0],
             _force_caption(plots, units),
-            f"Force against nose deflection, {who}",
-            (FIT_SIZE[0], 3.3),
+            "Force against nose deflection",
+            3.3,
             partial(draw_force, plots=plots, units=units),
         ),
-        Drawing(
+        drawing(
             TITLES[1],
             _sensitivity_caption(plots, fit, units),
-            f"Sensitivity to E_s, {who}",
-            (FIT_SIZE[0], 3.0),
+            "Sensitivity to E_s",
+            3.0,
             partial(draw_sensitivity, plots=plots, units=units),
         ),
     ]
@@ -154,26 +158,14 @@ def bend_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
     fe = (est.extra.get("fe") if est else None) or {}
     if fe.get("levels"):
         stat = est.stderr / est.value if est.stderr else None  # relative statistical error of E_s
-        drawings.append(
-            Drawing(
-                "Error against run time",
-                _fe_caption(fe, stat),
-                f"Discretisation error of E_s against run time, {who}",
-                (FIT_SIZE[0], 2.8),
-                partial(draw_fe_levels, levels=fe["levels"], stat=stat),
-            )
-        )
+        title = "Discretisation error of E_s against run time"
+        draw = partial(draw_fe_levels, levels=fe["levels"], stat=stat)
+        drawings.append(drawing("Error against run time", _fe_caption(fe, stat), title, 2.8, draw))
     shaped = tuple(c for c in plots.curves if c.shape is not None)
     if shaped:
-        drawings.append(
-            Drawing(
-                TITLES[2],
-                _shape_caption(shaped),
-                f"Deformed tube at the largest deflection, {who}",
-                (FIT_SIZE[0], shape_height(shaped)),
-                partial(draw_shapes, curves=shaped),
-            )
-        )
+        title = "Deformed tube at the largest deflection"
+        draw = partial(draw_shapes, curves=shaped)
+        drawings.append(drawing(TITLES[2], _shape_caption(shaped), title, shape_height(shaped), draw))
     return drawings
 
 
@@ -193,7 +185,7 @@ class PowerFormatter(LogFormatter):
 
 def draw_fe_levels(fig: Figure, rect: Rect, *, levels: Sequence[Mapping], stat: float | None) -> None:
     """Estimated relative error of E_s against the run time of one cold solve, per mesh level."""
-    ax = _axes(fig, rect)
+    ax = data_axes(fig, rect, residuals=False)[0]
     t = [float(lv["runtime_s"]) for lv in levels]
     e = [max(float(lv["discretization_error"]), 1e-16) for lv in levels]
     ax.semilogy(t, e, "o-", color=COLOURS[0], linewidth=1.4, markersize=4)
@@ -249,7 +241,7 @@ def _span(curve: Curve) -> str:
 def draw_force(fig: Figure, rect: Rect, *, plots: BendPlots, units: str = "SI") -> None:
     """Measured points, the rod model and the Timoshenko formula against the deflection."""
     force = axis_unit("force [N]", units)
-    ax = _axes(fig, rect)
+    ax = data_axes(fig, rect, residuals=False)[0]
     for i, c in enumerate(plots.curves):
         colour = COLOURS[i % len(COLOURS)]
         d = c.d * MM
@@ -277,7 +269,7 @@ def draw_force(fig: Figure, rect: Rect, *, plots: BendPlots, units: str = "SI") 
 def draw_sensitivity(fig: Figure, rect: Rect, *, plots: BendPlots, units: str = "SI") -> None:
     """F(1.1 E_s) - F(E_s) against the deflection over bands of the residual noise."""
     force = axis_unit("force change [N]", units)
-    ax = _axes(fig, rect)
+    ax = data_axes(fig, rect, residuals=False)[0]
     d_max = max(float(c.d.max()) for c in plots.curves) * MM
     handles, labels = [], []
     if plots.noise:
@@ -372,11 +364,6 @@ def shape_height(curves: Sequence[Curve]) -> float:
         (z0, z1), (x0, x1) = _extent(c.shape)
         panels += min(max(width * (x1 - x0) / (z1 - z0), 1.0), 4.0)
     return bottom + top + PANEL_TITLE + panels + PANEL_GAP * (len(curves) - 1)
-
-
-def _axes(fig: Figure, rect: Rect):
-    left, bottom, right, top = rect
-    return fig.add_axes((left, bottom, right - left, top - bottom))
 
 
 # -- captions ----------------------------------------------------------------------------------
