@@ -50,7 +50,6 @@ from matid.report.summary import SUPERSCRIPT
 
 MM = 1e3
 TUBE, CYLINDER, CYLINDER_EDGE = "#0072B2", "#d9dce1", "#555555"
-TIMOSHENKO = "Timoshenko formula, same E_b and E_s"
 PANEL_TITLE, PANEL_GAP = 0.22, 0.55  # inches above a shape panel for its title; between panels
 ARRAYS = ("d", "F", "model", "timoshenko", "plus10")  # per curve, one value per loading point
 TITLES = (
@@ -242,22 +241,20 @@ def draw_force(fig: Figure, rect: Rect, *, plots: BendPlots, units: str = "SI") 
     """Measured points, the rod model and the Timoshenko formula against the deflection."""
     force = axis_unit("force [N]", units)
     ax = data_axes(fig, rect, residuals=False)[0]
+    handles, labels = [], []
     for i, c in enumerate(plots.curves):
         colour = COLOURS[i % len(COLOURS)]
         d = c.d * MM
         ax.plot(d, c.F * force.factor, "o", color=colour, markersize=3, alpha=0.75)
         ax.plot(d, c.model * force.factor, "-", color=colour, linewidth=1.6)
         ax.plot(d, c.timoshenko * force.factor, "--", color=colour, linewidth=1.1)
-    handles = [
-        Line2D([], [], color=COLOURS[i % len(COLOURS)], marker="o", markersize=4, linestyle="none")
-        for i in range(len(plots.curves))
-    ]
-    labels = [f"{c.label} ({_span(c)})" for c in plots.curves]
+        handles.append(Line2D([], [], color=colour, marker="o", markersize=4, linestyle="none"))
+        labels.append(f"{c.label} ({_span(c)})")
     handles += [
         Line2D([], [], color="#333333", linewidth=1.6),
         Line2D([], [], color="#333333", linestyle="--"),
     ]
-    labels += ["rod model, fitted E_s", TIMOSHENKO]
+    labels += ["rod model, fitted E_s", "Timoshenko formula, same E_b and E_s"]
     quiet_legend(ax, handles, labels, fontsize=7, loc="upper left", framealpha=0.9)
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)
@@ -271,21 +268,15 @@ def draw_sensitivity(fig: Figure, rect: Rect, *, plots: BendPlots, units: str = 
     force = axis_unit("force change [N]", units)
     ax = data_axes(fig, rect, residuals=False)[0]
     d_max = max(float(c.d.max()) for c in plots.curves) * MM
-    handles, labels = [], []
-    if plots.noise:
-        sigma = plots.noise * force.factor
-        for k, shade in ((2, "#eceef2"), (1, "#d5d9e0")):
-            ax.axhspan(-k * sigma, k * sigma, color=shade, linewidth=0)
-            handles.append(Patch(color=shade))
-            labels.append(f"±{k} σ of the residual noise" if k == 1 else f"±{k} σ")
-        handles, labels = handles[::-1], labels[::-1]
+    bands = ((1, "#d5d9e0", "±1 σ of the residual noise"), (2, "#eceef2", "±2 σ")) if plots.noise else ()
+    for k, shade, _ in reversed(bands):  # the wide band first, under the narrow one
+        ax.axhspan(-k * plots.noise * force.factor, k * plots.noise * force.factor, color=shade, linewidth=0)
+    handles = [Patch(color=shade) for _, shade, _ in bands]
+    labels = [label for *_, label in bands]
     ax.axhline(0.0, color="#555555", linewidth=0.8)
     for i, c in enumerate(plots.curves):
-        colour = COLOURS[i % len(COLOURS)]
-        ax.plot(
-            c.d * MM, (c.plus10 - c.model) * force.factor, "o-", color=colour, markersize=2.5, linewidth=1.4
-        )
-        handles.append(Line2D([], [], color=colour, marker="o", markersize=2.5, linewidth=1.4))
+        style = {"color": COLOURS[i % len(COLOURS)], "markersize": 2.5, "linewidth": 1.4}
+        handles += ax.plot(c.d * MM, (c.plus10 - c.model) * force.factor, "o-", **style)
         labels.append(f"E_s + 10 %, {_span(c)}")
     quiet_legend(ax, handles, labels, fontsize=7, loc="upper left", framealpha=0.9)
     ax.set_xlim(0, d_max * 1.02)
@@ -340,11 +331,9 @@ def outline(z: np.ndarray, x: np.ndarray, radius: float) -> tuple[np.ndarray, np
     """The two edges of the tube, ``radius`` either side of the centreline along its normal."""
     tz, tx = np.gradient(z), np.gradient(x)
     norm = np.hypot(tz, tx)
-    norm[norm == 0] = 1.0
-    nz, nx = -tx / norm, tz / norm
-    upper = np.column_stack([z + radius * nz, x + radius * nx])
-    lower = np.column_stack([z - radius * nz, x - radius * nx])
-    return upper, lower
+    normal = np.column_stack([-tx, tz]) / np.where(norm == 0, 1.0, norm)[:, None]
+    centre = np.column_stack([z, x])
+    return centre + radius * normal, centre - radius * normal
 
 
 def _extent(shape: Shape) -> tuple[tuple[float, float], tuple[float, float]]:
