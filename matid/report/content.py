@@ -46,6 +46,7 @@ KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
 PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in params}
 
 MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± standard error (1σ)", "unit", "check")
+MODULI_NUMERIC = (False, False, False, True, True, False, False)
 #: Info items not shown in the details table: figures and the arrays the figures are drawn from.
 HIDDEN_INFO = ("figures", "plot_data", "force_time")
 #: What a correlation of the estimates at least this strong (|r|) means for reading them.
@@ -139,9 +140,7 @@ def build_report(result: StudyResult, units: str) -> Report:
         summary_intro=summary_intro(units),
         status_legend=STATUS_LEGEND,
         summary=summary_table(result, doc, marks_of(result, notes, titles), units),
-        moduli=Table(MODULI_COLUMNS, tuple(moduli), (False,) * 3 + (True, True) + (False,) * 2)
-        if moduli
-        else None,
+        moduli=Table(MODULI_COLUMNS, tuple(moduli), MODULI_NUMERIC) if moduli else None,
         notes=tuple(notes),
         failures=tuple(failure_message(f) for f in result.failures),
         pending=tuple(pending_message(p, with_specimen=True) for p in result.pending),

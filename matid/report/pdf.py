@@ -234,11 +234,8 @@ def _info(info) -> list[Flowable]:
     for label, value in info:
         if isinstance(value, Nested):
             numeric = (False, *(True,) * (len(value.header) - 1))
-            story += [
-                para(label, 7.5, bold=True, keep=True, space=2),
-                _table(value, size=6.5, numeric=numeric),
-                space(4),
-            ]
+            story.append(para(label, 7.5, bold=True, keep=True, space=2))
+            story += [_table(value, size=6.5, numeric=numeric), space(4)]
     return story
 
 
