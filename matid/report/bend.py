@@ -137,34 +137,23 @@ def bend_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
     def drawing(title: str, caption: str, alt: str, height: float, draw) -> Drawing:
         return Drawing(title, caption, f"{alt}, specimen {fit.specimen}", (FIT_SIZE[0], height), draw)
 
-    drawings = [
-        drawing(
-            TITLES[0],
-            _force_caption(plots, units),
-            "Force against nose deflection",
-            3.3,
-            partial(draw_force, plots=plots, units=units),
-        ),
-        drawing(
-            TITLES[1],
-            _sensitivity_caption(plots, fit, units),
-            "Sensitivity to E_s",
-            3.0,
-            partial(draw_sensitivity, plots=plots, units=units),
-        ),
-    ]
+    draw = partial(draw_force, plots=plots, units=units)
+    drawings = [drawing(TITLES[0], _force_caption(plots, units), "Force against nose deflection", 3.3, draw)]
+    caption = _sensitivity_caption(plots, fit, units)
+    draw = partial(draw_sensitivity, plots=plots, units=units)
+    drawings.append(drawing(TITLES[1], caption, "Sensitivity to E_s", 3.0, draw))
     est = fit.estimate("E_s")
     fe = (est.extra.get("fe") if est else None) or {}
     if fe.get("levels"):
         stat = est.stderr / est.value if est.stderr else None  # relative statistical error of E_s
-        title = "Discretisation error of E_s against run time"
+        alt = "Discretisation error of E_s against run time"
         draw = partial(draw_fe_levels, levels=fe["levels"], stat=stat)
-        drawings.append(drawing("Error against run time", _fe_caption(fe, stat), title, 2.8, draw))
+        drawings.append(drawing("Error against run time", _fe_caption(fe, stat), alt, 2.8, draw))
     shaped = tuple(c for c in plots.curves if c.shape is not None)
     if shaped:
-        title = "Deformed tube at the largest deflection"
+        alt = "Deformed tube at the largest deflection"
         draw = partial(draw_shapes, curves=shaped)
-        drawings.append(drawing(TITLES[2], _shape_caption(shaped), title, shape_height(shaped), draw))
+        drawings.append(drawing(TITLES[2], _shape_caption(shaped), alt, shape_height(shaped), draw))
     return drawings
 
 
