@@ -181,17 +181,15 @@ def draw_fe_levels(fig: Figure, rect: Rect, *, levels: Sequence[Mapping], stat: 
     ax.yaxis.set_minor_formatter(PowerFormatter())
     for lv, ti, ei in zip(levels, t, e, strict=True):
         ax.annotate(f"{lv['elements']} P2", (ti, ei), textcoords="offset points", xytext=(5, 4), fontsize=7)
-    if stat:
-        ax.axhline(stat, color="#999999", linestyle="--", linewidth=1)
-        ax.axhline(0.1 * stat, color="#bbbbbb", linestyle=":", linewidth=1)
-        quiet_legend(
-            ax,
-            [Line2D([], [], color="#999999", linestyle="--"), Line2D([], [], color="#bbbbbb", linestyle=":")],
-            ["statistical error of E_s (relative)", "FE target: a tenth of it"],
-            fontsize=7,
-            loc="upper right",
-            framealpha=0.9,
-        )
+    if stat:  # the statistical error and the FE target, a tenth of it
+        lines = {
+            "statistical error of E_s (relative)": (stat, "#999999", "--"),
+            "FE target: a tenth of it": (0.1 * stat, "#bbbbbb", ":"),
+        }
+        for level, colour, style in lines.values():
+            ax.axhline(level, color=colour, linestyle=style, linewidth=1)
+        handles = [Line2D([], [], color=colour, linestyle=style) for _, colour, style in lines.values()]
+        quiet_legend(ax, handles, list(lines), fontsize=7, loc="upper right", framealpha=0.9)
     if max(t) > 20 * min(t):  # run times over decades: a log axis, labelled at the decades
         ax.set_xscale("log")
         ax.xaxis.set_major_formatter(PowerFormatter())
