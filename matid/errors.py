@@ -17,24 +17,18 @@ class DataError(MatidError):
     """Unusable input: names the file and, where it applies, the row or column."""
 
     def __init__(
-        self,
-        message: str,
-        *,
-        file: object | None = None,
-        row: int | None = None,
-        column: str | None = None,
+        self, message: str, *, file: object | None = None, row: int | None = None, column: str | None = None
     ) -> None:
         self.file = None if file is None else str(file)
         self.row = row
         self.column = column
-        where = []
-        if self.file is not None:
-            where.append(self.file)
-        if row is not None:
-            where.append(f"row {row}")
-        if column is not None:
-            where.append(f"column '{column}'")
         self.detail = message
+        parts = (
+            self.file,
+            None if row is None else f"row {row}",
+            None if column is None else f"column '{column}'",
+        )
+        where = [part for part in parts if part is not None]
         super().__init__(f"{', '.join(where)}: {message}" if where else message)
 
 

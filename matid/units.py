@@ -212,8 +212,7 @@ def vector_to_si(values: object, kind: str) -> tuple[float, float, float]:
     """Parse a list of three quantities (a lab-frame vector) into SI."""
     if not isinstance(values, (list, tuple)) or len(values) != 3:
         raise UnitError(f"expected a list of three quantities of {kind}, got {values!r}")
-    x, y, z = (to_si(v, kind) for v in values)
-    return (x, y, z)
+    return tuple(to_si(v, kind) for v in values)
 
 
 #: Output unit systems: for each reported kind, (unit label, factor from SI). Every kind of

@@ -233,6 +233,7 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
     """
     from matid.app import pipeline
     from matid.io.cells import escaped
+    from matid.io.publish import claim_output
     from matid.io.study import load_study
 
     clock = time.perf_counter()
@@ -241,8 +242,6 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
         if not quiet:
             print(f"[{time.perf_counter() - clock:6.1f} s] {message}", file=sys.stderr, flush=True)
 
-    from matid.io.publish import claim_output
-
     claim = claim_output(out)  # noqa: F841 -- --out checked and locked before any fitting; freed on return
     study = load_study(source)
     result = pipeline.run_study(study, progress=progress)
@@ -250,10 +249,7 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
     paths = pipeline.write_outputs(result, out, units=units)
     progress("done")
     for failure in result.failures:
-        print(
-            f"matid: fit failed: {_what(failure)}: {failure.reason}",
-            file=sys.stderr,
-        )
+        print(f"matid: fit failed: {_what(failure)}: {failure.reason}", file=sys.stderr)
     print(escaped(summary(result, units=units)))  # control characters never reach the terminal raw
     print(escaped("\n".join(_warning_lines(fit_warnings(result)))))
     print("outputs:")

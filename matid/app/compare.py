@@ -115,9 +115,9 @@ def comparison_figure(stats: Sequence[dict]) -> bytes:
         labels = [escaped(f"{r['study']} / {r['specimen']}") for r in rows]  # no control glyphs
         y = list(range(len(labels)))
         values = [float(r["value"]) for r in rows]
-        low = [v - (v if r["ci95_low"] is None else r["ci95_low"]) for v, r in zip(values, rows, strict=True)]
+        low = [0.0 if r["ci95_low"] is None else v - r["ci95_low"] for v, r in zip(values, rows, strict=True)]
         high = [
-            (v if r["ci95_high"] is None else r["ci95_high"]) - v for v, r in zip(values, rows, strict=True)
+            0.0 if r["ci95_high"] is None else r["ci95_high"] - v for v, r in zip(values, rows, strict=True)
         ]
         if s["sd"] is not None:
             ax.axvspan(

@@ -42,6 +42,7 @@ from matid.report.figures import (
     Drawing,
     Rect,
     axis_unit,
+    data_axes,
     quiet_legend,
     style_axes,
 )
@@ -49,7 +50,6 @@ from matid.report.summary import SUPERSCRIPT
 
 MM = 1e3
 TUBE, CYLINDER, CYLINDER_EDGE = "#0072B2", "#d9dce1", "#555555"
-TIMOSHENKO = "Timoshenko formula, same E_b and E_s"
 PANEL_TITLE, PANEL_GAP = 0.22, 0.55  # inches above a shape panel for its title; between panels
 ARRAYS = ("d", "F", "model", "timoshenko", "plus10")  # per curve, one value per loading point
 TITLES = (
@@ -133,47 +133,27 @@ def bend_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
     if fit.kind != "three_point_bend" or not isinstance(fit.info.get("plot_data"), Mapping):
         return []
     plots = bend_plots(fit.info["plot_data"])
-    who = f"specimen {fit.specimen}"
-    drawings = [
-        Drawing(
-            TITLES[0],
-            _force_caption(plots, units),
-            f"Force against nose deflection, {who}",
-            (FIT_SIZE[0], 3.3),
-            partial(draw_force, plots=plots, units=units),
-        ),
-        Drawing(
-            TITLES[1],
-            _sensitivity_caption(plots, fit, units),
-            f"Sensitivity to E_s, {who}",
-            (FIT_SIZE[0], 3.0),
-            partial(draw_sensitivity, plots=plots, units=units),
-        ),
-    ]
+
+    def drawing(title: str, caption: str, alt: str, height: float, draw) -> Drawing:
+        return Drawing(title, caption, f"{alt}, specimen {fit.specimen}", (FIT_SIZE[0], height), draw)
+
+    draw = partial(draw_force, plots=plots, units=units)
+    drawings = [drawing(TITLES[0], _force_caption(plots, units), "Force against nose deflection", 3.3, draw)]
+    caption = _sensitivity_caption(plots, fit, units)
+    draw = partial(draw_sensitivity, plots=plots, units=units)
+    drawings.append(drawing(TITLES[1], caption, "Sensitivity to E_s", 3.0, draw))
     est = fit.estimate("E_s")
     fe = (est.extra.get("fe") if est else None) or {}
     if fe.get("levels"):
         stat = est.stderr / est.value if est.stderr else None  # relative statistical error of E_s
-        drawings.append(
-            Drawing(
-                "Error against run time",
-                _fe_caption(fe, stat),
-                f"Discretisation error of E_s against run time, {who}",
-                (FIT_SIZE[0], 2.8),
-                partial(draw_fe_levels, levels=fe["levels"], stat=stat),
-            )
-        )
+        alt = "Discretisation error of E_s against run time"
+        draw = partial(draw_fe_levels, levels=fe["levels"], stat=stat)
+        drawings.append(drawing("Error against run time", _fe_caption(fe, stat), alt, 2.8, draw))
     shaped = tuple(c for c in plots.curves if c.shape is not None)
     if shaped:
-        drawings.append(
-            Drawing(
-                TITLES[2],
-                _shape_caption(shaped),
-                f"Deformed tube at the largest deflection, {who}",
-                (FIT_SIZE[0], shape_height(shaped)),
-                partial(draw_shapes, curves=shaped),
-            )
-        )
+        alt = "Deformed tube at the largest deflection"
+        draw = partial(draw_shapes, curves=shaped)
+        drawings.append(drawing(TITLES[2], _shape_caption(shaped), alt, shape_height(shaped), draw))
     return drawings
 
 
@@ -193,7 +173,7 @@ class PowerFormatter(LogFormatter):
 
 def draw_fe_levels(fig: Figure, rect: Rect, *, levels: Sequence[Mapping], stat: float | None) -> None:
     """Estimated relative error of E_s against the run time of one cold solve, per mesh level."""
-    ax = _axes(fig, rect)
+    ax = data_axes(fig, rect, residuals=False)[0]
     t = [float(lv["runtime_s"]) for lv in levels]
     e = [max(float(lv["discretization_error"]), 1e-16) for lv in levels]
     ax.semilogy(t, e, "o-", color=COLOURS[0], linewidth=1.4, markersize=4)
@@ -201,17 +181,15 @@ def draw_fe_levels(fig: Figure, rect: Rect, *, levels: Sequence[Mapping], stat: 
     ax.yaxis.set_minor_formatter(PowerFormatter())
     for lv, ti, ei in zip(levels, t, e, strict=True):
         ax.annotate(f"{lv['elements']} P2", (ti, ei), textcoords="offset points", xytext=(5, 4), fontsize=7)
-    if stat:
-        ax.axhline(stat, color="#999999", linestyle="--", linewidth=1)
-        ax.axhline(0.1 * stat, color="#bbbbbb", linestyle=":", linewidth=1)
-        quiet_legend(
-            ax,
-            [Line2D([], [], color="#999999", linestyle="--"), Line2D([], [], color="#bbbbbb", linestyle=":")],
-            ["statistical error of E_s (relative)", "FE target: a tenth of it"],
-            fontsize=7,
-            loc="upper right",
-            framealpha=0.9,
-        )
+    if stat:  # the statistical error and the FE target, a tenth of it
+        lines = {
+            "statistical error of E_s (relative)": (stat, "#999999", "--"),
+            "FE target: a tenth of it": (0.1 * stat, "#bbbbbb", ":"),
+        }
+        for level, colour, style in lines.values():
+            ax.axhline(level, color=colour, linestyle=style, linewidth=1)
+        handles = [Line2D([], [], color=colour, linestyle=style) for _, colour, style in lines.values()]
+        quiet_legend(ax, handles, list(lines), fontsize=7, loc="upper right", framealpha=0.9)
     if max(t) > 20 * min(t):  # run times over decades: a log axis, labelled at the decades
         ax.set_xscale("log")
         ax.xaxis.set_major_formatter(PowerFormatter())
@@ -249,23 +227,21 @@ def _span(curve: Curve) -> str:
 def draw_force(fig: Figure, rect: Rect, *, plots: BendPlots, units: str = "SI") -> None:
     """Measured points, the rod model and the Timoshenko formula against the deflection."""
     force = axis_unit("force [N]", units)
-    ax = _axes(fig, rect)
+    ax = data_axes(fig, rect, residuals=False)[0]
+    handles, labels = [], []
     for i, c in enumerate(plots.curves):
         colour = COLOURS[i % len(COLOURS)]
         d = c.d * MM
         ax.plot(d, c.F * force.factor, "o", color=colour, markersize=3, alpha=0.75)
         ax.plot(d, c.model * force.factor, "-", color=colour, linewidth=1.6)
         ax.plot(d, c.timoshenko * force.factor, "--", color=colour, linewidth=1.1)
-    handles = [
-        Line2D([], [], color=COLOURS[i % len(COLOURS)], marker="o", markersize=4, linestyle="none")
-        for i in range(len(plots.curves))
-    ]
-    labels = [f"{c.label} ({_span(c)})" for c in plots.curves]
+        handles.append(Line2D([], [], color=colour, marker="o", markersize=4, linestyle="none"))
+        labels.append(f"{c.label} ({_span(c)})")
     handles += [
         Line2D([], [], color="#333333", linewidth=1.6),
         Line2D([], [], color="#333333", linestyle="--"),
     ]
-    labels += ["rod model, fitted E_s", TIMOSHENKO]
+    labels += ["rod model, fitted E_s", "Timoshenko formula, same E_b and E_s"]
     quiet_legend(ax, handles, labels, fontsize=7, loc="upper left", framealpha=0.9)
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)
@@ -277,23 +253,17 @@ def draw_force(fig: Figure, rect: Rect, *, plots: BendPlots, units: str = "SI") 
 def draw_sensitivity(fig: Figure, rect: Rect, *, plots: BendPlots, units: str = "SI") -> None:
     """F(1.1 E_s) - F(E_s) against the deflection over bands of the residual noise."""
     force = axis_unit("force change [N]", units)
-    ax = _axes(fig, rect)
+    ax = data_axes(fig, rect, residuals=False)[0]
     d_max = max(float(c.d.max()) for c in plots.curves) * MM
-    handles, labels = [], []
-    if plots.noise:
-        sigma = plots.noise * force.factor
-        for k, shade in ((2, "#eceef2"), (1, "#d5d9e0")):
-            ax.axhspan(-k * sigma, k * sigma, color=shade, linewidth=0)
-            handles.append(Patch(color=shade))
-            labels.append(f"±{k} σ of the residual noise" if k == 1 else f"±{k} σ")
-        handles, labels = handles[::-1], labels[::-1]
+    bands = ((1, "#d5d9e0", "±1 σ of the residual noise"), (2, "#eceef2", "±2 σ")) if plots.noise else ()
+    for k, shade, _ in reversed(bands):  # the wide band first, under the narrow one
+        ax.axhspan(-k * plots.noise * force.factor, k * plots.noise * force.factor, color=shade, linewidth=0)
+    handles = [Patch(color=shade) for _, shade, _ in bands]
+    labels = [label for *_, label in bands]
     ax.axhline(0.0, color="#555555", linewidth=0.8)
     for i, c in enumerate(plots.curves):
-        colour = COLOURS[i % len(COLOURS)]
-        ax.plot(
-            c.d * MM, (c.plus10 - c.model) * force.factor, "o-", color=colour, markersize=2.5, linewidth=1.4
-        )
-        handles.append(Line2D([], [], color=colour, marker="o", markersize=2.5, linewidth=1.4))
+        style = {"color": COLOURS[i % len(COLOURS)], "markersize": 2.5, "linewidth": 1.4}
+        handles += ax.plot(c.d * MM, (c.plus10 - c.model) * force.factor, "o-", **style)
         labels.append(f"E_s + 10 %, {_span(c)}")
     quiet_legend(ax, handles, labels, fontsize=7, loc="upper left", framealpha=0.9)
     ax.set_xlim(0, d_max * 1.02)
@@ -348,11 +318,9 @@ def outline(z: np.ndarray, x: np.ndarray, radius: float) -> tuple[np.ndarray, np
     """The two edges of the tube, ``radius`` either side of the centreline along its normal."""
     tz, tx = np.gradient(z), np.gradient(x)
     norm = np.hypot(tz, tx)
-    norm[norm == 0] = 1.0
-    nz, nx = -tx / norm, tz / norm
-    upper = np.column_stack([z + radius * nz, x + radius * nx])
-    lower = np.column_stack([z - radius * nz, x - radius * nx])
-    return upper, lower
+    normal = np.column_stack([-tx, tz]) / np.where(norm == 0, 1.0, norm)[:, None]
+    centre = np.column_stack([z, x])
+    return centre + radius * normal, centre - radius * normal
 
 
 def _extent(shape: Shape) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -372,11 +340,6 @@ def shape_height(curves: Sequence[Curve]) -> float:
         (z0, z1), (x0, x1) = _extent(c.shape)
         panels += min(max(width * (x1 - x0) / (z1 - z0), 1.0), 4.0)
     return bottom + top + PANEL_TITLE + panels + PANEL_GAP * (len(curves) - 1)
-
-
-def _axes(fig: Figure, rect: Rect):
-    left, bottom, right, top = rect
-    return fig.add_axes((left, bottom, right - left, top - bottom))
 
 
 # -- captions ----------------------------------------------------------------------------------

@@ -46,6 +46,7 @@ KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
 PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in params}
 
 MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± standard error (1σ)", "unit", "check")
+MODULI_NUMERIC = (False, False, False, True, True, False, False)
 #: Info items not shown in the details table: figures and the arrays the figures are drawn from.
 HIDDEN_INFO = ("figures", "plot_data", "force_time")
 #: What a correlation of the estimates at least this strong (|r|) means for reading them.
@@ -74,21 +75,21 @@ class Table:
 
 @dataclass(frozen=True)
 class Block:
-    """One specimen within one test-kind section."""
+    """One specimen within one test-kind section (without a fit: its messages and tests only)."""
 
     specimen: str
     anchor: str
     messages: tuple[tuple[str, str], ...]  # (status, text), status "failed" | "pending" | "none"
-    fit: TestFit | None
-    plot: bool
-    parameters: Table | None
-    correlation: Table | None
-    fe_notes: tuple[str, ...]  # mesh and solver figures behind the estimates ("E_s: FE P2, ...")
-    info: tuple[tuple[str, Cell], ...]  # label, quantity text or a small table
-    warnings: tuple[str, ...]
     tests: tuple[TestView, ...]
-    drawings: tuple[Drawing, ...]  # figures the report draws from info arrays (bend fits)
-    extras: tuple[ExtraFigure, ...]
+    fit: TestFit | None = None
+    plot: bool = False
+    parameters: Table | None = None
+    correlation: Table | None = None
+    fe_notes: tuple[str, ...] = ()  # mesh and solver figures behind the estimates ("E_s: FE P2, ...")
+    info: tuple[tuple[str, Cell], ...] = ()  # label, quantity text or a small table
+    warnings: tuple[str, ...] = ()
+    drawings: tuple[Drawing, ...] = ()  # figures the report draws from info arrays (bend fits)
+    extras: tuple[ExtraFigure, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -139,9 +140,7 @@ def build_report(result: StudyResult, units: str) -> Report:
         summary_intro=summary_intro(units),
         status_legend=STATUS_LEGEND,
         summary=summary_table(result, doc, marks_of(result, notes, titles), units),
-        moduli=Table(MODULI_COLUMNS, tuple(moduli), (False,) * 3 + (True, True) + (False,) * 2)
-        if moduli
-        else None,
+        moduli=Table(MODULI_COLUMNS, tuple(moduli), MODULI_NUMERIC) if moduli else None,
         notes=tuple(notes),
         failures=tuple(failure_message(f) for f in result.failures),
         pending=tuple(pending_message(p, with_specimen=True) for p in result.pending),
@@ -270,46 +269,43 @@ def _specimens_of(result: StudyResult, kind: str) -> list[str]:
     return sorted(unique, key=lambda s: order.index(s) if s in order else len(order))
 
 
+def _drawings(fit: TestFit, units: str) -> tuple[tuple[Drawing, ...], tuple[ExtraFigure, ...]]:
+    """The drawings of ``fit``, or why they cannot be drawn (as a failed extra figure)."""
+    try:
+        return (*bend_drawings(fit, units), *hold_drawings(fit, units)), ()
+    except (KeyError, TypeError, ValueError, IndexError) as exc:  # malformed plot data: say so, go on
+        return (), (ExtraFigure("Figures from the fit data", None, f"{type(exc).__name__}: {exc}"),)
+
+
 def _block(result: StudyResult, doc: Mapping, kind: str, sid: str, anchor: str, units: str) -> Block:
     fit = next((f for f in result.fits if f.kind == kind and f.specimen == sid), None)
     mine = [f for f in result.failures if _test_kind(f.kind) == kind and f.specimen == sid]
     messages = [("failed", failure_message(f)) for f in mine]
     mine = [p for p in result.pending if _test_kind(p.kind) == kind and p.specimen == sid]
     messages += [("pending", pending_message(p)) for p in mine]
-    if fit is None and not messages:
-        messages.append(("none", f"{_parameters_of(kind)}: no fit result"))
-    drawings, problems = _drawings(fit, units)
     tests = result.study.tests_of(kind, sid, included=False)
-    if fit is not None:
-        known = {(t.file, t.index) for t in tests}
-        tests += [t for t in fit.tests if (t.file, t.index) not in known]
-    parameters, warnings = _fit_parameters(fit, doc) if fit is not None else (None, ())
-    warnings = tuple(in_units(w, units) for w in warnings)
+    if fit is None:
+        messages = messages or [("none", f"{_parameters_of(kind)}: no fit result")]
+        return Block(sid, anchor, tuple(messages), tuple(record_view(t, result.inputs) for t in tests))
+    known = {(t.file, t.index) for t in tests}
+    tests += [t for t in fit.tests if (t.file, t.index) not in known]
+    parameters, warnings = _fit_parameters(fit, doc)
+    drawings, problems = _drawings(fit, units)
     return Block(
         specimen=sid,
         anchor=anchor,
         messages=tuple(messages),
-        fit=fit,
-        plot=fit is not None and has_plot(fit),
-        parameters=parameters,
-        correlation=None if fit is None else _correlation(fit),
-        fe_notes=() if fit is None else fe_notes(fit),
-        info=() if fit is None else _info(fit, units),
-        warnings=warnings,
         tests=tuple(record_view(t, result.inputs) for t in tests),
+        fit=fit,
+        plot=has_plot(fit),
+        parameters=parameters,
+        correlation=_correlation(fit),
+        fe_notes=fe_notes(fit),
+        info=_info(fit, units),
+        warnings=tuple(in_units(w, units) for w in warnings),
         drawings=drawings,
-        extras=() if fit is None else (*extra_figures(fit), *problems),
+        extras=(*extra_figures(fit), *problems),
     )
-
-
-def _drawings(fit: TestFit | None, units: str) -> tuple[tuple[Drawing, ...], tuple[ExtraFigure, ...]]:
-    """The drawings of ``fit``, or why they cannot be drawn (as a failed extra figure)."""
-    if fit is None:
-        return (), ()
-    try:
-        return (*bend_drawings(fit, units), *hold_drawings(fit, units)), ()
-    except (KeyError, TypeError, ValueError, IndexError) as exc:  # malformed plot data: say so, go on
-        return (), (ExtraFigure("Figures from the fit data", None, f"{type(exc).__name__}: {exc}"),)
 
 
 def _info(fit: TestFit, units: str) -> tuple[tuple[str, Cell], ...]:

@@ -201,15 +201,9 @@ def data_axes(fig: Figure, rect: Rect, residuals: bool) -> tuple:
     """The data axes filling ``rect`` (l, b, r, t), with a residual axes a third of their height
     below them on a shared x when ``residuals`` (else None)."""
     left, bottom, right, top = rect
+    rows = [3, 1] if residuals else [1]
     grid = fig.add_gridspec(
-        2 if residuals else 1,
-        1,
-        height_ratios=[3, 1] if residuals else [1],
-        left=left,
-        right=right,
-        bottom=bottom,
-        top=top,
-        hspace=0.16,
+        len(rows), 1, height_ratios=rows, left=left, right=right, bottom=bottom, top=top, hspace=0.16
     )
     ax = fig.add_subplot(grid[0])
     return ax, fig.add_subplot(grid[1], sharex=ax) if residuals else None

@@ -50,15 +50,9 @@ def hold_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
         f"Measured force against time (markers){fitted}; one colour per run; hollow grey points are left out "
         f"of the fit. Force in {'dyn' if units == 'cgs' else 'N'}, time in s."
     )
-    return [
-        Drawing(
-            TITLE,
-            caption,
-            f"Force against time of the extension runs, specimen {fit.specimen}",
-            (FIT_SIZE[0], 4.2 if model else 3.2),
-            partial(draw_force_time, runs=checked, units=units),
-        )
-    ]
+    alt = f"Force against time of the extension runs, specimen {fit.specimen}"
+    draw = partial(draw_force_time, runs=checked, units=units)
+    return [Drawing(TITLE, caption, alt, (FIT_SIZE[0], 4.2 if model else 3.2), draw)]
 
 
 def model_name(info: Mapping) -> str:

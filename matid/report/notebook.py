@@ -17,7 +17,7 @@ from collections.abc import Mapping
 import pandas as pd
 
 from matid.io.results import StudyResult, stiffness_json
-from matid.report.summary import interval_text, scale_of, scaled, value_cells
+from matid.report.summary import SUMMARY_COLUMNS, interval_text, scale_of, scaled, value_cells
 from matid.report.verdict import STATUS_CLASS, reason_line, status_words
 
 #: Columns printed with the row's power of ten and decimals.
@@ -78,8 +78,7 @@ STYLE = (
 def result_html(result: StudyResult, warnings: list[str]) -> str:
     """Page 1 as a notebook cell: each value's status, value, 95 % interval, unit and why."""
     doc = stiffness_json(result)
-    head = "".join(f"<th>{h}</th>" for h in ("specimen", "parameter", "status", "value", "95 % interval",
-                                             "unit", "why"))  # fmt: skip
+    head = "".join(f"<th>{h}</th>" for h in SUMMARY_COLUMNS)
     rows = "".join(
         _row(sid, name, item) for sid, params in doc["specimens"].items() for name, item in params.items()
     )

@@ -102,8 +102,12 @@ def _table(t: Table | Nested, *, size: float = 7.0, numeric=None, mono=()) -> Fl
     return table(t.header, t.rows, numeric, width=WIDTH, size=size, mono=mono)
 
 
-def _section_rule() -> HRFlowable:
-    return HRFlowable(width="100%", thickness=1.2, color=RULE, spaceBefore=0, spaceAfter=6)
+def _part(title: str, key: str) -> list[Flowable]:
+    """A part's heading, in the outline under ``key``, over a rule."""
+    return [
+        heading(title, 14, key=key),
+        HRFlowable(width="100%", thickness=1.2, color=RULE, spaceBefore=0, spaceAfter=6),
+    ]
 
 
 # -- the first page ------------------------------------------------------------------------------
@@ -112,7 +116,7 @@ def _section_rule() -> HRFlowable:
 def _first_page(report: Report) -> list[Flowable]:
     """The study and its run, the summary table with each value's status, the warnings and the
     material moduli."""
-    story = [*_title(report), space(8), heading("Summary of stiffnesses", 14, key="summary"), _section_rule()]
+    story = [*_title(report), space(8), *_part("Summary of stiffnesses", "summary")]
     story += [para(f"{words}: {meaning}", 8, space=1) for words, meaning in report.status_legend]
     story.append(para(report.summary_intro, 8, muted=True, space=4))
     story += [_summary_table(report.summary), space(8), *_warnings(report)]
@@ -121,8 +125,8 @@ def _first_page(report: Report) -> list[Flowable]:
             "E = E_e / A, E = E_b / I and G = E_t / J of the tube section (diameters of the study, "
             "taken as exact)."
         )
-        story += [heading("Material moduli", 14, key="moduli"), _section_rule()]
-        story += [para(moduli, 8, muted=True, space=4), _table(report.moduli, size=6.5)]
+        story += [*_part("Material moduli", "moduli"), para(moduli, 8, muted=True, space=4)]
+        story.append(_table(report.moduli, size=6.5))
     return story
 
 
@@ -171,11 +175,7 @@ def _warnings(report: Report) -> list[Flowable]:
 
 
 def _section(section: Section, images: Images) -> list[Flowable]:
-    story: list[Flowable] = [
-        PageBreak(),
-        heading(f"{section.title} ({section.parameters})", 14, key=section.kind),
-        _section_rule(),
-    ]
+    story = [PageBreak(), *_part(f"{section.title} ({section.parameters})", section.kind)]
     for block in section.blocks:
         story += _block(section, block, images)
     return story
@@ -234,11 +234,8 @@ def _info(info) -> list[Flowable]:
     for label, value in info:
         if isinstance(value, Nested):
             numeric = (False, *(True,) * (len(value.header) - 1))
-            story += [
-                para(label, 7.5, bold=True, keep=True, space=2),
-                _table(value, size=6.5, numeric=numeric),
-                space(4),
-            ]
+            story.append(para(label, 7.5, bold=True, keep=True, space=2))
+            story += [_table(value, size=6.5, numeric=numeric), space(4)]
     return story
 
 
@@ -254,7 +251,7 @@ def _test(test: TestView) -> Together:
 
 
 def _glossary(report: Report) -> list[Flowable]:
-    story: list[Flowable] = [space(12), heading("Glossary", 14, key="glossary"), _section_rule()]
+    story = [space(12), *_part("Glossary", "glossary")]
     return story + [para(f"{term}: {meaning}", 8, space=2) for term, meaning in report.glossary]
 
 
@@ -262,12 +259,8 @@ def _glossary(report: Report) -> list[Flowable]:
 
 
 def _provenance(report: Report) -> list[Flowable]:
-    story: list[Flowable] = [
-        PageBreak(),
-        heading("Provenance", 14, key="provenance"),
-        _section_rule(),
-        para("Every input file with its full SHA-256 checksum.", 8.5, space=4),
-    ]
+    story = [PageBreak(), *_part("Provenance", "provenance")]
+    story.append(para("Every input file with its full SHA-256 checksum.", 8.5, space=4))
     rows = tuple((name, n, sha) for name, n, sha, _ in report.provenance.rows)
     if not rows:
         return [*story, para("No input files were read.", 8.5)]

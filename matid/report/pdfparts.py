@@ -138,10 +138,6 @@ def space(points: float) -> Spacer:
 # -- tables -------------------------------------------------------------------------------------
 
 
-def text_width(text: str, font: str, size: float) -> float:
-    return pdfmetrics.stringWidth(text, font, size)
-
-
 def column_widths(
     header: Sequence[str], rows: Sequence[Sequence[str]], fonts: Sequence[str], size: float, available: float
 ) -> list[float]:
@@ -153,8 +149,8 @@ def column_widths(
     natural, least = [], []
     for j, font in enumerate(fonts):
         cells = [(header[j], SANS_BOLD), *((str(row[j]), font) for row in rows)]
-        natural.append(max(text_width(c, f, size) for c, f in cells) + 2 * PAD + 1)
-        words = [text_width(w, f, size) for c, f in cells for w in c.split()] or [0.0]
+        natural.append(max(pdfmetrics.stringWidth(c, f, size) for c, f in cells) + 2 * PAD + 1)
+        words = [pdfmetrics.stringWidth(w, f, size) for c, f in cells for w in c.split()] or [0.0]
         least.append(min(natural[-1], max(words) + 2 * PAD + 1, WORD_SHARE * available))
     if sum(natural) <= available:
         return natural
@@ -227,7 +223,7 @@ def _table_style(numeric: Sequence[bool], mono: Sequence[bool], size: float, n_r
 
 def _cell(text: str, font: str, size: float, width: float, *, right: bool) -> str | Paragraph:
     """``text`` as it is if it fits ``width`` on one line, else a paragraph wrapped to it."""
-    if "\n" not in text and text_width(text, font, size) + 2 * PAD <= width:
+    if "\n" not in text and pdfmetrics.stringWidth(text, font, size) + 2 * PAD <= width:
         return text
     return para(text, size, bold=font in (SANS_BOLD, MONO_BOLD), mono=font in (MONO, MONO_BOLD), right=right)
 

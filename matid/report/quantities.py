@@ -176,12 +176,10 @@ def kind_of(key: str) -> tuple[str, str | None, float]:
 def words_of(name: str) -> str:
     """``"force_change_for_10pct"`` -> ``"force change for 10 %"``; parameter names stay whole."""
     parts = re.split(r"(E_[betse]|sls_k[12]|sls_eta)", str(name))
-    out = []
-    for part in parts:
-        if PARAMETER.fullmatch(part or "-"):
-            out.append(part)
-        else:
-            out.append(re.sub(r"(\d)pct\b", r"\1 %", part.replace("_", " ")))
+    out = [
+        p if PARAMETER.fullmatch(p or "-") else re.sub(r"(\d)pct\b", r"\1 %", p.replace("_", " "))
+        for p in parts
+    ]
     return re.sub(r"\s+", " ", "".join(out)).strip()
 
 

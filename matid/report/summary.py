@@ -147,12 +147,11 @@ def moduli_rows(result: StudyResult, units: str) -> list[tuple[str, ...]]:
         spec = geometry.get(sid)
         if spec is None:
             continue
-        found = {}
-        for source in MODULUS_OF:
-            est = params.get(source)
-            if est is None or not statuses[(sid, source)].printed:
-                continue
-            found[source] = modulus(source, est.value, est.stderr, section=spec.section)
+        found = {
+            source: modulus(source, params[source].value, params[source].stderr, section=spec.section)
+            for source in MODULUS_OF
+            if source in params and statuses[(sid, source)].printed
+        }
         for source, m in found.items():
             note = ""
             if source == "E_b" and "E_e" in found:

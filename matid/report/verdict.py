@@ -29,9 +29,9 @@ ONE_LINE = 110
 _NUMBER = r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?"
 #: A number (or a range a-b) followed by an SI stiffness unit, in a warning text.
 _QUANTITY = re.compile(rf"(?<![\w.])({_NUMBER})(?:(-|–| to )({_NUMBER}))? (N m\^2|N s|N|mm/N)(?![\w/^])")
-#: unit as the fits write it -> (quantity kind, factor to SI).
 #: A bracketed remark holding numbers ("(-3.1e-05 to 4.2e-05)", "(r = +0.9993)").
 _BRACKETED_NUMBERS = re.compile(r"\s*\([^()]*\d[^()]*\)")
+#: unit as the fits write it -> (quantity kind, factor to SI).
 _KIND_OF_UNIT = {"N": ("force", 1.0), "N m^2": ("bending_stiffness", 1.0), "N s": ("viscosity", 1.0),
                  "mm/N": ("compliance", 1e-3)}  # fmt: skip
 

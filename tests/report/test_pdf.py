@@ -17,12 +17,13 @@ from pathlib import Path
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from reportlab.pdfbase.pdfmetrics import stringWidth as text_width
 
 from matid.app.cli import main
 from matid.io.results import Failure, InputFile, StudyResult
 from matid.io.study import Specimen, Study
 from matid.report import render_report
-from matid.report.pdfparts import SANS, column_widths, register_fonts, text_width
+from matid.report.pdfparts import SANS, column_widths, register_fonts
 from tests import ROOT
 from tests.report.test_report import make_result
 
