@@ -6,16 +6,11 @@ For every loading-branch point i of every bend test of a specimen (span S_k),
 
 minimised over log E_s (and log E_b with ``fit_E_b``), E_b and E_e taken from
 the specimen's own fits or [[fixed]] entries (physics.md section 6). F_rod is
-the nose force of :class:`matid.rod.bend.BendModel`, followed by continuation
-along knots (a few of the measured deflections, chosen by a tolerance on the
-interpolation error, below a tenth of the noise over sqrt(rows)) and
-interpolated to every row, warm-started from the previous iterate; its Jacobian
-dF/dE_s comes from the linearised equilibrium (one back-substitution per knot),
-not from differences of solver output (:mod:`matid.fits.shear.problem`: the
-knots, the interpolation, the residuals, the Jacobian, and scipy's
-least_squares, not lmfit, and why; for centreline data the Jacobian at fixed
-centreline deflection, :mod:`matid.fits.shear.centreline`). A fit costs the
-knots, not the rows (17-33 knots for 3000 rows).
+the nose force of :class:`matid.rod.bend.BendModel`, solved along a few knots and
+interpolated to every row, with dF/dE_s from the linearised equilibrium, not from
+differences of solver output (:mod:`matid.fits.shear.problem`, also why scipy's
+least_squares and not lmfit; centreline data: :mod:`matid.fits.shear.centreline`).
+A fit costs the knots, not the rows (17-33 knots for 3000 rows).
 
 The start is the classic Timoshenko estimate from the small-deflection
 compliance C = d/F:  C = S^3/(48 E_b) + S/(4 E_s).
@@ -280,18 +275,19 @@ def fit_three_point_bend(
         "levels": out.levels,  # error against run time of every mesh level tried
         "interpolation": out.problem.interpolation(),
     }
-    est = _log_estimate("E_s", E_s, sd_log, t, m, fe, ())
+    est = _log_estimate("E_s", E_s, sd_log, t, m, fe)
     if check.widen > 1:
         est = replace(est, ci95=(est.ci95[0], float(est.ci95[1] * check.widen)))
     if "E_s_torsion" in known:
         extra_info["torsion_check"] = text = agreement(est, known["E_s_torsion"])
         warnings += [text] if "disagree" in text else []
-    estimates = [replace(est, warnings=tuple(warnings))]
+    estimates, correlation = [replace(est, warnings=tuple(warnings))], {}
     if fit_E_b:
-        estimates.append(_log_estimate("E_b", E_b, float(np.sqrt(out.cov_log[1, 1])), t, m, fe, ()))
-    info = _info(data, out, shares, held, E_s, fe)
-    info.update(extra_info)
-    info["measurement"] = "nose travel" if nose else "centreline deflection"
+        cov = out.cov_log
+        estimates.append(_log_estimate("E_b", E_b, float(np.sqrt(cov[1, 1])), t, m, fe))
+        correlation = {"E_s|E_b": float(cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1]))}
+    measured = "nose travel" if nose else "centreline deflection"
+    info = {**_info(data, out, shares, held, E_s, fe), **extra_info, "measurement": measured}
     return TestFit(
         kind="three_point_bend",
         specimen=specimen.id,
@@ -301,7 +297,7 @@ def fit_three_point_bend(
         + tuple(_series(b, None) for b in left_out),
         x_label="deflection [m]",
         y_label="force [N]",
-        correlation=_correlation(out.cov_log) if fit_E_b else {},
+        correlation=correlation,
         info=info,
     )
 
@@ -317,12 +313,10 @@ def _design_note(specimen: Specimen, known: Mapping[str, Estimate], E_b: float) 
     return "E_s to 5 %: " + summary(options, 0.05).splitlines()[-1]
 
 
-def _log_estimate(name: str, value: float, sd_log: float, t: float, n: int, fe: dict, warnings) -> Estimate:
+def _log_estimate(name: str, value: float, sd_log: float, t: float, n: int, fe: dict) -> Estimate:
     """An estimate fitted in log space: stderr value * sd_log, interval value * exp(+-t sd_log)."""
     ci = (value * float(np.exp(-t * sd_log)), value * float(np.exp(t * sd_log)))
-    return Estimate(
-        name, value, value * sd_log, ci, n_points=n, method="cosserat-fe", warnings=warnings, extra={"fe": fe}
-    )
+    return Estimate(name, value, value * sd_log, ci, n_points=n, method="cosserat-fe", extra={"fe": fe})
 
 
 def _propagated_variance(out: Outcome, E_b: Estimate, E_e: Estimate, fit_E_b: bool):
@@ -344,17 +338,13 @@ def _propagated_variance(out: Outcome, E_b: Estimate, E_e: Estimate, fit_E_b: bo
 def _series(b: BendData, force: np.ndarray | None) -> Series:
     """The whole file, with the model at the rows in the fit (none for a test left out)."""
     d = np.asarray(b.measurement.table["deflection"])
-    y_fit = np.full(d.size, np.nan)
-    used = b.loading if force is not None else np.zeros(d.size, dtype=bool)
+    y_fit, used = np.full(d.size, np.nan), np.zeros(d.size, dtype=bool)
     if force is not None:
-        y_fit[np.nonzero(b.loading)[0]] = force  # loading rows are increasing in d (bend_window)
+        used = b.loading
+        y_fit[used] = force  # loading rows are increasing in d (bend_window)
     where = "centreline" if b.centreline else "nose"
     label = f"{b.measurement.test.file.name} (span {1e3 * b.geometry.span:g} mm, {where})"
     return Series(label, d, np.asarray(b.measurement.table["force"]), y_fit, used)
-
-
-def _correlation(cov: np.ndarray) -> dict[str, float]:
-    return {"E_s|E_b": float(cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1]))}
 
 
 def _info(data, out: Outcome, shares, held, E_s: float, fe: dict) -> dict:
