@@ -173,7 +173,7 @@ class PronyFit:
 
     def stderr(self) -> dict[str, float | None]:
         """Standard errors by the delta method, se(p) = p se(log p); None when singular."""
-        names = ["prony_k0"] + [f"prony_k{i}" for i in range(1, self.n_terms + 1)]
+        names = [f"prony_k{i}" for i in range(self.n_terms + 1)]
         names += [f"prony_tau{i}" for i in range(1, self.n_terms + 1)]
         values = self.values()
         if self.covariance is None:

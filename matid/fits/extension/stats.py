@@ -84,10 +84,7 @@ def _sandwich(result, runs, sigma, ref, se):
     except (ValueError, np.linalg.LinAlgError):
         return se, None
     k = _values(result.params, ref)
-    out = dict(se)
-    for name, se_log in zip(names, cov.stderr, strict=True):
-        out[name] = k[name] * float(se_log)
-    return out, cov
+    return {**se, **{name: k[name] * float(s) for name, s in zip(names, cov.stderr, strict=True)}}, cov
 
 
 def _correlation(result) -> dict[str, float]:
