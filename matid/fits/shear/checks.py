@@ -177,9 +177,7 @@ def nose_ratio(S: float, kGA: float, c_loc: float) -> float:
 
 def consistency(per_span: Sequence[tuple[float, float, float]], joint: float) -> tuple[dict, str | None]:
     """chi^2 of per-span (span, E_s, sd of ln E_s) about the joint E_s; a warning when they disagree."""
-    chi2 = 0.0
-    for _, value, sd in per_span:
-        chi2 += (math.log(value / joint) / max(sd, SPAN_SD_FLOOR)) ** 2
+    chi2 = sum((math.log(value / joint) / max(sd, SPAN_SD_FLOOR)) ** 2 for _, value, sd in per_span)
     dof = len(per_span) - 1
     p = float(scipy.stats.chi2.sf(chi2, dof))
     info = {"chi2": chi2, "dof": dof, "p": p}
