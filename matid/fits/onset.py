@@ -188,12 +188,9 @@ def _trim(u: np.ndarray, y: np.ndarray, order: np.ndarray, lo: int, hi: int):
 
 
 def linear_range(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Mask of the rows in the linear range ``x_lo <= x <= x_hi`` of ``y = c + a x`` data.
-
-    Rows are taken as recorded (their order is the order of the noise); the range is
-    found in x (module docstring, step 2), with no start at zero or direction assumed.
-    With LINEAR_RANGE_MIN_POINTS finite rows or fewer, all of them are returned.
-    """
+    """Mask of the rows in the linear range ``x_lo <= x <= x_hi`` of ``y = c + a x`` data, rows
+    in recording order (module docstring); with LINEAR_RANGE_MIN_POINTS finite rows or fewer,
+    all of them."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if x.ndim != 1 or x.shape != y.shape:
         raise ValueError("x and y must be 1-d arrays of the same length")

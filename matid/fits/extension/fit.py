@@ -20,15 +20,8 @@ E_e = k1. k2 and eta are identifiable only when tau lies inside the observed tim
 window of some run; otherwise the fit says so instead of printing a bare number.
 
 The fit (:func:`fit_extension`) is a joint weighted least-squares fit over all runs of
-one specimen in log-parameters ``log(k / k_start)`` (positive, well scaled). Starts come
-from variable projection: for fixed tau the model is linear in (k1, eta), so a grid of
-tau over the observed window is solved by non-negative least squares and the best
-local minima seed lmfit's Levenberg-Marquardt (``leastsq``); the 95 % profile intervals
-are ``lmfit.conf_interval``, on which matid adds the AR(1) sandwich, lack of fit and
-identifiability.
-
-The parts: runs in SI (:mod:`matid.fits.extension.runs`), the least squares
-(:mod:`matid.fits.extension.lsq`), standard errors and intervals
+one specimen in log-parameters. The parts: runs in SI (:mod:`matid.fits.extension.runs`),
+the least squares and its starts (:mod:`matid.fits.extension.lsq`), standard errors and intervals
 (:mod:`matid.fits.extension.stats`), the bin means of long records
 (:mod:`matid.fits.extension.reduce`), identifiability and cautions
 (:mod:`matid.fits.extension.checks`); this module assembles the estimates.

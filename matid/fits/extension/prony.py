@@ -210,11 +210,8 @@ def _budget(n_terms: int) -> int:
 
 
 def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
-    """The n-arm fit with the least weighted RSS, or None when an arm vanishes (k_i = 0).
-
-    lmfit's ``least_squares`` (trust region reflective, within the bounds) on log tau;
-    the stiffnesses are projected out by NNLS in each evaluation (variable projection).
-    """
+    """The n-arm fit (module docstring) with the least weighted RSS over the starts, or None
+    when an arm vanishes (k_i = 0)."""
     low = min(float(np.median(np.diff(d.t))) for d in data)
     high = max(float(d.t[-1] - d.t[0]) for d in data)
     bounds = (math.log(low / 100.0), math.log(high * 100.0))

@@ -65,14 +65,10 @@ def jacobian(params: lmfit.Parameters, runs, sigma, ref) -> np.ndarray:
 
 
 def _sandwich(result, runs, sigma, ref, se):
-    """Standard errors from the AR(1) sandwich covariance of :mod:`matid.fits.stats`.
-
-    Dense extension records have correlated residuals (and a misfit looks the same):
-    lmfit's i.i.d. errors then shrink with the sampling rate, not with the information.
-    The Jacobian of the weighted residuals in the log-parameters is :func:`jacobian`; both
-    are taken on every used row, also where the fit ran on bin means (a long record).
-    Returns (se, covariance); the covariance is None (and se unchanged) when a parameter
-    has no error.
+    """Standard errors from the AR(1) sandwich covariance of :mod:`matid.fits.stats` on
+    :func:`jacobian`, on every used row (also where the fit ran on bin means): lmfit's i.i.d.
+    errors would shrink with the sampling rate, not with the information. Returns (se,
+    covariance); the covariance is None (and se unchanged) when a parameter has no error.
     """
     names = [n for n in _ORDER if result.params[n].vary]
     if not names or any(se[n] is None for n in names):
@@ -117,12 +113,8 @@ def _profile(minimizer, result, ref, names: Sequence[str]) -> dict[str, tuple[fl
 
 
 def _intervals(minimizer, result, ref, se, *, profile: bool, dof: float) -> dict[str, tuple]:
-    """95 % intervals: ((low, high), method) per fitted parameter.
-
-    k1 enters F linearly: a t-interval. k2 and eta act through exp(-t k2/eta), so the
-    chi-square is not quadratic in them; when they are identifiable their interval is the
-    profile likelihood, else (or if profiling fails) the t-interval of log k.
-    """
+    """95 % intervals: ((low, high), method) per fitted parameter (module docstring); the
+    profile likelihood, with ``profile`` (k2 and eta identifiable), where lmfit brackets it."""
     k = _values(result.params, ref)
     tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
     out = {}

@@ -17,14 +17,7 @@ a bias that small moves E_s by about a tenth of its standard error at most. The 
 are chosen at the first evaluation and held through Levenberg-Marquardt (the residual
 stays one smooth function of x); :meth:`Problem.refine` checks them at the solution.
 A fit costs knots, not rows: up to 2 START_KNOTS - 1 rows, every distinct row is a knot
-(the per-row solve, exact).
-
-:class:`Problem` solves every bend test's path at given (log E_s[, log E_b]) and
-keeps each evaluation with its paths, the warm starts of the next.
-:func:`least_squares` minimises over those log stiffnesses with scipy's least_squares
-and the solver's Jacobian; :func:`statistics` gives the covariance at the minimum,
-:func:`fe_error` the discretisation error of E_s (Richardson, half the elements) and
-:func:`span_fits` E_s of each span alone. See :mod:`matid.fits.shear.fit` for the model.
+(the per-row solve, exact). The model and the statistics: :mod:`matid.fits.shear.fit`.
 """
 
 from __future__ import annotations
