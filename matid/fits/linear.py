@@ -120,6 +120,11 @@ class LineFit:
     offset_p: float  # p-value of "all offsets are zero"
 
     @property
+    def value(self) -> tuple[float, float, tuple[float, float], int]:
+        """(slope, stderr, ci95, n): the first fields of an Estimate."""
+        return self.slope, self.stderr, self.ci95, self.n
+
+    @property
     def inflation(self) -> float:
         return float(self.covariance.inflation[0])
 
@@ -310,7 +315,7 @@ def slope_result(kind: str, specimen: str, measurements, parameter: str, line, l
         kind=kind,
         specimen=specimen,
         tests=tuple(m.test for m in measurements),
-        estimates=(Estimate(parameter, fit.slope, fit.stderr, fit.ci95, fit.n, "linear", texts, extra),),
+        estimates=(Estimate(parameter, *fit.value, "linear", texts, extra),),
         series=series,
         x_label=x_label,
         y_label="torque [N m]",

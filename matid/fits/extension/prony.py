@@ -313,11 +313,10 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
 
 
 def _estimate(name: str, value: float, se: float | None, dof: float, n: int, warnings_=()) -> Estimate:
-    ci = None
-    if se is not None and math.isfinite(se) and value > 0:
-        tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
-        ci = stats.wald_log_interval(value, se, tq)
     se = se if se is not None and math.isfinite(se) else None
+    ci = None
+    if se is not None and value > 0:
+        ci = stats.wald_log_interval(value, se, float(sstats.t.ppf(0.975, max(dof, 1.0))))
     return Estimate(name, value, se, ci, n, "prony", tuple(warnings_), {"ci_method": "t-log" if ci else None})
 
 
