@@ -39,7 +39,6 @@ from dataclasses import dataclass
 import lmfit
 import numpy as np
 from scipy import optimize
-from scipy import stats as sstats
 
 from matid.fits import stats
 from matid.fits.extension.reduce import Reduction
@@ -316,7 +315,7 @@ def _estimate(name: str, value: float, se: float | None, dof: float, n: int, war
     se = se if se is not None and math.isfinite(se) else None
     ci = None
     if se is not None and value > 0:
-        ci = stats.wald_log_interval(value, se, float(sstats.t.ppf(0.975, max(dof, 1.0))))
+        ci = stats.wald_log_interval(value, se, stats.t95(dof))
     return Estimate(name, value, se, ci, n, "prony", tuple(warnings_), {"ci_method": "t-log" if ci else None})
 
 

@@ -16,7 +16,6 @@ from collections.abc import Mapping, Sequence
 
 import lmfit
 import numpy as np
-from scipy import stats as sstats
 
 from matid.fits import stats
 from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _minimise, _values, residual
@@ -116,7 +115,7 @@ def _intervals(minimizer, result, ref, se, *, profile: bool, dof: float) -> dict
     """95 % intervals: ((low, high), method) per fitted parameter (module docstring); the
     profile likelihood, with ``profile`` (k2 and eta identifiable), where lmfit brackets it."""
     k = _values(result.params, ref)
-    tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
+    tq = stats.t95(dof)
     out = {}
     for name in _ORDER:
         if se[name] is not None:

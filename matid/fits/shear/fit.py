@@ -39,14 +39,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.stats
 
 from matid.errors import DataError, FitError
 from matid.fits.shear.checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
 from matid.fits.shear.problem import Problem, fe_error, least_squares, span_fits, statistics
 from matid.fits.shear.torsion import agreement
 from matid.fits.shear.window import Cut, check_plausible, cut
-from matid.fits.stats import Covariance, lack_of_fit
+from matid.fits.stats import Covariance, lack_of_fit, t95
 from matid.io.ingest.read import Measurement
 from matid.io.results import Estimate, Series, TestFit
 from matid.io.study import Specimen
@@ -228,7 +227,7 @@ def fit_three_point_bend(
     mf = model_form_variance(data, E_b_est.value, check.info, E_s, model_form)
     var_log += mf["var_log"]
     m = out.r.size
-    t = float(scipy.stats.t.ppf(0.975, out.covariance.dof))
+    t = t95(out.covariance.dof)
     sd_log = float(np.sqrt(var_log))
     E_b = float(np.exp(out.x[1])) if fit_E_b else E_b_est.value
     shares = [shear_share(b.geometry.span, E_b, E_s) for b in data]
