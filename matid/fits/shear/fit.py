@@ -371,22 +371,22 @@ def _info(data, out: Outcome, shares, held, E_s: float, fe: dict) -> dict:
 
 def _plot_data(data, out: Outcome, r10: np.ndarray) -> dict:
     """Arrays the report draws: Timoshenko-only curves, +10 % E_s curves, the deformed shape."""
-    E_s, E_b = out.problem.params(out.x)
-    curves, start = [], 0
     problem = out.problem
-    for b, force, path, model in zip(data, problem.force, problem.paths, problem.models, strict=True):
-        n = b.d.size
-        curves.append(
-            {
-                "label": b.measurement.test.file.name,
-                "span": b.geometry.span,
-                "d": b.d,
-                "F": b.F,
-                "model": force,
-                "timoshenko": timoshenko_force(b.d, b.geometry.span, E_b, E_s),
-                "plus10": r10[start : start + n] + b.F,
-                "shape": model.shape(path),
-            }
+    E_s, E_b = problem.params(out.x)
+    plus10 = np.split(r10, np.cumsum([b.d.size for b in data])[:-1])
+    curves = [
+        {
+            "label": b.measurement.test.file.name,
+            "span": b.geometry.span,
+            "d": b.d,
+            "F": b.F,
+            "model": force,
+            "timoshenko": timoshenko_force(b.d, b.geometry.span, E_b, E_s),
+            "plus10": r + b.F,
+            "shape": model.shape(path),
+        }
+        for b, r, force, path, model in zip(
+            data, plus10, problem.force, problem.paths, problem.models, strict=True
         )
-        start += n
+    ]
     return {"curves": curves, "noise_N": out.sigma}
