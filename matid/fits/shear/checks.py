@@ -38,9 +38,9 @@ import scipy.stats
 from matid.fits.shear.torsion import (
     CONTACT_N,
     CONTACT_REF,
+    half_depths,
     local_compliance,
     reference_kGA,
-    section,
     value_range,
     young_modulus,
 )
@@ -143,7 +143,7 @@ def assess(
 
 def load_factor(max_force: float, specimen: Specimen, E: float) -> float:
     """(F_max / F_cal)^(n - 1) beyond the calibrated force F_cal (scaled by E t^2), else 1."""
-    a, b, _, _ = section(specimen)
+    a, b = half_depths(specimen)
     F_cal = CALIBRATED_FORCE * (E / CONTACT_REF["E"]) * ((a - b) / CONTACT_REF["t"]) ** 2
     return min(1.0, (max_force / F_cal) ** (CONTACT_N - 1.0))
 
