@@ -174,11 +174,8 @@ def reference_kGA(known: Mapping[str, Estimate], specimen: Specimen) -> tuple[fl
     E_e = known.get("E_e")
     if E_e is None or shear_coefficient(0.3, specimen) is None:
         return None
-    values = [
-        shear_coefficient(nu, specimen) * E_e.value / (2 * (1 + nu))
-        for nu in np.linspace(*nu_range(specimen), 11)
-    ]
     lo, hi = nu_range(specimen)
+    values = [shear_coefficient(nu, specimen) * E_e.value / (2 * (1 + nu)) for nu in np.linspace(lo, hi, 11)]
     return min(values), max(values), f"E_e = {E_e.value:.4g} N with nu {value_range(lo, hi)} (isotropic wall)"
 
 
