@@ -85,9 +85,7 @@ def design(
 
 def summary(options: Sequence[Option], precision: float) -> str:
     """A compact table and the recommendation."""
-    lines = [
-        f"{'span':>8}  {'measurement':<11} {'shear share':>11} {'sd(E_s)':>8} {'nose bias':>14}  ok",
-    ]
+    lines = [f"{'span':>8}  {'measurement':<11} {'shear share':>11} {'sd(E_s)':>8} {'nose bias':>14}  ok"]
     for o in options:
         bias = f"{100 * o.bias[1]:+.0f}..{100 * o.bias[0]:+.0f} %" if o.measurement == "nose" else "-"
         lines.append(

@@ -175,11 +175,8 @@ def _design(xs: Sequence[np.ndarray], w: Sequence[float], offsets: bool) -> np.n
 
 
 def _solve(xs, ys, offsets: bool):
-    """Iteratively reweighted lmfit fit: (coef, weighted design, weighted residuals, sigma, covariance).
-
-    ``coef`` is (slope, offset of each file) as lmfit found them; one lmfit Model
-    :func:`tared_line` per file, parameters prefixed ``f<i>_``.
-    """
+    """Iteratively reweighted lmfit fit, one Model :func:`tared_line` per file (prefix ``f<i>_``):
+    (slope and offset of each file, weighted design, weighted residuals, sigma, covariance)."""
     scale = float(np.max(np.abs(np.concatenate(ys)))) or 1.0
     sigma = [stats.difference_noise(y) or 1e-9 * scale for y in ys]
     models = [lmfit.Model(tared_line, prefix=f"f{f}_") for f in range(len(xs))]
@@ -213,15 +210,10 @@ def _offset_p(coef: np.ndarray, cov: stats.Covariance) -> float:
 
 
 def fit_lines(records: Sequence[Record]) -> LineFit:
-    """Weighted least squares of ``y = c_f + E x`` over the used rows of all records.
-
-    Weights 1 / s_f with s_f the residual rms of file f, iterated from the
-    second-difference noise. The offsets are kept when a Wald test on the AR(1)
-    covariance finds them (p < OFFSET_ALPHA) or when the residuals are correlated (then
-    the noise's level at x = 0 is itself an offset; measured: through the origin, AR(1)
-    0.95 noise gave 77 % coverage); otherwise the lines go through the origin, which is
-    then known, and the slope is not paid for with an intercept per file.
-    Raises FitError when the rows cannot give a slope and its error.
+    """Weighted least squares of ``y = c_f + E x`` over the used rows of all records (module
+    docstring). The offsets are also kept when the residuals are correlated: the noise's level
+    at x = 0 is then itself an offset (measured: through the origin, AR(1) 0.95 noise gave 77 %
+    coverage). Raises FitError when the rows cannot give a slope and its error.
     """
     recs = [r for r in records if r.used.sum() > 0]
     xs = [r.x[r.used] for r in recs]

@@ -56,11 +56,7 @@ def _noise_factor(u: np.ndarray, y: np.ndarray, order: np.ndarray) -> tuple[floa
     alternative misses would otherwise be read as correlated noise, and hide itself."""
     degree = int(min(NOISE_DEGREE, max(3, u.size // 10)))
     scaled = (u - u.min()) / max(float(np.ptp(u)), 1e-300) * 2.0 - 1.0
-    basis = np.polynomial.legendre.legvander(scaled, degree)
-    # normal equations of an orthogonal basis on [-1, 1]: well conditioned, and ~100x
-    # faster than an SVD least squares of the tall matrix on a loaded machine
-    coef, _, rank, _ = np.linalg.lstsq(basis.T @ basis, basis.T @ y, rcond=None)
-    resid = y - basis @ coef
+    resid, rank = _fit(np.polynomial.legendre.legvander(scaled, degree), y)  # orthogonal on [-1, 1]
     return stats.variance_factor(resid[np.argsort(order)], n_params=rank)
 
 
@@ -68,9 +64,9 @@ def _extra_p(null: np.ndarray, alt: np.ndarray, y: np.ndarray, noise: tuple[floa
     """p-value of the F-test of nested designs, divided by the AR(1) variance factor
     ``noise = (f, n_eff)`` of the noise, on n_eff denominator dof."""
     rss0 = _rss(null, y)
-    coef, _, rank, _ = np.linalg.lstsq(alt.T @ alt, alt.T @ y, rcond=None)  # as in _rss
+    resid, rank = _fit(alt, y)
     rank0 = np.linalg.matrix_rank(null.T @ null)
-    rss1 = float(np.sum((y - alt @ coef) ** 2))
+    rss1 = float(np.sum(resid**2))
     q, dof = rank - rank0, y.size - rank
     if q < 1 or dof < 1:
         return 1.0
@@ -86,12 +82,17 @@ def _hinges(u: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return np.column_stack([np.ones_like(u), u, np.minimum(u - lo, 0.0) ** 2, np.maximum(u - hi, 0.0) ** 2])
 
 
+def _fit(design: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, int]:
+    """Residuals and rank of the least-squares fit of ``design`` to ``y`` (one column or more) by
+    the normal equations, rank deficiency allowed: accurate for a few columns of order one, and
+    ~100x cheaper than an SVD of the tall matrix (the onset scans make ~10^3 fits)."""
+    coef, _, rank, _ = np.linalg.lstsq(design.T @ design, design.T @ y, rcond=None)
+    return y - design @ coef, int(rank)
+
+
 def _rss(design: np.ndarray, y: np.ndarray) -> float:
-    """Residual sum of squares of the least-squares fit of ``design`` (a few columns of
-    order one: the normal equations, solved with rank deficiency allowed, are accurate
-    and far cheaper than an SVD of the tall matrix, which the onset scans call ~10^3 times)."""
-    coef, *_ = np.linalg.lstsq(design.T @ design, design.T @ y, rcond=None)
-    return float(np.sum((y - design @ coef) ** 2))
+    """Residual sum of squares of the least-squares fit of ``design``."""
+    return float(np.sum(_fit(design, y)[0] ** 2))
 
 
 def _scan(fixed: np.ndarray, columns: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -99,8 +100,7 @@ def _scan(fixed: np.ndarray, columns: np.ndarray, y: np.ndarray) -> np.ndarray:
 
     With P the projection off ``fixed``: RSS_k = |Py|^2 - (Ph_k . Py)^2 / |Ph_k|^2.
     """
-    coef, *_ = np.linalg.lstsq(fixed.T @ fixed, fixed.T @ np.column_stack([y, columns]), rcond=None)
-    resid = np.column_stack([y, columns]) - fixed @ coef
+    resid, _ = _fit(fixed, np.column_stack([y, columns]))
     ry, rh = resid[:, 0], resid[:, 1:]
     norm = np.sum(rh**2, axis=0)
     gain = np.divide(
@@ -188,12 +188,9 @@ def _trim(u: np.ndarray, y: np.ndarray, order: np.ndarray, lo: int, hi: int):
 
 
 def linear_range(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Mask of the rows in the linear range ``x_lo <= x <= x_hi`` of ``y = c + a x`` data.
-
-    Rows are taken as recorded (their order is the order of the noise); the range is
-    found in x (module docstring, step 2), with no start at zero or direction assumed.
-    With LINEAR_RANGE_MIN_POINTS finite rows or fewer, all of them are returned.
-    """
+    """Mask of the rows in the linear range ``x_lo <= x <= x_hi`` of ``y = c + a x`` data, rows
+    in recording order (module docstring); with LINEAR_RANGE_MIN_POINTS finite rows or fewer,
+    all of them."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if x.ndim != 1 or x.shape != y.shape:
         raise ValueError("x and y must be 1-d arrays of the same length")

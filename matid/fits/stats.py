@@ -231,9 +231,14 @@ def central_jacobian(f, x: np.ndarray, step: float) -> np.ndarray:
     return np.column_stack([(f(x + step * e) - f(x - step * e)) / (2 * step) for e in np.eye(x.size)])
 
 
-def interval(value: float, se: float, dof: float, level: float = 0.95) -> tuple[float, float]:
-    """``value -+ t_{(1+level)/2, dof} se``."""
-    half = float(sstats.t.ppf(0.5 + level / 2.0, max(dof, 1.0))) * se
+def t95(dof: float) -> float:
+    """Student's t quantile of a two-sided 95 % interval on ``dof`` (at least 1) degrees of freedom."""
+    return float(sstats.t.ppf(0.975, max(dof, 1.0)))
+
+
+def interval(value: float, se: float, dof: float) -> tuple[float, float]:
+    """The 95 % interval ``value -+ t95(dof) se``."""
+    half = t95(dof) * se
     return value - half, value + half
 
 

@@ -20,15 +20,8 @@ E_e = k1. k2 and eta are identifiable only when tau lies inside the observed tim
 window of some run; otherwise the fit says so instead of printing a bare number.
 
 The fit (:func:`fit_extension`) is a joint weighted least-squares fit over all runs of
-one specimen in log-parameters ``log(k / k_start)`` (positive, well scaled). Starts come
-from variable projection: for fixed tau the model is linear in (k1, eta), so a grid of
-tau over the observed window is solved by non-negative least squares and the best
-local minima seed lmfit's Levenberg-Marquardt (``leastsq``); the 95 % profile intervals
-are ``lmfit.conf_interval``, on which matid adds the AR(1) sandwich, lack of fit and
-identifiability.
-
-The parts: runs in SI (:mod:`matid.fits.extension.runs`), the least squares
-(:mod:`matid.fits.extension.lsq`), standard errors and intervals
+one specimen in log-parameters. The parts: runs in SI (:mod:`matid.fits.extension.runs`),
+the least squares and its starts (:mod:`matid.fits.extension.lsq`), standard errors and intervals
 (:mod:`matid.fits.extension.stats`), the bin means of long records
 (:mod:`matid.fits.extension.reduce`), identifiability and cautions
 (:mod:`matid.fits.extension.checks`); this module assembles the estimates.
@@ -46,7 +39,7 @@ import numpy as np
 from matid.errors import FitError
 from matid.fits.extension import prony
 from matid.fits.extension.checks import _k1_warnings, _unidentifiable
-from matid.fits.extension.lsq import _models, _solve, _values
+from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _models, _solve, _values
 from matid.fits.extension.runs import _Run, _run, _unique
 from matid.fits.extension.stats import _correlation, _covariance_fit, _intervals, _misfit, _sandwich, _stderr
 from matid.io.results import Estimate, Series, TestFit
@@ -86,16 +79,11 @@ def _estimate(parameter, name, k, se, ci, n, fixed, warn=()) -> Estimate:
 def _plotted(run: _Run, model: np.ndarray) -> dict[str, np.ndarray]:
     """What a plot of the run draws: every row, or on a long record (residuals as bin means,
     :mod:`matid.fits.extension.reduce`) the bin means of the used rows, model alike."""
+    rows = {"time_s": run.t, "strain": run.eps, "force_N": run.force, "model_N": model}
     if run.reduce.starts is None:
-        return {"time_s": run.t, "strain": run.eps, "force_N": run.force, "model_N": model, "used": run.used}
-    means = run.reduce.means
-    out = {
-        "time_s": means(run.t),
-        "strain": means(run.eps),
-        "force_N": means(run.force),
-        "model_N": means(model),
-    }
-    return {**out, "used": np.ones(out["time_s"].size, dtype=bool)}
+        return {**rows, "used": run.used}
+    means = {key: run.reduce.means(values) for key, values in rows.items()}
+    return {**means, "used": np.ones(means["time_s"].size, dtype=bool)}
 
 
 def _series(runs: Sequence[_Run], models: Sequence[np.ndarray]) -> tuple[Series, ...]:
@@ -192,17 +180,13 @@ def fit_extension(
     why = [f"k2 and eta are not identifiable from the rates given: {'; '.join(reasons)}"] if reasons else []
     sls_warn = [w for w in (misfit, prony_sls) if w]
     k1_warn = list(_k1_warnings(k, se, runs, bool(reasons))) if "k1" not in fixed_k else []
-    e_e = _estimate("E_e", "k1", k, se, ci, n, fixed_k, [*k1_warn, *sls_warn])
+    warn = {"k1": [*k1_warn, *sls_warn], "k2": [*why, *sls_warn], "eta": [*why, *sls_warn]}
+    sls = [_estimate(_PARAM_NAMES[name], name, k, se, ci, n, fixed_k, warn[name]) for name in _ORDER]
+    e_e = replace(sls[0], parameter="E_e")
     if prony_estimates:
         k0 = prony_estimates[0]
         e_e = replace(k0, parameter="E_e", warnings=(prony_e_e, *k0.warnings))
-    estimates = (
-        e_e,
-        _estimate("sls_k1", "k1", k, se, ci, n, fixed_k, [*k1_warn, *sls_warn]),
-        _estimate("sls_k2", "k2", k, se, ci, n, fixed_k, [*why, *sls_warn]),
-        _estimate("sls_eta", "eta", k, se, ci, n, fixed_k, [*why, *sls_warn]),
-        *prony_estimates,
-    )
+    estimates = (e_e, *sls, *prony_estimates)
     models = _models(runs, k)
     info = _info(runs, models, k, sigma, n - result.nvarys)
     info["lack_of_fit"] = lof.as_info()

@@ -39,7 +39,6 @@ from dataclasses import dataclass
 import lmfit
 import numpy as np
 from scipy import optimize
-from scipy import stats as sstats
 
 from matid.fits import stats
 from matid.fits.extension.reduce import Reduction
@@ -173,7 +172,7 @@ class PronyFit:
 
     def stderr(self) -> dict[str, float | None]:
         """Standard errors by the delta method, se(p) = p se(log p); None when singular."""
-        names = ["prony_k0"] + [f"prony_k{i}" for i in range(1, self.n_terms + 1)]
+        names = [f"prony_k{i}" for i in range(self.n_terms + 1)]
         names += [f"prony_tau{i}" for i in range(1, self.n_terms + 1)]
         values = self.values()
         if self.covariance is None:
@@ -210,11 +209,8 @@ def _budget(n_terms: int) -> int:
 
 
 def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
-    """The n-arm fit with the least weighted RSS, or None when an arm vanishes (k_i = 0).
-
-    lmfit's ``least_squares`` (trust region reflective, within the bounds) on log tau;
-    the stiffnesses are projected out by NNLS in each evaluation (variable projection).
-    """
+    """The n-arm fit (module docstring) with the least weighted RSS over the starts, or None
+    when an arm vanishes (k_i = 0)."""
     low = min(float(np.median(np.diff(d.t))) for d in data)
     high = max(float(d.t[-1] - d.t[0]) for d in data)
     bounds = (math.log(low / 100.0), math.log(high * 100.0))
@@ -316,11 +312,10 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
 
 
 def _estimate(name: str, value: float, se: float | None, dof: float, n: int, warnings_=()) -> Estimate:
-    ci = None
-    if se is not None and math.isfinite(se) and value > 0:
-        tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
-        ci = stats.wald_log_interval(value, se, tq)
     se = se if se is not None and math.isfinite(se) else None
+    ci = None
+    if se is not None and value > 0:
+        ci = stats.wald_log_interval(value, se, stats.t95(dof))
     return Estimate(name, value, se, ci, n, "prony", tuple(warnings_), {"ci_method": "t-log" if ci else None})
 
 

@@ -16,7 +16,6 @@ from collections.abc import Mapping, Sequence
 
 import lmfit
 import numpy as np
-from scipy import stats as sstats
 
 from matid.fits import stats
 from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _minimise, _values, residual
@@ -65,14 +64,10 @@ def jacobian(params: lmfit.Parameters, runs, sigma, ref) -> np.ndarray:
 
 
 def _sandwich(result, runs, sigma, ref, se):
-    """Standard errors from the AR(1) sandwich covariance of :mod:`matid.fits.stats`.
-
-    Dense extension records have correlated residuals (and a misfit looks the same):
-    lmfit's i.i.d. errors then shrink with the sampling rate, not with the information.
-    The Jacobian of the weighted residuals in the log-parameters is :func:`jacobian`; both
-    are taken on every used row, also where the fit ran on bin means (a long record).
-    Returns (se, covariance); the covariance is None (and se unchanged) when a parameter
-    has no error.
+    """Standard errors from the AR(1) sandwich covariance of :mod:`matid.fits.stats` on
+    :func:`jacobian`, on every used row (also where the fit ran on bin means): lmfit's i.i.d.
+    errors would shrink with the sampling rate, not with the information. Returns (se,
+    covariance); the covariance is None (and se unchanged) when a parameter has no error.
     """
     names = [n for n in _ORDER if result.params[n].vary]
     if not names or any(se[n] is None for n in names):
@@ -84,10 +79,7 @@ def _sandwich(result, runs, sigma, ref, se):
     except (ValueError, np.linalg.LinAlgError):
         return se, None
     k = _values(result.params, ref)
-    out = dict(se)
-    for name, se_log in zip(names, cov.stderr, strict=True):
-        out[name] = k[name] * float(se_log)
-    return out, cov
+    return {**se, **{name: k[name] * float(s) for name, s in zip(names, cov.stderr, strict=True)}}, cov
 
 
 def _correlation(result) -> dict[str, float]:
@@ -120,14 +112,10 @@ def _profile(minimizer, result, ref, names: Sequence[str]) -> dict[str, tuple[fl
 
 
 def _intervals(minimizer, result, ref, se, *, profile: bool, dof: float) -> dict[str, tuple]:
-    """95 % intervals: ((low, high), method) per fitted parameter.
-
-    k1 enters F linearly: a t-interval. k2 and eta act through exp(-t k2/eta), so the
-    chi-square is not quadratic in them; when they are identifiable their interval is the
-    profile likelihood, else (or if profiling fails) the t-interval of log k.
-    """
+    """95 % intervals: ((low, high), method) per fitted parameter (module docstring); the
+    profile likelihood, with ``profile`` (k2 and eta identifiable), where lmfit brackets it."""
     k = _values(result.params, ref)
-    tq = float(sstats.t.ppf(0.975, max(dof, 1.0)))
+    tq = stats.t95(dof)
     out = {}
     for name in _ORDER:
         if se[name] is not None:

@@ -38,9 +38,9 @@ import scipy.stats
 from matid.fits.shear.torsion import (
     CONTACT_N,
     CONTACT_REF,
+    half_depths,
     local_compliance,
     reference_kGA,
-    section,
     value_range,
     young_modulus,
 )
@@ -143,7 +143,7 @@ def assess(
 
 def load_factor(max_force: float, specimen: Specimen, E: float) -> float:
     """(F_max / F_cal)^(n - 1) beyond the calibrated force F_cal (scaled by E t^2), else 1."""
-    a, b, _, _ = section(specimen)
+    a, b = half_depths(specimen)
     F_cal = CALIBRATED_FORCE * (E / CONTACT_REF["E"]) * ((a - b) / CONTACT_REF["t"]) ** 2
     return min(1.0, (max_force / F_cal) ** (CONTACT_N - 1.0))
 
@@ -177,9 +177,7 @@ def nose_ratio(S: float, kGA: float, c_loc: float) -> float:
 
 def consistency(per_span: Sequence[tuple[float, float, float]], joint: float) -> tuple[dict, str | None]:
     """chi^2 of per-span (span, E_s, sd of ln E_s) about the joint E_s; a warning when they disagree."""
-    chi2 = 0.0
-    for _, value, sd in per_span:
-        chi2 += (math.log(value / joint) / max(sd, SPAN_SD_FLOOR)) ** 2
+    chi2 = sum((math.log(value / joint) / max(sd, SPAN_SD_FLOOR)) ** 2 for _, value, sd in per_span)
     dof = len(per_span) - 1
     p = float(scipy.stats.chi2.sf(chi2, dof))
     info = {"chi2": chi2, "dof": dof, "p": p}

@@ -6,16 +6,11 @@ For every loading-branch point i of every bend test of a specimen (span S_k),
 
 minimised over log E_s (and log E_b with ``fit_E_b``), E_b and E_e taken from
 the specimen's own fits or [[fixed]] entries (physics.md section 6). F_rod is
-the nose force of :class:`matid.rod.bend.BendModel`, followed by continuation
-along knots (a few of the measured deflections, chosen by a tolerance on the
-interpolation error, below a tenth of the noise over sqrt(rows)) and
-interpolated to every row, warm-started from the previous iterate; its Jacobian
-dF/dE_s comes from the linearised equilibrium (one back-substitution per knot),
-not from differences of solver output (:mod:`matid.fits.shear.problem`: the
-knots, the interpolation, the residuals, the Jacobian, and scipy's
-least_squares, not lmfit, and why; for centreline data the Jacobian at fixed
-centreline deflection, :mod:`matid.fits.shear.centreline`). A fit costs the
-knots, not the rows (17-33 knots for 3000 rows).
+the nose force of :class:`matid.rod.bend.BendModel`, solved along a few knots and
+interpolated to every row, with dF/dE_s from the linearised equilibrium, not from
+differences of solver output (:mod:`matid.fits.shear.problem`, also why scipy's
+least_squares and not lmfit; centreline data: :mod:`matid.fits.shear.centreline`).
+A fit costs the knots, not the rows (17-33 knots for 3000 rows).
 
 The start is the classic Timoshenko estimate from the small-deflection
 compliance C = d/F:  C = S^3/(48 E_b) + S/(4 E_s).
@@ -44,14 +39,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.stats
 
 from matid.errors import DataError, FitError
 from matid.fits.shear.checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
 from matid.fits.shear.problem import Problem, fe_error, least_squares, span_fits, statistics
 from matid.fits.shear.torsion import agreement
 from matid.fits.shear.window import Cut, check_plausible, cut
-from matid.fits.stats import Covariance, lack_of_fit
+from matid.fits.stats import Covariance, lack_of_fit, t95
 from matid.io.ingest.read import Measurement
 from matid.io.results import Estimate, Series, TestFit
 from matid.io.study import Specimen
@@ -233,7 +227,7 @@ def fit_three_point_bend(
     mf = model_form_variance(data, E_b_est.value, check.info, E_s, model_form)
     var_log += mf["var_log"]
     m = out.r.size
-    t = float(scipy.stats.t.ppf(0.975, out.covariance.dof))
+    t = t95(out.covariance.dof)
     sd_log = float(np.sqrt(var_log))
     E_b = float(np.exp(out.x[1])) if fit_E_b else E_b_est.value
     shares = [shear_share(b.geometry.span, E_b, E_s) for b in data]
@@ -280,18 +274,19 @@ def fit_three_point_bend(
         "levels": out.levels,  # error against run time of every mesh level tried
         "interpolation": out.problem.interpolation(),
     }
-    est = _log_estimate("E_s", E_s, sd_log, t, m, fe, ())
+    est = _log_estimate("E_s", E_s, sd_log, t, m, fe)
     if check.widen > 1:
         est = replace(est, ci95=(est.ci95[0], float(est.ci95[1] * check.widen)))
     if "E_s_torsion" in known:
         extra_info["torsion_check"] = text = agreement(est, known["E_s_torsion"])
         warnings += [text] if "disagree" in text else []
-    estimates = [replace(est, warnings=tuple(warnings))]
+    estimates, correlation = [replace(est, warnings=tuple(warnings))], {}
     if fit_E_b:
-        estimates.append(_log_estimate("E_b", E_b, float(np.sqrt(out.cov_log[1, 1])), t, m, fe, ()))
-    info = _info(data, out, shares, held, E_s, fe)
-    info.update(extra_info)
-    info["measurement"] = "nose travel" if nose else "centreline deflection"
+        cov = out.cov_log
+        estimates.append(_log_estimate("E_b", E_b, float(np.sqrt(cov[1, 1])), t, m, fe))
+        correlation = {"E_s|E_b": float(cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1]))}
+    measured = "nose travel" if nose else "centreline deflection"
+    info = {**_info(data, out, shares, held, E_s, fe), **extra_info, "measurement": measured}
     return TestFit(
         kind="three_point_bend",
         specimen=specimen.id,
@@ -301,7 +296,7 @@ def fit_three_point_bend(
         + tuple(_series(b, None) for b in left_out),
         x_label="deflection [m]",
         y_label="force [N]",
-        correlation=_correlation(out.cov_log) if fit_E_b else {},
+        correlation=correlation,
         info=info,
     )
 
@@ -317,12 +312,10 @@ def _design_note(specimen: Specimen, known: Mapping[str, Estimate], E_b: float) 
     return "E_s to 5 %: " + summary(options, 0.05).splitlines()[-1]
 
 
-def _log_estimate(name: str, value: float, sd_log: float, t: float, n: int, fe: dict, warnings) -> Estimate:
+def _log_estimate(name: str, value: float, sd_log: float, t: float, n: int, fe: dict) -> Estimate:
     """An estimate fitted in log space: stderr value * sd_log, interval value * exp(+-t sd_log)."""
     ci = (value * float(np.exp(-t * sd_log)), value * float(np.exp(t * sd_log)))
-    return Estimate(
-        name, value, value * sd_log, ci, n_points=n, method="cosserat-fe", warnings=warnings, extra={"fe": fe}
-    )
+    return Estimate(name, value, value * sd_log, ci, n_points=n, method="cosserat-fe", extra={"fe": fe})
 
 
 def _propagated_variance(out: Outcome, E_b: Estimate, E_e: Estimate, fit_E_b: bool):
@@ -344,17 +337,13 @@ def _propagated_variance(out: Outcome, E_b: Estimate, E_e: Estimate, fit_E_b: bo
 def _series(b: BendData, force: np.ndarray | None) -> Series:
     """The whole file, with the model at the rows in the fit (none for a test left out)."""
     d = np.asarray(b.measurement.table["deflection"])
-    y_fit = np.full(d.size, np.nan)
-    used = b.loading if force is not None else np.zeros(d.size, dtype=bool)
+    y_fit, used = np.full(d.size, np.nan), np.zeros(d.size, dtype=bool)
     if force is not None:
-        y_fit[np.nonzero(b.loading)[0]] = force  # loading rows are increasing in d (bend_window)
+        used = b.loading
+        y_fit[used] = force  # loading rows are increasing in d (bend_window)
     where = "centreline" if b.centreline else "nose"
     label = f"{b.measurement.test.file.name} (span {1e3 * b.geometry.span:g} mm, {where})"
     return Series(label, d, np.asarray(b.measurement.table["force"]), y_fit, used)
-
-
-def _correlation(cov: np.ndarray) -> dict[str, float]:
-    return {"E_s|E_b": float(cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1]))}
 
 
 def _info(data, out: Outcome, shares, held, E_s: float, fe: dict) -> dict:
@@ -382,22 +371,22 @@ def _info(data, out: Outcome, shares, held, E_s: float, fe: dict) -> dict:
 
 def _plot_data(data, out: Outcome, r10: np.ndarray) -> dict:
     """Arrays the report draws: Timoshenko-only curves, +10 % E_s curves, the deformed shape."""
-    E_s, E_b = out.problem.params(out.x)
-    curves, start = [], 0
     problem = out.problem
-    for b, force, path, model in zip(data, problem.force, problem.paths, problem.models, strict=True):
-        n = b.d.size
-        curves.append(
-            {
-                "label": b.measurement.test.file.name,
-                "span": b.geometry.span,
-                "d": b.d,
-                "F": b.F,
-                "model": force,
-                "timoshenko": timoshenko_force(b.d, b.geometry.span, E_b, E_s),
-                "plus10": r10[start : start + n] + b.F,
-                "shape": model.shape(path),
-            }
+    E_s, E_b = problem.params(out.x)
+    plus10 = np.split(r10, np.cumsum([b.d.size for b in data])[:-1])
+    curves = [
+        {
+            "label": b.measurement.test.file.name,
+            "span": b.geometry.span,
+            "d": b.d,
+            "F": b.F,
+            "model": force,
+            "timoshenko": timoshenko_force(b.d, b.geometry.span, E_b, E_s),
+            "plus10": r + b.F,
+            "shape": model.shape(path),
+        }
+        for b, r, force, path, model in zip(
+            data, plus10, problem.force, problem.paths, problem.models, strict=True
         )
-        start += n
+    ]
     return {"curves": curves, "noise_N": out.sigma}

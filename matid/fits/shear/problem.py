@@ -17,14 +17,7 @@ a bias that small moves E_s by about a tenth of its standard error at most. The 
 are chosen at the first evaluation and held through Levenberg-Marquardt (the residual
 stays one smooth function of x); :meth:`Problem.refine` checks them at the solution.
 A fit costs knots, not rows: up to 2 START_KNOTS - 1 rows, every distinct row is a knot
-(the per-row solve, exact).
-
-:class:`Problem` solves every bend test's path at given (log E_s[, log E_b]) and
-keeps each evaluation with its paths, the warm starts of the next.
-:func:`least_squares` minimises over those log stiffnesses with scipy's least_squares
-and the solver's Jacobian; :func:`statistics` gives the covariance at the minimum,
-:func:`fe_error` the discretisation error of E_s (Richardson, half the elements) and
-:func:`span_fits` E_s of each span alone. See :mod:`matid.fits.shear.fit` for the model.
+(the per-row solve, exact). The model and the statistics: :mod:`matid.fits.shear.fit`.
 """
 
 from __future__ import annotations
@@ -95,16 +88,15 @@ def interpolate(qk: np.ndarray, F, slope, dF: dict, q: np.ndarray) -> tuple[np.n
         return F[0] * ones, {p: v[0] * ones for p, v in dF.items()}, np.zeros(q.size)
     force = CubicHermiteSpline(qk, F, slope)(q)
     error = np.abs(force - CubicSpline(qk, F)(q))
-    names = list(dF)
-    table = CubicSpline(qk, np.column_stack([dF[p] for p in names]))(q) if names else None
     pos = np.minimum(np.searchsorted(qk, q), qk.size - 1)
     on = qk[pos] == q
     force[on], error[on] = F[pos[on]], 0.0
-    rows = {}
-    for i, p in enumerate(names):
-        rows[p] = table[:, i]
-        rows[p][on] = dF[p][pos[on]]
-    return force, rows, error
+    if not dF:
+        return force, {}, error
+    at_knots = np.column_stack(list(dF.values()))
+    table = CubicSpline(qk, at_knots)(q)
+    table[on] = at_knots[pos[on]]
+    return force, dict(zip(dF, table.T, strict=True)), error
 
 
 def tolerance(F: np.ndarray) -> float:
@@ -312,16 +304,11 @@ def fe_error(problem: Problem, x: np.ndarray, data, E_e: float, fit_E_b: bool) -
     dx, *_ = np.linalg.lstsq(J[rows], dF, rcond=None)
     error = float(abs(dx[0]))
     levels = [
-        {
-            "elements": coarse.models[0].elements,
-            "discretization_error": error * 2.0**ORDER,
-            "runtime_s": coarse.cold_runtime_s * scale,
-        },
-        {
-            "elements": problem.models[0].elements,
-            "discretization_error": error,
-            "runtime_s": problem.cold_runtime_s,
-        },
+        {"elements": p.models[0].elements, "discretization_error": e, "runtime_s": t}
+        for p, e, t in (
+            (coarse, error * 2.0**ORDER, coarse.cold_runtime_s * scale),
+            (problem, error, problem.cold_runtime_s),
+        )
     ]
     return error, levels
 

@@ -89,13 +89,11 @@ def shear_coefficient(nu: float, specimen: Specimen) -> float | None:
     return hutchinson_k(nu, a, b)
 
 
-def section(specimen: Specimen) -> tuple[float, float, float, float]:
-    """(a, b, A, J) [m, m, m^2, m^4]: outer and inner half-depth along the bend load (a
-    rectangle: h/2 and 0, the solid rod of its depth for the contact's order of magnitude),
-    area and torsion constant of the specimen's section."""
+def half_depths(specimen: Specimen) -> tuple[float, float]:
+    """(a, b) [m]: outer and inner half-depth along the bend load (a rectangle: h/2 and 0, the
+    solid rod of its depth for the contact's order of magnitude)."""
     sec = specimen.section
-    a, b = (0.5 * sec.height, 0.0) if sec.shape == "rectangle" else sec.radii
-    return a, b, sec.A, sec.J
+    return (0.5 * sec.height, 0.0) if sec.shape == "rectangle" else sec.radii
 
 
 def nu_range(specimen: Specimen) -> tuple[float, float]:
@@ -121,11 +119,10 @@ def e_s_torsion(E_t: Estimate, specimen: Specimen) -> Estimate:
             "E_s_torsion", math.nan, None, None, n_points=E_t.n_points, method="shear-coefficient",
             withheld=OPEN_SECTION, extra={"section": specimen.section.describe()},
         )  # fmt: skip
-    _, _, A, J = section(specimen)
     k_lo, k_hi = _k_range(specimen)
     k = math.sqrt(k_lo * k_hi)
     h = 0.5 * math.log(k_hi / k_lo)
-    value = k * A * E_t.value / J
+    value = k * specimen.section.A * E_t.value / specimen.section.J
     sd_t = (E_t.stderr or 0.0) / E_t.value
     ci_t = math.log(E_t.ci95[1] / E_t.value) if E_t.ci95 else 1.96 * sd_t
     half = math.hypot(ci_t, 0.95 * h)
@@ -177,27 +174,23 @@ def reference_kGA(known: Mapping[str, Estimate], specimen: Specimen) -> tuple[fl
     E_e = known.get("E_e")
     if E_e is None or shear_coefficient(0.3, specimen) is None:
         return None
-    values = [
-        shear_coefficient(nu, specimen) * E_e.value / (2 * (1 + nu))
-        for nu in np.linspace(*nu_range(specimen), 11)
-    ]
     lo, hi = nu_range(specimen)
+    values = [shear_coefficient(nu, specimen) * E_e.value / (2 * (1 + nu)) for nu in np.linspace(lo, hi, 11)]
     return min(values), max(values), f"E_e = {E_e.value:.4g} N with nu {value_range(lo, hi)} (isotropic wall)"
 
 
 def young_modulus(known: Mapping[str, Estimate], specimen: Specimen) -> float | None:
     """E of the wall from E_e / A (or 2 (1 + nu) E_t / J without an extension test)."""
-    _, _, A, J = section(specimen)
     if "E_e" in known:
-        return known["E_e"].value / A
+        return known["E_e"].value / specimen.section.A
     if "E_t" in known:
-        return 2 * (1 + float(np.mean(nu_range(specimen)))) * known["E_t"].value / J
+        return 2 * (1 + float(np.mean(nu_range(specimen)))) * known["E_t"].value / specimen.section.J
     return None
 
 
 def local_compliance(specimen: Specimen, E: float) -> tuple[float, float]:
     """(low, high) local contact compliance of the nose travel [m/N] (module docstring)."""
-    a, b, _, _ = section(specimen)
+    a, b = half_depths(specimen)
     t = a - b
     R_m = 0.5 * (a + b)
     base = R_m**1.5 / (E * t**2.5)

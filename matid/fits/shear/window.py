@@ -85,21 +85,22 @@ def toe_offset(d: np.ndarray, F: np.ndarray) -> float:
     return float(d0) if d0 > 0 else 0.0
 
 
+def _drop(used: np.ndarray, out: np.ndarray, reason: str, reasons: dict[str, int]) -> np.ndarray:
+    """``used`` without the rows ``out``, counted in ``reasons`` when there are any."""
+    if out.any():
+        reasons[reason] = int(out.sum())
+    return used & ~out
+
+
 def _loading(d: np.ndarray, F: np.ndarray, used: np.ndarray, reasons: dict[str, int]) -> np.ndarray:
     """The used rows up to the peak force with a deflection above every earlier row (step 2)."""
     idx = np.nonzero(used)[0]
     if not idx.size:
         return used
-    peak = idx[int(np.argmax(F[idx]))]
-    after = used & (np.arange(d.size) > peak)
-    if after.any():
-        reasons["after the peak force (yield, fracture or unloading)"] = int(after.sum())
-    used = used & ~after
+    after = used & (np.arange(d.size) > idx[int(np.argmax(F[idx]))])
+    used = _drop(used, after, "after the peak force (yield, fracture or unloading)", reasons)
     earlier = np.r_[-np.inf, np.maximum.accumulate(np.where(used, d, -np.inf))[:-1]]
-    back = used & (d <= earlier)
-    if back.any():
-        reasons["deflection not above every earlier row (reversal)"] = int(back.sum())
-    return used & ~back
+    return _drop(used, used & (d <= earlier), "deflection not above every earlier row (reversal)", reasons)
 
 
 def _yield(d: np.ndarray, F: np.ndarray, used: np.ndarray, reasons: dict[str, int]) -> np.ndarray:
@@ -111,9 +112,9 @@ def _yield(d: np.ndarray, F: np.ndarray, used: np.ndarray, reasons: dict[str, in
     if curvature >= 0:
         return used
     top = float(np.max(d[idx][inside]))
-    past = used & (d > top)
-    reasons[f"past yield (force below the line beyond {1e3 * top:.4g} mm)"] = int(past.sum())
-    return used & ~past
+    return _drop(
+        used, used & (d > top), f"past yield (force below the line beyond {1e3 * top:.4g} mm)", reasons
+    )
 
 
 def cut(d: np.ndarray, F: np.ndarray, window: np.ndarray, *, windowed: bool = False) -> Cut:
@@ -122,10 +123,7 @@ def cut(d: np.ndarray, F: np.ndarray, window: np.ndarray, *, windowed: bool = Fa
     ``windowed``: the test has a window, which replaces the automatic toe and yield cuts.
     """
     reasons: dict[str, int] = {}
-    used = window.copy()
-    if (~window).any():
-        reasons["outside the test's window"] = int((~window).sum())
-    used = _loading(d, F, used, reasons)
+    used = _loading(d, F, _drop(window, ~window, "outside the test's window", reasons), reasons)
     if windowed:
         return Cut(used, 0.0, reasons)
     idx = np.nonzero(used)[0]
