@@ -189,7 +189,7 @@ class BendSystem:
 
     def force(self, X: np.ndarray, lam: float) -> float:
         """Scaled nose force of the whole tube."""
-        return float(2.0 * X[self.nu + 1] * (-self.normal_x(X, lam)))
+        return self.force_derivative(X, lam, X)  # the force is linear in the nose multiplier
 
     def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
         """A pulling contact is no answer: g = |r - c| - rho = 0 also holds on the far side of a
@@ -218,14 +218,9 @@ class Bordered:
     def __init__(self, K, B: np.ndarray, C: np.ndarray):
         self.K, self.B, self.C = K, B, C
 
-    @property
-    def shape(self) -> tuple[int, int]:
-        n = self.B.shape[0] + 3
-        return (n, n)
-
     def tocsr(self) -> sp.csr_matrix:
         n = self.B.shape[0]
-        A = np.zeros(self.shape)
+        A = np.zeros((n + 3, n + 3))
         A[:n, :n] = self.K.tocsr().toarray()
         A[:n, n:], A[n:, :n] = self.B, self.C
         return sp.csr_matrix(A)

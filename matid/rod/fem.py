@@ -120,25 +120,21 @@ class Discretisation:
         new.dx = self.dx * r
         new.s_quad = vertices[:-1, None] + (self.s_quad - self.vertices[:-1, None]) * r
         new.s_dof = np.empty(self.nscalar)  # each dof keeps its place in its element
-        new.s_dof[self.edofs] = vertices[:-1] + self._local() * h_new
+        new.s_dof[self.edofs] = vertices[:-1] + self.local * h_new
         one = np.ones_like(r)
         new.weighted = self.weighted * np.stack([r, one])[:, None]  # (2, 1, ne, 1)
         new.both = self.both * np.stack([one, 1.0 / r])[:, None]
         ne, nq = self.dx.shape
         kl = np.stack([r, one, one, 1.0 / r], axis=1)[:, None, :, :]  # (ne, 1, 4, 1)
-        T = self._tables().reshape(ne, nq, 4, -1) * kl
-        new._T = (new.weighted, T.reshape(ne, nq * 4, -1))
-        P = self._point_table().reshape(ne, nq, 2, -1) * np.stack([one, 1.0 / r], axis=1)[:, None, :, :]
-        new._P = (new.dphi, P.reshape(ne, nq * 2, -1))
+        new.element_tables = (self.element_tables.reshape(ne, nq, 4, -1) * kl).reshape(ne, nq * 4, -1)
+        P = self.point_table.reshape(ne, nq, 2, -1) * np.stack([one, 1.0 / r], axis=1)[:, None, :, :]
+        new.point_table = P.reshape(ne, nq * 2, -1)
         return new
 
-    def _local(self) -> np.ndarray:
+    @functools.cached_property
+    def local(self) -> np.ndarray:
         """Local coordinate in [0, 1] of each element dof (nloc, ne): where a moved mesh puts it."""
-        cached = self.__dict__.get("_t")
-        if cached is None:
-            v = self.vertices
-            cached = self._t = (self.s_dof[self.edofs] - v[:-1]) / np.diff(v)
-        return cached
+        return (self.s_dof[self.edofs] - self.vertices[:-1]) / np.diff(self.vertices)
 
     def vertex_dof(self, index: int) -> int:
         """Scalar dof of the value at mesh vertex ``index`` (scikit-fem's first nodal dof)."""
@@ -179,7 +175,7 @@ class Discretisation:
         if rows.size and np.max(np.abs(pos[rows] - pos[cols])) > u:
             raise ValueError("block_pattern: the blocks do not fit in the band (not node-local)")
         flat = (u + pos[rows] - pos[cols]) * self.band_order.size + pos[cols]
-        hit = self._blocks[key] = BlockPattern(dofs, keep, rows, cols, flat)
+        hit = self._blocks[key] = BlockPattern(keep, rows, cols, flat)
         return hit
 
     @property
@@ -228,27 +224,21 @@ class Discretisation:
     def point_values(self, U: np.ndarray) -> np.ndarray:
         """(u, u') at every quadrature point, shape (ne, nq, 2 nf): one batched matmul."""
         Ue = U.reshape(self.nscalar, self.nf)[self.edofs.T]  # (ne, nloc, nf)
-        return np.matmul(self._point_table(), Ue).reshape(self.ne, -1, 2 * self.nf)
+        return np.matmul(self.point_table, Ue).reshape(self.ne, -1, 2 * self.nf)
 
-    def _point_table(self) -> np.ndarray:
-        cached = self.__dict__.get("_P")
-        if cached is None or cached[0] is not self.dphi:
-            ne, nq = self.dx.shape
-            table = np.concatenate([self.phi[None], self.dphi[None]]).transpose(
-                2, 3, 0, 1
-            )  # (ne, nq, 2, nloc)
-            cached = self._P = (self.dphi, np.ascontiguousarray(table.reshape(ne, nq * 2, -1)))
-        return cached[1]
+    @functools.cached_property
+    def point_table(self) -> np.ndarray:
+        """[phi, phi'] at every quadrature point (ne, nq * 2, nloc): the map of :meth:`point_values`."""
+        ne, nq = self.dx.shape
+        table = np.stack([self.phi, self.dphi]).transpose(2, 3, 0, 1)  # (ne, nq, 2, nloc)
+        return np.ascontiguousarray(table.reshape(ne, nq * 2, -1))
 
-    def _tables(self) -> np.ndarray:
-        T = self.__dict__.get("_T")
-        if T is None or T[0] is not self.weighted:
-            W, Bo = self.weighted, self.both  # (2, nloc, ne, nq)
-            t = np.einsum("kieq,ljeq->eqklij", W, Bo)
-            ne, nq, nloc = t.shape[0], t.shape[1], W.shape[1]
-            T = (self.weighted, np.ascontiguousarray(t.reshape(ne, nq * 4, nloc * nloc)))
-            self._T = T
-        return T[1]
+    @functools.cached_property
+    def element_tables(self) -> np.ndarray:
+        """T = [phi, phi'] dx (x) [phi, phi'] at every point (ne, nq * 4, nloc^2) (:meth:`element_blocks`)."""
+        t = np.einsum("kieq,ljeq->eqklij", self.weighted, self.both)  # (2, nloc, ne, nq) each
+        ne, nq, nloc = t.shape[0], t.shape[1], self.weighted.shape[1]
+        return np.ascontiguousarray(t.reshape(ne, nq * 4, nloc * nloc))
 
     def element_blocks(self, H: np.ndarray) -> np.ndarray:
         """Element matrices from the pointwise Hessian, in the layout of the product (ne, nloc, nloc,
@@ -259,7 +249,7 @@ class Discretisation:
         """
         ne, nq, nf = self.ne, H.shape[1], self.nf
         H4 = H.reshape(ne, nq, 2, nf, 2, nf).transpose(0, 1, 2, 4, 3, 5).reshape(ne, nq * 4, nf * nf)
-        return np.matmul(self._tables().transpose(0, 2, 1), H4)
+        return np.matmul(self.element_tables.transpose(0, 2, 1), H4)
 
     def tangent(self, H: np.ndarray, symmetric: bool) -> Banded:
         """The free-dof tangent in band storage from the pointwise Hessian (one product, one bincount)."""

@@ -479,10 +479,9 @@ class RodSystem:
         sign change of det K would miss it), and pure dead tip moments above ~2.2 E_b/L in
         3D (det K > 0 there too: stability is then not assured, rather than assumed).
         """
-        _, K = self.evaluate(X, lam)
+        K = self.evaluate(X, lam)[1].tocsr()
         if not self.symmetric:
-            K = K.tocsr()
-            K = ((K + K.T) * 0.5).tocsr()
+            K = (K + K.T) * 0.5
         try:
             lu = spla.splu(
                 K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}

@@ -359,11 +359,8 @@ DENSE_ENTRIES = 1 << 16
 
 def _operator(rows: np.ndarray, cols: np.ndarray, weights: np.ndarray, shape: tuple[int, int]):
     """The matrix with the given entries: dense when small (the error estimate's meshes), else CSR."""
-    if shape[0] * shape[1] > DENSE_ENTRIES:
-        return sp.csr_matrix((weights.ravel(), (rows.ravel(), cols.ravel())), shape=shape)
-    out = np.zeros(shape)
-    np.add.at(out, (rows.ravel(), cols.ravel()), weights.ravel())
-    return out
+    matrix = sp.csr_matrix((weights.ravel(), (rows.ravel(), cols.ravel())), shape=shape)
+    return matrix if shape[0] * shape[1] > DENSE_ENTRIES else matrix.toarray()
 
 
 @functools.lru_cache(maxsize=64)
