@@ -229,17 +229,13 @@ def solve_aimed(scene: Scene, **options):
     forward = dataclasses.replace(scene, aim=None, loads=dataclasses.replace(scene.loads, B=tuple(found.B)))
     sol = solve(forward, **options)
     target = np.asarray(scene.aim.tip_direction)
-    error = angle(sol.tip["d3"], target)
     solves, runtime = found.forward_solves, found.runtime_s
-    if error > AIM_TOL and sol.elements != found.elements:
+    if angle(sol.tip["d3"], target) > AIM_TOL and sol.elements != found.elements:
         again = aim(dataclasses.replace(scene, elements=sol.elements))
         forward = dataclasses.replace(forward, loads=dataclasses.replace(scene.loads, B=tuple(again.B)))
         sol = solve(forward, **{**options, "elements": sol.elements})
-        error, solves, runtime = (
-            angle(sol.tip["d3"], target),
-            solves + again.forward_solves,
-            runtime + again.runtime_s,
-        )
+        solves, runtime = solves + again.forward_solves, runtime + again.runtime_s
+    error = angle(sol.tip["d3"], target)
     report = {"tip_direction_error_rad": error, "forward_solves": solves, "runtime_s": runtime}
     aimed = dataclasses.replace(forward, aim=scene.aim)
     return dataclasses.replace(sol, scene=aimed, extra={**sol.extra, "aim": report})

@@ -78,14 +78,13 @@ def solve(
 
         return solve_aimed(scene, elements=elements, model=model, variant=variant, element=element)
     chosen = resolve_model(scene, model)
-    state: list = [None]  # the last mesh's Equilibrium: each finer mesh starts from it
+    last = None  # the last mesh's Equilibrium: each finer mesh starts from it
 
     def at(n: int):
+        nonlocal last
         if scene.kind == "cantilever":  # presented as a Solution only if it is the answer
-            options = {"model": chosen, "variant": variant, "element": element}
-            eq = equilibrium(scene, elements=n, start=state[0], **options)
-            state[0] = eq
-            return eq, eq.tip(), eq.runtime_s
+            last = equilibrium(scene, elements=n, model=chosen, variant=variant, element=element, start=last)
+            return last, last.tip(), last.runtime_s
         sol = solve_bend(scene, elements=n)
         force = np.asarray(sol.three_point_bend["force"])
         return sol, force / max(float(np.max(np.abs(force))), 1e-300), sol.runtime_s

@@ -90,13 +90,11 @@ class BendModel:
         R_o = 0.5 * geometry.outer_diameter
         self.support_rho = (geometry.support_radius + R_o) / S
         self.nose_rho = (geometry.nose_radius + R_o) / S
-        self.support_vertex = min(max(1, round(elements * 0.5 / self.half)), elements - 1)
+        k = self.support_vertex = min(max(1, round(elements * 0.5 / self.half)), elements - 1)
+        self._fractions = (np.linspace(0.0, 1.0, k + 1), np.linspace(0.0, 1.0, elements - k + 1)[1:])
 
     def vertices(self, s_contact: float) -> np.ndarray:
         """Uniform elements on each side of the support's contact section."""
-        k = self.support_vertex
-        if "_fractions" not in self.__dict__:
-            self._fractions = (np.linspace(0.0, 1.0, k + 1), np.linspace(0.0, 1.0, self.elements - k + 1)[1:])
         inner, outer = self._fractions
         return np.concatenate([s_contact * inner, s_contact + (self.half - s_contact) * outer])
 

@@ -95,12 +95,8 @@ class ScaledRod:
         return out
 
     def stiffness_at(self, s: np.ndarray) -> dict[str, np.ndarray]:
-        out = {
-            "E_b": np.ones_like(s),
-            "E_t": np.full_like(s, self.E_t),
-            "E_s": np.full_like(s, self.E_s),
-            "E_e": np.full_like(s, self.E_e),
-        }
+        base = {"E_b": 1.0, "E_t": self.E_t, "E_s": self.E_s, "E_e": self.E_e}
+        out = {name: np.full_like(s, value) for name, value in base.items()}
         for seg in self.segments:
             inside = (s >= seg.start) & (s < seg.end)
             for name in out:
@@ -132,7 +128,7 @@ class RodSystem:
     analytic: bool = True  # planar: closed-form derivatives (False: jets, the cross-check)
     banded: bool = False  # tangent in band storage (band.Banded: LAPACK Cholesky/LU) instead of CSR
     mixed: bool = False  # mixed-integration-point tangent in Newton (see mixed_update)
-    terms: list[str] = field(default_factory=list)
+    terms: list[str] = field(init=False)  # the energy terms that run, from the rod and model
 
     def __post_init__(self) -> None:
         self._stress = self._strain = None

@@ -281,9 +281,8 @@ def follow(
                     load_factor=lam_try,
                 )
             lam, x = lam_try, x_new
-            hold = getattr(system, "hold_stress", None)
-            if hold is not None:  # the next step's first mixed tangent starts from these stresses
-                hold()
+            # the next step's first mixed tangent starts from these stresses
+            getattr(system, "hold_stress", lambda: None)()
             slope = tangent(system, x, lam, lu) if lam != targets[-1] else None
             if its <= 2 * fast:  # grow with the observed effort: x2 when easy, x1.5 when moderate
                 step = min((2.0 if its <= fast else 1.5) * step, max_step)

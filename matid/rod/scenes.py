@@ -326,9 +326,7 @@ KINDS = {
 
 
 def _rod(raw: dict, root: Path | None) -> Rod:
-    if "rod" not in raw:
-        raise ValueError("missing [rod] table")
-    table = dict(_single(raw, "rod"))
+    table = dict(_single(raw, "rod", {}))
     if not table:
         raise ValueError("missing [rod] table")
     if "stiffness" in table:

@@ -76,11 +76,9 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
             return tuple(v)
         return (v[0] * a0 + v[1] * a1, -v[0] * a1 + v[1] * a0, v[2])
 
-    def moment(v, factor):
-        v = [float(c) * factor for c in v]
-        if e_a is None:
-            return tuple(v)
-        return (0.0, -v[0] * a1 + v[1] * a0, 0.0)
+    def moment(v, factor):  # planar: the component about n
+        w = vec(v, factor)
+        return w if e_a is None else (0.0, w[1], 0.0)
 
     base = {"E_b": 1.0, "E_t": rod.E_t / Eb, "E_s": rod.E_s * L**2 / Eb, "E_e": rod.E_e * L**2 / Eb}
     segments = []
