@@ -90,10 +90,10 @@ class Discretisation:
         self.slope_pairs = (nodal[0], nodal[rows[0]]) if rows else (np.zeros(0, int), np.zeros(0, int))
         self.vertices, self.ne = vertices.copy(), vertices.size - 1
         self.n = self.nscalar * nf
-        self.weighted = np.stack([self.phi, self.dphi]) * self.dx[None, None]  # (2, nloc, ne, nq)
-        self.both = np.stack([self.phi, self.dphi])
-        gd = (self.edofs.T[:, :, None] * nf + np.arange(nf)[None, None, :]).reshape(self.ne, -1)
-        self.gdofs = gd  # (ne, nloc*nf), local order (i, c)
+        self.both = np.stack([self.phi, self.dphi])  # (2, nloc, ne, nq)
+        self.weighted = self.both * self.dx[None, None]
+        #: (ne, nloc nf) global dofs of each element, local order (i, c)
+        self.gdofs = (self.edofs.T[:, :, None] * nf + np.arange(nf)).reshape(self.ne, -1)
         self.set_free(np.ones(self.n, dtype=bool))
 
     def affine(self, a: float, b: float) -> np.ndarray:
@@ -153,8 +153,8 @@ class Discretisation:
         index = np.full(self.n, -1)
         nfree = int(self.free.sum())
         index[self.free] = np.arange(nfree)
-        local = index[self.gdofs]
-        self.keep_mask = ((local[:, :, None] >= 0) & (local[:, None, :] >= 0)).ravel()
+        rows, cols = _entries(index[self.gdofs])
+        self.keep_mask = (rows >= 0) & (cols >= 0)
         self.free_index, self._pattern, self._blocks = index, None, {}
         self._band_pattern(index, nfree)
 
@@ -165,10 +165,7 @@ class Discretisation:
         key = (dofs.shape, dofs.tobytes())
         if key in self._blocks:
             return self._blocks[key]
-        k, m = dofs.shape
-        idx = self.free_index[dofs]
-        ii = np.broadcast_to(idx[:, :, None], (k, m, m)).ravel()
-        jj = np.broadcast_to(idx[:, None, :], (k, m, m)).ravel()
+        ii, jj = _entries(self.free_index[dofs])
         keep = (ii >= 0) & (jj >= 0)
         rows, cols = ii[keep], jj[keep]
         pos, u = self.band_position, self.band_u
@@ -182,10 +179,8 @@ class Discretisation:
     def pattern(self) -> Pattern:
         """CSR pattern of the free-free block (the tangent of an unbanded system)."""
         if self._pattern is None:
-            index, m, nfree = self.free_index, self.gdofs.shape[1], int(self.free.sum())
-            rows = np.broadcast_to(index[self.gdofs][:, :, None], (self.ne, m, m)).ravel()
-            cols = np.broadcast_to(index[self.gdofs][:, None, :], (self.ne, m, m)).ravel()
-            keep = self.keep_mask
+            nfree, keep = int(self.free.sum()), self.keep_mask
+            rows, cols = _entries(self.free_index[self.gdofs])
             keys = rows[keep] * nfree + cols[keep]
             unique, inverse = np.unique(keys, return_inverse=True)
             indptr = np.searchsorted(unique // nfree, np.arange(nfree + 1)) if nfree else np.zeros(1, int)
@@ -201,19 +196,16 @@ class Discretisation:
         order = np.argsort(free_keys, kind="stable")  # band position -> free dof
         position = np.empty(nfree, dtype=int)
         position[order] = np.arange(nfree)  # free dof -> band position
-        m = self.gdofs.shape[1]
         bpos = np.where(index[self.gdofs] >= 0, position[np.maximum(index[self.gdofs], 0)], -1)
-        rows = np.broadcast_to(bpos[:, :, None], (self.ne, m, m)).ravel()[self.keep_mask]
-        cols = np.broadcast_to(bpos[:, None, :], (self.ne, m, m)).ravel()[self.keep_mask]
+        rows, cols = (a[self.keep_mask] for a in _entries(bpos))
         u = int(np.max(np.abs(rows - cols))) if rows.size else 0
         u = max(u, 3 * nf - 1)  # node-local point blocks fit in any case
         self.band_u, self.band_order, self.band_position = u, order, position
-        self.band_flat = (u + rows - cols) * nfree + cols  # index into ab.ravel()
-        # the same for every entry of the element matrices in their natural layout (e, i, j, c, d)
-        # of :meth:`element_blocks`, entries on a fixed dof sent to one slot past the band
+        # the index into ab.ravel() of every entry of the element matrices in their natural layout
+        # (e, i, j, c, d) of :meth:`element_blocks`, entries on a fixed dof sent to one slot past the band
         nloc = self.edofs.shape[0]
         full = np.full((self.ne, nloc, nf, nloc, nf), (2 * u + 1) * nfree)
-        full.reshape(self.ne, m * m)[self.keep_mask.reshape(self.ne, m * m)] = self.band_flat
+        full.reshape(-1)[self.keep_mask] = (u + rows - cols) * nfree + cols
         self.band_all = np.ascontiguousarray(full.transpose(0, 1, 3, 2, 4)).ravel()
 
     def interpolate(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -230,7 +222,7 @@ class Discretisation:
     def point_table(self) -> np.ndarray:
         """[phi, phi'] at every quadrature point (ne, nq * 2, nloc): the map of :meth:`point_values`."""
         ne, nq = self.dx.shape
-        table = np.stack([self.phi, self.dphi]).transpose(2, 3, 0, 1)  # (ne, nq, 2, nloc)
+        table = self.both.transpose(2, 3, 0, 1)  # (ne, nq, 2, nloc)
         return np.ascontiguousarray(table.reshape(ne, nq * 2, -1))
 
     @functools.cached_property
@@ -285,6 +277,14 @@ class Discretisation:
         H6 = H.reshape(ne, nq, 2, nf, 2, nf)
         Ke = np.einsum("eqkcld,kieq,ljeq->eicjd", H6, self.weighted, self.both, optimize=True)
         return R, self.pattern.matrix(Ke)
+
+
+def _entries(idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(row, column) of every entry of the (k, m, m) blocks on the indices ``idx`` (k, m), flattened."""
+    k, m = idx.shape
+    return np.broadcast_to(idx[:, :, None], (k, m, m)).ravel(), np.broadcast_to(
+        idx[:, None, :], (k, m, m)
+    ).ravel()
 
 
 def graded_vertices(length: float, elements: int, *, breaks: tuple[float, ...] = ()) -> np.ndarray:
