@@ -67,17 +67,15 @@ def refine(
         keep = 1 if fixed > 1 else 0
         if keep == 0:  # a single element: the error of it, estimated against 2 elements
             error = float(np.max(np.abs(results[1][1] - results[0][1])))
-        return results[keep][0], Estimate(
-            levels[keep], error, order, tuple((n, r[2]) for n, r in zip(levels, results, strict=True))
-        )
-    n, results, levels = max(start // 2, 1), [], []
-    while True:
-        results.append(solve_at(n))
-        levels.append(n)
-        if len(results) >= 2:
-            error, order = richardson([r[1] for r in results])
-            if error <= tolerance or 2 * n > max_elements:
-                return results[-1][0], Estimate(
-                    n, error, order, tuple((m, r[2]) for m, r in zip(levels, results, strict=True))
-                )
-        n *= 2
+    else:
+        n, results, levels, keep = max(start // 2, 1), [], [], -1
+        while True:
+            results.append(solve_at(n))
+            levels.append(n)
+            if len(results) >= 2:
+                error, order = richardson([r[1] for r in results])
+                if error <= tolerance or 2 * n > max_elements:
+                    break
+            n *= 2
+    history = tuple((n, r[2]) for n, r in zip(levels, results, strict=True))
+    return results[keep][0], Estimate(levels[keep], error, order, history)
