@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None, want_strain=False):
+def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent, *, stress, want_strain):
     """(g, H, strain) of the planar density at every point: shapes P + (6,), P + (6, 6).
 
     z: P + (6,) point values (x, z, t, x', z', t'); props: stiffness arrays (P);

@@ -165,7 +165,6 @@ def equilibrium(
     c_u: float | None = None,
     element: str = "P2",
     intorder: int | None = None,
-    first_step: float = 1.0,
     start: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Equilibrium:
     """The converged scaled state of a cantilever (raises ConvergenceError, never returns a failed state).
@@ -195,7 +194,7 @@ def equilibrium(
     if X is None:
         system.stress_start = None  # the continuation starts from the straight rod
         x0, probe = system.reduce(system.reference()), probe_start(rod, chosen)
-        X, info = follow(system, x0, [1.0], first_step=first_step, definite_start=probe)
+        X, info = follow(system, x0, [1.0], definite_start=probe)
     else:
         X, info = X
     U = system.expand(X).reshape(disc.nscalar, disc.nf)
