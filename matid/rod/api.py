@@ -90,7 +90,7 @@ def solve(
         return sol, force / max(float(np.max(np.abs(force))), 1e-300), sol.runtime_s
 
     fixed = elements or scene.elements
-    result, est = refine(at, tolerance=scene.tolerance, fixed=fixed, start=8)
+    result, est = refine(at, tolerance=scene.tolerance, fixed=fixed)
     estimate = {
         "method": "richardson",
         "order": est.order,

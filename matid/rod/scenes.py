@@ -299,17 +299,17 @@ def _q(table: dict, key: str, kind: str, where: str, default: object = None) -> 
         if default is None:
             raise ValueError(f"{where}: missing '{key}'")
         return float(default)
-    try:
-        return to_si(table[key], kind)
-    except UnitError as exc:
-        raise ValueError(f"{where}.{key}: {exc}") from exc
+    return _si(to_si, table, key, kind, where)
 
 
 def _v(table: dict, key: str, kind: str, where: str) -> Vector:
-    if key not in table:
-        return ZERO
+    return _si(vector_to_si, table, key, kind, where) if key in table else ZERO
+
+
+def _si(convert, table: dict, key: str, kind: str, where: str):
+    """``convert(table[key], kind)``; a unit problem is a ValueError naming ``where.key``."""
     try:
-        return vector_to_si(table[key], kind)
+        return convert(table[key], kind)
     except UnitError as exc:
         raise ValueError(f"{where}.{key}: {exc}") from exc
 
