@@ -354,10 +354,12 @@ def interpolate_p2(vertices: np.ndarray, values: np.ndarray, s: np.ndarray) -> n
 DENSE_ENTRIES = 1 << 16
 
 
-def _operator(rows: np.ndarray, cols: np.ndarray, weights: np.ndarray, shape: tuple[int, int]):
-    """The matrix with the given entries: dense when small (the error estimate's meshes), else CSR."""
-    matrix = sp.csr_matrix((weights.ravel(), (rows.ravel(), cols.ravel())), shape=shape)
-    return matrix if shape[0] * shape[1] > DENSE_ENTRIES else matrix.toarray()
+def _operator(cols: np.ndarray, weights: np.ndarray, ncols: int):
+    """The matrix with row k holding ``weights[k]`` in columns ``cols[k]``: dense when small (the
+    error estimate's meshes), else CSR."""
+    n, k = cols.shape
+    matrix = sp.csr_matrix((weights.ravel(), (np.repeat(np.arange(n), k), cols.ravel())), shape=(n, ncols))
+    return matrix if n * ncols > DENSE_ENTRIES else matrix.toarray()
 
 
 @functools.lru_cache(maxsize=64)
@@ -368,9 +370,7 @@ def _p2_operator(vertices: bytes, points: bytes):
     e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
     t = (s - v[e]) / (v[e + 1] - v[e])
     weights = np.stack([2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)], axis=1)
-    cols = np.stack([2 * e, 2 * e + 1, 2 * e + 2], axis=1)
-    rows = np.broadcast_to(np.arange(s.size)[:, None], cols.shape)
-    return _operator(rows, cols, weights, (s.size, 2 * v.size - 1))
+    return _operator(np.stack([2 * e, 2 * e + 1, 2 * e + 2], axis=1), weights, 2 * v.size - 1)
 
 
 @functools.lru_cache(maxsize=64)
@@ -381,9 +381,7 @@ def _recovery(vertices: bytes, coarse: bytes, points: bytes):
     q = np.frombuffer(coarse).reshape(v.size - 1, 2)
     e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
     t = (s - q[e, 0]) / (q[e, 1] - q[e, 0])
-    cols = np.stack([2 * e, 2 * e + 1], axis=1)
-    rows = np.broadcast_to(np.arange(s.size)[:, None], cols.shape)
-    return _operator(rows, cols, np.stack([1.0 - t, t], axis=1), (s.size, q.size))
+    return _operator(np.stack([2 * e, 2 * e + 1], axis=1), np.stack([1.0 - t, t], axis=1), q.size)
 
 
 def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
