@@ -29,14 +29,10 @@ class BendSystem:
         index = rod.index
         #: free-dof index of (x, z, theta) at the support vertex and at the nose vertex (0)
         self.dofs = (index[3 * self.k : 3 * self.k + 3], index[0:3])
-        # the contact Hessians -lam_c (I - n n^T)/|r - c| on (x, z) of each vertex, free entries only
-        entries = [
-            (c, a, b)
-            for c, idx in enumerate(self.dofs)
-            for a in range(2)
-            for b in range(2)
-            if idx[a] >= 0 and idx[b] >= 0
-        ]
+        #: (contact, component) of the free (x, z) dofs of each contact vertex: where the normals
+        #: go, and the free entries of the contact Hessians -lam_c (I - n n^T)/|r - c|
+        self._normal = [(c, a) for c in (0, 1) for a in (0, 1) if self.dofs[c][a] >= 0]
+        entries = [(c, a, b) for c, a in self._normal for d, b in self._normal if d == c]
         self._hess = (
             np.array([self.dofs[c][a] for c, a, _ in entries]),
             np.array([self.dofs[c][b] for c, _, b in entries]),
@@ -84,10 +80,8 @@ class BendSystem:
         R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
         gaps = self._gaps(U, lam)
         G = np.zeros((2, n))
-        for c, (idx, (_, nx, nz, _)) in enumerate(zip(self.dofs, gaps, strict=True)):
-            for a, value in ((0, nx), (1, nz)):
-                if idx[a] >= 0:
-                    G[c, idx[a]] = value
+        for c, a in self._normal:
+            G[c, self.dofs[c][a]] = gaps[c][1 + a]
         h, dh = self.support.section(U.reshape(-1, 3), self.k)  # the support's contact section
         R_all = np.empty(n + 3)
         R_all[:n] = R - G.T @ mult
