@@ -101,9 +101,8 @@ class BendSystem:
         B[:, 2] = self._mesh_derivative(U)
         C = np.zeros((3, n))
         C[:2] = -G
-        for a in range(3):  # dh/d(x, z, theta) at the support vertex
-            if self.dofs[0][a] >= 0:
-                C[2, self.dofs[0][a]] = dh[a]
+        free = self.dofs[0] >= 0  # dh/d(x, z, theta) at the support vertex
+        C[2, self.dofs[0][free]] = dh[free]
         return R_all, Bordered(K, B, C)
 
     def _mesh_derivative(self, U: np.ndarray) -> np.ndarray:
@@ -137,9 +136,8 @@ class BendSystem:
         x0, z0 = self.rod.expand(X[: self.nu])[:2]
         _, nx, nz, dist = self.nose(lam).gap(float(x0), float(z0))
         dn = ((1.0 - nx * nx) * self.d_max / dist, -nz * nx * self.d_max / dist)
-        for a in range(2):
-            if self.dofs[1][a] >= 0:
-                out[self.dofs[1][a]] = -X[self.nu + 1] * dn[a]
+        free = self.dofs[1][:2] >= 0
+        out[self.dofs[1][:2][free]] = -X[self.nu + 1] * np.array(dn)[free]
         out[self.nu + 1] = -nx * self.d_max  # the nose gap row holds -g
         return out
 
