@@ -291,13 +291,10 @@ def graded_vertices(length: float, elements: int, *, breaks: tuple[float, ...] =
     """Uniform vertices on [0, length] with nodes forced at the ``breaks`` (segment ends, magnets)."""
     base = np.linspace(0.0, length, elements + 1)
     points = [b for b in breaks if 0.0 < b < length]
-    if not points:
-        return base
-    # snap the nearest vertex to each break so the element count stays fixed
+    # snap the nearest vertex to each break so the element count stays fixed, unless two breaks
+    # take one vertex: then the breaks are added as vertices
     snapped = base.copy()
     for b in points:
         snapped[np.argmin(np.abs(snapped - b))] = b
-    snapped = np.unique(snapped)
-    if snapped.size != base.size or np.any(np.diff(snapped) <= 0):
-        snapped = np.unique(np.concatenate([base, points]))
-    return snapped
+    snapped = np.unique(snapped)  # sorted, strictly increasing
+    return snapped if snapped.size == base.size else np.unique(np.concatenate([base, points]))
