@@ -140,11 +140,8 @@ def aim(scene: Scene, *, elements: int | None = None) -> AimResult:
 
 
 #: Field directions tried when the field along the target is no start: a cube's 26 directions.
-CANDIDATES = [
-    (np.array(v, float) - 1.0) / np.linalg.norm(np.array(v, float) - 1.0)
-    for v in np.ndindex(3, 3, 3)
-    if v != (1, 1, 1)
-]
+_CUBE = np.array([v for v in np.ndindex(3, 3, 3) if v != (1, 1, 1)], float) - 1.0
+CANDIDATES = list(_CUBE / np.linalg.norm(_CUBE, axis=1, keepdims=True))
 START_TRIES = 3
 
 
