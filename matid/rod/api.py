@@ -145,19 +145,16 @@ def solve_bend(scene: Scene, *, elements: int | None = None) -> Solution:
 def _check_bend(scene: Scene) -> None:
     """The bend half model has a uniform, straight, unloaded tube; say so rather than ignore the rest."""
     loads, rod = scene.loads, scene.rod
-    ignored = [
-        name
-        for name, present in (
-            ("[[segment]]", rod.segments),
-            ("rod.precurvature", any(rod.precurvature)),
-            ("[field]", any(loads.B)),
-            ("[load]", any(loads.distributed_force)),
-            ("[tip]", any(loads.tip_force) or any(loads.tip_moment)),
-            ("[[magnet]]", loads.magnets),
-            ("[[magnetization]]", loads.magnetization),
-        )
-        if present
-    ]
+    present = {
+        "[[segment]]": rod.segments,
+        "rod.precurvature": any(rod.precurvature),
+        "[field]": any(loads.B),
+        "[load]": any(loads.distributed_force),
+        "[tip]": any(loads.tip_force) or any(loads.tip_moment),
+        "[[magnet]]": loads.magnets,
+        "[[magnetization]]": loads.magnetization,
+    }
+    ignored = [name for name, there in present.items() if there]
     if ignored:
         raise DataError(f"three_point_bend: {', '.join(ignored)} not supported (a uniform straight tube)")
     if any(b < a for a, b in zip(scene.bend.deflections, scene.bend.deflections[1:], strict=False)):
