@@ -333,8 +333,7 @@ def mesh(elements: int, at: tuple[float, ...], nf: int, element: str, intorder: 
 
 def _warm(system: RodSystem, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, NewtonInfo] | None:
     """Newton at the full load from the P2 interpolant of a state on another mesh; None if it fails."""
-    disc = system.disc
-    U0 = interpolate_p2(*start, disc.s_dof)
+    U0 = interpolate_p2(*start, system.disc.s_dof)
     if system.model == FULL:
         U0[:, 3:] /= np.linalg.norm(U0[:, 3:], axis=1, keepdims=True)
     try:
@@ -389,13 +388,10 @@ def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.n
     if chosen == PLANAR:  # rotation by theta about n = e3 x e_a = (-a1, a0, 0) (Rodrigues)
         a0, a1 = float(e_a[0]), float(e_a[1])
         x, z, c, s = U[:, 0], U[:, 1], np.cos(U[:, 2]), np.sin(U[:, 2])
-        out = np.empty((3, U.shape[0], 3))  # position, d1, d3 filled column by column
-        position, d1, d3 = out
-        position[:, 0], position[:, 1], position[:, 2] = x * a0, x * a1, z
-        position *= L
         one_c = 1.0 - c
-        d1[:, 0], d1[:, 1], d1[:, 2] = c + a1 * a1 * one_c, -a0 * a1 * one_c, -a0 * s  # R e1
-        d3[:, 0], d3[:, 1], d3[:, 2] = a0 * s, a1 * s, c  # d3 = R e3 = c e3 + s e_a
+        position = np.stack([x * a0, x * a1, z], axis=1) * L
+        d1 = np.stack([c + a1 * a1 * one_c, -a0 * a1 * one_c, -a0 * s], axis=1)  # R e1
+        d3 = np.stack([a0 * s, a1 * s, c], axis=1)  # d3 = R e3 = c e3 + s e_a
         return position, d1, d3
     position = U[:, :3] * L
     q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
