@@ -160,8 +160,9 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     is planar with e_a = e1.
     """
     loads, rod = scene.loads, scene.rod
-    if not on_axis(loads):
-        return None  # a magnetisation off d3 twists the rod (contract section 9)
+    directions = loads.directions("magnet") + loads.directions("magnetization")
+    if any(a[0] != 0.0 or a[1] != 0.0 for a in directions):
+        return None  # a magnetisation off +-d3 twists the rod (contract section 9): the full model runs
     forces = [np.asarray(v, float) for v in (loads.B, loads.distributed_force, loads.tip_force)]
     forces += [np.asarray(f, float) for _, f, _ in loads.point_loads]
     moments = [np.asarray(v, float) for v in (loads.tip_moment, rod.precurvature)]
@@ -177,12 +178,6 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
         if abs(c[0] * direction[1] - c[1] * direction[0]) > tol * scale:
             return None
     return (float(direction[0]), float(direction[1]), 0.0)
-
-
-def on_axis(loads: Loads) -> bool:
-    """Whether every magnetisation is along +-d3 (else the rod twists: the full model runs)."""
-    directions = loads.directions("magnet") + loads.directions("magnetization")
-    return all(a[0] == 0.0 and a[1] == 0.0 for a in directions)
 
 
 # -- loading -----------------------------------------------------------------
