@@ -66,19 +66,14 @@ class BendSystem:
         """Trust region and convergence on the displacements and sigma (multipliers follow them)."""
         return float(max(np.max(np.abs(dx[: self.nu])), abs(dx[-1])))
 
-    def _gaps(self, U: np.ndarray, lam: float) -> list[tuple[float, float, float, float]]:
-        """[(g, n_x, n_z, |r - c|)] of the support (at vertex k) and the nose (at vertex 0)."""
-        k = 3 * self.k
-        support = self.support.gap(float(U[k]), float(U[k + 1]))
-        return [support, self.nose(lam).gap(float(U[0]), float(U[1]))]
-
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
         n = self.nu
         u, mult, sigma = X[:n], X[n : n + 2], float(X[-1])
         self.at(sigma)
         U = self.rod.expand(u)
         R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
-        gaps = self._gaps(U, lam)
+        k = 3 * self.k  # (g, n_x, n_z, |r - c|) of the support (at vertex k) and the nose (at vertex 0)
+        gaps = [self.support.gap(float(U[k]), float(U[k + 1])), self.nose(lam).gap(float(U[0]), float(U[1]))]
         G = np.zeros((2, n))
         for c, a in self._normal:
             G[c, self.dofs[c][a]] = gaps[c][1 + a]
