@@ -282,13 +282,6 @@ def _known(table: dict, name: str, where: str) -> dict:
     return table
 
 
-def _bool(table: dict, key: str, where: str) -> bool:
-    value = table.get(key, False)
-    if not isinstance(value, bool):
-        raise ValueError(f"{where}.{key}: expected true or false, got {_short(value)}")
-    return value
-
-
 def _q(table: dict, key: str, kind: str, where: str, default: object = None) -> float:
     if key not in table:
         if default is None:
@@ -329,15 +322,12 @@ def _rod(raw: dict, root: Path | None) -> Rod:
     segments = []
     for where, seg in _tables(raw, "segment"):
         overrides = {k: _q(seg, k, kind, where) for k, kind in KINDS.items() if k != "length" and k in seg}
-        segments.append(
-            SegmentSpec(
-                _q(seg, "from", "length", where),
-                _q(seg, "to", "length", where),
-                overrides,
-                _bool(seg, "rigid", where),
-                _v(seg, "precurvature", "curvature", where) if "precurvature" in seg else None,
-            )
-        )
+        start, end = _q(seg, "from", "length", where), _q(seg, "to", "length", where)
+        rigid = seg.get("rigid", False)
+        if not isinstance(rigid, bool):
+            raise ValueError(f"{where}.rigid: expected true or false, got {_short(rigid)}")
+        kappa = _v(seg, "precurvature", "curvature", where) if "precurvature" in seg else None
+        segments.append(SegmentSpec(start, end, overrides, rigid, kappa))
     sizes = {
         k: _q(table, k, kind, "rod", 0.0 if k == "outer_diameter" else None) for k, kind in KINDS.items()
     }
