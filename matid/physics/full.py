@@ -77,19 +77,7 @@ def linear_maps(B: tuple[float, float, float]) -> np.ndarray:
 
 
 def derivatives(
-    z,
-    lam,
-    props,
-    kappa_ref,
-    mu,
-    B,
-    f,
-    tangent=True,
-    *,
-    stress=None,
-    want_strain=False,
-    variant=kin.NORMALISED,
-    c_u=0.0,
+    z, lam, props, kappa_ref, mu, B, f, tangent, *, stress, want_strain, variant=kin.NORMALISED, c_u=0.0
 ):
     """(g, H, strain) of the full-model density at every point: shapes P + (14,), P + (14, 14).
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None, want_strain=False):
+def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent, *, stress, want_strain):
     """(g, H, strain) of the planar density at every point: shapes P + (6,), P + (6, 6).
 
     z: P + (6,) point values (x, z, t, x', z', t'); props: stiffness arrays (P);
@@ -60,9 +60,7 @@ def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent=True, *, stress=None
         CJ = np.zeros((n, 2, 6))
         CJ[:, 0, 2], CJ[:, 0, 3], CJ[:, 0, 4] = a, Esc, -Ess
         CJ[:, 1, 2], CJ[:, 1, 3], CJ[:, 1, 4] = b, Ees, Eec
-        force = np.empty((n, 2))
-        force[:, 0], force[:, 1] = n1, n3
-        strain = (force.reshape(shape + (2,)), CJ.reshape(shape + (2, 6)))
+        strain = (np.stack([n1, n3], axis=1).reshape(shape + (2,)), CJ.reshape(shape + (2, 6)))
     if stress is not None:
         stress = stress.reshape(n, 2)
         n1, n3 = stress[:, 0], stress[:, 1]

@@ -140,11 +140,8 @@ def aim(scene: Scene, *, elements: int | None = None) -> AimResult:
 
 
 #: Field directions tried when the field along the target is no start: a cube's 26 directions.
-CANDIDATES = [
-    (np.array(v, float) - 1.0) / np.linalg.norm(np.array(v, float) - 1.0)
-    for v in np.ndindex(3, 3, 3)
-    if v != (1, 1, 1)
-]
+_CUBE = np.array([v for v in np.ndindex(3, 3, 3) if v != (1, 1, 1)], float) - 1.0
+CANDIDATES = list(_CUBE / np.linalg.norm(_CUBE, axis=1, keepdims=True))
 START_TRIES = 3
 
 
@@ -229,17 +226,13 @@ def solve_aimed(scene: Scene, **options):
     forward = dataclasses.replace(scene, aim=None, loads=dataclasses.replace(scene.loads, B=tuple(found.B)))
     sol = solve(forward, **options)
     target = np.asarray(scene.aim.tip_direction)
-    error = angle(sol.tip["d3"], target)
     solves, runtime = found.forward_solves, found.runtime_s
-    if error > AIM_TOL and sol.elements != found.elements:
+    if angle(sol.tip["d3"], target) > AIM_TOL and sol.elements != found.elements:
         again = aim(dataclasses.replace(scene, elements=sol.elements))
         forward = dataclasses.replace(forward, loads=dataclasses.replace(scene.loads, B=tuple(again.B)))
         sol = solve(forward, **{**options, "elements": sol.elements})
-        error, solves, runtime = (
-            angle(sol.tip["d3"], target),
-            solves + again.forward_solves,
-            runtime + again.runtime_s,
-        )
+        solves, runtime = solves + again.forward_solves, runtime + again.runtime_s
+    error = angle(sol.tip["d3"], target)
     report = {"tip_direction_error_rad": error, "forward_solves": solves, "runtime_s": runtime}
     aimed = dataclasses.replace(forward, aim=scene.aim)
     return dataclasses.replace(sol, scene=aimed, extra={**sol.extra, "aim": report})

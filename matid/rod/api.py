@@ -78,20 +78,19 @@ def solve(
 
         return solve_aimed(scene, elements=elements, model=model, variant=variant, element=element)
     chosen = resolve_model(scene, model)
-    state: list = [None]  # the last mesh's Equilibrium: each finer mesh starts from it
+    last = None  # the last mesh's Equilibrium: each finer mesh starts from it
 
     def at(n: int):
+        nonlocal last
         if scene.kind == "cantilever":  # presented as a Solution only if it is the answer
-            options = {"model": chosen, "variant": variant, "element": element}
-            eq = equilibrium(scene, elements=n, start=state[0], **options)
-            state[0] = eq
-            return eq, eq.tip(), eq.runtime_s
+            last = equilibrium(scene, elements=n, model=chosen, variant=variant, element=element, start=last)
+            return last, last.tip(), last.runtime_s
         sol = solve_bend(scene, elements=n)
         force = np.asarray(sol.three_point_bend["force"])
         return sol, force / max(float(np.max(np.abs(force))), 1e-300), sol.runtime_s
 
     fixed = elements or scene.elements
-    result, est = refine(at, tolerance=scene.tolerance, fixed=fixed, start=8)
+    result, est = refine(at, tolerance=scene.tolerance, fixed=fixed)
     estimate = {
         "method": "richardson",
         "order": est.order,
@@ -146,19 +145,16 @@ def solve_bend(scene: Scene, *, elements: int | None = None) -> Solution:
 def _check_bend(scene: Scene) -> None:
     """The bend half model has a uniform, straight, unloaded tube; say so rather than ignore the rest."""
     loads, rod = scene.loads, scene.rod
-    ignored = [
-        name
-        for name, present in (
-            ("[[segment]]", rod.segments),
-            ("rod.precurvature", any(rod.precurvature)),
-            ("[field]", any(loads.B)),
-            ("[load]", any(loads.distributed_force)),
-            ("[tip]", any(loads.tip_force) or any(loads.tip_moment)),
-            ("[[magnet]]", loads.magnets),
-            ("[[magnetization]]", loads.magnetization),
-        )
-        if present
-    ]
+    present = {
+        "[[segment]]": rod.segments,
+        "rod.precurvature": any(rod.precurvature),
+        "[field]": any(loads.B),
+        "[load]": any(loads.distributed_force),
+        "[tip]": any(loads.tip_force) or any(loads.tip_moment),
+        "[[magnet]]": loads.magnets,
+        "[[magnetization]]": loads.magnetization,
+    }
+    ignored = [name for name, there in present.items() if there]
     if ignored:
         raise DataError(f"three_point_bend: {', '.join(ignored)} not supported (a uniform straight tube)")
     if any(b < a for a, b in zip(scene.bend.deflections, scene.bend.deflections[1:], strict=False)):

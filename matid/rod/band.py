@@ -18,11 +18,10 @@ from scipy.linalg import lapack
 
 @dataclass(frozen=True)
 class BlockPattern:
-    """Where dense node-local blocks on global ``dofs`` (k, m) land in the free-dof tangent: the
+    """Where dense node-local blocks on global dofs (k, m) land in the free-dof tangent: the
     kept entries (both dofs free) of the (k, m, m) blocks, their free-dof rows and columns (CSR)
     and their positions in the band storage (built once per system)."""
 
-    dofs: np.ndarray
     keep: np.ndarray
     rows: np.ndarray
     cols: np.ndarray
@@ -61,9 +60,6 @@ class Banded:
         out = sp.csr_matrix((band.data, (self.order[band.row], self.order[band.col])), shape=(n, n))
         out.eliminate_zeros()  # as a dense matrix's: the structure SuperLU orders by
         return out
-
-    def tocsc(self) -> sp.csc_matrix:
-        return self.tocsr().tocsc()
 
     def factor(self) -> BandFactor:
         """Cholesky (LAPACK pbtrf) when symmetric and positive definite, else banded LU (gbtrf)."""

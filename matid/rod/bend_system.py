@@ -29,14 +29,10 @@ class BendSystem:
         index = rod.index
         #: free-dof index of (x, z, theta) at the support vertex and at the nose vertex (0)
         self.dofs = (index[3 * self.k : 3 * self.k + 3], index[0:3])
-        # the contact Hessians -lam_c (I - n n^T)/|r - c| on (x, z) of each vertex, free entries only
-        entries = [
-            (c, a, b)
-            for c, idx in enumerate(self.dofs)
-            for a in range(2)
-            for b in range(2)
-            if idx[a] >= 0 and idx[b] >= 0
-        ]
+        #: (contact, component) of the free (x, z) dofs of each contact vertex: where the normals
+        #: go, and the free entries of the contact Hessians -lam_c (I - n n^T)/|r - c|
+        self._normal = [(c, a) for c in (0, 1) for a in (0, 1) if self.dofs[c][a] >= 0]
+        entries = [(c, a, b) for c, a in self._normal for d, b in self._normal if d == c]
         self._hess = (
             np.array([self.dofs[c][a] for c, a, _ in entries]),
             np.array([self.dofs[c][b] for c, _, b in entries]),
@@ -70,24 +66,17 @@ class BendSystem:
         """Trust region and convergence on the displacements and sigma (multipliers follow them)."""
         return float(max(np.max(np.abs(dx[: self.nu])), abs(dx[-1])))
 
-    def _gaps(self, U: np.ndarray, lam: float) -> list[tuple[float, float, float, float]]:
-        """[(g, n_x, n_z, |r - c|)] of the support (at vertex k) and the nose (at vertex 0)."""
-        k = 3 * self.k
-        support = self.support.gap(float(U[k]), float(U[k + 1]))
-        return [support, self.nose(lam).gap(float(U[0]), float(U[1]))]
-
     def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True):
         n = self.nu
         u, mult, sigma = X[:n], X[n : n + 2], float(X[-1])
         self.at(sigma)
         U = self.rod.expand(u)
         R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
-        gaps = self._gaps(U, lam)
+        k = 3 * self.k  # (g, n_x, n_z, |r - c|) of the support (at vertex k) and the nose (at vertex 0)
+        gaps = [self.support.gap(float(U[k]), float(U[k + 1])), self.nose(lam).gap(float(U[0]), float(U[1]))]
         G = np.zeros((2, n))
-        for c, (idx, (_, nx, nz, _)) in enumerate(zip(self.dofs, gaps, strict=True)):
-            for a, value in ((0, nx), (1, nz)):
-                if idx[a] >= 0:
-                    G[c, idx[a]] = value
+        for c, a in self._normal:
+            G[c, self.dofs[c][a]] = gaps[c][1 + a]
         h, dh = self.support.section(U.reshape(-1, 3), self.k)  # the support's contact section
         R_all = np.empty(n + 3)
         R_all[:n] = R - G.T @ mult
@@ -107,9 +96,8 @@ class BendSystem:
         B[:, 2] = self._mesh_derivative(U)
         C = np.zeros((3, n))
         C[:2] = -G
-        for a in range(3):  # dh/d(x, z, theta) at the support vertex
-            if self.dofs[0][a] >= 0:
-                C[2, self.dofs[0][a]] = dh[a]
+        free = self.dofs[0] >= 0  # dh/d(x, z, theta) at the support vertex
+        C[2, self.dofs[0][free]] = dh[free]
         return R_all, Bordered(K, B, C)
 
     def _mesh_derivative(self, U: np.ndarray) -> np.ndarray:
@@ -143,9 +131,8 @@ class BendSystem:
         x0, z0 = self.rod.expand(X[: self.nu])[:2]
         _, nx, nz, dist = self.nose(lam).gap(float(x0), float(z0))
         dn = ((1.0 - nx * nx) * self.d_max / dist, -nz * nx * self.d_max / dist)
-        for a in range(2):
-            if self.dofs[1][a] >= 0:
-                out[self.dofs[1][a]] = -X[self.nu + 1] * dn[a]
+        free = self.dofs[1][:2] >= 0
+        out[self.dofs[1][:2][free]] = -X[self.nu + 1] * np.array(dn)[free]
         out[self.nu + 1] = -nx * self.d_max  # the nose gap row holds -g
         return out
 
@@ -189,7 +176,7 @@ class BendSystem:
 
     def force(self, X: np.ndarray, lam: float) -> float:
         """Scaled nose force of the whole tube."""
-        return float(2.0 * X[self.nu + 1] * (-self.normal_x(X, lam)))
+        return self.force_derivative(X, lam, X)  # the force is linear in the nose multiplier
 
     def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
         """A pulling contact is no answer: g = |r - c| - rho = 0 also holds on the far side of a
@@ -218,14 +205,9 @@ class Bordered:
     def __init__(self, K, B: np.ndarray, C: np.ndarray):
         self.K, self.B, self.C = K, B, C
 
-    @property
-    def shape(self) -> tuple[int, int]:
-        n = self.B.shape[0] + 3
-        return (n, n)
-
     def tocsr(self) -> sp.csr_matrix:
         n = self.B.shape[0]
-        A = np.zeros(self.shape)
+        A = np.zeros((n + 3, n + 3))
         A[:n, :n] = self.K.tocsr().toarray()
         A[:n, n:], A[n:, :n] = self.B, self.C
         return sp.csr_matrix(A)

@@ -90,10 +90,10 @@ class Discretisation:
         self.slope_pairs = (nodal[0], nodal[rows[0]]) if rows else (np.zeros(0, int), np.zeros(0, int))
         self.vertices, self.ne = vertices.copy(), vertices.size - 1
         self.n = self.nscalar * nf
-        self.weighted = np.stack([self.phi, self.dphi]) * self.dx[None, None]  # (2, nloc, ne, nq)
-        self.both = np.stack([self.phi, self.dphi])
-        gd = (self.edofs.T[:, :, None] * nf + np.arange(nf)[None, None, :]).reshape(self.ne, -1)
-        self.gdofs = gd  # (ne, nloc*nf), local order (i, c)
+        self.both = np.stack([self.phi, self.dphi])  # (2, nloc, ne, nq)
+        self.weighted = self.both * self.dx[None, None]
+        #: (ne, nloc nf) global dofs of each element, local order (i, c)
+        self.gdofs = (self.edofs.T[:, :, None] * nf + np.arange(nf)).reshape(self.ne, -1)
         self.set_free(np.ones(self.n, dtype=bool))
 
     def affine(self, a: float, b: float) -> np.ndarray:
@@ -120,25 +120,21 @@ class Discretisation:
         new.dx = self.dx * r
         new.s_quad = vertices[:-1, None] + (self.s_quad - self.vertices[:-1, None]) * r
         new.s_dof = np.empty(self.nscalar)  # each dof keeps its place in its element
-        new.s_dof[self.edofs] = vertices[:-1] + self._local() * h_new
+        new.s_dof[self.edofs] = vertices[:-1] + self.local * h_new
         one = np.ones_like(r)
         new.weighted = self.weighted * np.stack([r, one])[:, None]  # (2, 1, ne, 1)
         new.both = self.both * np.stack([one, 1.0 / r])[:, None]
         ne, nq = self.dx.shape
         kl = np.stack([r, one, one, 1.0 / r], axis=1)[:, None, :, :]  # (ne, 1, 4, 1)
-        T = self._tables().reshape(ne, nq, 4, -1) * kl
-        new._T = (new.weighted, T.reshape(ne, nq * 4, -1))
-        P = self._point_table().reshape(ne, nq, 2, -1) * np.stack([one, 1.0 / r], axis=1)[:, None, :, :]
-        new._P = (new.dphi, P.reshape(ne, nq * 2, -1))
+        new.element_tables = (self.element_tables.reshape(ne, nq, 4, -1) * kl).reshape(ne, nq * 4, -1)
+        P = self.point_table.reshape(ne, nq, 2, -1) * np.stack([one, 1.0 / r], axis=1)[:, None, :, :]
+        new.point_table = P.reshape(ne, nq * 2, -1)
         return new
 
-    def _local(self) -> np.ndarray:
+    @functools.cached_property
+    def local(self) -> np.ndarray:
         """Local coordinate in [0, 1] of each element dof (nloc, ne): where a moved mesh puts it."""
-        cached = self.__dict__.get("_t")
-        if cached is None:
-            v = self.vertices
-            cached = self._t = (self.s_dof[self.edofs] - v[:-1]) / np.diff(v)
-        return cached
+        return (self.s_dof[self.edofs] - self.vertices[:-1]) / np.diff(self.vertices)
 
     def vertex_dof(self, index: int) -> int:
         """Scalar dof of the value at mesh vertex ``index`` (scikit-fem's first nodal dof)."""
@@ -157,8 +153,8 @@ class Discretisation:
         index = np.full(self.n, -1)
         nfree = int(self.free.sum())
         index[self.free] = np.arange(nfree)
-        local = index[self.gdofs]
-        self.keep_mask = ((local[:, :, None] >= 0) & (local[:, None, :] >= 0)).ravel()
+        rows, cols = _entries(index[self.gdofs])
+        self.keep_mask = (rows >= 0) & (cols >= 0)
         self.free_index, self._pattern, self._blocks = index, None, {}
         self._band_pattern(index, nfree)
 
@@ -169,27 +165,22 @@ class Discretisation:
         key = (dofs.shape, dofs.tobytes())
         if key in self._blocks:
             return self._blocks[key]
-        k, m = dofs.shape
-        idx = self.free_index[dofs]
-        ii = np.broadcast_to(idx[:, :, None], (k, m, m)).ravel()
-        jj = np.broadcast_to(idx[:, None, :], (k, m, m)).ravel()
+        ii, jj = _entries(self.free_index[dofs])
         keep = (ii >= 0) & (jj >= 0)
         rows, cols = ii[keep], jj[keep]
         pos, u = self.band_position, self.band_u
         if rows.size and np.max(np.abs(pos[rows] - pos[cols])) > u:
             raise ValueError("block_pattern: the blocks do not fit in the band (not node-local)")
         flat = (u + pos[rows] - pos[cols]) * self.band_order.size + pos[cols]
-        hit = self._blocks[key] = BlockPattern(dofs, keep, rows, cols, flat)
+        hit = self._blocks[key] = BlockPattern(keep, rows, cols, flat)
         return hit
 
     @property
     def pattern(self) -> Pattern:
         """CSR pattern of the free-free block (the tangent of an unbanded system)."""
         if self._pattern is None:
-            index, m, nfree = self.free_index, self.gdofs.shape[1], int(self.free.sum())
-            rows = np.broadcast_to(index[self.gdofs][:, :, None], (self.ne, m, m)).ravel()
-            cols = np.broadcast_to(index[self.gdofs][:, None, :], (self.ne, m, m)).ravel()
-            keep = self.keep_mask
+            nfree, keep = int(self.free.sum()), self.keep_mask
+            rows, cols = _entries(self.free_index[self.gdofs])
             keys = rows[keep] * nfree + cols[keep]
             unique, inverse = np.unique(keys, return_inverse=True)
             indptr = np.searchsorted(unique // nfree, np.arange(nfree + 1)) if nfree else np.zeros(1, int)
@@ -205,19 +196,16 @@ class Discretisation:
         order = np.argsort(free_keys, kind="stable")  # band position -> free dof
         position = np.empty(nfree, dtype=int)
         position[order] = np.arange(nfree)  # free dof -> band position
-        m = self.gdofs.shape[1]
         bpos = np.where(index[self.gdofs] >= 0, position[np.maximum(index[self.gdofs], 0)], -1)
-        rows = np.broadcast_to(bpos[:, :, None], (self.ne, m, m)).ravel()[self.keep_mask]
-        cols = np.broadcast_to(bpos[:, None, :], (self.ne, m, m)).ravel()[self.keep_mask]
+        rows, cols = (a[self.keep_mask] for a in _entries(bpos))
         u = int(np.max(np.abs(rows - cols))) if rows.size else 0
         u = max(u, 3 * nf - 1)  # node-local point blocks fit in any case
         self.band_u, self.band_order, self.band_position = u, order, position
-        self.band_flat = (u + rows - cols) * nfree + cols  # index into ab.ravel()
-        # the same for every entry of the element matrices in their natural layout (e, i, j, c, d)
-        # of :meth:`element_blocks`, entries on a fixed dof sent to one slot past the band
+        # the index into ab.ravel() of every entry of the element matrices in their natural layout
+        # (e, i, j, c, d) of :meth:`element_blocks`, entries on a fixed dof sent to one slot past the band
         nloc = self.edofs.shape[0]
         full = np.full((self.ne, nloc, nf, nloc, nf), (2 * u + 1) * nfree)
-        full.reshape(self.ne, m * m)[self.keep_mask.reshape(self.ne, m * m)] = self.band_flat
+        full.reshape(-1)[self.keep_mask] = (u + rows - cols) * nfree + cols
         self.band_all = np.ascontiguousarray(full.transpose(0, 1, 3, 2, 4)).ravel()
 
     def interpolate(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -228,27 +216,21 @@ class Discretisation:
     def point_values(self, U: np.ndarray) -> np.ndarray:
         """(u, u') at every quadrature point, shape (ne, nq, 2 nf): one batched matmul."""
         Ue = U.reshape(self.nscalar, self.nf)[self.edofs.T]  # (ne, nloc, nf)
-        return np.matmul(self._point_table(), Ue).reshape(self.ne, -1, 2 * self.nf)
+        return np.matmul(self.point_table, Ue).reshape(self.ne, -1, 2 * self.nf)
 
-    def _point_table(self) -> np.ndarray:
-        cached = self.__dict__.get("_P")
-        if cached is None or cached[0] is not self.dphi:
-            ne, nq = self.dx.shape
-            table = np.concatenate([self.phi[None], self.dphi[None]]).transpose(
-                2, 3, 0, 1
-            )  # (ne, nq, 2, nloc)
-            cached = self._P = (self.dphi, np.ascontiguousarray(table.reshape(ne, nq * 2, -1)))
-        return cached[1]
+    @functools.cached_property
+    def point_table(self) -> np.ndarray:
+        """[phi, phi'] at every quadrature point (ne, nq * 2, nloc): the map of :meth:`point_values`."""
+        ne, nq = self.dx.shape
+        table = self.both.transpose(2, 3, 0, 1)  # (ne, nq, 2, nloc)
+        return np.ascontiguousarray(table.reshape(ne, nq * 2, -1))
 
-    def _tables(self) -> np.ndarray:
-        T = self.__dict__.get("_T")
-        if T is None or T[0] is not self.weighted:
-            W, Bo = self.weighted, self.both  # (2, nloc, ne, nq)
-            t = np.einsum("kieq,ljeq->eqklij", W, Bo)
-            ne, nq, nloc = t.shape[0], t.shape[1], W.shape[1]
-            T = (self.weighted, np.ascontiguousarray(t.reshape(ne, nq * 4, nloc * nloc)))
-            self._T = T
-        return T[1]
+    @functools.cached_property
+    def element_tables(self) -> np.ndarray:
+        """T = [phi, phi'] dx (x) [phi, phi'] at every point (ne, nq * 4, nloc^2) (:meth:`element_blocks`)."""
+        t = np.einsum("kieq,ljeq->eqklij", self.weighted, self.both)  # (2, nloc, ne, nq) each
+        ne, nq, nloc = t.shape[0], t.shape[1], self.weighted.shape[1]
+        return np.ascontiguousarray(t.reshape(ne, nq * 4, nloc * nloc))
 
     def element_blocks(self, H: np.ndarray) -> np.ndarray:
         """Element matrices from the pointwise Hessian, in the layout of the product (ne, nloc, nloc,
@@ -259,7 +241,7 @@ class Discretisation:
         """
         ne, nq, nf = self.ne, H.shape[1], self.nf
         H4 = H.reshape(ne, nq, 2, nf, 2, nf).transpose(0, 1, 2, 4, 3, 5).reshape(ne, nq * 4, nf * nf)
-        return np.matmul(self._tables().transpose(0, 2, 1), H4)
+        return np.matmul(self.element_tables.transpose(0, 2, 1), H4)
 
     def tangent(self, H: np.ndarray, symmetric: bool) -> Banded:
         """The free-dof tangent in band storage from the pointwise Hessian (one product, one bincount)."""
@@ -297,17 +279,22 @@ class Discretisation:
         return R, self.pattern.matrix(Ke)
 
 
+def _entries(idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(row, column) of every entry of the (k, m, m) blocks on the indices ``idx`` (k, m), flattened."""
+    k, m = idx.shape
+    return np.broadcast_to(idx[:, :, None], (k, m, m)).ravel(), np.broadcast_to(
+        idx[:, None, :], (k, m, m)
+    ).ravel()
+
+
 def graded_vertices(length: float, elements: int, *, breaks: tuple[float, ...] = ()) -> np.ndarray:
     """Uniform vertices on [0, length] with nodes forced at the ``breaks`` (segment ends, magnets)."""
     base = np.linspace(0.0, length, elements + 1)
     points = [b for b in breaks if 0.0 < b < length]
-    if not points:
-        return base
-    # snap the nearest vertex to each break so the element count stays fixed
+    # snap the nearest vertex to each break so the element count stays fixed, unless two breaks
+    # take one vertex: then the breaks are added as vertices
     snapped = base.copy()
     for b in points:
         snapped[np.argmin(np.abs(snapped - b))] = b
-    snapped = np.unique(snapped)
-    if snapped.size != base.size or np.any(np.diff(snapped) <= 0):
-        snapped = np.unique(np.concatenate([base, points]))
-    return snapped
+    snapped = np.unique(snapped)  # sorted, strictly increasing
+    return snapped if snapped.size == base.size else np.unique(np.concatenate([base, points]))

@@ -95,12 +95,8 @@ class ScaledRod:
         return out
 
     def stiffness_at(self, s: np.ndarray) -> dict[str, np.ndarray]:
-        out = {
-            "E_b": np.ones_like(s),
-            "E_t": np.full_like(s, self.E_t),
-            "E_s": np.full_like(s, self.E_s),
-            "E_e": np.full_like(s, self.E_e),
-        }
+        base = {"E_b": 1.0, "E_t": self.E_t, "E_s": self.E_s, "E_e": self.E_e}
+        out = {name: np.full_like(s, value) for name, value in base.items()}
         for seg in self.segments:
             inside = (s >= seg.start) & (s < seg.end)
             for name in out:
@@ -132,7 +128,7 @@ class RodSystem:
     analytic: bool = True  # planar: closed-form derivatives (False: jets, the cross-check)
     banded: bool = False  # tangent in band storage (band.Banded: LAPACK Cholesky/LU) instead of CSR
     mixed: bool = False  # mixed-integration-point tangent in Newton (see mixed_update)
-    terms: list[str] = field(default_factory=list)
+    terms: list[str] = field(init=False)  # the energy terms that run, from the rod and model
 
     def __post_init__(self) -> None:
         self._stress = self._strain = None
@@ -293,35 +289,32 @@ class RodSystem:
 
     # -- point terms (tip loads, lumped magnets, the nodal unity penalty) -------------------
     def _node_patterns(self) -> None:
-        """Dofs and tangent patterns of the node-local terms, built once per system."""
+        """Dofs (a magnet's: theta, or q) and tangent patterns of the node-local terms, built once
+        per system (None: no such term)."""
         disc, nf = self.disc, self.disc.nf
         self._tip = np.arange(self.tip * nf, self.tip * nf + nf)
-        local = np.array([2]) if self.model == PLANAR else 3 + np.arange(4)  # theta, or q
         nodes = np.array([node for node, _ in self.magnet_nodes], int)
-        self._magnet_dofs = nodes[:, None] * nf + local[None, :]
+        self._magnet_dofs = nodes[:, None] * nf + 2 if self.model == PLANAR else _q_dofs(nodes, nf)
         self._magnet_m = np.array([m for _, m in self.magnet_nodes], float)
         self._patterns = {"magnets": disc.block_pattern(self._magnet_dofs) if self.magnet_nodes else None}
         if self.model == FULL:
             self._patterns["moment"] = disc.block_pattern(self._tip[3:])
-            self._gauge_dofs = disc.value_dofs[:, None] * nf + 3 + np.arange(4)[None, :]
+            self._gauge_dofs = _q_dofs(disc.value_dofs, nf)
             self._patterns["gauge"] = disc.block_pattern(self._gauge_dofs)
             values, slopes = disc.slope_pairs  # Hermite: (q, q') at each vertex
-            self._slope_dofs = np.concatenate([values[:, None] * nf, slopes[:, None] * nf], axis=1)[
-                :, [0, 0, 0, 0, 1, 1, 1, 1]
-            ] + np.tile(3 + np.arange(4), 2)
+            self._slope_dofs = np.concatenate([_q_dofs(values, nf), _q_dofs(slopes, nf)], axis=1)
             self._patterns["slopes"] = disc.block_pattern(self._slope_dofs) if values.size else None
             self._designer_patterns()
 
     def _designer_patterns(self) -> None:
         """Dofs, maps and patterns of off-axis magnets and interior dead moments (full model)."""
         disc, nf = self.disc, self.disc.nf
-        q_dofs = lambda nodes: np.array([n * nf + 3 + np.arange(4) for n in nodes], int).reshape(-1, 4)  # noqa: E731
-        self._directed_dofs = q_dofs([node for node, _, _ in self.directed_nodes])
+        self._directed_dofs = _q_dofs([node for node, _, _ in self.directed_nodes], nf)
         moments = np.array([m * np.asarray(a, float) for _, m, a in self.directed_nodes]).reshape(-1, 3)
         self._directed_M = full.directed_maps(self.rod.B, moments)
         self._patterns["directed"] = disc.block_pattern(self._directed_dofs) if self.directed_nodes else None
         loaded = [(node, M) for node, _, M in self.point_nodes if any(M)]
-        self._moment_dofs = q_dofs([node for node, _ in loaded])
+        self._moment_dofs = _q_dofs([node for node, _ in loaded], nf)
         self._point_moments = np.array([M for _, M in loaded], float).reshape(-1, 3)
         self._patterns["point moments"] = disc.block_pattern(self._moment_dofs) if loaded else None
 
@@ -426,17 +419,12 @@ class RodSystem:
             Rg, gblocks = self.gauge_terms(U)
             R += Rg
             blocks += gblocks
-        if not tangent:
-            return R[self.disc.free], None
-        if self.banded:
-            for pattern, values in blocks:
+        for pattern, values in blocks if tangent else ():
+            if self.banded:
                 K.add(pattern, values)
-            return R[self.disc.free], K
-        for pattern, values in blocks:
-            shape = K.shape
-            K = K + sp.csr_matrix(
-                (values.reshape(-1)[pattern.keep], (pattern.rows, pattern.cols)), shape=shape
-            )
+            else:
+                entries = (values.reshape(-1)[pattern.keep], (pattern.rows, pattern.cols))
+                K = K + sp.csr_matrix(entries, shape=K.shape)
         return R[self.disc.free], K
 
     @property
@@ -479,10 +467,9 @@ class RodSystem:
         sign change of det K would miss it), and pure dead tip moments above ~2.2 E_b/L in
         3D (det K > 0 there too: stability is then not assured, rather than assumed).
         """
-        _, K = self.evaluate(X, lam)
+        K = self.evaluate(X, lam)[1].tocsr()
         if not self.symmetric:
-            K = K.tocsr()
-            K = ((K + K.T) * 0.5).tocsr()
+            K = (K + K.T) * 0.5
         try:
             lu = spla.splu(
                 K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
@@ -500,6 +487,11 @@ class RodSystem:
 
     def reduce(self, U: np.ndarray) -> np.ndarray:
         return U[self.disc.free].copy()
+
+
+def _q_dofs(nodes, nf: int) -> np.ndarray:
+    """The global dofs (k, 4) of q at the scalar dofs ``nodes`` (full model: r, q are fields 0-2, 3-6)."""
+    return np.asarray(nodes, int).reshape(-1, 1) * nf + 3 + np.arange(4)
 
 
 def _fields(disc: Discretisation, rod: ScaledRod) -> tuple[dict[str, np.ndarray], np.ndarray]:

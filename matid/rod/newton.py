@@ -10,7 +10,7 @@ Newton fails and doubling it when Newton converges in a few iterations (with
 ``definite_start``, the first step is halved beforehand while the start's tangent is not
 positive definite at its load: one factorisation instead of a failed Newton). A state
 is returned only when converged and admissible (``system.reject``); when the
-step falls below ``min_step``, Newton stagnates at round-off, or the work budget
+step falls below MIN_STEP, Newton stagnates at round-off, or the work budget
 is spent, a ConvergenceError names the last load factor reached. NaN is a
 failure, never a value.
 """
@@ -48,6 +48,10 @@ class RoundoffStagnation(NewtonFailure):
     load step cannot help (the floor is set by the stiffness spread and the mesh)."""
 
 
+#: Newton: converged below this correction, capped at MAX_STEP, at most MAX_ITER iterations.
+XTOL, MAX_STEP, MAX_ITER = 1e-10, 0.5, 16
+#: Continuation: smallest and largest load step; a step of at most FAST (2 FAST) iterations grows x2 (x1.5).
+MIN_STEP, MAX_LOAD_STEP, FAST = 1e-6, 1.0, 4
 #: No correction larger than this is ever accepted as "at the round-off floor".
 FLOOR_CAP = 1e-7
 #: Continuation effort before it gives up: Newton iterations x unknowns (and at least
@@ -67,38 +71,31 @@ MIXED_ABOVE = 1e-4
 
 
 def newton(
-    system: System,
-    x0: np.ndarray,
-    lam: float,
-    *,
-    xtol: float = 1e-10,
-    max_iter: int = 16,
-    max_step: float = 0.5,
-    first: tuple[np.ndarray, object] | None = None,
+    system: System, x0: np.ndarray, lam: float, *, first: tuple[np.ndarray, object] | None = None
 ) -> tuple[np.ndarray, int, object]:
     """Solve R(x; lam) = 0 from x0 by pure Newton. Returns (x, iterations, factorised tangent).
 
     ``first``: (R, factorised tangent) at (x0, lam) already evaluated (a stability probe of
     :func:`definite`): the first iteration uses them instead of evaluating again.
 
-    Converged when the Newton correction is below ``xtol`` (scaled unknowns are
+    Converged when the Newton correction is below XTOL (scaled unknowns are
     O(1)), or below the system's round-off floor (``system.roundoff``, eps times
     the stiffness spread) once it stops shrinking. Corrections are capped at
-    ``max_step`` (a trust region). No line search, on purpose: on a slender rod
+    MAX_STEP (a trust region). No line search, on purpose: on a slender rod
     the first Newton step from a straight state stretches the stiff axis by
     theta^2/2 and raises both the potential and |R| by orders of magnitude, yet
     the next step repairs it (measured: 3 iterations with pure Newton, 24 with an
     Armijo search on the potential). Divergence is caught early instead and the
     load step is halved by :func:`follow`.
     """
-    floor = min(max(xtol, float(getattr(system, "roundoff", 0.0))), FLOOR_CAP)
+    floor = min(max(XTOL, float(getattr(system, "roundoff", 0.0))), FLOOR_CAP)
     measure = getattr(system, "step_size", None) or _max_abs
     x = x0.copy()
     sizes: list[float] = []
     mixed = getattr(system, "mixed_update", None)
     if mixed is not None:
         system.mixed_begin()
-    for it in range(1, max_iter + 1):
+    for it in range(1, MAX_ITER + 1):
         if first is not None and it == 1:
             R, lu = first
         else:
@@ -110,7 +107,7 @@ def newton(
         if not _finite(dx):
             raise NewtonFailure("Newton correction is not finite")
         size = measure(dx)
-        if size <= xtol or (size <= floor and sizes and size > 0.1 * sizes[-1]):
+        if size <= XTOL or (size <= floor and sizes and size > 0.1 * sizes[-1]):
             return x + dx, it, lu
         if len(sizes) >= 3 and size > sizes[-1] and size > sizes[-3]:
             if size < 1e-3 and max(sizes[-3:]) < 10 * min(sizes[-3:]) and size < 1e-2 * sizes[0]:
@@ -121,11 +118,11 @@ def newton(
                 )
             raise NewtonFailure(f"diverging: correction {size:.3g} at iteration {it}")
         sizes.append(size)
-        alpha = min(1.0, max_step / size)
+        alpha = min(1.0, MAX_STEP / size)
         if mixed is not None:  # mixed tangent far from the root, the consistent one near it
             mixed(dx, alpha) if size > MIXED_ABOVE else system.mixed_reset()
         x = x + dx * alpha
-    raise NewtonFailure(f"no convergence in {max_iter} iterations (correction {size:.3g})")
+    raise NewtonFailure(f"no convergence in {MAX_ITER} iterations (correction {size:.3g})")
 
 
 def _max_abs(d: np.ndarray) -> float:
@@ -234,9 +231,6 @@ def follow(
     *,
     lam0: float = 0.0,
     first_step: float = 1.0,
-    min_step: float = 1e-6,
-    max_step: float = 1.0,
-    fast: int = 4,
     info: NewtonInfo | None = None,
     definite_start: bool = False,
 ) -> tuple[np.ndarray, NewtonInfo]:
@@ -249,7 +243,7 @@ def follow(
     budget = max(MIN_ITERATIONS, int(WORK_BUDGET / max(x.size, 1)))
     lam, step, probe = lam0, first_step, None
     if definite_start and len(targets):
-        step, probe = _definite_step(system, x, lam0, targets[0], step, min_step)
+        step, probe = _definite_step(system, x, lam0, targets[0], step, MIN_STEP)
     slope: np.ndarray | None = None  # dx/dlam at the last converged state (tangent predictor)
     for target in targets:
         while lam != target:
@@ -266,7 +260,7 @@ def follow(
             except NewtonFailure as exc:
                 info.rejected += 1
                 step *= 0.5
-                if step < min_step:
+                if step < MIN_STEP:
                     raise ConvergenceError(
                         f"Newton failed at load factor {lam_try:.6g} ({exc})", load_factor=lam
                     ) from exc
@@ -281,10 +275,9 @@ def follow(
                     load_factor=lam_try,
                 )
             lam, x = lam_try, x_new
-            hold = getattr(system, "hold_stress", None)
-            if hold is not None:  # the next step's first mixed tangent starts from these stresses
-                hold()
+            # the next step's first mixed tangent starts from these stresses
+            getattr(system, "hold_stress", lambda: None)()
             slope = tangent(system, x, lam, lu) if lam != targets[-1] else None
-            if its <= 2 * fast:  # grow with the observed effort: x2 when easy, x1.5 when moderate
-                step = min((2.0 if its <= fast else 1.5) * step, max_step)
+            if its <= 2 * FAST:  # grow with the observed effort: x2 when easy, x1.5 when moderate
+                step = min((2.0 if its <= FAST else 1.5) * step, MAX_LOAD_STEP)
     return x, info

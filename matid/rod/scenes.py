@@ -160,8 +160,9 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     is planar with e_a = e1.
     """
     loads, rod = scene.loads, scene.rod
-    if not on_axis(loads):
-        return None  # a magnetisation off d3 twists the rod (contract section 9)
+    directions = loads.directions("magnet") + loads.directions("magnetization")
+    if any(a[0] != 0.0 or a[1] != 0.0 for a in directions):
+        return None  # a magnetisation off +-d3 twists the rod (contract section 9): the full model runs
     forces = [np.asarray(v, float) for v in (loads.B, loads.distributed_force, loads.tip_force)]
     forces += [np.asarray(f, float) for _, f, _ in loads.point_loads]
     moments = [np.asarray(v, float) for v in (loads.tip_moment, rod.precurvature)]
@@ -177,12 +178,6 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
         if abs(c[0] * direction[1] - c[1] * direction[0]) > tol * scale:
             return None
     return (float(direction[0]), float(direction[1]), 0.0)
-
-
-def on_axis(loads: Loads) -> bool:
-    """Whether every magnetisation is along +-d3 (else the rod twists: the full model runs)."""
-    directions = loads.directions("magnet") + loads.directions("magnetization")
-    return all(a[0] == 0.0 and a[1] == 0.0 for a in directions)
 
 
 # -- loading -----------------------------------------------------------------
@@ -287,29 +282,22 @@ def _known(table: dict, name: str, where: str) -> dict:
     return table
 
 
-def _bool(table: dict, key: str, where: str) -> bool:
-    value = table.get(key, False)
-    if not isinstance(value, bool):
-        raise ValueError(f"{where}.{key}: expected true or false, got {_short(value)}")
-    return value
-
-
 def _q(table: dict, key: str, kind: str, where: str, default: object = None) -> float:
     if key not in table:
         if default is None:
             raise ValueError(f"{where}: missing '{key}'")
         return float(default)
-    try:
-        return to_si(table[key], kind)
-    except UnitError as exc:
-        raise ValueError(f"{where}.{key}: {exc}") from exc
+    return _si(to_si, table, key, kind, where)
 
 
 def _v(table: dict, key: str, kind: str, where: str) -> Vector:
-    if key not in table:
-        return ZERO
+    return _si(vector_to_si, table, key, kind, where) if key in table else ZERO
+
+
+def _si(convert, table: dict, key: str, kind: str, where: str):
+    """``convert(table[key], kind)``; a unit problem is a ValueError naming ``where.key``."""
     try:
-        return vector_to_si(table[key], kind)
+        return convert(table[key], kind)
     except UnitError as exc:
         raise ValueError(f"{where}.{key}: {exc}") from exc
 
@@ -326,9 +314,7 @@ KINDS = {
 
 
 def _rod(raw: dict, root: Path | None) -> Rod:
-    if "rod" not in raw:
-        raise ValueError("missing [rod] table")
-    table = dict(_single(raw, "rod"))
+    table = dict(_single(raw, "rod", {}))
     if not table:
         raise ValueError("missing [rod] table")
     if "stiffness" in table:
@@ -336,15 +322,12 @@ def _rod(raw: dict, root: Path | None) -> Rod:
     segments = []
     for where, seg in _tables(raw, "segment"):
         overrides = {k: _q(seg, k, kind, where) for k, kind in KINDS.items() if k != "length" and k in seg}
-        segments.append(
-            SegmentSpec(
-                _q(seg, "from", "length", where),
-                _q(seg, "to", "length", where),
-                overrides,
-                _bool(seg, "rigid", where),
-                _v(seg, "precurvature", "curvature", where) if "precurvature" in seg else None,
-            )
-        )
+        start, end = _q(seg, "from", "length", where), _q(seg, "to", "length", where)
+        rigid = seg.get("rigid", False)
+        if not isinstance(rigid, bool):
+            raise ValueError(f"{where}.rigid: expected true or false, got {_short(rigid)}")
+        kappa = _v(seg, "precurvature", "curvature", where) if "precurvature" in seg else None
+        segments.append(SegmentSpec(start, end, overrides, rigid, kappa))
     sizes = {
         k: _q(table, k, kind, "rod", 0.0 if k == "outer_diameter" else None) for k, kind in KINDS.items()
     }

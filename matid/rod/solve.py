@@ -76,11 +76,9 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
             return tuple(v)
         return (v[0] * a0 + v[1] * a1, -v[0] * a1 + v[1] * a0, v[2])
 
-    def moment(v, factor):
-        v = [float(c) * factor for c in v]
-        if e_a is None:
-            return tuple(v)
-        return (0.0, -v[0] * a1 + v[1] * a0, 0.0)
+    def moment(v, factor):  # planar: the component about n
+        w = vec(v, factor)
+        return w if e_a is None else (0.0, w[1], 0.0)
 
     base = {"E_b": 1.0, "E_t": rod.E_t / Eb, "E_s": rod.E_s * L**2 / Eb, "E_e": rod.E_e * L**2 / Eb}
     segments = []
@@ -167,7 +165,6 @@ def equilibrium(
     c_u: float | None = None,
     element: str = "P2",
     intorder: int | None = None,
-    first_step: float = 1.0,
     start: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Equilibrium:
     """The converged scaled state of a cantilever (raises ConvergenceError, never returns a failed state).
@@ -197,7 +194,7 @@ def equilibrium(
     if X is None:
         system.stress_start = None  # the continuation starts from the straight rod
         x0, probe = system.reduce(system.reference()), probe_start(rod, chosen)
-        X, info = follow(system, x0, [1.0], first_step=first_step, definite_start=probe)
+        X, info = follow(system, x0, [1.0], definite_start=probe)
     else:
         X, info = X
     U = system.expand(X).reshape(disc.nscalar, disc.nf)
@@ -336,8 +333,7 @@ def mesh(elements: int, at: tuple[float, ...], nf: int, element: str, intorder: 
 
 def _warm(system: RodSystem, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, NewtonInfo] | None:
     """Newton at the full load from the P2 interpolant of a state on another mesh; None if it fails."""
-    disc = system.disc
-    U0 = interpolate_p2(*start, disc.s_dof)
+    U0 = interpolate_p2(*start, system.disc.s_dof)
     if system.model == FULL:
         U0[:, 3:] /= np.linalg.norm(U0[:, 3:], axis=1, keepdims=True)
     try:
@@ -357,13 +353,12 @@ def interpolate_p2(vertices: np.ndarray, values: np.ndarray, s: np.ndarray) -> n
 DENSE_ENTRIES = 1 << 16
 
 
-def _operator(rows: np.ndarray, cols: np.ndarray, weights: np.ndarray, shape: tuple[int, int]):
-    """The matrix with the given entries: dense when small (the error estimate's meshes), else CSR."""
-    if shape[0] * shape[1] > DENSE_ENTRIES:
-        return sp.csr_matrix((weights.ravel(), (rows.ravel(), cols.ravel())), shape=shape)
-    out = np.zeros(shape)
-    np.add.at(out, (rows.ravel(), cols.ravel()), weights.ravel())
-    return out
+def _operator(cols: np.ndarray, weights: np.ndarray, ncols: int):
+    """The matrix with row k holding ``weights[k]`` in columns ``cols[k]``: dense when small (the
+    error estimate's meshes), else CSR."""
+    n, k = cols.shape
+    matrix = sp.csr_matrix((weights.ravel(), (np.repeat(np.arange(n), k), cols.ravel())), shape=(n, ncols))
+    return matrix if n * ncols > DENSE_ENTRIES else matrix.toarray()
 
 
 @functools.lru_cache(maxsize=64)
@@ -374,9 +369,7 @@ def _p2_operator(vertices: bytes, points: bytes):
     e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
     t = (s - v[e]) / (v[e + 1] - v[e])
     weights = np.stack([2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)], axis=1)
-    cols = np.stack([2 * e, 2 * e + 1, 2 * e + 2], axis=1)
-    rows = np.broadcast_to(np.arange(s.size)[:, None], cols.shape)
-    return _operator(rows, cols, weights, (s.size, 2 * v.size - 1))
+    return _operator(np.stack([2 * e, 2 * e + 1, 2 * e + 2], axis=1), weights, 2 * v.size - 1)
 
 
 @functools.lru_cache(maxsize=64)
@@ -387,9 +380,7 @@ def _recovery(vertices: bytes, coarse: bytes, points: bytes):
     q = np.frombuffer(coarse).reshape(v.size - 1, 2)
     e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
     t = (s - q[e, 0]) / (q[e, 1] - q[e, 0])
-    cols = np.stack([2 * e, 2 * e + 1], axis=1)
-    rows = np.broadcast_to(np.arange(s.size)[:, None], cols.shape)
-    return _operator(rows, cols, np.stack([1.0 - t, t], axis=1), (s.size, q.size))
+    return _operator(np.stack([2 * e, 2 * e + 1], axis=1), np.stack([1.0 - t, t], axis=1), q.size)
 
 
 def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -397,13 +388,10 @@ def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.n
     if chosen == PLANAR:  # rotation by theta about n = e3 x e_a = (-a1, a0, 0) (Rodrigues)
         a0, a1 = float(e_a[0]), float(e_a[1])
         x, z, c, s = U[:, 0], U[:, 1], np.cos(U[:, 2]), np.sin(U[:, 2])
-        out = np.empty((3, U.shape[0], 3))  # position, d1, d3 filled column by column
-        position, d1, d3 = out
-        position[:, 0], position[:, 1], position[:, 2] = x * a0, x * a1, z
-        position *= L
         one_c = 1.0 - c
-        d1[:, 0], d1[:, 1], d1[:, 2] = c + a1 * a1 * one_c, -a0 * a1 * one_c, -a0 * s  # R e1
-        d3[:, 0], d3[:, 1], d3[:, 2] = a0 * s, a1 * s, c  # d3 = R e3 = c e3 + s e_a
+        position = np.stack([x * a0, x * a1, z], axis=1) * L
+        d1 = np.stack([c + a1 * a1 * one_c, -a0 * a1 * one_c, -a0 * s], axis=1)  # R e1
+        d3 = np.stack([a0 * s, a1 * s, c], axis=1)  # d3 = R e3 = c e3 + s e_a
         return position, d1, d3
     position = U[:, :3] * L
     q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
