@@ -153,6 +153,7 @@ def _check_bend(scene: Scene) -> None:
         "[tip]": any(loads.tip_force) or any(loads.tip_moment),
         "[[magnet]]": loads.magnets,
         "[[magnetization]]": loads.magnetization,
+        "[[point_load]]": loads.point_loads,
     }
     ignored = [name for name, there in present.items() if there]
     if ignored:

@@ -1,5 +1,6 @@
 """Scenes in, solutions out: loading and validation, model choice, the bend's whole tube, the outputs."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -82,13 +83,18 @@ def test_missing_scene_file_is_a_data_error(tmp_path):
         load_scene(tmp_path / "nope.toml")
 
 
-def test_bend_scene_with_loads_it_cannot_model_is_refused(tmp_path):
-    scene = load_scene(
-        write(
-            tmp_path, 'scene = "three_point_bend"\n' + ROD + BEND + '[field]\nB = ["10 mT", "0 mT", "0 mT"]\n'
-        )
-    )
-    with pytest.raises(DataError, match=r"\[field\] not supported"):
+@pytest.mark.parametrize(
+    ("table", "name"),
+    [
+        ('[field]\nB = ["10 mT", "0 mT", "0 mT"]\n', "[field]"),
+        ('[[point_load]]\nat = "10 mm"\nforce = ["0 N", "0 N", "-1e-3 N"]\n', "[[point_load]]"),
+    ],
+)
+def test_bend_scene_with_loads_it_cannot_model_is_refused(tmp_path, table, name):
+    """The bend half model has no field and no point loads: a scene giving them is refused, not solved
+    without them (a point load was silently left out before)."""
+    scene = load_scene(write(tmp_path, 'scene = "three_point_bend"\n' + ROD + BEND + table))
+    with pytest.raises(DataError, match=re.escape(name) + " not supported"):
         solve(scene)
 
 
