@@ -7,15 +7,14 @@ turn values into text and nested results into table rows, never into JSON.
 from __future__ import annotations
 
 import base64
-import functools
 import re
 
-import jinja2
+from matid.report.html import template
 
 
 def page(doc: dict, figures: dict[str, bytes]) -> str:
     """The page of a bench.json document ``doc`` with the PNG ``figures`` (by file name)."""
-    return _template().render(
+    return template("matid.bench", "bench.html").render(
         doc=doc,
         sections=doc["sections"],
         figures={name: base64.b64encode(png).decode("ascii") for name, png in figures.items()},
@@ -28,18 +27,6 @@ def page(doc: dict, figures: dict[str, bytes]) -> str:
         readable=_readable,
         rst=rst,
     )
-
-
-@functools.lru_cache(maxsize=1)
-def _template() -> jinja2.Template:
-    env = jinja2.Environment(
-        loader=jinja2.PackageLoader("matid.bench", "templates"),
-        autoescape=True,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        undefined=jinja2.StrictUndefined,
-    )
-    return env.get_template("bench.html")
 
 
 def fmt(value, digits: int = 3) -> str:

@@ -20,7 +20,7 @@ from matid.report.verdict import STATUS_CLASS
 def render_html(report: Report, images: Images | None = None) -> bytes:
     """The report page as UTF-8 bytes (figures from ``images``, rendered here if not given)."""
     images = render_images(report) if images is None else images
-    page = _template().render(
+    page = template("matid.report", "report.html").render(
         report=report,
         plots=images.plots,
         drawings=images.drawings,
@@ -31,17 +31,18 @@ def render_html(report: Report, images: Images | None = None) -> bytes:
     return page.encode("utf-8")
 
 
-@functools.lru_cache(maxsize=1)
-def _template() -> jinja2.Template:
-    """The page template, compiled once per process."""
+@functools.cache
+def template(package: str, name: str) -> jinja2.Template:
+    """The page template ``name`` of ``package``'s templates folder, compiled once per process
+    (autoescaped, strict: a missing value is an error, not an empty cell)."""
     env = jinja2.Environment(
-        loader=jinja2.PackageLoader("matid.report", "templates"),
+        loader=jinja2.PackageLoader(package, "templates"),
         autoescape=True,
         trim_blocks=True,
         lstrip_blocks=True,
         undefined=jinja2.StrictUndefined,
     )
-    return env.get_template("report.html")
+    return env.get_template(name)
 
 
 def data_uri(png: bytes) -> str:
