@@ -43,6 +43,7 @@ from matid.report.figures import (
     Rect,
     axis_unit,
     data_axes,
+    printable,
     quiet_legend,
     style_axes,
 )
@@ -285,7 +286,7 @@ def draw_shapes(fig: Figure, rect: Rect, *, curves: Sequence[Curve]) -> None:
         ax = fig.add_subplot(grid[k])
         _draw_shape(ax, c.shape, COLOURS[k % len(COLOURS)] if len(curves) > 1 else TUBE)
         title = f"{c.label}: {_span(c)}, nose deflection {c.shape.deflection * MM:#.3g} mm (arrow)"
-        ax.set_title(title, fontsize=8, loc="left", parse_math=False)
+        ax.set_title(printable(title), fontsize=8, loc="left", parse_math=False)
         ax.set_xlabel("z along the span [mm]" if k == len(curves) - 1 else "")
         ax.set_ylabel("x [mm]")
         style_axes(ax)

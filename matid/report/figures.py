@@ -142,11 +142,23 @@ def style_axes(*axes) -> None:
         ax.xaxis.label.set_size(9)
 
 
+#: Characters a figure's font has no glyph for (tab and newline included): written as \xNN.
+_UNPRINTABLE = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+
+
+def printable(text: str) -> str:
+    """``text`` as a figure can draw it: every control character written as ``\\xNN`` (file names
+    and labels come from the user's files; matplotlib would draw a missing-glyph box and warn)."""
+    return _UNPRINTABLE.sub(lambda m: f"\\x{ord(m.group()):02x}", text)
+
+
 def quiet_legend(ax, *args, **kwargs):
-    """A legend whose texts are not parsed as mathtext (labels carry file names, dollars)."""
+    """A legend whose texts are not parsed as mathtext (labels carry file names, dollars) and show
+    control characters escaped (:func:`printable`)."""
     legend = ax.legend(*args, **kwargs)
     for text in legend.get_texts():
         text.set_parse_math(False)
+        text.set_text(printable(text.get_text()))
     return legend
 
 
