@@ -172,6 +172,166 @@ def _one_in(n: int, *content: object) -> bool:
     return zlib.crc32(repr(content).encode("utf-8", "replace")) % n == 0
 
 
+# -- what real test-machine exports and hand-edited files have ---------------------
+# Each takes (draw, lines, header line, data line indices) and returns the new lines.
+
+
+def _style_quote(draw, lines, head, rows):
+    """A stray '"' at a random position of a data row (a typo, a pasted inch mark)."""
+    r = draw(st.sampled_from(rows))
+    at = draw(st.integers(0, len(lines[r])))
+    lines[r] = lines[r][:at] + '"' + lines[r][at:]
+    return lines
+
+
+def _style_quoted(draw, lines, head, rows):
+    """Cells in quotes (Excel's CSV), some holding the delimiter ("1,5" in a comma file)."""
+    op = draw(st.sampled_from(["all", "header", "one", "comma"]))
+    targets = [head] + rows if op == "all" else [head] if op == "header" else [draw(st.sampled_from(rows))]
+    for r in targets:
+        cells = lines[r].split(",")
+        if op == "comma":
+            c = draw(st.integers(0, len(cells) - 1))
+            cells[c] = '"' + cells[c].replace(".", ",") + '"'
+        else:
+            cells = [f'"{c}"' for c in cells]
+        lines[r] = ",".join(cells)
+    return lines
+
+
+def _style_eol(draw, lines, head, rows):
+    """Mixed line endings: lone CR (old Mac) or CRLF on a run of lines (a second tool appended)."""
+    end = draw(st.sampled_from(["\r", "\r\n"]))
+    at = draw(st.integers(0, len(lines) - 1))
+    upto = draw(st.integers(at + 1, len(lines)))
+    if end == "\r":  # the run's lines joined by lone CRs: one "line" of the \n-split
+        return lines[:at] + ["\r".join(lines[at:upto])] + lines[upto:]
+    return lines[:at] + [line + "\r" for line in lines[at:upto]] + lines[upto:]
+
+
+def _style_control(draw, lines, head, rows):
+    """A NUL byte, form feed or vertical tab inside a row (a serial-port glitch, a page break)."""
+    r = draw(st.sampled_from(rows))
+    at = draw(st.integers(0, len(lines[r])))
+    lines[r] = lines[r][:at] + draw(st.sampled_from(["\x00", "\x0c", "\x0b", "\x1a"])) + lines[r][at:]
+    return lines
+
+
+def _style_minus(draw, lines, head, rows):
+    """Unicode minus (U+2212, typeset reports), non-ASCII digits (Arabic-Indic, full-width)."""
+    op = draw(st.sampled_from(["minus", "arabic", "fullwidth", "allminus"]))
+    table = {
+        "minus": str.maketrans({"-": "\u2212"}),
+        "allminus": str.maketrans({"-": "\u2212"}),
+        "arabic": str.maketrans("0123456789", "٠١٢٣٤٥٦٧٨٩"),
+        "fullwidth": str.maketrans("0123456789", "０１２３４５６７８９"),
+    }[op]
+    targets = rows if op == "allminus" else [draw(st.sampled_from(rows))]
+    for r in targets:
+        lines[r] = lines[r].translate(table) if op != "minus" else "\u2212" + lines[r].lstrip("-")
+    return lines
+
+
+def _thousands(cell: str, sep: str, mark: str) -> str:
+    """``cell`` with the integer digits grouped by ``sep`` and ``mark`` as the decimal mark."""
+    sign, body = ("-", cell[1:]) if cell.startswith("-") else ("", cell)
+    whole, _, frac = body.partition(".")
+    if not whole.isdigit():
+        return cell
+    whole = f"{int(whole) + 1000:,}".replace(",", sep)
+    return sign + whole + (mark + frac if frac else "")
+
+
+def _style_thousands(draw, lines, head, rows):
+    """Thousands separators: "1,234.5" (in a ';' file, or quoted), "1 234,5", "1.234,5", "1'234.5"."""
+    sep, mark, delim = draw(
+        st.sampled_from([(",", ".", ";"), (",", ".", ","), (" ", ",", ";"), (".", ",", ";"), ("'", ".", ",")])
+    )
+    targets = rows if draw(st.booleans()) else [draw(st.sampled_from(rows))]
+    for r in [head] + rows:
+        cells = lines[r].split(",")
+        if r in targets:
+            c = draw(st.integers(0, len(cells) - 1))
+            cells[c] = _thousands(cells[c], sep, mark)
+        lines[r] = delim.join(cells)
+    return lines
+
+
+def _style_fortran(draw, lines, head, rows):
+    """Fortran exponents ("1.0D+03") or spelled-out exponents ("1.0E+03", "1.0e3")."""
+    marker = draw(st.sampled_from(["D", "d", "E", "Q"]))
+    targets = rows if draw(st.booleans()) else [draw(st.sampled_from(rows))]
+    for r in targets:
+        cells = lines[r].split(",")
+        c = draw(st.integers(0, len(cells) - 1))
+        try:
+            cells[c] = f"{float(cells[c]):.6E}".replace("E", marker)
+        except ValueError:
+            pass
+        lines[r] = ",".join(cells)
+    return lines
+
+
+def _style_spreadsheet(draw, lines, head, rows):
+    """Spreadsheet error cells in a data row."""
+    r = draw(st.sampled_from(rows))
+    cells = lines[r].split(",")
+    cells[draw(st.integers(0, len(cells) - 1))] = draw(
+        st.sampled_from(["#DIV/0!", "#N/A", "#VALUE!", "#REF!", "#NUM!", "#NAME?", "####", "=A1+B1", "ERR"])
+    )
+    lines[r] = ",".join(cells)
+    return lines
+
+
+def _style_nonfinite(draw, lines, head, rows):
+    """Words for non-finite values as instruments and numpy write them."""
+    r = draw(st.sampled_from(rows))
+    cells = lines[r].split(",")
+    cells[draw(st.integers(0, len(cells) - 1))] = draw(
+        st.sampled_from(
+            ["nan", "NaN", "inf", "-inf", "+inf", "Infinity", "-Infinity", "NA", "null", "1.#INF", "-1.#IND"]
+        )
+    )
+    lines[r] = ",".join(cells)
+    return lines
+
+
+def _style_longline(draw, lines, head, rows):
+    """A very long line: one row of many cells, or one cell of many digits, or many spaces."""
+    r = draw(st.sampled_from(rows))
+    n = draw(st.sampled_from([1000, 20_000, 200_000]))
+    op = draw(st.sampled_from(["cells", "digits", "spaces"]))
+    if op == "cells":
+        lines[r] = lines[r] + ",1" * n
+    elif op == "digits":
+        lines[r] = lines[r] + "1" * n
+    else:
+        lines[r] = lines[r] + " " * n
+    return lines
+
+
+def _style_rehead(draw, lines, head, rows):
+    """A header repeated mid-file: a second export appended (with or without its comment block)."""
+    at = draw(st.sampled_from(rows))
+    block = lines[: head + 1] if draw(st.booleans()) else [lines[head]]
+    return lines[:at] + block + lines[at:]
+
+
+EXPORT_STYLES = {
+    "quote": _style_quote,
+    "quoted": _style_quoted,
+    "eol": _style_eol,
+    "control": _style_control,
+    "minus": _style_minus,
+    "thousands": _style_thousands,
+    "fortran": _style_fortran,
+    "spreadsheet": _style_spreadsheet,
+    "nonfinite": _style_nonfinite,
+    "longline": _style_longline,
+    "rehead": _style_rehead,
+}
+
+
 @st.composite
 def csv_mutation(draw, text: str):
     """A mutated CSV text (or bytes, for encoding mutations) and a label of what was done."""
@@ -181,6 +341,7 @@ def csv_mutation(draw, text: str):
     if not rows:  # already emptied by an earlier mutation
         return text, "none"
     kinds = ["cell", "column", "unit", "header", "rows", "delimiter", "meta", "encoding", "bytes", "empty"]
+    kinds += list(EXPORT_STYLES)
     if lines[head].startswith("deflection"):  # a constant bend column: NewtonFailure in fits/shear (issue 12)
         kinds.remove("column")
     what = draw(st.sampled_from(kinds))
@@ -246,6 +407,8 @@ def csv_mutation(draw, text: str):
         key = draw(st.sampled_from(["note", "operator", "", ":", "temperature"]))
         value = draw(st.sampled_from(["x" * draw(st.integers(0, 5000)), "é漢字", "a: b: c", "\x00", "\r"]))
         lines.insert(0, f"# {key}: {value}")
+    elif what in EXPORT_STYLES:
+        lines = EXPORT_STYLES[what](draw, lines, head, rows)
     out: str | bytes = "\n".join(lines)
     if what == "encoding":
         out = out.replace("deg", "°").encode(draw(st.sampled_from(ENCODINGS)), errors="replace")

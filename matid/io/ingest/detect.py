@@ -262,13 +262,30 @@ def detect(lines: list[str], path: Path, encoding: str) -> Layout:
         except Ambiguous as exc:
             raise DataError(str(exc), file=path, row=h + 1) from None
         if found:
-            return max(found, key=lambda c: c.n_cells)
+            layout = max(found, key=lambda c: c.n_cells)
+            _no_data_above(lines, layout, path)
+            return layout
     raise DataError(
         f"no header row found (read as {encoding}): expected a row of column names followed, "
         "after an optional units row, by rows of numbers with as many cells, separated by ',', "
         f"';', tab or spaces; looked at the first {min(len(lines), MAX_PREAMBLE)} lines",
         file=path,
     )
+
+
+def _no_data_above(lines: list[str], layout: Layout, path: Path) -> None:
+    """A row of numbers as wide as the header above it is data the preamble would swallow
+    silently: a header row or a second export's preamble pasted in among the first rows."""
+    for i in range(layout.header_at):
+        cells = _cells(lines[i], layout.delimiter) or []
+        if 2 <= len(cells) <= layout.n_cells and all(is_number(c, layout.decimal_comma) for c in cells):
+            raise DataError(
+                f"row of numbers above the header row {layout.header_at + 1}: is a header row (or a "
+                "second export) pasted in among the data? The rows above a header are not read as "
+                "data; remove the repeated header, or split the file into one export each",
+                file=path,
+                row=i + 1,
+            )
 
 
 def preamble(lines: list[str], layout: Layout) -> tuple[dict[str, str], tuple[str, ...]]:

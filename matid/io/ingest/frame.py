@@ -19,6 +19,7 @@ from __future__ import annotations
 import codecs
 import csv
 import io
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -150,6 +151,7 @@ def column(rows: Rows, index: int, name: str, *, required: bool) -> np.ndarray |
         text = series.astype("string").str.strip()
         if rows.layout.decimal_comma:  # "1,5" is 1.5 where a comma may be decimal (detect.number)
             comma = text.str.count(",").eq(1) & ~text.str.contains(".", regex=False)
+            _grouped(rows, text, comma.fillna(False).to_numpy(), index, name)
             text = text.where(~comma.fillna(False), text.str.replace(",", ".", regex=False))
         series = pd.to_numeric(text, errors="coerce")
     values = series.to_numpy(dtype=float, na_value=np.nan)
@@ -159,6 +161,30 @@ def column(rows: Rows, index: int, name: str, *, required: bool) -> np.ndarray |
     if required:
         _cell_error(rows, int(bad[0]), index, name)
     return None
+
+
+#: A cell that reads two ways where a column mixes decimal marks: "1,012" (1.012 or 1012).
+_GROUPED = r"^[+-]?[1-9]\d{0,2}[.,]\d{3}$"
+
+
+def _grouped(rows: Rows, text: pd.Series, comma: np.ndarray, index: int, name: str) -> None:
+    """A column with both ',' and '.' as decimal mark has no one reading of a cell such as
+    "1,012" or "1.250" (a thousands separator or a decimal mark): raise at the first one."""
+    dot = text.str.contains(".", regex=False).fillna(False).to_numpy() & ~comma
+    if not (dot.any() and comma.any()):
+        return
+    ambiguous = np.flatnonzero(text.str.match(_GROUPED).fillna(False).to_numpy())
+    if ambiguous.size:
+        k = int(ambiguous[0])
+        cell = str(text.iloc[k])
+        raise DataError(
+            f"'{cell}' reads as {cell.replace(',', '.')} (a decimal mark) or "
+            f"{cell.replace(',', '').replace('.', '')} (a thousands separator), and this column "
+            "has both ',' and '.' as decimal mark: export with one decimal mark and no thousands separator",
+            file=rows.path,
+            row=int(rows.lines[k]),
+            column=name,
+        )
 
 
 def _decimal(text: str, start: int, layout: Layout) -> str:
@@ -256,10 +282,31 @@ def _cell_error(rows: Rows, k: int, index: int, name: str) -> None:
     text = cells[index]
     try:
         number(text, rows.layout.decimal_comma)
+        if not text.strip().isascii():  # float() reads '١٢' and '０.５', pandas (which reads rows) not
+            raise ValueError(text)
     except ValueError:
         raise DataError(
-            f"not a number: '{bounded_text(text, 80)}'", file=rows.path, row=line, column=name
+            f"not a number: '{bounded_text(text, 80)}'{_hint(text)}", file=rows.path, row=line, column=name
         ) from None
     raise DataError(
         f"NaN or infinite value '{bounded_text(text, 80)}'", file=rows.path, row=line, column=name
     )
+
+
+#: Number styles some exports and hand edits have that matid does not read, and what to write instead.
+_HINTS = (
+    (re.compile("\u2212"), "the minus sign '\u2212' (U+2212) is not read: write '-'"),
+    (
+        re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)[dDqQ][+-]?\d+$"),
+        "a Fortran exponent (D or Q) is not read: write E",
+    ),
+    (re.compile(r"^#(DIV/0!|N/A|VALUE!|REF!|NUM!|NAME\?|NULL!|#+)$"), "a spreadsheet error cell"),
+    (re.compile(r"(?![0-9])\d"), "only the digits 0-9 are read"),  # \d: any Unicode digit
+)
+
+
+def _hint(text: str) -> str:
+    """`` (why)`` for a cell in a number style matid does not read, else ''."""
+    cell = text.strip()
+    hint = next((why for pattern, why in _HINTS if pattern.search(cell)), None)
+    return f" ({hint})" if hint else ""
