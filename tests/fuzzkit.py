@@ -6,8 +6,12 @@ header names, rows, delimiters, encodings, sizes, TOML keys, types and values. A
 scene case is an example scene with mutated keys and values.
 
 Each case runs in this process (no interpreter start-up) under a wall-clock
-alarm. Most cases stop after the input stage (load_study + load_measurements, or
-load_scene), which is where nearly every mutation is caught; a drawn few (FULL_SHARE)
+alarm. The CSV mutations include what real exports and hand edits have
+(:data:`EXPORT_STYLES`: stray and paired quotes, mixed line endings, control bytes, U+2212
+and non-ASCII digits, thousands separators, Fortran exponents, spreadsheet error cells,
+non-finite words, very long lines, a header repeated mid-file). Most cases stop after
+the input stage (load_study + load_measurements, or load_scene), which is where nearly
+every mutation is caught; a drawn few (FULL_SHARE)
 run the whole ``matid fit`` / ``matid solve`` through ``matid.app.cli.main`` into an output
 folder that holds an older report, which must come out old-whole or new-whole.
 
