@@ -276,28 +276,25 @@ def _style_fortran(draw, lines, head, rows):
     return lines
 
 
-def _style_spreadsheet(draw, lines, head, rows):
-    """Spreadsheet error cells in a data row."""
+def _word_in_a_cell(draw, lines, rows, words):
+    """One cell of a data row replaced by one of ``words``."""
     r = draw(st.sampled_from(rows))
     cells = lines[r].split(",")
-    cells[draw(st.integers(0, len(cells) - 1))] = draw(
-        st.sampled_from(["#DIV/0!", "#N/A", "#VALUE!", "#REF!", "#NUM!", "#NAME?", "####", "=A1+B1", "ERR"])
-    )
+    cells[draw(st.integers(0, len(cells) - 1))] = draw(st.sampled_from(words))
     lines[r] = ",".join(cells)
     return lines
+
+
+def _style_spreadsheet(draw, lines, head, rows):
+    """Spreadsheet error cells in a data row."""
+    errors = ["#DIV/0!", "#N/A", "#VALUE!", "#REF!", "#NUM!", "#NAME?", "####", "=A1+B1", "ERR"]
+    return _word_in_a_cell(draw, lines, rows, errors)
 
 
 def _style_nonfinite(draw, lines, head, rows):
     """Words for non-finite values as instruments and numpy write them."""
-    r = draw(st.sampled_from(rows))
-    cells = lines[r].split(",")
-    cells[draw(st.integers(0, len(cells) - 1))] = draw(
-        st.sampled_from(
-            ["nan", "NaN", "inf", "-inf", "+inf", "Infinity", "-Infinity", "NA", "null", "1.#INF", "-1.#IND"]
-        )
-    )
-    lines[r] = ",".join(cells)
-    return lines
+    words = ["nan", "NaN", "inf", "-inf", "+inf", "Infinity", "-Infinity", "NA", "null", "1.#INF", "-1.#IND"]
+    return _word_in_a_cell(draw, lines, rows, words)
 
 
 def _style_longline(draw, lines, head, rows):
