@@ -42,6 +42,9 @@ HOLD = "hold (x constant)"
 HELD_LOAD = "held load (y constant while x creeps)"
 BEFORE = "before the linear range (toe, backlash or tare)"
 BEYOND = "beyond the linear range"
+PAST_PEAK = "past the peak (y falls after its largest value)"
+#: y falls past its peak when it drops this many noise deviations below it.
+PEAK_FALL = 5.0
 
 
 def _tolerance(x: np.ndarray) -> float:
@@ -153,6 +156,25 @@ def record(name: str, x: np.ndarray, y: np.ndarray, window: np.ndarray) -> Recor
     return rec.leave_out(np.isfinite(x) & np.isfinite(y), "not finite")
 
 
+def past_peak(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Mask of the loading rows beyond the peak of y, when y then falls (yield, a tube that
+    buckles or slips): no line through the origin's side of a peak describes them, and the
+    smooth departures of :mod:`matid.fits.onset` cannot follow a fall. The peak is the row
+    farthest in y from the first row; the fall must exceed PEAK_FALL second-difference noise
+    deviations of y, so a plateau (softening) stays for the linear-range search."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    none = np.zeros(x.size, dtype=bool)
+    if x.size < 3:
+        return none
+    reach = np.abs(x - x[0])
+    sign = np.sign(y[np.argmax(np.abs(y - y[0]))] - y[0])
+    z = sign * (y - y[0])
+    peak = int(np.argmax(z))
+    beyond = reach > reach[peak]
+    fall = z[peak] - np.min(z[beyond], initial=z[peak])
+    return beyond if fall > PEAK_FALL * stats.difference_noise(y) else none
+
+
 def automatic(rec: Record) -> Record:
     """The record cut to its loading branch's linear range (:mod:`matid.fits.branch`)."""
     idx = np.flatnonzero(rec.used)
@@ -160,6 +182,10 @@ def automatic(rec: Record) -> Record:
         keep = np.ones(rec.x.size, dtype=bool)
         keep[idx[mask]] = False
         rec = rec.leave_out(keep, reason)
+    idx = np.flatnonzero(rec.used)
+    keep = np.ones(rec.x.size, dtype=bool)
+    keep[idx[past_peak(rec.x[idx], rec.y[idx])]] = False
+    rec = rec.leave_out(keep, PAST_PEAK)
     idx = np.flatnonzero(rec.used)
     if idx.size == 0:
         return rec

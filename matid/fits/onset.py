@@ -54,7 +54,7 @@ def _noise_factor(u: np.ndarray, y: np.ndarray, order: np.ndarray) -> tuple[floa
     """(f, n_eff) of :func:`matid.fits.stats.variance_factor` on the residuals, in recording
     order, of a Legendre series of degree up to NOISE_DEGREE: a curve the test's
     alternative misses would otherwise be read as correlated noise, and hide itself."""
-    degree = int(min(NOISE_DEGREE, max(3, u.size // 10)))
+    degree = int(min(NOISE_DEGREE, max(6, u.size // 10)))
     scaled = (u - u.min()) / max(float(np.ptp(u)), 1e-300) * 2.0 - 1.0
     resid, rank = _fit(np.polynomial.legendre.legvander(scaled, degree), y)  # orthogonal on [-1, 1]
     return stats.variance_factor(resid[np.argsort(order)], n_params=rank)
