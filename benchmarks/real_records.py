@@ -1,0 +1,520 @@
+"""Real-record benchmark: matid on public lab records other people's machines wrote (issue 28, item 1).
+
+    PYTHONPATH=$PWD python benchmarks/real_records.py [--records DIR] [--only ID ...] [--copy-from-mirror DIR]
+
+For each record of RECORDS the file is expected at DIR/<owner>/<repo>/<path> (default DIR
+/work/records; never committed: the files carry no licence). ``--copy-from-mirror`` first
+copies each record out of the bare git snapshots the search tool's ``fetch`` left in DIR
+(/work/.mirror/<owner>+<repo>/repo) at the record's commit.
+
+Per record: sha256 of the file, a study.toml written in a temporary folder that points at
+the unedited file (only the study keys a user would write per docs/guide.md), matid.fit(...)
+through the Python API, and the hand value from benchmarks/real_records_hand.py (numpy only).
+One line per record, then a markdown table. The rule (issue 28 item 2): within 5 % of the
+hand value with status ok, or status check / not_identifiable with a 95 % interval that
+covers the hand value. A record that fails the rule or that matid refuses is reported, not
+raised: the script exits 0 when everything ran.
+
+Three-point bend: matid fits E_s with E_b and E_e held. These coupons have no bending test,
+so E_b and E_e are [[fixed]] from a nominal modulus (stated per record, not from the data),
+and the value compared is the flexural stiffness of matid's fitted curve,
+E_b,app = 1 / (1/E_b + 12/(S^2 E_s)), its interval mapped from E_s's (monotone), against
+the hand value S^3/48 dF/dd.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import math
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import real_records_hand as hand  # noqa: E402
+
+IN = 0.0254
+
+
+@dataclass
+class Record:
+    id: str
+    repo: str
+    commit: str
+    path: str
+    kind: str  # extension | torsion | three_point_bend | magnetic_bending
+    machine: str
+    dims: str  # the specimen dimensions used
+    source: str  # where they were found
+    specimen: dict
+    test: dict  # the [[test]] keys besides kind, specimen, file
+    hand: callable  # (path) -> (value, stderr, n)
+    hand_text: str  # the hand computation in words
+    fixed: dict = field(default_factory=dict)  # parameter -> "value unit" ([[fixed]])
+    note: str = ""
+
+    @property
+    def parameter(self) -> str:
+        return {"extension": "E_e", "torsion": "E_t", "three_point_bend": "E_s", "magnetic_bending": "E_b"}[
+            self.kind
+        ]
+
+
+VHB = ("Chongran-Zhao/VHB4910_data", "a23efd8c4f8abaa907c4d613db6e74ca6b0321c5")
+JK = ("Jkillelea/ASEN3112-Lab-1-Code", "da3317fa76589dafcb0f7f8d209605985cb79e9d")
+CB = ("calebbristol/ASEN3112", "94b9e3fb3acabd2278192ea4cf11f64522ae5d43")
+OD = ("odykak/Flexural-stress-strain", "b52eb0608383f8f95b46ce15fa93aab565830ea6")  # branch Data
+PZ = ("e-dub/pyZiagn", "c831eb6ca7faa8a4c979b7cd5d445d4d80ad4f47")
+ES = ("ernestsb/statictesting", "4398b17d8d3aebf78c70cd121d95c7d9dd9d3026")
+
+VHB_SRC = "README.md l.13-14, 25-26: L0 = 8 cm (lambda = 1 + Delta/L0)"
+VHB_COLS = {"time": "时间", "elongation": "位移", "force": "力"}
+ASEN_TUBE = {"outer_diameter": "0.75 in", "inner_diameter": "0.625 in"}
+ASEN_SRC_JK = "main.m l.4-6 (Re = 3/8 in, t = 1/16 in, extensometer L = 1 in)"
+ASEN_SRC_CB = (
+    "Lab 1/TorqueStrain.m l.31-37 (D_e = 0.75 in, t = 1/16 in, L = 10 in); file line 5 'Length: 10 inches'"
+)
+# odykak: Stress-strain.py (branch main 773bcad) l.28-31: thickness[], width[] in load order, L = 40.28 mm
+OD_SRC = "Stress-strain.py (main) l.28-31: thickness, width per coupon, span L = 40.28 mm"
+OD_ASSUMED = (  # not stated by the author
+    "specimen_length 60 mm, roller and nose radius 5 mm assumed; [[fixed]] E = 3.5 GPa nominal PLA"
+)
+
+
+def vhb_relax(name: str, strain: float, encoding: str | None = "gbk") -> Record:
+    test = {"gauge_length": "80 mm", "columns": VHB_COLS} | ({"encoding": encoding} if encoding else {})
+    return Record(
+        id=f"vhb-relax-{name}",
+        repo=VHB[0],
+        commit=VHB[1],
+        path=f"single-step-relaxation/original_data/{name}.csv",
+        kind="extension",
+        machine=f"Chinese UTM export ({encoding or 'UTF-8'} header 时间,位移,力 / (s),(mm),(N))",
+        dims=f"L0 80 mm; ramp 20 mm/s to strain {strain:g}, hold",
+        source=VHB_SRC,
+        specimen={"width": "10 mm", "height": "1 mm"},
+        test=test,
+        hand=lambda p: hand.relaxation(p, gauge_m=0.08),
+        hand_text="mean force / strain over the last 60 s of the hold",
+        note="specimen width/height not given (VHB4910 is 1 mm thick): section only labels moduli",
+    )
+
+
+def vhb_cycle(name: str) -> Record:
+    return Record(
+        id=f"vhb-cycle-{name}",
+        repo=VHB[0],
+        commit=VHB[1],
+        path=f"uniaxial-loading-unloading/original_data/{name}.csv",
+        kind="extension",
+        machine="Chinese UTM export (GBK)",
+        dims="L0 80 mm; load to 40 mm and back",
+        source=VHB_SRC,
+        specimen={"width": "10 mm", "height": "1 mm"},
+        test={"gauge_length": "80 mm", "columns": VHB_COLS, "encoding": "gbk"},
+        hand=lambda p: hand.cycle_mean(p, gauge_m=0.08, strain_window=(0.1, 0.4)),
+        hand_text="mean of loading and unloading force at common strain, line over strain 0.1-0.4",
+    )
+
+
+def asen_torsion(rid, src, path, *, slit, channel) -> Record:
+    """ASEN 3112 Lab 1 (University of Colorado): thin-walled 0.75 in x 1/16 in tube, closed or slit.
+
+    channel 'ext': the extensometer reads the surface shear strain gamma (deg) over 1 in; twist per
+    length is gamma/Re (closed) or gamma/t (open), so length = Re or t turns gamma into the twist.
+    channel 'angle': the machine's angle over the specimen length, 10 in."""
+    repo, commit = src
+    jk = repo.startswith("Jkillelea")
+    spec = {**ASEN_TUBE, "slit": True} if slit else dict(ASEN_TUBE)
+    if jk:
+        angle, ext, torque, skip, delim = "Angle", "Shear Strain", "Torque", 3, ","
+        cols = {"angle": 2, "ext": 1}
+        machine = "torsion frame 'Partner Data Point File' CSV (min, deg, in·lb)"
+    else:
+        angle, ext, torque, skip, delim = (
+            "Torsional Angle",
+            "Torsional Epsilon 3550 Torsion",
+            "Torsional Torque",
+            8,
+            "\t",
+        )
+        cols = {"angle": 1, "ext": 2}
+        machine = "MTS TestSuite DAQ (Timed) txt, Epsilon 3550 torsional extensometer"
+    if channel == "ext":
+        L = 1 / 16 * IN if slit else 3 / 8 * IN
+        length = "0.0625 in" if slit else "0.375 in"
+        slit_text, to = (", slit", "t") if slit else ("", "Re")
+        dims = f"D 0.75 in, t 1/16 in{slit_text}; extensometer gamma -> length = {to}"
+    else:
+        L, length = 10 * IN, "10 in"
+        dims = f"D 0.75 in, t 1/16 in{', slit' if slit else ''}; angle over L = 10 in"
+    col = angle if channel == "angle" else ext
+    return Record(
+        id=rid,
+        repo=repo,
+        commit=commit,
+        path=path,
+        kind="torsion",
+        machine=machine,
+        dims=dims,
+        source=(ASEN_SRC_JK + ("; L = 10 in: " + ASEN_SRC_CB if channel == "angle" else ""))
+        if jk
+        else ASEN_SRC_CB,
+        specimen=spec,
+        test={"length": length, "columns": {"twist_angle": col, "torque": torque}},
+        hand=lambda p: hand.torsion(
+            p, skip=skip, delim=delim, angle_col=cols[channel], torque_col=3 if jk else 3, length_m=L
+        ),
+        hand_text=f"loading rows, torque 10-80 % of its excursion, line T({col}), x L",
+    )
+
+
+# thickness / width of the odykak coupons, in load order (Stress-strain.py l.28-29)
+OD_T = [
+    2.93666288,
+    2.883306388,
+    2.966662919,
+    2.963329587,
+    2.933329548,
+    2.914995712,
+    2.966662919,
+    2.973329599,
+    2.926572111,
+    2.893329496,
+]
+OD_W = [
+    11.8633324,
+    11.88666573,
+    11.73333239,
+    11.92666573,
+    11.97666574,
+    11.92666573,
+    11.8533324,
+    11.74999716,
+    12.03999723,
+    12.03999723,
+]
+
+
+def od_bend(index: int, name: str) -> Record:
+    t, w, S = OD_T[index - 1], OD_W[index - 1], 40.28e-3
+    E = 3.5e9
+    inertia, A = w * t**3 / 12 * 1e-12, w * t * 1e-6
+    return Record(
+        id=f"od-3pb-{name}",
+        repo=OD[0],
+        commit=OD[1],
+        path=f"{name}.dat",
+        kind="three_point_bend",
+        machine="MTS 793 (MTS793/BTW banner, space separated, compression negative)",
+        dims=f"b {w:.3f} mm, d {t:.3f} mm, S 40.28 mm",
+        source=OD_SRC + "; " + OD_ASSUMED,
+        specimen={"width": f"{w:.4f} mm", "height": f"{t:.4f} mm"},
+        test={
+            "span": "40.28 mm",
+            "specimen_length": "60 mm",
+            "support_radius": "5 mm",
+            "nose_radius": "5 mm",
+            "columns": {"deflection": "Ch 1 Displacement", "force": "Ch 1 Force"},
+            "negate": ["deflection", "force"],
+        },
+        fixed={"E_b": f"{E * inertia:.6g} N m^2", "E_e": f"{E * A:.6g} N"},
+        # the author's own window: read_csv(skiprows=270) then rows [0:2500] (l.49, l.210)
+        hand=lambda p: hand.bend(p, skip=8, rows=(262, 2762), span_m=S),
+        hand_text="author's window (file lines 271-2770, Stress-strain.py l.49, l.210): line F(d), x S^3/48",
+    )
+
+
+RECORDS: list[Record] = [
+    vhb_relax("1d5", 0.5),
+    vhb_relax("3d0", 2.0, encoding=None),  # this one file is UTF-8
+    vhb_cycle("0d05_1d5_1"),
+    vhb_cycle("0d01_1d5"),
+    asen_torsion("jk-closed-ext", JK, "data/400inlb-solid.csv", slit=False, channel="ext"),
+    asen_torsion("jk-closed-angle", JK, "data/400inlb-solid.csv", slit=False, channel="angle"),
+    asen_torsion("jk-slit-ext", JK, "data/20inlb-slotted.csv", slit=True, channel="ext"),
+    asen_torsion("jk-slit-angle", JK, "data/20inlb-slotted.csv", slit=True, channel="angle"),
+    asen_torsion("cb-slit-angle", CB, "Lab 1/Torsion20inlbf_146.txt", slit=True, channel="angle"),
+    asen_torsion("cb-slit-ext", CB, "Lab 1/Torsion20inlbf_146.txt", slit=True, channel="ext"),
+    od_bend(1, "1_3D850_s1"),
+    od_bend(4, "4_3Devo_s1"),
+    od_bend(7, "7_CR10_s1"),
+    Record(
+        id="pz-tensile-1-5",
+        repo=PZ[0],
+        commit=PZ[1],
+        path="examples/data/1-5.txt",
+        kind="extension",
+        machine="MTS TestSuite DAQ (Timed) txt, tab, decimal comma (unibz MTS)",
+        dims="L0 33 mm (crosshead), A0 21.35 mm^2",
+        source="examples/test4.py l.4-7 (Area0 = 21.35, length0 = 33)",
+        specimen={"width": "7 mm", "height": "3.05 mm"},
+        test={
+            "gauge_length": "33 mm",
+            "columns": {"time": "_Time", "elongation": "_Extension", "force": "_Load"},
+            "window": {"elongation": ["0.3 mm", "0.8 mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=8,
+            delim="\t",
+            decimal=",",
+            elong_col=0,
+            force_col=1,
+            gauge_m=0.033,
+            window_m=(0.3e-3, 0.8e-3),
+        ),
+        hand_text="crosshead 0.3-0.8 mm (window also given to matid): line F(strain)",
+        note="width x height only stand for A0 = 21.35 mm^2 (7 x 3.05); to failure: window stated",
+    ),
+    Record(
+        id="es-tensile",
+        repo=ES[0],
+        commit=ES[1],
+        path="example_input.dat",
+        kind="extension",
+        machine="tab-separated DAQ .dat, no header (README: Time s, Displacement mm, Force kN, Strain ue)",
+        dims="none needed: strain-gauge strain column",
+        source="README.md l.9-10 (column order and units)",
+        specimen={"width": "10 mm", "height": "1 mm"},
+        test={
+            "gauge_length": "50 mm",
+            "columns": {"time": "Time", "strain": "Strain", "force": "Force"},
+            "units": {"time": "s", "strain": "1", "force": "kN"},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=0,
+            delim="\t",
+            decimal=".",
+            elong_col=3,
+            force_col=2,
+            gauge_m=1.0,
+            window_m=(1e-3, 3e-3),
+            elong_si=1e-6,
+            strain_col=True,
+        ),
+        hand_text="strain 1000-3000 microstrain: line F(strain)",
+        note="the file has no header row: a user cannot name its columns without editing it",
+    ),
+]
+
+
+# --- study.toml -------------------------------------------------------------------------------
+
+
+def toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (int, float)):
+        return repr(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{toml_value(k)} = {toml_value(x)}" for k, x in v.items()) + " }"
+    raise TypeError(v)
+
+
+def study_toml(rec: Record, file: Path) -> str:
+    lines = ["[study]", f"name = {toml_value('real record ' + rec.id)}", "", "[[specimen]]", 'id = "S1"']
+    lines += [f"{k} = {toml_value(v)}" for k, v in rec.specimen.items()]
+    lines += [
+        "",
+        "[[test]]",
+        f"kind = {toml_value(rec.kind)}",
+        'specimen = "S1"',
+        f"file = {toml_value(str(file))}",
+    ]
+    lines += [f"{k} = {toml_value(v)}" for k, v in rec.test.items()]
+    for p, v in rec.fixed.items():
+        lines += [
+            "",
+            "[[fixed]]",
+            'specimen = "S1"',
+            f"parameter = {toml_value(p)}",
+            f"value = {toml_value(v)}",
+        ]
+    return "\n".join(lines) + "\n"
+
+
+# --- one record -------------------------------------------------------------------------------
+
+
+@dataclass
+class Outcome:
+    rec: Record
+    sha: str = ""
+    value: float | None = None
+    low: float | None = None
+    high: float | None = None
+    status: str = ""
+    hand: float | None = None
+    hand_n: int = 0
+    seconds: float = 0.0
+    reason: str = ""
+    n_points: int = 0
+
+    @property
+    def diff(self) -> float | None:
+        if self.value is None or not self.hand:
+            return None
+        return 100 * (self.value - self.hand) / self.hand
+
+    @property
+    def holds(self) -> bool:
+        if self.value is None or self.hand is None:
+            return False
+        if self.status == "ok":
+            return abs(self.diff) <= 5
+        if self.status in ("check", "not_identifiable") and self.low is not None and self.high is not None:
+            return self.low <= self.hand <= self.high
+        return False
+
+
+def flexural(E_b: float, S: float, E_s: float) -> float:
+    """Flexural stiffness of a Timoshenko beam in 3-point bend: 1/(1/E_b + 12/(S^2 E_s))."""
+    if E_s is None or not math.isfinite(E_s) or E_s <= 0:
+        return float("nan")
+    return 1 / (1 / E_b + 12 / (S**2 * E_s))
+
+
+def run(rec: Record, path: Path) -> Outcome:
+    import matid
+
+    out = Outcome(rec, sha=hashlib.sha256(path.read_bytes()).hexdigest())
+    out.hand, _, out.hand_n = rec.hand(path)
+    with tempfile.TemporaryDirectory(prefix=f"real_{rec.id}_") as tmp:
+        toml = Path(tmp) / "study.toml"
+        shutil.copyfile(
+            path, Path(tmp) / path.name
+        )  # a byte copy: matid wants the file inside the study folder
+        toml.write_text(study_toml(rec, Path(path.name)), encoding="utf-8")
+        clock = time.perf_counter()
+        try:
+            result = matid.fit(toml)
+        except Exception as exc:  # a refused file is a finding of the benchmark, not a crash of it
+            out.seconds = time.perf_counter() - clock
+            out.status = "refused"
+            out.reason = f"{type(exc).__name__}: {exc}".replace("\n", " ")
+            return out
+        out.seconds = time.perf_counter() - clock
+    table = result.table()
+    rows = table[table.parameter == rec.parameter]
+    if rows.empty and rec.parameter == "E_e":
+        rows = table[table.parameter == "sls_k1"]
+    if rows.empty:
+        out.status = "failed"
+        out.reason = "; ".join(result.failures) or "; ".join(result.warnings) or "no value"
+        return out
+    row = rows.iloc[0]
+    out.status = str(row.status)
+    out.n_points = int(row.n_points) if row.n_points is not None and row.n_points == row.n_points else 0
+    out.reason = str(row.warnings or "")[:300]
+    value, low, high = (
+        None if row[k] is None or row[k] != row[k] else float(row[k])
+        for k in ("value", "ci95_low", "ci95_high")
+    )
+    if rec.kind == "three_point_bend":
+        E_b = float(rec.fixed["E_b"].split()[0])  # written in N m^2 above
+        S = float(rec.test["span"].split()[0]) * 1e-3
+        value, low, high = (flexural(E_b, S, v) if v is not None else None for v in (value, low, high))
+    out.value, out.low, out.high = value, low, high
+    return out
+
+
+def fmt(v: float | None) -> str:
+    return "-" if v is None or not math.isfinite(v) else f"{v:.4g}"
+
+
+def line(o: Outcome) -> str:
+    if o.value is None:
+        return (
+            f"{o.rec.id:18s} {o.rec.kind:16s} matid {o.status}: {o.reason[:240]} | hand {fmt(o.hand)} "
+            f"| rule FAILS ({o.seconds:.1f} s)"
+        )
+    rule = "holds" if o.holds else "FAILS"
+    return (
+        f"{o.rec.id:18s} {o.rec.kind:16s} matid {fmt(o.value)} {o.status} [{fmt(o.low)}, {fmt(o.high)}] "
+        f"hand {fmt(o.hand)} diff {o.diff:+.1f} % n {o.n_points} | rule {rule} ({o.seconds:.1f} s)"
+    )
+
+
+UNITS = {"extension": "N", "torsion": "N m^2", "three_point_bend": "N m^2", "magnetic_bending": "N m^2"}
+
+
+def markdown(outcomes: list[Outcome], skipped: list[Record]) -> str:
+    head = (
+        "| id | repo @ commit | path | sha256 | kind | machine | dimensions (source) | hand (how) | "
+        "matid | status | 95 % interval | diff % | rule |"
+    )
+    rows = [head, "|" + " --- |" * 13]
+    for o in outcomes:
+        r = o.rec
+        diff = f"{o.diff:+.1f}" if o.diff is not None else "-"
+        why = o.reason.replace("|", "/")[:200]
+        status = o.status if o.status == "ok" or not why else f"{o.status}: {why}"
+        rows.append(
+            f"| {r.id} | {r.repo} @ {r.commit[:7]} | `{r.path}` | `{o.sha[:16]}…` | {r.kind} | {r.machine} | "
+            f"{r.dims} ({r.source}) | {fmt(o.hand)} {UNITS[r.kind]} ({r.hand_text}; n = {o.hand_n}) | "
+            f"{fmt(o.value)} | {status} | [{fmt(o.low)}, {fmt(o.high)}] | {diff} | "
+            f"{'holds' if o.holds else 'FAILS'} |"
+        )
+    for r in skipped:
+        rows.append(
+            f"| {r.id} | {r.repo} @ {r.commit[:7]} | `{r.path}` | absent | {r.kind} | | | | | skipped | | | |"
+        )
+    return "\n".join(rows)
+
+
+def copy_from_mirror(mirror: Path, records: Path) -> None:
+    for rec in RECORDS:
+        repo = mirror / rec.repo.replace("/", "+") / "repo"
+        git_dir = repo / ".git" if (repo / ".git").is_dir() else repo
+        dest = records / rec.repo / rec.path
+        if dest.exists() or not git_dir.is_dir():
+            continue
+        data = subprocess.run(
+            ["git", "--git-dir", str(git_dir), "show", f"{rec.commit}:{rec.path}"],
+            capture_output=True,
+            check=True,
+        ).stdout
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        dest.write_bytes(data)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--records", type=Path, default=Path("/work/records"))
+    ap.add_argument("--only", nargs="*", default=None, help="record ids to run")
+    ap.add_argument("--copy-from-mirror", type=Path, default=None, help="e.g. /work/.mirror")
+    args = ap.parse_args(argv)
+    if args.copy_from_mirror:
+        copy_from_mirror(args.copy_from_mirror, args.records)
+    outcomes, skipped = [], []
+    for rec in RECORDS:
+        if args.only and rec.id not in args.only:
+            continue
+        path = args.records / rec.repo / rec.path
+        if not path.is_file():
+            print(f"{rec.id:18s} skipped: {path} is absent")
+            skipped.append(rec)
+            continue
+        o = run(rec, path)
+        print(line(o), flush=True)
+        outcomes.append(o)
+    print()
+    print(markdown(outcomes, skipped))
+    held = sum(o.holds for o in outcomes)
+    print(f"\n{held} of {len(outcomes)} records hold the rule; {len(skipped)} skipped")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
