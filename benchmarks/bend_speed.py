@@ -37,9 +37,10 @@ import numpy as np
 
 from matid.example.forward import bend_centreline, bend_force
 from matid.fits.shear import fit as shear
-from matid.io import study
-from matid.io.ingest.read import Measurement, Table
-from matid.io.results import Estimate
+from matid.io.study import load_study
+from matid.model import study
+from matid.model.measurement import Measurement, Table
+from matid.model.results import Estimate
 from matid.rod import bend
 
 E_B, E_S, E_E = 6.5e-5, 21.0, 120.0  # demo tube T1
@@ -204,7 +205,7 @@ def demo(counter: Counter) -> dict:
 
     pipeline.FITTERS["three_point_bend"] = timed
     try:
-        pipeline.run_study(study.load_study(demo_study_path()))
+        pipeline.run_study(load_study(demo_study_path()))
     finally:
         pipeline.FITTERS["three_point_bend"] = original
     out["total_seconds"] = sum(v["seconds"] for v in out.values())

@@ -22,8 +22,8 @@ import numpy as np
 
 from matid.fits.extension.fit import fit_extension
 from matid.fits.stats import ar1_noise
-from matid.io import study
-from matid.io.ingest.read import Measurement, Table
+from matid.model import study
+from matid.model.measurement import Measurement, Table
 from matid.physics.sls import sls_ramp
 
 K1, K2, ETA = 50.0, 30.0, 300.0

@@ -121,8 +121,8 @@ def _test_key(nodeid: str) -> str:
 
 
 def _measurements(runs):
-    from matid.io import study
-    from matid.io.ingest.read import Measurement, Table
+    from matid.model import study
+    from matid.model.measurement import Measurement, Table
 
     out = []
     for i, (t, eps, force) in enumerate(runs):

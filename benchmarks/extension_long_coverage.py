@@ -23,8 +23,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from matid.fits.extension.fit import fit_extension  # noqa: E402
-from matid.io import study  # noqa: E402
-from matid.io.ingest.read import Measurement, Table  # noqa: E402
+from matid.model import study  # noqa: E402
+from matid.model.measurement import Measurement, Table  # noqa: E402
 from tests.fits.extension.relaxation import ARMS, GAUGE, K0, NOISE, PHI, ar1, prony_record  # noqa: E402
 
 CASES = {

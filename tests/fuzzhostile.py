@@ -6,7 +6,7 @@
   column header and a ``#`` metadata line;
 - **paths**: a test's file outside the study (``../``, absolute, a link leading out, a
   link loop), with and without ``[study] allow_outside``;
-- **nesting**: study and scene TOML nested around :data:`matid.io.limits.MAX_TOML_DEPTH`
+- **nesting**: study and scene TOML nested around :data:`matid.limits.MAX_TOML_DEPTH`
   and far past it (arrays, inline tables, dotted keys, table names);
 - **signals**: SIGINT, SIGTERM or SIGKILL at a random moment of a ``matid fit`` of one
   study or of a batch, run as a process in a session of its own.
@@ -309,7 +309,7 @@ def run_path_case(case, work: Path) -> fuzzkit.Outcome:
 @st.composite
 def nesting_cases(draw):
     """(target "study" or "scene", TOML text, label): nesting near and far past MAX_TOML_DEPTH."""
-    from matid.io.limits import MAX_TOML_DEPTH
+    from matid.limits import MAX_TOML_DEPTH
 
     depth = draw(st.integers(1, 2 * MAX_TOML_DEPTH + 2) | st.sampled_from([400, 1000, 5000, 20_000]))
     form = draw(st.sampled_from(["array", "inline", "dotted", "header", "mixed"]))

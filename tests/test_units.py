@@ -57,7 +57,7 @@ def _prony_names() -> set[str]:
 def test_every_parameter_has_a_unit_in_every_system(system):
     """Each reported parameter, the Prony time constants included, converts in SI and cgs, and
     the unit label pint reads back gives the SI value again."""
-    from matid.io.results import PARAMETER_KINDS
+    from matid.model.study import PARAMETER_KINDS
     from matid.units import UNIT_SYSTEMS, from_si, to_si
 
     assert set(UNIT_SYSTEMS) == {"SI", "cgs"}

@@ -29,9 +29,9 @@ import numpy as np
 from matid.errors import FitError
 from matid.fits.shear import fit as shear
 from matid.fits.shear.checks import shear_share
-from matid.io import study
-from matid.io.ingest.read import Measurement, Table
-from matid.io.results import Estimate
+from matid.model import study
+from matid.model.measurement import Measurement, Table
+from matid.model.results import Estimate
 
 E_B = 6.5345e-5  # N m^2, E I of the reference tube
 E_E = 125.66  # N, E A

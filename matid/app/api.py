@@ -10,7 +10,7 @@ docs/contract.md section 8::
 
 The surface of :class:`FitResult` is plain data: ``ok``, ``warnings``, ``failures``
 are attributes (lists of str, bool), not methods. The fitted objects behind it
-stay available as ``result.study_result`` (a :class:`matid.io.results.StudyResult`).
+stay available as ``result.study_result`` (a :class:`matid.model.results.StudyResult`).
 """
 
 from __future__ import annotations
@@ -24,12 +24,12 @@ if TYPE_CHECKING:  # heavy imports only when used
     import pandas as pd
     from matplotlib.figure import Figure
 
-    from matid.io.results import StudyResult
-    from matid.io.study import Study
+    from matid.model.results import StudyResult
+    from matid.model.study import Study
 
 
 def fit(study: str | Path | Study, *, progress: Callable[[str], None] | None = None) -> FitResult:
-    """Fit every specimen and test kind of a study (a path or a loaded :class:`~matid.io.study.Study`).
+    """Fit every specimen and test kind of a study (a path or a loaded :class:`~matid.model.study.Study`).
 
     Raises :class:`~matid.errors.DataError` for unusable input; a fit that cannot be
     done is not an exception but an entry of ``failures`` (and ``ok`` is False), as
@@ -37,7 +37,8 @@ def fit(study: str | Path | Study, *, progress: Callable[[str], None] | None = N
     per step, e.g. ``print``.
     """
     from matid.app.pipeline import run_study
-    from matid.io.study import Study, load_study
+    from matid.io.study import load_study
+    from matid.model.study import Study
 
     loaded = study if isinstance(study, Study) else load_study(study)
     return FitResult(run_study(loaded, progress=progress))

@@ -298,7 +298,7 @@ class Progress:
             self.bar = Bar(total=total, unit="study", file=self.stream, desc="fitting studies")
 
     def __call__(self, outcome: StudyOutcome) -> None:
-        from matid.io.cells import escaped
+        from matid.toml import escaped
 
         self.count += 1
         status = escaped(f"{outcome.name}: {'done' if outcome.code == 0 else f'exit {outcome.code}'}")

@@ -43,7 +43,7 @@ from matid.app.solve_cli import _register_design, _register_solve
 from matid.errors import DataError, MatidError
 
 if TYPE_CHECKING:
-    from matid.io.results import Failure, StudyResult
+    from matid.model.results import Failure, StudyResult
 
 #: Parameters left out of the console summary (sls_k1 is E_e); the files hold them all.
 _SUMMARY_SKIP = {"sls_k1"}
@@ -149,7 +149,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def fit_many(args: argparse.Namespace) -> int:
     """``matid fit A B C``: each study into --out/<folder>/, then the summary; exit code the worst."""
     from matid.app.batch import Progress, run_batch
-    from matid.io.cells import escaped
+    from matid.toml import escaped
 
     out = args.out or Path("reports")
     progress = Progress(len(args.paths), quiet=args.quiet)
@@ -232,9 +232,9 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
     0 if every fit was done (and, with ``strict``, nothing warned); else 1.
     """
     from matid.app import pipeline
-    from matid.io.cells import escaped
     from matid.io.publish import claim_output
     from matid.io.study import load_study
+    from matid.toml import escaped
 
     clock = time.perf_counter()
 
@@ -304,7 +304,7 @@ def _guarded(args: argparse.Namespace) -> int:
         print("matid: interrupted", file=sys.stderr)
         return getattr(exc, "exit_code", 130)
     except Exception as exc:
-        from matid.io.cells import escaped
+        from matid.toml import escaped
 
         code = exit_code(exc)
         hint = " (rerun with --debug for the traceback)" if code == 3 and not args.debug else ""

@@ -19,10 +19,12 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from matid.app.batch import StudyOutcome
-from matid.io.cells import escaped
-from matid.io.results import CSV_COLUMNS, PARAMETER_ORDER, atomic_write, csv_text
+from matid.io.results import CSV_COLUMNS, atomic_write, csv_text
 
 #: Columns of summary.csv and of the sheet ``summary``: the study folder name, then stiffness.csv's.
+from matid.model.results import PARAMETER_ORDER
+from matid.toml import escaped
+
 SUMMARY_COLUMNS = ["study", *CSV_COLUMNS]
 #: Columns of the sheet ``studies``.
 STUDY_COLUMNS = ["study", "source", "exit_code", "error", "warnings", "runtime_s"]

@@ -38,11 +38,13 @@ from matid.fits.extension.fit import fit_extension
 from matid.fits.shear.fit import fit_three_point_bend
 from matid.fits.shear.torsion import with_E_s_torsion
 from matid.fits.torsion import fit_torsion
-from matid.io.ingest.read import Measurement, load_measurements
+from matid.io.ingest.read import load_measurements
 from matid.io.publish import publish
-from matid.io.results import Estimate, Failure, InputFile, StudyResult, TestFit, stiffness_csv, stiffness_json
-from matid.io.study import Specimen, Study
+from matid.io.results import stiffness_csv, stiffness_json
 from matid.io.xlsx import stiffness_xlsx
+from matid.model.measurement import Measurement
+from matid.model.results import Estimate, Failure, InputFile, StudyResult, TestFit
+from matid.model.study import Specimen, Study
 
 Progress = Callable[[str], None]
 

@@ -133,7 +133,7 @@ def _register_design(subparsers) -> None:
 def _cmd_design(args: argparse.Namespace) -> int:
     from matid.fits.design import design
     from matid.fits.design import summary as design_summary
-    from matid.io.study import Specimen
+    from matid.model.study import Specimen
     from matid.units import UnitError, to_si
 
     try:

@@ -24,11 +24,11 @@ import scipy.stats
 
 from matid.errors import DataError, FitError
 from matid.fits import branch, linear
-from matid.io.results import TestFit
+from matid.model.results import TestFit
 
 if TYPE_CHECKING:
-    from matid.io.ingest.read import Measurement, Table
-    from matid.io.study import Test
+    from matid.model.measurement import Measurement, Table
+    from matid.model.study import Test
 
 #: p-value below which per-length bending slopes are said to disagree.
 SLOPES_ALPHA = 0.01

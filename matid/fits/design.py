@@ -28,8 +28,8 @@ from dataclasses import dataclass
 from matid.errors import FitError
 from matid.fits.shear.checks import MODEL_FORM_FLOOR, MODEL_FORM_SLOPE, nose_ratio, shear_share
 from matid.fits.shear.torsion import e_s_torsion, local_compliance, reference_kGA, young_modulus
-from matid.io.results import Estimate
-from matid.io.study import Specimen
+from matid.model.results import Estimate
+from matid.model.study import Specimen
 
 SPANS = (0.006, 0.008, 0.010, 0.015, 0.020, 0.030)
 

@@ -44,7 +44,7 @@ from scipy.linalg import block_diag
 from matid.errors import FitError
 from matid.fits import branch, stats
 from matid.fits.branch import Record
-from matid.io.results import Estimate, Series, TestFit
+from matid.model.results import Estimate, Series, TestFit
 
 #: Tare offsets are fitted when the Wald test of "all offsets zero" gives p below this.
 #: Large on purpose: a real offset dropped biases the slope, an absent one kept only costs

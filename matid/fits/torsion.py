@@ -20,10 +20,10 @@ import numpy as np
 
 from matid.errors import DataError, FitError
 from matid.fits import branch, linear
-from matid.io.results import TestFit
+from matid.model.results import TestFit
 
 if TYPE_CHECKING:
-    from matid.io.ingest.read import Measurement
+    from matid.model.measurement import Measurement
 
 _ADVICE = (
     "Check the fit plot; set a window on twist_angle to the part the line follows, or check "

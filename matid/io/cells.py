@@ -17,16 +17,10 @@ the row, so ``"x\\r=1+1"`` would start a row with a formula.
 
 from __future__ import annotations
 
-import re
+from matid.toml import escaped
 
 #: First characters that make a spreadsheet read a cell as a formula (OWASP, CSV injection).
 FORMULA_LEADS = ("=", "+", "-", "@", "\t", "\r")
-_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
-
-
-def escaped(text: str) -> str:
-    """``text`` with every control character but tab and newline written as ``\\xNN`` (CRLF: newline)."""
-    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", text.replace("\r\n", "\n"))
 
 
 def text_cell(value: object) -> str:

@@ -6,37 +6,32 @@ Unknown keys are errors with the nearest valid key suggested (a misspelled
 ``exlude`` must not silently fit the test); a bare number for a dimensional
 quantity is SI only where that is plausible for its kind
 (:data:`matid.units.PLAUSIBLE_BARE`); booleans must be TOML booleans; free text is bounded
-(:data:`MAX_TEXT`); the toml is read by :func:`matid.io.toml.load_toml` (docs/limits.md).
+(:data:`matid.limits.MAX_TEXT`); the toml is read by :func:`matid.toml.load_toml` (docs/limits.md).
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
-from types import MappingProxyType
 
 from matid.errors import DataError
 from matid.io import study_keys as keys
-from matid.io.limits import MAX_ENTRIES
-from matid.io.study_keys import MAX_TEXT, TEST_COLUMNS, bounded_text, nearest  # noqa: F401 - re-exported
-from matid.io.toml import load_toml, shown
-from matid.io.views import PicklesViews
-from matid.physics.moduli import Section
+from matid.io.study_keys import bounded_text, nearest
+from matid.limits import MAX_ENTRIES
+from matid.model.study import (
+    DEFLECTION_AT,
+    OPTIONAL_KEYS,
+    PARAMETERS,
+    TEST_KINDS,
+    Fixed,
+    Specimen,
+    Study,
+    Test,
+)
+from matid.toml import load_toml, shown
 from matid.units import PHYSICAL_BOUND, PLAUSIBLE_BARE, UnitError, to_si
 
 #: Keys whose strings are free text: any length (cut at MAX_TEXT), not bounded by MAX_VALUE_CHARS.
 FREE_TEXT = ("name", "temperature", "note")
-#: Per test kind: the toml keys it needs and their quantity kinds; optional keys.
-TEST_KINDS: dict[str, dict[str, str]] = {
-    "extension": {"gauge_length": "length"},
-    "magnetic_bending": {"free_length": "length"},
-    "torsion": {"length": "length"},
-    "three_point_bend": dict.fromkeys(("span", "specimen_length", "support_radius", "nose_radius"), "length"),
-}
-OPTIONAL_KEYS: dict[str, dict[str, str]] = {"magnetic_bending": {"magnet_moment": "moment"}}
-
 #: Keys every [[test]] may carry besides its kind's quantities (sections 1 and 7).
 TEST_COMMON_KEYS = ("kind", "specimen", "file", "exclude", "note", *keys.READING_KEYS)
 TABLE_KEYS: dict[str, tuple[str, ...]] = {
@@ -45,150 +40,6 @@ TABLE_KEYS: dict[str, tuple[str, ...]] = {
     "specimen": ("id", "outer_diameter", "inner_diameter", "poisson_ratio", *keys.SECTION_KEYS),
     "fixed": ("specimen", "parameter", "value"),
 }
-
-#: Quantity kind of every parameter matid reports (for unit conversion); ``prony_*``: the n-term Prony
-#: (generalised Maxwell) solid of matid.fits.extension.prony.
-PARAMETER_KINDS: dict[str, str] = {
-    "E_e": "force",
-    "sls_k1": "force",
-    "sls_k2": "force",
-    "sls_eta": "viscosity",
-    "E_b": "bending_stiffness",
-    "E_t": "bending_stiffness",
-    "E_s": "force",
-    "E_s_torsion": "force",
-    **{f"prony_k{i}": "force" for i in range(4)},
-    **{f"prony_tau{i}": "time" for i in range(1, 4)},
-}
-#: Parameters a study may fix, with their quantity kinds (docs/contract.md section 3).
-PARAMETERS = {p: PARAMETER_KINDS[p] for p in ("E_e", "E_b", "E_t", "E_s", "sls_k1", "sls_k2", "sls_eta")}
-
-
-@dataclass(frozen=True)
-class Specimen:
-    """A specimen and its section (docs/contract.md section 10); lengths in m.
-
-    A tube gives ``outer_diameter`` and ``inner_diameter`` (0: a rod), an open
-    tube also ``slit = True``; a rectangular coupon gives ``width`` and ``height``
-    (height along the bending load) and no diameters.
-    """
-
-    id: str
-    outer_diameter: float = 0.0
-    inner_diameter: float = 0.0
-    #: Poisson's ratio for the shear coefficient of E_s from torsion (None: stated default range).
-    poisson_ratio: float | None = None
-    width: float = 0.0
-    height: float = 0.0
-    slit: bool = False
-
-    def __post_init__(self) -> None:
-        if not self.id:
-            raise ValueError("specimen id must not be empty")
-        rectangle = bool(self.width or self.height)
-        if not rectangle and not (self.outer_diameter > self.inner_diameter >= 0.0):
-            raise ValueError(
-                f"specimen {self.id}: need outer_diameter > inner_diameter >= 0, got "
-                f"{self.outer_diameter} m and {self.inner_diameter} m"
-            )
-        if rectangle and self.slit:
-            raise ValueError(f"specimen {self.id}: slit = true is a tube's key, not a rectangle's")
-        try:
-            self.section  # noqa: B018 - checks the section's own invariants
-        except ValueError as exc:
-            raise ValueError(f"specimen {self.id}: {exc}") from None
-
-    @property
-    def section(self) -> Section:
-        """The cross-section the moduli and E_s_torsion use."""
-        if self.width or self.height:
-            return Section("rectangle", width=self.width, height=self.height)
-        return Section("slit" if self.slit else "tube", self.outer_diameter, self.inner_diameter)
-
-
-@dataclass(frozen=True)
-class Test(PicklesViews):
-    """One lab test: a CSV file of one kind on one specimen, with its set-up in SI."""
-
-    __test__ = False  # not a pytest class
-
-    kind: str
-    specimen: str
-    file: Path
-    params: Mapping[str, float] = field(default_factory=dict, hash=False)
-    exclude: bool = False
-    note: str = ""
-    index: int = 0  #: position in study.toml, for messages
-    #: matid column name -> (low, high) in SI: only rows inside every range enter the fit
-    #: (docs/contract.md section 7, ``window``); rows outside are shown, marked.
-    window: Mapping[str, tuple[float, float]] = field(default_factory=dict, hash=False)
-    #: three_point_bend: where deflection is measured, "nose" (crosshead) or "centreline".
-    deflection_at: str = "nose"
-    #: matid column name -> the file's header text (section 7 ``columns``).
-    columns: Mapping[str, str] = field(default_factory=dict, hash=False)
-    #: matid column name -> unit text overriding the file's (section 7 ``units``).
-    units: Mapping[str, str] = field(default_factory=dict, hash=False)
-    #: matid columns whose sign is flipped on reading (section 7 ``negate``).
-    negate: tuple[str, ...] = ()
-    #: Text encoding of the file; None: detected.
-    encoding: str | None = None
-
-    def __post_init__(self) -> None:
-        if self.kind not in TEST_KINDS:
-            raise ValueError(f"unknown test kind {self.kind!r}")
-        for name in ("params", "window", "columns", "units"):
-            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
-        object.__setattr__(self, "negate", tuple(self.negate))
-        if self.deflection_at not in ("nose", "centreline"):
-            got = shown(self.deflection_at)
-            raise ValueError(f"deflection_at must be 'nose' or 'centreline', got '{got}'")
-        for key in TEST_KINDS[self.kind]:
-            value = self.params.get(key)
-            if value is None or not value > 0:
-                raise ValueError(f"{self.kind} test needs a positive {key}")
-
-
-@dataclass(frozen=True)
-class Fixed:
-    """A known stiffness used instead of a fit."""
-
-    specimen: str
-    parameter: str
-    value: float
-
-    def __post_init__(self) -> None:
-        if self.parameter not in PARAMETERS:
-            raise ValueError(f"unknown parameter {self.parameter!r} (one of {', '.join(PARAMETERS)})")
-        if not (math.isfinite(self.value) and self.value > 0):
-            raise ValueError(f"fixed {self.parameter} must be positive and finite")
-
-
-@dataclass(frozen=True)
-class Study:
-    name: str
-    source: Path
-    specimens: tuple[Specimen, ...]
-    tests: tuple[Test, ...]
-    fixed: tuple[Fixed, ...] = ()
-    temperature: str = ""
-
-    def specimen(self, specimen_id: str) -> Specimen:
-        for spec in self.specimens:
-            if spec.id == specimen_id:
-                return spec
-        raise KeyError(specimen_id)
-
-    def fixed_value(self, specimen_id: str, parameter: str) -> float | None:
-        return next(
-            (f.value for f in self.fixed if (f.specimen, f.parameter) == (specimen_id, parameter)), None
-        )
-
-    def tests_of(self, kind: str, specimen_id: str, *, included: bool = True) -> list[Test]:
-        return [
-            t
-            for t in self.tests
-            if t.kind == kind and t.specimen == specimen_id and not (included and t.exclude)
-        ]
 
 
 def resolve_study_path(path: str | Path) -> Path:
@@ -320,22 +171,22 @@ def _test(source: Path, index: int, entry: dict, ids: set[str], outside: bool = 
     for key, q in OPTIONAL_KEYS.get(kind, {}).items():
         if key in entry:
             params[key] = _quantity(source, where, entry, key, q)
+    given = dict(
+        file=keys.data_file(source, where, entry["file"], outside),
+        exclude=keys.boolean(source, where, entry, "exclude"),
+        note=keys.text(source, where, entry, "note"),
+        window=keys.window(source, where, entry, kind, _value),
+        deflection_at=keys.text(source, where, entry, "deflection_at", "nose"),
+        columns=keys.columns(source, where, entry, kind),
+        units=keys.units(source, where, entry, kind),
+        negate=keys.negate(source, where, entry, kind),
+        encoding=keys.encoding(source, where, entry),
+    )
+    if given["deflection_at"] not in DEFLECTION_AT:
+        got = shown(given["deflection_at"])
+        raise DataError(f"{where}: deflection_at must be 'nose' or 'centreline', got '{got}'", file=source)
     try:
-        return Test(
-            kind=kind,
-            specimen=specimen,
-            file=keys.data_file(source, where, entry["file"], outside),
-            params=params,
-            exclude=keys.boolean(source, where, entry, "exclude"),
-            note=keys.text(source, where, entry, "note"),
-            index=index,
-            window=keys.window(source, where, entry, kind, _value),
-            deflection_at=keys.text(source, where, entry, "deflection_at", "nose"),
-            columns=keys.columns(source, where, entry, kind),
-            units=keys.units(source, where, entry, kind),
-            negate=keys.negate(source, where, entry, kind),
-            encoding=keys.encoding(source, where, entry),
-        )
+        return Test(kind=kind, specimen=specimen, params=params, index=index, **given)
     except ValueError as exc:
         raise DataError(f"{where}: {exc}", file=source) from exc
 

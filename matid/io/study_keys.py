@@ -15,8 +15,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from matid.errors import DataError
-from matid.io.limits import MAX_TEXT
-from matid.io.toml import shown
+from matid.limits import MAX_TEXT
+from matid.toml import shown
 from matid.units import UnitError, si_factor
 
 #: Per test kind, the data columns its fits use and their quantity kinds

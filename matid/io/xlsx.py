@@ -14,9 +14,11 @@ import io
 from collections.abc import Mapping, Sequence
 
 from matid.io.cells import cell
-from matid.io.results import CSV_COLUMNS, StudyResult, rows_used, table_rows
+from matid.io.results import CSV_COLUMNS, rows_used, table_rows
 
 #: A sheet: its column names and its rows (dicts keyed by those names).
+from matid.model.results import StudyResult
+
 Sheet = tuple[Sequence[str], Sequence[Mapping[str, object]]]
 
 WARNING_COLUMNS = ["specimen", "concerns", "warning"]

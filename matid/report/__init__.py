@@ -12,7 +12,7 @@ this process. The hook for extra figures of a fit, ``TestFit.info["figures"]``, 
 
 from __future__ import annotations
 
-from matid.io.results import StudyResult
+from matid.model.results import StudyResult
 from matid.report.content import build_report
 from matid.report.html import render_html
 from matid.report.images import render_images

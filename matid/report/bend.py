@@ -34,7 +34,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Polygon
 from matplotlib.ticker import LogFormatter, NullFormatter
 
-from matid.io.results import TestFit
+from matid.model.results import TestFit
 from matid.report.figures import (
     COLOURS,
     DRAWING_MARGINS,

@@ -11,8 +11,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 from matid import __version__
-from matid.io.results import Failure, InputFile, StudyResult, TestFit, stiffness_json
-from matid.io.status import INSEPARABLE_R, STRONG_R
+from matid.io.results import stiffness_json
+from matid.model.results import Failure, InputFile, StudyResult, TestFit
+from matid.model.status import INSEPARABLE_R, STRONG_R
 from matid.report.bend import bend_drawings
 from matid.report.diagnostics import glossary, lack_of_fit_table, model_choice_table
 from matid.report.figures import Drawing, ExtraFigure, axis_unit, extra_figures, has_plot

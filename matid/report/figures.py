@@ -4,7 +4,7 @@ Figures are built on :class:`matplotlib.figure.Figure` directly, never through p
 report touches no global plotting state and needs no interactive backend.
 
 The fit plot
-    One colour per :class:`~matid.io.results.Series`: markers for the measured ``y``, a line for
+    One colour per :class:`~matid.model.results.Series`: markers for the measured ``y``, a line for
     ``y_fit`` over the points in the fit (dashed and light over points outside it), points with
     ``used == False`` hollow grey, labelled "excluded from fit". The residual ``y - y_fit``
     sits below on a shared x axis. Axis labels come from ``TestFit.x_label`` / ``y_label``
@@ -45,7 +45,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from matid.io.results import Series, TestFit
+from matid.model.results import Series, TestFit
 
 DPI = 110
 FIT_SIZE = (7.5, 5.0)  # inches, for the HTML image

@@ -10,7 +10,7 @@ from datetime import datetime
 
 import numpy as np
 
-from matid.io.results import TestFit
+from matid.model.results import TestFit
 from matid.report.quantities import label_of, text_of
 
 

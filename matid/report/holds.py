@@ -20,7 +20,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from matid.io.results import TestFit
+from matid.model.results import TestFit
 from matid.report.figures import (
     COLOURS,
     EXCLUDED,

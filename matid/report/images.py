@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from matid.io.results import TestFit
+from matid.model.results import TestFit
 from matid.report.content import Report
 from matid.report.figures import Drawing, axis_unit, caption, drawing_figure, fit_figure, png_bytes, png_size
 

@@ -16,7 +16,8 @@ from collections.abc import Mapping
 
 import pandas as pd
 
-from matid.io.results import StudyResult, stiffness_json
+from matid.io.results import stiffness_json
+from matid.model.results import StudyResult
 from matid.report.summary import SUMMARY_COLUMNS, interval_text, scale_of, scaled, value_cells
 from matid.report.verdict import STATUS_CLASS, reason_line, status_words
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from matid.io.results import PARAMETER_KINDS
+from matid.model.study import PARAMETER_KINDS
 
 #: kind -> unit system -> (unit label, factor from SI).
 DISPLAY: dict[str, dict[str, tuple[str, float]]] = {

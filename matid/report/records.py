@@ -8,8 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from matid.io.results import InputFile
-from matid.io.study import OPTIONAL_KEYS, TEST_KINDS, Test
+from matid.model.results import InputFile
+from matid.model.study import OPTIONAL_KEYS, TEST_KINDS, Test
 from matid.report.formats import format_value
 
 #: Set-up values shown in a unit of their own: kind -> (factor from SI, unit).

@@ -14,8 +14,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from matid.io.results import StudyResult
-from matid.io.status import parameter_statuses
+from matid.model.results import StudyResult
+from matid.model.status import parameter_statuses
 from matid.physics.moduli import MODULUS_OF, agreement, modulus
 from matid.report.quantities import DISPLAY, fmt
 

@@ -1,4 +1,4 @@
-"""How the report says each value's status (decided by :mod:`matid.io.status`, never here).
+"""How the report says each value's status (decided by :mod:`matid.model.status`, never here).
 
 The status of a value comes from ``stiffness.json`` (``status``, ``status_reason``,
 ``measure_instead``); this module only puts it in words a lab engineer acts on:

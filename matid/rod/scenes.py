@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from matid.errors import DataError
-from matid.io.toml import parse_toml
 from matid.rod.accuracy import MAX_ELEMENTS
+from matid.toml import parse_toml
 from matid.units import UnitError, to_si, vector_to_si
 
 Vector = tuple[float, float, float]

@@ -15,9 +15,9 @@ import pytest
 from matid.app import pipeline
 from matid.app.pipeline import FITTERS, run_study, write_outputs
 from matid.errors import ConvergenceError, DataError, FitError
-from matid.io.results import Estimate
-from matid.io.results import TestFit as Fit
 from matid.io.study import load_study
+from matid.model.results import Estimate
+from matid.model.results import TestFit as Fit
 
 DEMO = Path(str(resources.files("matid.example")))
 OUTPUTS = {"report.html", "report.pdf", "stiffness.csv", "stiffness.json", "stiffness.xlsx"}

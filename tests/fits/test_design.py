@@ -11,9 +11,9 @@ import pytest
 from matid.app.cli import main
 from matid.fits import design
 from matid.fits.shear import fit as shear
-from matid.io import study
-from matid.io.ingest.read import Measurement, Table
-from matid.io.results import Estimate
+from matid.model import study
+from matid.model.measurement import Measurement, Table
+from matid.model.results import Estimate
 from tests import TESTS
 
 TUBE = study.Specimen("T", 2.4e-3, 1.6e-3)

@@ -15,8 +15,8 @@ from matid.fits.bending import bending_torque, fit_bending, magnet_torque
 from matid.fits.onset import linear_range
 from matid.fits.stats import ar1_noise
 from matid.fits.torsion import fit_torsion
-from matid.io import study
-from matid.io.ingest.read import Measurement, Table
+from matid.model import study
+from matid.model.measurement import Measurement, Table
 
 E_B = 2.0e-4  # N m^2
 E_T = 1.5e-4  # N m^2

@@ -26,8 +26,9 @@ from matid.fits.branch import HOLD_ROWS
 from matid.fits.shear import window as bend_window
 from matid.fits.shear.fit import bend_data
 from matid.fits.torsion import fit_torsion
-from matid.io import study as study_mod
-from matid.io.ingest.read import Measurement, Table, read_table
+from matid.io.ingest.read import read_table
+from matid.model import study as study_mod
+from matid.model.measurement import Measurement, Table
 from tests.fits.test_records_corpus import CORPUS, RECORDS
 
 

@@ -373,7 +373,8 @@ def test_demo_study_in_machine_styles_fits_to_ground_truth(tmp_path):
     import tomllib
 
     from matid.app.pipeline import run_study
-    from matid.io.study import TEST_COLUMNS, load_study
+    from matid.io.study import load_study
+    from matid.io.study_keys import TEST_COLUMNS
 
     raw = tomllib.loads((EXAMPLE / "study.toml").read_text(encoding="utf-8"))
     out = ["[study]", f"name = {_toml_value(raw['study']['name'])}", ""]

@@ -25,10 +25,11 @@ from matid.app import pipeline
 from matid.app.batch import StudyOutcome
 from matid.app.compare import write_summary
 from matid.io.cells import FORMULA_LEADS, cell, text_cell
-from matid.io.results import Estimate, csv_text, stiffness_csv, table_rows
-from matid.io.results import TestFit as Fit
+from matid.io.results import csv_text, stiffness_csv, table_rows
 from matid.io.study import load_study
 from matid.io.xlsx import stiffness_xlsx
+from matid.model.results import Estimate
+from matid.model.results import TestFit as Fit
 from tests.app.test_pipeline import DEMO
 
 #: What a hostile lab file or study.toml can put into a text cell.

@@ -19,13 +19,13 @@ from pathlib import Path
 
 import pytest
 
+from matid import limits
 from matid.errors import DataError
-from matid.io import limits
 from matid.io.ingest import read as ingest
 from matid.io.ingest.read import load_measurements, read_table
 from matid.io.study import load_study
-from matid.io.toml import load_toml, parse_toml
 from matid.rod.scenes import load_scene
+from matid.toml import load_toml, parse_toml
 from tests import ROOT, fuzzkit
 from tests.app.test_batch import light_report, run
 from tests.app.test_pipeline import DEMO
@@ -261,7 +261,7 @@ def test_a_full_disk_exits_4_and_keeps_the_old_report(tmp_path, monkeypatch):
 
 
 def test_a_value_shown_in_a_message_at_the_limit_and_one_past_it():
-    from matid.io.toml import shown
+    from matid.toml import shown
 
     at = "v" * limits.SHOWN_CHARS
     assert shown(at) == at

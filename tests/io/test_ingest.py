@@ -13,8 +13,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from matid.errors import DataError
-from matid.io.ingest.read import REQUIRED, Table, load_measurements, read_table
-from matid.io.study import TEST_KINDS, load_study
+from matid.io.ingest.columns import REQUIRED
+from matid.io.ingest.read import load_measurements, read_table
+from matid.io.study import load_study
+from matid.model.measurement import Table
+from matid.model.study import TEST_KINDS
 
 EXT_BRACKETS = "time [s],force [N],elongation [mm]\n0,0.5,0.1\n1,1.5,0.2\n2,2.5,0.3\n"
 

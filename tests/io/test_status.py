@@ -1,4 +1,4 @@
-"""The status of every value (contract section 10): each route of matid.io.status.status, and where it
+"""The status of every value (contract section 10): each route of matid.model.status.status, and where it
 shows (stiffness.csv last column, stiffness.json, stiffness.xlsx, result.table())."""
 
 from __future__ import annotations
@@ -18,10 +18,11 @@ from matid.app import pipeline
 from matid.app.api import FitResult
 from matid.fits.branch import record
 from matid.fits.linear import fit_lines
-from matid.io.results import CSV_COLUMNS, Estimate, TestFit, stiffness_csv, stiffness_json
-from matid.io.status import INSEPARABLE_R, STRONG_R, Status, status
+from matid.io.results import CSV_COLUMNS, stiffness_csv, stiffness_json
 from matid.io.study import load_study
 from matid.io.xlsx import stiffness_xlsx
+from matid.model.results import Estimate, TestFit
+from matid.model.status import INSEPARABLE_R, STRONG_R, Status, status
 from matid.physics.moduli import Section, modulus
 from tests import TESTS
 from tests.app.test_cli import small_study

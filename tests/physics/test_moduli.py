@@ -157,14 +157,14 @@ def test_impossible_sections_say_why(kwargs, message):
 
 
 def _torsion_estimate(value: float):
-    from matid.io.results import Estimate
+    from matid.model.results import Estimate
 
     return Estimate("E_t", value, 0.01 * value, (0.98 * value, 1.02 * value), 40, "linear")
 
 
 def test_slit_tube_gives_the_reason_instead_of_E_s_torsion():
     from matid.fits.shear.torsion import e_s_torsion, reference_kGA
-    from matid.io.study import Specimen
+    from matid.model.study import Specimen
 
     slit = Specimen("S", 2.4e-3, 1.6e-3, slit=True)
     est = e_s_torsion(_torsion_estimate(1e-4), slit)
@@ -175,7 +175,7 @@ def test_slit_tube_gives_the_reason_instead_of_E_s_torsion():
 
 def test_rectangle_E_s_torsion_is_cowper_k_A_times_G_of_the_series():
     from matid.fits.shear.torsion import e_s_torsion
-    from matid.io.study import Specimen
+    from matid.model.study import Specimen
 
     b, h, nu, G = 10e-3, 4e-3, 0.35, 0.75e9
     coupon = Specimen("C", width=b, height=h, poisson_ratio=nu)

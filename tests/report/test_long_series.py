@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from matid.io.results import Series
+from matid.model.results import Series
 from matid.report.figures import MAX_DRAWN, _draw_series
 
 

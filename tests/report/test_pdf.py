@@ -20,8 +20,8 @@ from hypothesis import strategies as st
 from reportlab.pdfbase.pdfmetrics import stringWidth as text_width
 
 from matid.app.cli import main
-from matid.io.results import Failure, InputFile, StudyResult
-from matid.io.study import Specimen, Study
+from matid.model.results import Failure, InputFile, StudyResult
+from matid.model.study import Specimen, Study
 from matid.report import render_report
 from matid.report.pdfparts import SANS, column_widths, register_fonts
 from tests import ROOT

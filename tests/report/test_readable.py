@@ -21,8 +21,9 @@ from pathlib import Path
 import pytest
 
 from matid.app.api import fit
-from matid.io.results import PARAMETER_KINDS
-from matid.io.study import OPTIONAL_KEYS, TABLE_KEYS, TEST_COLUMNS, TEST_COMMON_KEYS, TEST_KINDS, Test
+from matid.io.study import TABLE_KEYS, TEST_COMMON_KEYS
+from matid.io.study_keys import TEST_COLUMNS
+from matid.model.study import OPTIONAL_KEYS, PARAMETER_KINDS, TEST_KINDS, Test
 from matid.report import render_report
 from matid.report.quantities import UNSTATED
 from matid.report.summary import interval_text, value_cells
@@ -234,7 +235,7 @@ def test_a_value_the_data_do_not_determine_shows_no_number_and_what_to_measure()
              for e in fit.estimates]  # fmt: skip
     result = replace(base, fits=(replace(fit, estimates=tuple(loose)),))
     item = stiffness_json(result)["specimens"]["T1"]["E_t"]
-    assert item["status"] == "not_identifiable" and item["value"] is None  # decided by matid.io.status
+    assert item["status"] == "not_identifiable" and item["value"] is None  # decided by matid.model.status
     out = render_report(result)
     page = out["report.html"].decode("utf-8")
     summary = visible_text(page.split('<section id="summary">', 1)[1].split("</section>", 1)[0])

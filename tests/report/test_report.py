@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from matid.io.results import Estimate, Failure, InputFile, Series, StudyResult, stiffness_json
-from matid.io.results import TestFit as Fit
-from matid.io.study import Specimen, Study
-from matid.io.study import Test as LabTest
+from matid.io.results import stiffness_json
+from matid.model.results import Estimate, Failure, InputFile, Series, StudyResult
+from matid.model.results import TestFit as Fit
+from matid.model.study import Specimen, Study
+from matid.model.study import Test as LabTest
 from matid.report import render_report
 from matid.report.bend import TITLES, outline
 from matid.report.content import build_report

@@ -67,8 +67,8 @@ def test_legend_draws_a_series_left_out_whole_as_it_is_plotted():
     """A record left out of the fit is plotted hollow grey: its legend entry is too, not its colour."""
     import numpy as np
 
-    from matid.io.results import Estimate, Series
-    from matid.io.results import TestFit as Fit
+    from matid.model.results import Estimate, Series
+    from matid.model.results import TestFit as Fit
     from matid.report.figures import EXCLUDED, fit_figure
     from tests.report.test_report import make_result
 

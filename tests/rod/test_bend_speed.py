@@ -19,8 +19,8 @@ import pytest
 from matid.example.forward import bend_centreline, bend_force
 from matid.fits.shear import centreline as bc
 from matid.fits.shear import fit as shear
-from matid.io import study
-from matid.io.ingest.read import Measurement, Table
+from matid.model import study
+from matid.model.measurement import Measurement, Table
 from matid.rod.bend import BendGeometry, BendModel
 
 E_B, E_S, E_E = 6.5e-5, 21.0, 120.0

@@ -42,10 +42,10 @@ from matid.fits.extension.checks import _k1_warnings, _unidentifiable
 from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _models, _solve, _values
 from matid.fits.extension.runs import _Run, _run, _unique
 from matid.fits.extension.stats import _correlation, _covariance_fit, _intervals, _misfit, _sandwich, _stderr
-from matid.io.results import Estimate, Series, TestFit
+from matid.model.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
-    from matid.io.ingest.read import Measurement
+    from matid.model.measurement import Measurement
 
 #: Names ``fixed`` may use, and the SLS parameter each one fixes.
 _FIXED_NAMES = {"E_e": "k1", "sls_k1": "k1", "sls_k2": "k2", "sls_eta": "eta"}

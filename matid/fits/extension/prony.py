@@ -42,7 +42,7 @@ from scipy import optimize
 
 from matid.fits import stats
 from matid.fits.extension.reduce import Reduction
-from matid.io.results import Estimate
+from matid.model.results import Estimate
 from matid.physics.sls import History, sls_force
 
 #: Most arms tried.

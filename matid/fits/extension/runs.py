@@ -22,7 +22,7 @@ from matid.fits.extension.reduce import Reduction, reduction
 from matid.physics.sls import History
 
 if TYPE_CHECKING:
-    from matid.io.ingest.read import Measurement
+    from matid.model.measurement import Measurement
 
 #: Why slack rows are left out (a key of ``_Run.left_out`` and ``info["left_out"]``).
 SLACK = "slack strip (force about 0 while the model would push)"

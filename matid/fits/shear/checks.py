@@ -44,8 +44,8 @@ from matid.fits.shear.torsion import (
     value_range,
     young_modulus,
 )
-from matid.io.results import Estimate
-from matid.io.study import Specimen
+from matid.model.results import Estimate
+from matid.model.study import Specimen
 
 MIN_SHEAR_SHARE = 0.05
 WITHHOLD_RATIO = 0.25

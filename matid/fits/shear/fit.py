@@ -46,9 +46,9 @@ from matid.fits.shear.problem import Problem, fe_error, least_squares, span_fits
 from matid.fits.shear.torsion import agreement
 from matid.fits.shear.window import Cut, check_plausible, cut
 from matid.fits.stats import Covariance, lack_of_fit, t95
-from matid.io.ingest.read import Measurement
-from matid.io.results import Estimate, Series, TestFit
-from matid.io.study import Specimen
+from matid.model.measurement import Measurement
+from matid.model.results import Estimate, Series, TestFit
+from matid.model.study import Specimen
 from matid.rod.bend import BendGeometry
 
 #: The FE error must stay below this fraction of the statistical standard error

@@ -42,8 +42,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from matid.io.results import Estimate, TestFit
-from matid.io.study import Specimen
+from matid.model.results import Estimate, TestFit
+from matid.model.study import Specimen
 
 #: Poisson's ratio range used when the specimen does not give one (polymers).
 NU_RANGE = (0.3, 0.5)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from matid.errors import DataError
-from matid.io.study import TEST_COLUMNS
+from matid.io.study_keys import TEST_COLUMNS
 from matid.units import PHYSICAL_BOUND, SI_UNITS
 
 #: Columns that must be positive for the test (tension, compression, nose travel

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from matid.errors import DataError
 from matid.io.ingest.detect import Layout, header_names, names
-from matid.io.study import TEST_COLUMNS, bounded_text
+from matid.io.study_keys import TEST_COLUMNS, bounded_text
 
 #: Known columns (those of every test kind) and the quantity kind of their unit.
 KNOWN: dict[str, str] = {name: q for used in TEST_COLUMNS.values() for name, q in used.items()}

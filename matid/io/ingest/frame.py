@@ -28,7 +28,7 @@ import numpy as np
 
 from matid.errors import DataError
 from matid.io.ingest.detect import BOMS, LINE_BREAK, Layout, nth_break, number, split
-from matid.io.study import bounded_text
+from matid.io.study_keys import bounded_text
 
 if TYPE_CHECKING:  # pandas is imported when a record is read, so `import matid` stays light
     import pandas as pd

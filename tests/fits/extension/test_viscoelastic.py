@@ -12,8 +12,8 @@ from scipy.integrate import solve_ivp
 from matid.errors import DataError, FitError
 from matid.fits.extension.fit import fit_extension
 from matid.fits.extension.prony import prony_force
-from matid.io import study
-from matid.io.ingest.read import Measurement, Table
+from matid.model import study
+from matid.model.measurement import Measurement, Table
 from matid.physics.sls import sls_force, sls_ramp
 
 K1, K2, ETA = 50.0, 30.0, 300.0  # N, N, N s: tau = 10 s

@@ -18,10 +18,11 @@ from matid.app.pipeline import run_study
 from matid.errors import FitError
 from matid.example.forward import bend_force, unloading_force
 from matid.fits.shear import fit as shear
-from matid.io import study
-from matid.io.ingest.read import Measurement, Table
-from matid.io.results import Estimate, stiffness_json
+from matid.io.results import stiffness_json
 from matid.io.study import load_study
+from matid.model import study
+from matid.model.measurement import Measurement, Table
+from matid.model.results import Estimate
 
 E_B, E_S, E_E = 6.5e-5, 21.0, 120.0  # N m^2, N, N (demo specimen T1)
 OUTER = 2.4e-3

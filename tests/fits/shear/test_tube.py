@@ -23,9 +23,9 @@ from matid.fits.shear import fit as shear
 from matid.fits.shear import torsion as shear_torsion
 from matid.fits.shear import window as bend_window
 from matid.fits.torsion import fit_torsion
-from matid.io import study
-from matid.io.ingest.read import Measurement, Table
-from matid.io.results import Estimate
+from matid.model import study
+from matid.model.measurement import Measurement, Table
+from matid.model.results import Estimate
 from tests import TESTS
 
 DATA = TESTS / "data" / "tube3d"

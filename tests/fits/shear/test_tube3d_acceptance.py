@@ -30,9 +30,9 @@ import pytest
 
 from matid.errors import FitError
 from matid.fits.shear import fit as shear
-from matid.io import study
-from matid.io.ingest.read import Measurement, Table
-from matid.io.results import Estimate
+from matid.model import study
+from matid.model.measurement import Measurement, Table
+from matid.model.results import Estimate
 from tests import ROOT, TESTS
 
 SHARED = ROOT.parent / "shared" / "reference" / "tube3d"

@@ -16,14 +16,11 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TypeVar
 
-if TYPE_CHECKING:  # results imports this module
-    from matid.io.results import Estimate, StudyResult, TestFit
+from matid.model.results import Estimate, StudyResult, TestFit, each_value
 
-T = TypeVar("T")
 STATUSES = ("ok", "check", "not_identifiable")
 #: |r| from which two parameters are read together (status ``check``).
 STRONG_R = 0.95
@@ -110,18 +107,6 @@ def status(est: Estimate, fit: TestFit | None = None) -> Status:
         why = f"{est.parameter} is strongly correlated with {partner} (r = {r:+.3f}): read the two together"
         return Status("check", why)
     return Status("ok")
-
-
-def each_value(result: StudyResult, of: Callable[[Estimate, TestFit | None], T]) -> dict[tuple[str, str], T]:
-    """(specimen, parameter) -> ``of(estimate, fit that gave it)`` for every value of the study;
-    a [[fixed]] value (fit None) only where no fit gives the parameter."""
-    out: dict[tuple[str, str], T] = {}
-    for fit in result.fits:
-        for est in fit.estimates:
-            out[(fit.specimen, est.parameter)] = of(est, fit)
-    for est in result.fixed:
-        out.setdefault((str(est.extra.get("specimen")), est.parameter), of(est, None))
-    return out
 
 
 def parameter_statuses(result: StudyResult) -> dict[tuple[str, str], Status]:

@@ -1,6 +1,6 @@
 """Read-only mapping fields of frozen records, and how such records are pickled.
 
-Records such as :class:`matid.io.study.Test` and :class:`matid.io.ingest.read.Measurement` hold their
+Records such as :class:`matid.model.study.Test` and :class:`matid.model.measurement.Measurement` hold their
 mappings as ``types.MappingProxyType`` views so that nobody edits a study after it was checked.
 A mappingproxy cannot be pickled, and the report is rendered in another process
 (:mod:`matid.app.render_worker`), so :class:`PicklesViews` pickles each view as the plain dict

@@ -7,15 +7,15 @@ a 1 MiB file: hours), and an ESC or BEL written as ``\\u001b`` reaches ids, outp
 and the terminal. Here every such document is refused with a DataError (exit 2)
 naming the file and the key, its value shown escaped and elided:
 
-1. the file is a regular file of at most :data:`~matid.io.limits.MAX_TOML_BYTES`
+1. the file is a regular file of at most :data:`~matid.limits.MAX_TOML_BYTES`
    (for a study; a scene file is read by :mod:`matid.rod.scenes`), UTF-8;
 2. before parsing, no dotted key or table name has more than
-   :data:`~matid.io.limits.MAX_TOML_DEPTH` parts (a linear scan of the text);
+   :data:`~matid.limits.MAX_TOML_DEPTH` parts (a linear scan of the text);
 3. tomllib parses; a RecursionError there is a document nested too deeply;
 4. the parsed document is walked (without recursion): nesting at most
    ``MAX_TOML_DEPTH``, no control character (C0 but tab, newline and CR; DEL;
    C1) in any key or string, and no string longer than
-   :data:`~matid.io.limits.MAX_VALUE_CHARS` but under a free-text key.
+   :data:`~matid.limits.MAX_VALUE_CHARS` but under a free-text key.
 """
 
 from __future__ import annotations
@@ -27,14 +27,20 @@ from collections.abc import Collection
 from pathlib import Path
 
 from matid.errors import DataError
-from matid.io.cells import escaped
-from matid.io.limits import MAX_TOML_BYTES, MAX_TOML_DEPTH, MAX_VALUE_CHARS, SHOWN_CHARS
+from matid.limits import MAX_TOML_BYTES, MAX_TOML_DEPTH, MAX_VALUE_CHARS, SHOWN_CHARS
 
 #: Control characters refused in a TOML key or string (tab, newline and CR are text).
 CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")
+#: Control characters shown escaped in messages and cells (C0 but tab and newline; DEL; C1).
+_SHOWN_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
 _KEY = r"""(?:[A-Za-z0-9_-]++|"(?:[^"\\\n]|\\.)*+"|'[^'\n]*+')"""
 #: A dotted key or table name of more than MAX_TOML_DEPTH parts, where a key may start.
 _DEEP_KEY = re.compile(rf"(?:^|[\[{{,])[ \t]*+(?:{_KEY}[ \t]*+\.[ \t]*+){{{MAX_TOML_DEPTH}}}", re.M)
+
+
+def escaped(text: str) -> str:
+    """``text`` with every control character but tab and newline written as ``\\xNN`` (CRLF: newline)."""
+    return _SHOWN_CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", text.replace("\r\n", "\n"))
 
 
 def shown(value: object, limit: int = SHOWN_CHARS) -> str:
