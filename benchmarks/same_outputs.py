@@ -4,8 +4,8 @@ two-study batch, and compare every output with a reference run made before the c
     python benchmarks/same_outputs.py make  REF_DIR     # before the change (e.g. on main)
     python benchmarks/same_outputs.py check REF_DIR     # after it: exit 1 when any file differs
 
-Compared: CSV and Markdown byte for byte; JSON as data with run-time keys (``*runtime*``) left out;
-XLSX cell by cell; HTML and PDF as text with run times masked (the 'Run started' stamp and the
+Compared: CSV and Markdown as text; JSON as data with run-time keys (``*runtime*``) left out;
+XLSX cell by cell; HTML and PDF as text with run times and the checkout's path masked (the 'Run started' stamp and the
 seconds of lines that report a run time); PNG byte for byte (matplotlib is deterministic for one
 version). The runs use ``RL_invariant=1`` (reportlab's reproducible PDFs) and one job.
 """
@@ -66,6 +66,7 @@ def _text(path: Path) -> str:
         text = "\n".join(page.extract_text() for page in PdfReader(path).pages)
     else:
         text = path.read_text(errors="replace")
+    text = text.replace(str(ROOT), "ROOT")  # the demo's inputs are named by their path in the checkout
     text = RUN_TIME_FIGURE.sub(r"\1\2", text)
     text = re.sub(r"\d[\d.]* s</td>", "N s</td>", text)  # the run-time column of summary.html
     return "\n".join(SECONDS.sub("N", line) if TIMED.search(line) else line for line in text.splitlines())
@@ -76,7 +77,8 @@ def _cells(path: Path) -> list:
     book = load_workbook(path)
     views = []
     for sheet in book:
-        rows = [[c.value for c in row] for row in sheet.iter_rows()]
+        rows = [[c.value.replace(str(ROOT), "ROOT") if isinstance(c.value, str) else c.value for c in row]
+                for row in sheet.iter_rows()]
         timed = [i for i, name in enumerate(rows[0] if rows else []) if "runtime" in str(name)]
         views.append((sheet.title, [[None if i in timed else v for i, v in enumerate(r)] for r in rows]))
     return views
@@ -84,7 +86,9 @@ def _cells(path: Path) -> list:
 
 def _view(path: Path):
     if path.suffix == ".json":
-        return _strip(json.loads(path.read_text()))
+        return _strip(json.loads(path.read_text().replace(json.dumps(str(ROOT))[1:-1], "ROOT")))
+    if path.suffix in {".csv", ".stdout"}:
+        return path.read_text(errors="replace").replace(str(ROOT), "ROOT")
     if path.suffix == ".xlsx":
         return _cells(path)
     if path.suffix in {".html", ".pdf"}:
