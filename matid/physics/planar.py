@@ -13,7 +13,7 @@ J = d(nu1, nu3)/d(t, x', z') = [[-nu3, c, -s], [nu1, s, c]],
 
 (G = n1 Hess(nu1) + n3 Hess(nu3)), g_t' = E_b (t' - lam k_ref), H_t't' = E_b, plus the
 field term in t. Written entry by entry: on a few dozen points numpy's cost is per
-operation, and this is the fewest. In the mixed tangent (:meth:`matid.rod.models.RodSystem.mixed_update`) n in
+operation, and this is the fewest. In the mixed tangent (:meth:`matid.rod.system.RodSystem.mixed_update`) n in
 G is the iteration's independent point stress instead of that of the displacements.
 The same model as the jets of :meth:`RodSystem.density` (compared in the tests).
 """

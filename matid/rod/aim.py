@@ -30,9 +30,10 @@ from scipy.optimize import least_squares
 from matid.errors import ConvergenceError
 from matid.physics import kinematics as kin
 from matid.physics.jet import Jet
-from matid.rod.models import FULL, RodSystem
+from matid.rod.cantilever import Equilibrium, _prepare, default_penalty, equilibrium
+from matid.rod.models import FULL
 from matid.rod.scenes import Scene
-from matid.rod.solve import Equilibrium, _prepare, default_penalty, equilibrium
+from matid.rod.system import RodSystem
 
 #: Largest turn of the target per continuation stage (rad).
 MAX_TURN = 0.35

@@ -1,6 +1,6 @@
 """One entry point for every scene: ``solve(scene) -> Solution``.
 
-Cantilever scenes go to :func:`matid.rod.solve.solve_cantilever` (planar or
+Cantilever scenes go to :func:`matid.rod.cantilever.solve_cantilever` (planar or
 full model); three-point-bend scenes to the half model of
 :class:`matid.rod.bend.BendModel`, whose state at the largest deflection is
 mirrored onto the whole tube in the lab frame of docs/contract.md section 6:
@@ -22,10 +22,10 @@ from matid.physics import kinematics as kin
 from matid.rod.accuracy import refine
 from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
+from matid.rod.cantilever import Equilibrium, Solution, equilibrium, scene_plane
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
 from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene
-from matid.rod.solve import Equilibrium, Solution, equilibrium, scene_plane
 
 MODELS = ("auto", PLANAR, FULL)
 #: Energy terms of the bend half model (no field, no twist: planar by construction).

@@ -23,7 +23,7 @@ LINEAR_RANGE = 0.05
 
 def point_strains(eq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(s / L, |nu - e3|, |kappa - kappa_ref| scaled by L) at the quadrature points of eq."""
-    from matid.rod.solve import _prepare
+    from matid.rod.cantilever import _prepare
 
     disc, model = eq.disc, eq.model
     rod = _prepare(eq.scene, model)[2]
@@ -78,7 +78,7 @@ def _outer_diameter(scene, eq) -> np.ndarray | float:
 def penalty_error(eq) -> float:
     """The raw variant's penalty error of the tip (relative to L): its state minus the normalised
     variant's on the same mesh (where |q| = 1 exactly, the limit c_u -> infinity of the raw one)."""
-    from matid.rod.solve import equilibrium
+    from matid.rod.cantilever import equilibrium
 
     exact = equilibrium(eq.scene, elements=eq.disc.ne, model=eq.model, element=eq.disc.element, start=eq)
     return float(np.max(np.abs(eq.tip() - exact.tip())))

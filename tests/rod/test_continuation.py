@@ -6,10 +6,11 @@ import pytest
 
 from matid.bench import scenes as S
 from matid.physics import kinematics as kin
-from matid.rod.models import PLANAR, RodSystem
+from matid.rod.cantilever import _prepare, default_penalty, equilibrium, mesh, probe_start
+from matid.rod.models import PLANAR
 from matid.rod.newton import definite, definite_step, follow
 from matid.rod.scenes import scene_from_dict
-from matid.rod.solve import _prepare, default_penalty, equilibrium, mesh, probe_start
+from matid.rod.system import RodSystem
 
 
 def _system(scene, elements: int = 4) -> RodSystem:

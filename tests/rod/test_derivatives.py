@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 from matid.physics.kinematics import NORMALISED, RAW
+from matid.rod.cantilever import INTORDER, interpolate_p2
 from matid.rod.fem import Discretisation
-from matid.rod.models import FULL, PLANAR, RodSystem, ScaledRod, Segment
-from matid.rod.solve import INTORDER, interpolate_p2
+from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
+from matid.rod.system import RodSystem
 
 ROD = ScaledRod(
     E_t=0.7,
@@ -120,8 +121,8 @@ def test_bend_mesh_derivative_and_bordered_solve():
 def test_stiff_rod_in_the_full_model_converges_with_the_mixed_tangent():
     """Regression: with the switch to the consistent tangent at corrections of 1e-3 the round-off
     stagnation test fired on this scene (tip force F L^2/E_b = 2, E_s = E_e = 1e8 E_b/L^2)."""
+    from matid.rod.cantilever import solve_cantilever
     from matid.rod.scenes import scene_from_dict
-    from matid.rod.solve import solve_cantilever
 
     L, Eb = 0.03, 9e-5
     scale = Eb / L**2

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from matid.rod.fem import Discretisation, graded_vertices
-from matid.rod.models import FULL, RodSystem, ScaledRod, Segment
+from matid.rod.models import FULL, ScaledRod, Segment
 from matid.rod.scenes import scene_from_dict
+from matid.rod.system import RodSystem
 
 ROD = ScaledRod(
     E_t=0.7,

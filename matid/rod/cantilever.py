@@ -18,9 +18,10 @@ import scipy.sparse as sp
 
 from matid.physics import kinematics as kin
 from matid.rod.fem import Discretisation, graded_vertices
-from matid.rod.models import FULL, PLANAR, RodSystem, ScaledRod, Segment
+from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
 from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follow, newton
 from matid.rod.scenes import Scene, plane_of
+from matid.rod.system import RodSystem
 
 #: A rigid segment: bending and twist RIGID_FACTOR times the rod's, shear and
 #: extension at least RIGID_FACTOR (scaled by E_b/L^2). Its share of the rod's
