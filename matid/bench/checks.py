@@ -53,7 +53,7 @@ def _rebuild(scene: Scene, sol):
     e_a, e3 = np.asarray(plane_of(scene)), np.array([0.0, 0.0, 1.0])
     vertices = graded_vertices(1.0, sol.elements, breaks=solve_mod.breaks(scene))
     disc = Discretisation(vertices, 3, element="P2", intorder=2)
-    system = RodSystem(disc, solve_mod.scaled_rod(scene, e_a), model=PLANAR)
+    system = RodSystem(disc, *solve_mod.scaled(scene, e_a), model=PLANAR)
     L = scene.rod.length
     order = np.argsort(disc.s_dof)
     if not np.allclose(disc.s_dof[order] * L, sol.s, rtol=0, atol=1e-12 * L):

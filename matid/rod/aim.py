@@ -30,7 +30,7 @@ from scipy.optimize import least_squares
 from matid.errors import ConvergenceError
 from matid.physics import kinematics as kin
 from matid.physics.jet import Jet
-from matid.rod.cantilever import Equilibrium, _prepare, default_penalty, equilibrium
+from matid.rod.cantilever import Equilibrium, _prepare, default_penalty, equilibrium, scaled
 from matid.rod.models import FULL
 from matid.rod.scenes import Scene
 from matid.rod.system import RodSystem
@@ -92,13 +92,14 @@ class Forward:
 
     def sensitivity(self, eq: Equilibrium) -> np.ndarray:
         """dd3(L)/dB (3 x 3) at a converged state, from its tangent (module docstring)."""
-        _, _, rod, _ = _prepare(eq.scene, FULL)
+        _, _, rod, loads, _ = _prepare(eq.scene, FULL)
         c_u = default_penalty(rod, kin.NORMALISED)
 
         def field(B) -> RodSystem:
-            return RodSystem(eq.disc, dataclasses.replace(rod, B=B), model=FULL, c_u=c_u, banded=True)
+            in_field = dataclasses.replace(eq.scene, loads=dataclasses.replace(eq.scene.loads, B=B))
+            return RodSystem(eq.disc, rod, scaled(in_field, None)[1], model=FULL, c_u=c_u, banded=True)
 
-        system = field(rod.B)
+        system = RodSystem(eq.disc, rod, loads, model=FULL, c_u=c_u, banded=True)
         X = system.reduce(eq.U.ravel())
         factor = system.evaluate(X, 1.0)[1].factor()
         R0 = field((0.0, 0.0, 0.0)).evaluate(X, 1.0, tangent=False)[0]

@@ -15,8 +15,8 @@ A dead tip moment in 3D has no potential; its virtual work lam M.dphi with the
 spatial spin dphi = 2 vec(dq * conj(q))/|q|^2 enters the residual directly
 (the tangent is then unsymmetric, which the LU solver handles).
 
-Only the terms a scene has are evaluated: no magnetic term without a field,
-no penalty in the planar model, no precurvature term when it is zero.
+Each load is a term of :mod:`matid.rod.terms`; :class:`matid.rod.system.RodSystem` sums the
+strain energy and the terms a scene has.
 """
 
 from __future__ import annotations
@@ -43,29 +43,15 @@ class Segment:
 
 @dataclass(frozen=True)
 class ScaledRod:
-    """A clamped rod and its loads in scaled units (see module docstring).
-
-    In the planar model vectors are (transverse, axial) pairs in the plane of
-    the scene and moments/curvatures are about the plane normal.
-    """
+    """A clamped rod in scaled units (see module docstring): its stiffnesses and precurvature; its
+    loads are terms (:mod:`matid.rod.terms`). In the planar model the precurvature is about the
+    plane normal (its second entry)."""
 
     E_t: float = 1.0
     E_s: float = 1e4
     E_e: float = 1e4
     segments: tuple[Segment, ...] = ()
     kappa_ref: tuple[float, ...] = (0.0, 0.0, 0.0)
-    mu: tuple[tuple[float, float, float], ...] = ()  # (from, to, moment per length) pieces
-    B: tuple[float, ...] = (0.0, 0.0, 0.0)
-    f: tuple[float, ...] = (0.0, 0.0, 0.0)
-    tip_force: tuple[float, ...] = (0.0, 0.0, 0.0)
-    tip_moment: tuple[float, ...] = (0.0, 0.0, 0.0)
-    magnets: tuple[tuple[float, float], ...] = ()  # (s, moment)
-    #: magnetisation off d3 (contract section 9), direction a in the director frame:
-    #: lumped (s, moment, a) and distributed (from, to, moment per length, a)
-    directed_magnets: tuple[tuple[float, float, tuple[float, float, float]], ...] = ()
-    directed_mu: tuple[tuple[float, float, float, tuple[float, float, float]], ...] = ()
-    #: dead loads at interior points (s, force, moment); planar: (transverse, -, axial), (-, M, -)
-    point_loads: tuple[tuple[float, tuple[float, ...], tuple[float, ...]], ...] = ()
 
     def kappa_ref_at(self, s: np.ndarray) -> np.ndarray | None:
         """kappa_ref at points s (P + (3,)) when a segment has its own, else None (the rod's, uniform)."""
@@ -77,15 +63,6 @@ class ScaledRod:
                 out[(s >= seg.start) & (s < seg.end)] = seg.kappa_ref
         return out
 
-    def directed_mu_at(self, s: np.ndarray) -> np.ndarray | None:
-        """Sum of mu a (director frame) of the off-axis magnetised pieces at points s (P + (3,)), or None."""
-        if not self.directed_mu:
-            return None
-        out = np.zeros(s.shape + (3,))
-        for start, end, value, a in self.directed_mu:
-            out += np.where((s >= start) & (s <= end), value, 0.0)[..., None] * np.asarray(a, float)
-        return out
-
     def stiffness_at(self, s: np.ndarray) -> dict[str, np.ndarray]:
         base = {"E_b": 1.0, "E_t": self.E_t, "E_s": self.E_s, "E_e": self.E_e}
         out = {name: np.full_like(s, value) for name, value in base.items()}
@@ -94,14 +71,3 @@ class ScaledRod:
             for name in out:
                 out[name] = np.where(inside, getattr(seg, name), out[name])
         return out
-
-    def mu_at(self, s: np.ndarray) -> np.ndarray:
-        out = np.zeros_like(s)
-        for start, end, value in self.mu:
-            out += np.where((s >= start) & (s <= end), value, 0.0)
-        return out
-
-    @property
-    def has_field(self) -> bool:
-        magnetised = self.mu or self.magnets or self.directed_mu or self.directed_magnets
-        return any(self.B) and bool(magnetised)

@@ -10,6 +10,7 @@ from matid.rod.fem import Discretisation, graded_vertices
 from matid.rod.models import FULL, ScaledRod, Segment
 from matid.rod.scenes import scene_from_dict
 from matid.rod.system import RodSystem
+from matid.rod.terms import Magnetisation
 
 ROD = ScaledRod(
     E_t=0.7,
@@ -17,14 +18,13 @@ ROD = ScaledRod(
     E_e=80.0,
     segments=(Segment(0.6, 1.0, 1.0, 0.7, 50.0, 80.0, kappa_ref=(0.3, -1.1, 0.4)),),
     kappa_ref=(0.1, 0.2, 0.0),
-    directed_mu=((0.2, 0.9, 1.5, (0.6, 0.0, 0.8)),),
-    B=(0.3, -0.5, 0.8),
 )
+LOADS = (Magnetisation((0.3, -0.5, 0.8), (), ((0.2, 0.9, 1.5, (0.6, 0.0, 0.8)),)),)
 
 
 def test_directed_magnetisation_and_segment_precurvature_match_the_jets() -> None:
     disc = Discretisation(graded_vertices(1.0, 6), 7, element="P2", intorder=2)
-    closed, jets = (RodSystem(disc, ROD, model=FULL, analytic=a) for a in (True, False))
+    closed, jets = (RodSystem(disc, ROD, LOADS, model=FULL, analytic=a) for a in (True, False))
     rng = np.random.default_rng(3)
     U = closed.reference() + 0.05 * rng.standard_normal(disc.n)
     X = closed.reduce(U)
