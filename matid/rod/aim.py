@@ -216,25 +216,3 @@ def _stage(
 
 def _fmt(v: np.ndarray) -> str:
     return "(" + ", ".join(f"{c:.6g}" for c in np.asarray(v, float)) + ")"
-
-
-def solve_aimed(scene: Scene, **options):
-    """:func:`matid.rod.api.solve` of a scene with ``[aim]``: the field found by :func:`aim`, then the
-    forward solve of the scene in it (its mesh and error estimate as any scene's); the aim is
-    repeated on that mesh when its tip misses the target by more than AIM_TOL."""
-    from matid.rod.api import solve
-
-    found = aim(scene, elements=options.get("elements"))
-    forward = dataclasses.replace(scene, aim=None, loads=dataclasses.replace(scene.loads, B=tuple(found.B)))
-    sol = solve(forward, **options)
-    target = np.asarray(scene.aim.tip_direction)
-    solves, runtime = found.forward_solves, found.runtime_s
-    if angle(sol.tip["d3"], target) > AIM_TOL and sol.elements != found.elements:
-        again = aim(dataclasses.replace(scene, elements=sol.elements))
-        forward = dataclasses.replace(forward, loads=dataclasses.replace(scene.loads, B=tuple(again.B)))
-        sol = solve(forward, **{**options, "elements": sol.elements})
-        solves, runtime = solves + again.forward_solves, runtime + again.runtime_s
-    error = angle(sol.tip["d3"], target)
-    report = {"tip_direction_error_rad": error, "forward_solves": solves, "runtime_s": runtime}
-    aimed = dataclasses.replace(forward, aim=scene.aim)
-    return dataclasses.replace(sol, scene=aimed, extra={**sol.extra, "aim": report})

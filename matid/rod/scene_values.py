@@ -1,7 +1,7 @@
 """The values of a scene file: the file itself, its tables and their known keys, quantities with
 units, directions, and the ``stiffness = { from = ..., specimen = ... }`` reference to a matid
-``stiffness.json`` (read as plain JSON). Every problem is a ValueError naming where it is, or a
-DataError naming the file (:func:`matid.rod.scenes.load_scene` adds the scene file).
+``stiffness.json`` (read as plain JSON). Every problem is a DataError naming where it is
+(:func:`matid.rod.scenes.load_scene` adds the scene file) or the stiffness file.
 """
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import stat
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -51,9 +52,9 @@ def read_small_file(path: Path, what: str) -> str:
 
 
 def as_table(value: object, where: str) -> dict:
-    """A TOML table (dict), or a ValueError naming where one was expected."""
+    """A TOML table (dict), or a DataError naming where one was expected."""
     if not isinstance(value, dict):
-        raise ValueError(f"{where}: expected a table, got {type(value).__name__} {short(value)}")
+        raise DataError(f"{where}: expected a table, got {type(value).__name__} {short(value)}")
     return value
 
 
@@ -62,7 +63,7 @@ def array_of_tables(raw: dict, key: str) -> list[tuple[str, dict]]:
     known keys."""
     items = raw.get(key, [])
     if not isinstance(items, list):
-        raise ValueError(f"[[{key}]]: expected an array of tables, got {type(items).__name__} {short(items)}")
+        raise DataError(f"[[{key}]]: expected an array of tables, got {type(items).__name__} {short(items)}")
     out = []
     for i, item in enumerate(items):
         where = f"[[{key}]] #{i + 1}"
@@ -99,16 +100,14 @@ def known(table: dict, name: str, where: str) -> dict:
     """``table`` itself after checking that every key is one of TABLE_KEYS[name]."""
     unknown = sorted(set(table) - TABLE_KEYS[name])
     if unknown:
-        raise ValueError(
-            f"{where}: unknown key '{unknown[0]}' (known: {', '.join(sorted(TABLE_KEYS[name]))})"
-        )
+        raise DataError(f"{where}: unknown key '{unknown[0]}' (known: {', '.join(sorted(TABLE_KEYS[name]))})")
     return table
 
 
 def quantity(table: dict, key: str, kind: str, where: str, default: object = None) -> float:
     if key not in table:
         if default is None:
-            raise ValueError(f"{where}: missing '{key}'")
+            raise DataError(f"{where}: missing '{key}'")
         return float(default)
     return si(to_si, table, key, kind, where)
 
@@ -118,11 +117,11 @@ def vector(table: dict, key: str, kind: str, where: str) -> Vector:
 
 
 def si(convert, table: dict, key: str, kind: str, where: str):
-    """``convert(table[key], kind)``; a unit problem is a ValueError naming ``where.key``."""
+    """``convert(table[key], kind)``; a unit problem is a DataError naming ``where.key``."""
     try:
         return convert(table[key], kind)
     except UnitError as exc:
-        raise ValueError(f"{where}.{key}: {exc}") from exc
+        raise DataError(f"{where}.{key}: {exc}") from exc
 
 
 def stiffness_from_json(ref: dict, root: Path | None) -> dict:
@@ -133,10 +132,10 @@ def stiffness_from_json(ref: dict, root: Path | None) -> dict:
     """
     for key in ("from", "specimen"):
         if not isinstance(ref.get(key), str) or not ref[key]:
-            raise ValueError(f"rod.stiffness.{key}: expected a non-empty string, got {short(ref.get(key))}")
+            raise DataError(f"rod.stiffness.{key}: expected a non-empty string, got {short(ref.get(key))}")
     extra = sorted(set(ref) - {"from", "specimen"})
     if extra:
-        raise ValueError(f"rod.stiffness: unknown key '{extra[0]}' (known: from, specimen)")
+        raise DataError(f"rod.stiffness: unknown key '{extra[0]}' (known: from, specimen)")
     file = Path(ref["from"])
     if root is not None and not file.is_absolute():
         file = root / file
@@ -170,11 +169,13 @@ def stiffness_from_json(ref: dict, root: Path | None) -> dict:
 def direction(value: object, where: str) -> Vector:
     """A direction: three plain numbers, not all zero, normalised."""
     if not isinstance(value, list) or len(value) != 3:
-        raise ValueError(f"{where}: expected three numbers [a1, a2, a3], got {short(value)}")
+        raise DataError(f"{where}: expected three numbers [a1, a2, a3], got {short(value)}")
     if any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in value):
-        raise ValueError(f"{where}: expected plain numbers (a direction has no unit), got {short(value)}")
+        raise DataError(f"{where}: expected plain numbers (a direction has no unit), got {short(value)}")
+    if any(abs(c) > sys.float_info.max for c in value):
+        raise DataError(f"{where}: a direction must be finite and not zero, got {short(value)}")
     a = np.asarray(value, float)
     norm = float(np.linalg.norm(a))
     if not (np.isfinite(a).all() and np.isfinite(norm) and norm > 0):
-        raise ValueError(f"{where}: a direction must be finite and not zero, got {short(value)}")
+        raise DataError(f"{where}: a direction must be finite and not zero, got {short(value)}")
     return tuple(float(c) for c in a / norm)

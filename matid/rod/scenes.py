@@ -67,10 +67,10 @@ class Rod:
         for name in ("length", "E_b", "E_t", "E_s", "E_e"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"rod {name} must be positive and finite, got {value}")
+                raise DataError(f"rod {name} must be positive and finite, got {value}")
         for seg in self.segments:
             if not 0.0 <= seg.start < seg.end <= self.length * (1 + 1e-12):
-                raise ValueError(
+                raise DataError(
                     f"segment [{seg.start}, {seg.end}] m is not inside the rod [0, {self.length}] m"
                 )
 
@@ -93,10 +93,10 @@ class Loads:
         for name, items in (("magnet", self.magnets), ("magnetization", self.magnetization)):
             directions = getattr(self, f"{name}_directions")
             if directions and len(directions) != len(items):
-                raise ValueError(f"{name}_directions: one direction per {name} ({len(items)})")
+                raise DataError(f"{name}_directions: one direction per {name} ({len(items)})")
             for a in directions:
                 if abs(math.hypot(*a) - 1.0) > 1e-9:
-                    raise ValueError(f"{name} direction {a} is not a unit vector")
+                    raise DataError(f"{name} direction {a} is not a unit vector")
 
     def directions(self, name: str) -> tuple[Vector, ...]:
         """The unit directions of the magnets (``name`` "magnet") or magnetised pieces, d3 by default."""
@@ -113,9 +113,9 @@ class BendSetup:
 
     def __post_init__(self) -> None:
         if not (self.span > 0 and self.support_radius >= 0 and self.nose_radius >= 0):
-            raise ValueError("three_point_bend needs span > 0 and radii >= 0")
+            raise DataError("three_point_bend needs span > 0 and radii >= 0")
         if not self.deflections or any(d < 0 or not math.isfinite(d) for d in self.deflections):
-            raise ValueError("three_point_bend needs deflections >= 0")
+            raise DataError("three_point_bend needs deflections >= 0")
 
 
 @dataclass(frozen=True)
@@ -127,9 +127,9 @@ class Aim:
 
     def __post_init__(self) -> None:
         if abs(math.hypot(*self.tip_direction) - 1.0) > 1e-9:
-            raise ValueError(f"aim.tip_direction {self.tip_direction} is not a unit vector")
+            raise DataError(f"aim.tip_direction {self.tip_direction} is not a unit vector")
         if not (math.isfinite(self.field_magnitude) and self.field_magnitude > 0):
-            raise ValueError(f"aim.field_magnitude must be positive and finite, got {self.field_magnitude}")
+            raise DataError(f"aim.field_magnitude must be positive and finite, got {self.field_magnitude}")
 
 
 @dataclass(frozen=True)
@@ -144,21 +144,21 @@ class Scene:
 
     def __post_init__(self) -> None:
         if self.kind not in ("cantilever", "three_point_bend"):
-            raise ValueError(f"scene must be cantilever or three_point_bend, got {self.kind!r}")
+            raise DataError(f"scene must be cantilever or three_point_bend, got {self.kind!r}")
         if (self.kind == "three_point_bend") != (self.bend is not None):
-            raise ValueError("a three_point_bend scene needs a [three_point_bend] table (and only it)")
+            raise DataError("a three_point_bend scene needs a [three_point_bend] table (and only it)")
         if self.kind == "three_point_bend" and self.rod.length <= self.bend.span:
-            raise ValueError("three_point_bend: rod length must exceed the span")
+            raise DataError("three_point_bend: rod length must exceed the span")
         if self.kind == "three_point_bend" and not self.rod.outer_diameter > 0:
-            raise ValueError("three_point_bend: rod outer_diameter is needed for contact")
+            raise DataError("three_point_bend: rod outer_diameter is needed for contact")
         if self.elements is not None and not 1 <= self.elements <= MAX_SCENE_ELEMENTS:
-            raise ValueError(f"elements must be between 1 and {MAX_SCENE_ELEMENTS}, got {self.elements}")
+            raise DataError(f"elements must be between 1 and {MAX_SCENE_ELEMENTS}, got {self.elements}")
         if not MIN_TOLERANCE <= self.tolerance < 1:
-            raise ValueError(f"tolerance must be in [{MIN_TOLERANCE:g}, 1), got {self.tolerance:g}")
+            raise DataError(f"tolerance must be in [{MIN_TOLERANCE:g}, 1), got {self.tolerance:g}")
         if self.aim is not None and self.kind != "cantilever":
-            raise ValueError("[aim] applies to cantilever scenes only")
+            raise DataError("[aim] applies to cantilever scenes only")
         if self.aim is not None and not (self.loads.magnets or self.loads.magnetization):
-            raise ValueError("[aim] needs a magnet or a magnetisation: a field turns nothing else")
+            raise DataError("[aim] needs a magnet or a magnetisation: a field turns nothing else")
 
 
 def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
@@ -198,12 +198,8 @@ def load_scene(path: str | Path) -> Scene:
     raw = parse_toml(read_small_file(path, "scene file"), path)  # nesting, control characters, lengths
     try:
         return scene_from_dict(raw, root=path.parent)
-    except DataError:
-        raise
-    except (UnitError, ValueError, KeyError, TypeError, OverflowError) as exc:
-        # KeyError's str() is the quoted key; its argument is the message itself
-        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
-        raise DataError(str(message), file=path) from exc
+    except DataError as exc:  # found in the scene's values: name the scene file
+        raise exc if exc.file else DataError(exc.detail, file=path) from exc
 
 
 #: Unit kind of each size and stiffness key of [rod]; all but the length are [[segment]] overrides.
@@ -220,7 +216,7 @@ KINDS = {
 def _rod(raw: dict, root: Path | None) -> Rod:
     table = dict(one_table(raw, "rod", {}))
     if not table:
-        raise ValueError("missing [rod] table")
+        raise DataError("missing [rod] table")
     if "stiffness" in table:
         table.update(stiffness_from_json(as_table(table.pop("stiffness"), "rod.stiffness"), root))
     segments = []
@@ -231,7 +227,7 @@ def _rod(raw: dict, root: Path | None) -> Rod:
         start, end = quantity(seg, "from", "length", where), quantity(seg, "to", "length", where)
         rigid = seg.get("rigid", False)
         if not isinstance(rigid, bool):
-            raise ValueError(f"{where}.rigid: expected true or false, got {short(rigid)}")
+            raise DataError(f"{where}.rigid: expected true or false, got {short(rigid)}")
         kappa = vector(seg, "precurvature", "curvature", where) if "precurvature" in seg else None
         segments.append(SegmentSpec(start, end, overrides, rigid, kappa))
     sizes = {
@@ -251,7 +247,7 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     """Build a Scene from the parsed TOML mapping (quantities as strings or SI numbers)."""
     unknown = sorted(set(raw) - SCENE_KEYS)
     if unknown:
-        raise ValueError(f"unknown key or table '{unknown[0]}' (known: {', '.join(sorted(SCENE_KEYS))})")
+        raise DataError(f"unknown key or table '{unknown[0]}' (known: {', '.join(sorted(SCENE_KEYS))})")
     kind = raw.get("scene", "cantilever")
     rod = _rod(raw, root)
     load, field_, tip = (one_table(raw, k, {}) for k in ("load", "field", "tip"))
@@ -269,7 +265,7 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     )
     for at, _ in magnets:
         if not 0 < at <= rod.length * (1 + 1e-12):
-            raise ValueError(f"[[magnet]] at {at} m is not on the rod (0, {rod.length}] m")
+            raise DataError(f"[[magnet]] at {at} m is not on the rod (0, {rod.length}] m")
     point_loads = _point_loads(raw, rod.length)
     loads = Loads(
         B=vector(field_, "B", "field", "field"),
@@ -287,19 +283,21 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
         t = one_table(raw, "three_point_bend")
         deflections = t.get("deflection")
         if not isinstance(deflections, list) or not deflections:
-            raise ValueError("three_point_bend.deflection: need a list of nose displacements")
+            raise DataError("three_point_bend.deflection: need a list of nose displacements")
         if len(deflections) > MAX_DEFLECTIONS:
-            raise ValueError(f"three_point_bend.deflection: at most {MAX_DEFLECTIONS} nose displacements")
+            raise DataError(f"three_point_bend.deflection: at most {MAX_DEFLECTIONS} nose displacements")
         sizes = {
             k: quantity(t, k, "length", "three_point_bend") for k in ("span", "support_radius", "nose_radius")
         }
-        bend = BendSetup(**sizes, deflections=tuple(to_si(d, "length") for d in deflections))
+        bend = BendSetup(**sizes, deflections=tuple(_length(d) for d in deflections))
     elements = raw.get("elements")
     if elements is not None and (not isinstance(elements, int) or isinstance(elements, bool)):
-        raise ValueError(f"elements must be a whole number, got {short(elements)}")
+        raise DataError(f"elements must be a whole number, got {short(elements)}")
     tolerance = raw.get("tolerance", 1e-6)
     if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)):
-        raise ValueError(f"tolerance must be a number, got {short(tolerance)}")
+        raise DataError(f"tolerance must be a number, got {short(tolerance)}")
+    if abs(tolerance) > 1:  # also a whole number too large for a float
+        raise DataError(f"tolerance must be in [{MIN_TOLERANCE:g}, 1), got {short(tolerance)}")
     return Scene(
         kind=kind,
         rod=rod,
@@ -309,6 +307,14 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
         tolerance=float(tolerance),
         aim=_aim(raw),
     )
+
+
+def _length(value: object) -> float:
+    """A length in SI; a DataError saying what is wrong with it."""
+    try:
+        return to_si(value, "length")
+    except UnitError as exc:
+        raise DataError(str(exc)) from exc
 
 
 def _directions(raw: dict, key: str) -> tuple[Vector, ...]:
@@ -325,9 +331,9 @@ def _point_loads(raw: dict, length: float) -> tuple[tuple[float, Vector, Vector]
     for where, t in array_of_tables(raw, "point_load"):
         at = quantity(t, "at", "length", where)
         if not 0 < at <= length * (1 + 1e-12):
-            raise ValueError(f"{where}: at {at} m is not on the rod (0, {length}] m")
+            raise DataError(f"{where}: at {at} m is not on the rod (0, {length}] m")
         if "force" not in t and "moment" not in t:
-            raise ValueError(f"{where}: give a force, a moment or both")
+            raise DataError(f"{where}: give a force, a moment or both")
         out.append((at, vector(t, "force", "force", where), vector(t, "moment", "torque", where)))
     return tuple(out)
 
@@ -337,7 +343,7 @@ def _aim(raw: dict) -> Aim | None:
         return None
     t = one_table(raw, "aim")
     if "tip_direction" not in t:
-        raise ValueError("[aim]: missing 'tip_direction'")
+        raise DataError("[aim]: missing 'tip_direction'")
     return Aim(
         direction(t["tip_direction"], "aim.tip_direction"), quantity(t, "field_magnitude", "field", "aim")
     )

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from matid.errors import DataError
 from matid.rod.fem import Discretisation, graded_vertices
 from matid.rod.models import FULL, ScaledRod, Segment
 from matid.rod.scenes import scene_from_dict
@@ -46,5 +47,5 @@ def test_directed_magnetisation_and_segment_precurvature_match_the_jets() -> Non
 )
 def test_bad_designer_keys_are_named(table: dict, message: str) -> None:
     raw = {"rod": {"length": "30 mm", "E_b": 1e-4, "E_t": 1e-4, "E_s": 10, "E_e": 10}, **table}
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(DataError, match=message):
         scene_from_dict(raw)
