@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 from functools import lru_cache
 
 import pint
@@ -194,6 +195,8 @@ def to_si(value: object, kind: str) -> float:
     """
     if isinstance(value, bool):
         raise UnitError(f"expected a quantity of {kind}, got {value!r}")
+    if isinstance(value, int) and abs(value) > sys.float_info.max:
+        raise UnitError(f"'{value}' is not a finite number")
     if isinstance(value, (int, float)):
         number = float(value)
     elif isinstance(value, str):

@@ -20,7 +20,8 @@ import numpy as np
 from matid.physics.contact import Circle
 from matid.rod.bend import BendModel, BendSystem
 from matid.rod.fem import Discretisation
-from matid.rod.models import PLANAR, RodSystem, ScaledRod
+from matid.rod.models import PLANAR, ScaledRod
+from matid.rod.system import RodSystem
 
 
 class AlphaCircle(Circle):

@@ -27,7 +27,7 @@ from matid.bench.references import (
 )
 from matid.bench.stability import PENALTY_C, Q_CRIT, Case
 from matid.rod.bend import BendModel
-from matid.rod.solve import solve_cantilever
+from matid.rod.cantilever import solve_cantilever
 
 # -- references (computed once, on first use) ---------------------------------------------------
 
@@ -386,7 +386,7 @@ def _rigid_cases() -> list[Case]:
             elements=n,
             check=True,
             quick=quick,
-            basis="10 x the rigid body's own compliance (matid.rod.solve.RIGID_FACTOR = 1e6: ~1e-6)",
+            basis="10 x the rigid body's own compliance (matid.rod.cantilever.RIGID_FACTOR = 1e6: ~1e-6)",
         )
         for stiff, n, quick in ((1e4, 16, False), (1e8, 16, True), (1e8, 64, False))
     ]

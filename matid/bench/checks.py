@@ -1,6 +1,6 @@
 """Independent checks of a returned planar cantilever state: residual and stability.
 
-The bench rebuilds the planar system of :func:`matid.rod.solve.solve_cantilever`
+The bench rebuilds the planar system of :func:`matid.rod.cantilever.solve_cantilever`
 on the same mesh, puts the returned state (positions, angles) back into it, and
 evaluates the residual (is it an equilibrium?) and the reduced tangent (is it a
 stable one?). A stable equilibrium of a conservative system has a positive
@@ -10,8 +10,6 @@ max |eigenvalue|``) marks an unstable equilibrium.
 """
 
 from __future__ import annotations
-
-import importlib
 
 import numpy as np
 
@@ -44,17 +42,18 @@ def planar_state_check(scene: Scene, sol) -> dict:
 
 
 def _rebuild(scene: Scene, sol):
-    solve_mod = importlib.import_module("matid.rod.solve")  # matid.rod.solve is shadowed by the function
+    from matid.rod import cantilever as solve_mod
     from matid.rod.fem import Discretisation, graded_vertices
-    from matid.rod.models import PLANAR, RodSystem
+    from matid.rod.models import PLANAR
     from matid.rod.scenes import plane_of
+    from matid.rod.system import RodSystem
 
     if sol.model != PLANAR or sol.element != "P2":
         raise ValueError("only planar P2 solutions are checked")
     e_a, e3 = np.asarray(plane_of(scene)), np.array([0.0, 0.0, 1.0])
     vertices = graded_vertices(1.0, sol.elements, breaks=solve_mod.breaks(scene))
     disc = Discretisation(vertices, 3, element="P2", intorder=2)
-    system = RodSystem(disc, solve_mod.scaled_rod(scene, e_a), model=PLANAR)
+    system = RodSystem(disc, *solve_mod.scaled(scene, e_a), model=PLANAR)
     L = scene.rod.length
     order = np.argsort(disc.s_dof)
     if not np.allclose(disc.s_dof[order] * L, sol.s, rtol=0, atol=1e-12 * L):

@@ -37,8 +37,8 @@ from matid.bench.common import best_of, tip_angle, tip_xz
 from matid.bench.references import Elastica, circle_shape, follow_elastica, richardson
 from matid.errors import ConvergenceError
 from matid.rod.bend import BendModel
+from matid.rod.cantilever import Solution, solve_cantilever
 from matid.rod.scenes import Scene
-from matid.rod.solve import Solution, solve_cantilever
 
 LEVELS = (2, 4, 8, 16, 32, 64, 128, 256, 512)
 QUICK_LEVELS = (2, 4, 8, 16)

@@ -14,8 +14,8 @@ import numpy as np
 from matid.bench import scenes as S
 from matid.bench.common import best_of
 from matid.rod.api import solve
+from matid.rod.cantilever import solve_cantilever
 from matid.rod.scenes import scene_from_dict
-from matid.rod.solve import solve_cantilever
 
 ELEMENTS = 16
 

@@ -93,8 +93,8 @@ from skfem.quadrature import get_quadrature
 
 from matid.bench.common import best_of, jsonable
 from matid.rod.bend import BendGeometry, BendModel
+from matid.rod.cantilever import solve_cantilever
 from matid.rod.scenes import scene_from_dict
-from matid.rod.solve import solve_cantilever
 
 E = 50e6
 NU = 0.45

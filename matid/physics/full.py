@@ -14,10 +14,10 @@ kappa, 0 for nu and d3 with the raw q (the paper's). For e = F a(n2), a = n2^p:
     grad e = a grad F + a' F grad n2
     Hess e = a Hess F + a' (grad F grad n2^T + grad n2 grad F^T) + a'' F grad n2 grad n2^T + 2 a' F I_q.
 
-The density W = 1/2 sum_k C_k (e_k - e_k^ref)^2 - lam mu d3.B - lam f.r (+ c_u/2 (n2 - 1)^2,
-raw) then has, with s_k = dW/de_k,
+The density W = 1/2 sum_k C_k (e_k - e_k^ref)^2 - lam mu d3.B (+ c_u/2 (n2 - 1)^2, raw) then
+has, with s_k = dW/de_k,
 
-    g = sum_k s_k grad e_k (- lam f),   H = sum_k C_k grad e_k grad e_k^T + sum_k s_k Hess e_k,
+    g = sum_k s_k grad e_k,   H = sum_k C_k grad e_k grad e_k^T + sum_k s_k Hess e_k,
 
 each a few batched matrix products over all points at once with the constant tensors A, Q read
 off kinematics.directors and kinematics.curvature_numerator, so this is the same model as the
@@ -77,12 +77,12 @@ def linear_maps(B: tuple[float, float, float]) -> np.ndarray:
 
 
 def derivatives(
-    z, lam, props, kappa_ref, mu, B, f, tangent, *, stress, want_strain, variant=kin.NORMALISED, c_u=0.0
+    z, lam, props, kappa_ref, mu, B, tangent, *, stress, want_strain, variant=kin.NORMALISED, c_u=0.0
 ):
     """(g, H, strain) of the full-model density at every point: shapes P + (14,), P + (14, 14).
 
     z: P + (14,) the point values (r, q, r', q'); props: stiffness arrays (P); mu:
-    magnetisation per length (P) or None; B, f: 3-vectors; kappa_ref: 3-vector (scaled by lam
+    magnetisation per length (P) or None; B: 3-vector; kappa_ref: 3-vector (scaled by lam
     here); ``variant``: directors from q/|q| or the raw q (then with the integrated penalty
     c_u/2 (|q|^2 - 1)^2). ``stress`` (P + (6,)): independent point stresses for the geometric
     part of the Hessian (the mixed tangent, see RodSystem.mixed_update); strain: (C (e - e_ref),
@@ -115,7 +115,7 @@ def derivatives(
         s[:, 6] = -lam * np.ravel(mu)
     penalty = c_u * (n2 - 1.0) if variant == kin.RAW else None
     g = np.empty((n, 14))
-    g[:, :3] = -lam * np.asarray(f, float)
+    g[:, :3] = 0.0  # no elastic force on r itself (a distributed force: its term)
     g[:, 3:] = _gradient(s, a, a1, F, gF, gn2, penalty)
     if not tangent:
         return g.reshape(shape + (14,)), None, None

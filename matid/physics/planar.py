@@ -3,7 +3,8 @@
 Variables per point z = (x, z, t, x', z', t') (6); with c, s = cos t, sin t,
 
     nu1 = x'c - z's,  nu3 = x's + z'c,  dnu1/dt = -nu3,  dnu3/dt = nu1,
-    W = 1/2 [E_b (t' - lam k_ref)^2 + E_s nu1^2 + E_e (nu3 - 1)^2] - lam mu (s Bx + c Bz) - lam f.r,
+    W = 1/2 [E_b (t' - lam k_ref)^2 + E_s nu1^2 + E_e (nu3 - 1)^2]   (the field's -lam mu (s Bx + c Bz):
+    :func:`magnetic`),
 
 so with the director-frame forces n = (n1, n3) = (E_s nu1, E_e (nu3 - 1)) and
 J = d(nu1, nu3)/d(t, x', z') = [[-nu3, c, -s], [nu1, s, c]],
@@ -12,8 +13,8 @@ J = d(nu1, nu3)/d(t, x', z') = [[-nu3, c, -s], [nu1, s, c]],
     G_tt = -n.nu,  G_(t, x') = -s n1 + c n3,  G_(t, z') = -c n1 - s n3
 
 (G = n1 Hess(nu1) + n3 Hess(nu3)), g_t' = E_b (t' - lam k_ref), H_t't' = E_b, plus the
-field term in t. Written entry by entry: on a few dozen points numpy's cost is per
-operation, and this is the fewest. In the mixed tangent (:meth:`matid.rod.models.RodSystem.mixed_update`) n in
+field's term in t (:func:`magnetic`). Written entry by entry: on a few dozen points numpy's cost is per
+operation, and this is the fewest. In the mixed tangent (:meth:`matid.rod.system.RodSystem.mixed_update`) n in
 G is the iteration's independent point stress instead of that of the displacements.
 The same model as the jets of :meth:`RodSystem.density` (compared in the tests).
 """
@@ -23,11 +24,10 @@ from __future__ import annotations
 import numpy as np
 
 
-def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent, *, stress, want_strain):
+def derivatives(z, lam, props, kappa_ref, tangent, *, stress, want_strain):
     """(g, H, strain) of the planar density at every point: shapes P + (6,), P + (6, 6).
 
     z: P + (6,) point values (x, z, t, x', z', t'); props: stiffness arrays (P);
-    mu: magnetisation per length (P) or None; B, f: 3-vectors (x, -, z) in the plane;
     kappa_ref: 3-vector or P + (3,) per point (its second entry, about the plane normal, scaled by
     lam here).
     ``stress`` (P + (2,)): (n1, n3) for the geometric part of H (the mixed tangent); strain:
@@ -42,15 +42,12 @@ def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent, *, stress, want_str
     Es, Ee, Eb = props["E_s"].ravel(), props["E_e"].ravel(), props["E_b"].ravel()
     n1, n3 = Es * nu1, Ee * (nu3 - 1.0)
     g = np.empty((n, 6))
-    g[:, 0], g[:, 1] = -lam * f[0], -lam * f[2]
+    g[:, 0], g[:, 1] = 0.0, 0.0  # no elastic force on r itself (dead loads: their terms)
     g[:, 2] = n3 * nu1 - n1 * nu3
     g[:, 3] = n1 * c + n3 * s
     g[:, 4] = n3 * c - n1 * s
     kappa_ref = np.asarray(kappa_ref, float)  # one rod-wide vector: no broadcast to the points
     g[:, 5] = Eb * (z[:, 5] - lam * (kappa_ref[1] if kappa_ref.ndim == 1 else kappa_ref.reshape(n, 3)[:, 1]))
-    if mu is not None:
-        mu = lam * mu.ravel()
-        g[:, 2] -= mu * (c * B[0] - s * B[2])
     if not tangent:
         return g.reshape(shape + (6,)), None, None
     Esc, Ess, Eec, Ees = Es * c, Es * s, Ee * c, Ee * s
@@ -65,10 +62,7 @@ def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent, *, stress, want_str
         stress = stress.reshape(n, 2)
         n1, n3 = stress[:, 0], stress[:, 1]
     H = np.zeros((n, 6, 6))
-    h22 = b * nu1 - a * nu3 - n1 * nu1 - n3 * nu3
-    if mu is not None:
-        h22 += mu * (s * B[0] + c * B[2])
-    H[:, 2, 2] = h22
+    H[:, 2, 2] = b * nu1 - a * nu3 - n1 * nu1 - n3 * nu3
     H[:, 2, 3] = H[:, 3, 2] = a * c + b * s - n1 * s + n3 * c
     H[:, 2, 4] = H[:, 4, 2] = b * c - a * s - n1 * c - n3 * s
     H[:, 3, 3] = Esc * c + Ees * s
@@ -76,3 +70,15 @@ def derivatives(z, lam, props, kappa_ref, mu, B, f, tangent, *, stress, want_str
     H[:, 4, 4] = Ess * s + Eec * c
     H[:, 5, 5] = Eb
     return g.reshape(shape + (6,)), H.reshape(shape + (6, 6)), strain
+
+
+def magnetic(g: np.ndarray, H: np.ndarray | None, z: np.ndarray, mu: np.ndarray, B) -> None:
+    """Add the field's energy -mu (sin t Bx + cos t Bz) per length to (g, H) of :func:`derivatives`
+    in place: its first and second derivative in t. mu: the moment per length times the load
+    factor (P); B: (x, -, z) in the plane."""
+    t = z.reshape(-1, 6)[:, 2]
+    c, s = np.cos(t), np.sin(t)
+    mu = mu.ravel()
+    g.reshape(-1, 6)[:, 2] -= mu * (c * B[0] - s * B[2])
+    if H is not None:
+        H.reshape(-1, 6, 6)[:, 2, 2] += mu * (s * B[0] + c * B[2])

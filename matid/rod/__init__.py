@@ -7,7 +7,7 @@
 
 from matid.rod.api import solve
 from matid.rod.bend import BendGeometry, BendModel
+from matid.rod.cantilever import Solution
 from matid.rod.scenes import Scene, load_scene
-from matid.rod.solve import Solution
 
 __all__ = ["BendGeometry", "BendModel", "Scene", "Solution", "load_scene", "solve"]

@@ -30,9 +30,10 @@ from scipy.optimize import least_squares
 from matid.errors import ConvergenceError
 from matid.physics import kinematics as kin
 from matid.physics.jet import Jet
-from matid.rod.models import FULL, RodSystem
+from matid.rod.cantilever import Equilibrium, _prepare, default_penalty, equilibrium, scaled
+from matid.rod.models import FULL
 from matid.rod.scenes import Scene
-from matid.rod.solve import Equilibrium, _prepare, default_penalty, equilibrium
+from matid.rod.system import RodSystem
 
 #: Largest turn of the target per continuation stage (rad).
 MAX_TURN = 0.35
@@ -91,13 +92,14 @@ class Forward:
 
     def sensitivity(self, eq: Equilibrium) -> np.ndarray:
         """dd3(L)/dB (3 x 3) at a converged state, from its tangent (module docstring)."""
-        _, _, rod, _ = _prepare(eq.scene, FULL)
+        _, _, rod, loads, _ = _prepare(eq.scene, FULL)
         c_u = default_penalty(rod, kin.NORMALISED)
 
         def field(B) -> RodSystem:
-            return RodSystem(eq.disc, dataclasses.replace(rod, B=B), model=FULL, c_u=c_u, banded=True)
+            in_field = dataclasses.replace(eq.scene, loads=dataclasses.replace(eq.scene.loads, B=B))
+            return RodSystem(eq.disc, rod, scaled(in_field, None)[1], model=FULL, c_u=c_u, banded=True)
 
-        system = field(rod.B)
+        system = RodSystem(eq.disc, rod, loads, model=FULL, c_u=c_u, banded=True)
         X = system.reduce(eq.U.ravel())
         factor = system.evaluate(X, 1.0)[1].factor()
         R0 = field((0.0, 0.0, 0.0)).evaluate(X, 1.0, tangent=False)[0]
@@ -214,25 +216,3 @@ def _stage(
 
 def _fmt(v: np.ndarray) -> str:
     return "(" + ", ".join(f"{c:.6g}" for c in np.asarray(v, float)) + ")"
-
-
-def solve_aimed(scene: Scene, **options):
-    """:func:`matid.rod.api.solve` of a scene with ``[aim]``: the field found by :func:`aim`, then the
-    forward solve of the scene in it (its mesh and error estimate as any scene's); the aim is
-    repeated on that mesh when its tip misses the target by more than AIM_TOL."""
-    from matid.rod.api import solve
-
-    found = aim(scene, elements=options.get("elements"))
-    forward = dataclasses.replace(scene, aim=None, loads=dataclasses.replace(scene.loads, B=tuple(found.B)))
-    sol = solve(forward, **options)
-    target = np.asarray(scene.aim.tip_direction)
-    solves, runtime = found.forward_solves, found.runtime_s
-    if angle(sol.tip["d3"], target) > AIM_TOL and sol.elements != found.elements:
-        again = aim(dataclasses.replace(scene, elements=sol.elements))
-        forward = dataclasses.replace(forward, loads=dataclasses.replace(scene.loads, B=tuple(again.B)))
-        sol = solve(forward, **{**options, "elements": sol.elements})
-        solves, runtime = solves + again.forward_solves, runtime + again.runtime_s
-    error = angle(sol.tip["d3"], target)
-    report = {"tip_direction_error_rad": error, "forward_solves": solves, "runtime_s": runtime}
-    aimed = dataclasses.replace(forward, aim=scene.aim)
-    return dataclasses.replace(sol, scene=aimed, extra={**sol.extra, "aim": report})

@@ -1,6 +1,6 @@
 """One entry point for every scene: ``solve(scene) -> Solution``.
 
-Cantilever scenes go to :func:`matid.rod.solve.solve_cantilever` (planar or
+Cantilever scenes go to :func:`matid.rod.cantilever.solve_cantilever` (planar or
 full model); three-point-bend scenes to the half model of
 :class:`matid.rod.bend.BendModel`, whose state at the largest deflection is
 mirrored onto the whole tube in the lab frame of docs/contract.md section 6:
@@ -20,12 +20,14 @@ import numpy as np
 from matid.errors import DataError
 from matid.physics import kinematics as kin
 from matid.rod.accuracy import refine
+from matid.rod.aim import AIM_TOL, aim, angle
 from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
+from matid.rod.cantilever import Equilibrium, Solution, equilibrium, scene_plane
+from matid.rod.checks import penalty_error, strain_warnings
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
 from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene
-from matid.rod.solve import Equilibrium, Solution, equilibrium, scene_plane
 
 MODELS = ("auto", PLANAR, FULL)
 #: Energy terms of the bend half model (no field, no twist: planar by construction).
@@ -74,9 +76,7 @@ def solve(
             f"elements: at most {MAX_SCENE_ELEMENTS} (the automatic meshing's limit), got {elements}"
         )
     if scene.aim is not None:  # the inverse problem (contract section 9): the field is solved for
-        from matid.rod.aim import solve_aimed
-
-        return solve_aimed(scene, elements=elements, model=model, variant=variant, element=element)
+        return _solve_aimed(scene, elements=elements, model=model, variant=variant, element=element)
     chosen = resolve_model(scene, model)
     last = None  # the last mesh's Equilibrium: each finer mesh starts from it
 
@@ -99,8 +99,6 @@ def solve(
         "tolerance": None if fixed else scene.tolerance,
     }
     if isinstance(result, Equilibrium):  # the Solution is built once, with its estimate
-        from matid.rod.checks import penalty_error, strain_warnings
-
         error = est.error
         if variant == kin.RAW:  # the paper's penalty has an error of its own (~1/c_u): included
             estimate["penalty_error"] = penalty_error(result)
@@ -108,6 +106,26 @@ def solve(
         extra = {"error_estimate": estimate, "warnings": strain_warnings(result)}
         return result.solution(discretization_error=error, extra=extra)
     return replace(result, discretization_error=est.error, extra={**result.extra, "error_estimate": estimate})
+
+
+def _solve_aimed(scene: Scene, **options):
+    """:func:`solve` of a scene with ``[aim]``: the field found by :func:`aim`, then the
+    forward solve of the scene in it (its mesh and error estimate as any scene's); the aim is
+    repeated on that mesh when its tip misses the target by more than AIM_TOL."""
+    found = aim(scene, elements=options.get("elements"))
+    forward = replace(scene, aim=None, loads=replace(scene.loads, B=tuple(found.B)))
+    sol = solve(forward, **options)
+    target = np.asarray(scene.aim.tip_direction)
+    solves, runtime = found.forward_solves, found.runtime_s
+    if angle(sol.tip["d3"], target) > AIM_TOL and sol.elements != found.elements:
+        again = aim(replace(scene, elements=sol.elements))
+        forward = replace(forward, loads=replace(scene.loads, B=tuple(again.B)))
+        sol = solve(forward, **{**options, "elements": sol.elements})
+        solves, runtime = solves + again.forward_solves, runtime + again.runtime_s
+    error = angle(sol.tip["d3"], target)
+    report = {"tip_direction_error_rad": error, "forward_solves": solves, "runtime_s": runtime}
+    aimed = replace(forward, aim=scene.aim)
+    return replace(sol, scene=aimed, extra={**sol.extra, "aim": report})
 
 
 def solve_bend(scene: Scene, *, elements: int | None = None) -> Solution:

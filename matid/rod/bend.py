@@ -34,8 +34,9 @@ from matid.errors import ConvergenceError, SlipOffError
 from matid.physics.contact import Circle
 from matid.rod.bend_system import BendSystem
 from matid.rod.fem import Discretisation
-from matid.rod.models import PLANAR, RodSystem, ScaledRod
+from matid.rod.models import PLANAR, ScaledRod
 from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follow, newton
+from matid.rod.system import RodSystem
 
 #: Default elements of the half model (measured: see ``matid bench``).
 DEFAULT_ELEMENTS = 24

@@ -13,8 +13,8 @@ import scipy.sparse as sp
 
 from matid.physics.contact import Circle
 from matid.rod.band import Banded
-from matid.rod.models import RodSystem
 from matid.rod.newton import NewtonFailure
+from matid.rod.system import RodSystem
 
 
 class BendSystem:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from matid.physics import kinematics as kin
+from matid.rod.cantilever import _prepare, equilibrium
 from matid.rod.models import PLANAR
 
 #: Largest strain the linear law is taken to describe (contract section 9: 0.05).
@@ -23,8 +24,6 @@ LINEAR_RANGE = 0.05
 
 def point_strains(eq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(s / L, |nu - e3|, |kappa - kappa_ref| scaled by L) at the quadrature points of eq."""
-    from matid.rod.solve import _prepare
-
     disc, model = eq.disc, eq.model
     rod = _prepare(eq.scene, model)[2]
     vals, ders = disc.interpolate(eq.U.ravel())
@@ -78,7 +77,5 @@ def _outer_diameter(scene, eq) -> np.ndarray | float:
 def penalty_error(eq) -> float:
     """The raw variant's penalty error of the tip (relative to L): its state minus the normalised
     variant's on the same mesh (where |q| = 1 exactly, the limit c_u -> infinity of the raw one)."""
-    from matid.rod.solve import equilibrium
-
     exact = equilibrium(eq.scene, elements=eq.disc.ne, model=eq.model, element=eq.disc.element, start=eq)
     return float(np.max(np.abs(eq.tip() - exact.tip())))

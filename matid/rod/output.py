@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
-from matid.rod.solve import Solution
+from matid.rod.cantilever import Solution
 
 MM = 1e3
 #: The unit of every number in ``solution.json`` (SI), by key; directors are unit vectors.

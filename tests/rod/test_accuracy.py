@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from matid.rod.accuracy import ROUNDOFF, refine, richardson
+from matid.rod.cantilever import solve_cantilever
 from matid.rod.scenes import scene_from_dict
-from matid.rod.solve import solve_cantilever
 
 L, EB = 0.03, 6.5e-5
 

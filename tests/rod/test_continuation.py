@@ -6,17 +6,18 @@ import pytest
 
 from matid.bench import scenes as S
 from matid.physics import kinematics as kin
-from matid.rod.models import PLANAR, RodSystem
+from matid.rod.cantilever import _prepare, default_penalty, equilibrium, mesh, probe_start
+from matid.rod.models import PLANAR
 from matid.rod.newton import definite, definite_step, follow
 from matid.rod.scenes import scene_from_dict
-from matid.rod.solve import _prepare, default_penalty, equilibrium, mesh, probe_start
+from matid.rod.system import RodSystem
 
 
 def _system(scene, elements: int = 4) -> RodSystem:
-    chosen, _, rod, at = _prepare(scene, "auto")
+    chosen, _, rod, loads, at = _prepare(scene, "auto")
     disc = mesh(elements, at, 3 if chosen == PLANAR else 7, "P2", 2)
     c_u = default_penalty(rod, kin.NORMALISED)
-    return RodSystem(disc, rod, model=chosen, c_u=c_u, banded=True, mixed=True)
+    return RodSystem(disc, rod, loads, model=chosen, c_u=c_u, banded=True, mixed=True)
 
 
 def _start(system: RodSystem) -> np.ndarray:
@@ -42,7 +43,7 @@ def test_dead_loads_leave_the_unloaded_tangent_positive_definite(name):
     the elastic one, or stiffer."""
     scene = _dead_load_scenes()[name]
     system = _system(scene)
-    assert not probe_start(system.rod, system.model)
+    assert not probe_start(system.rod, system.loads, system.model)
     for lam in (1.0, 10.0):
         assert definite(system, _start(system), lam) is True
 
@@ -50,7 +51,7 @@ def test_dead_loads_leave_the_unloaded_tangent_positive_definite(name):
 def test_a_field_beyond_the_straight_rods_stability_limit_is_detected():
     scene = S.magnetic(6.4, 120.0)
     system = _system(scene)
-    assert probe_start(system.rod, system.model)
+    assert probe_start(system.rod, system.loads, system.model)
     x0 = _start(system)
     assert definite(system, x0, 0.0) is True
     assert definite(system, x0, 1.0) is False
@@ -69,7 +70,7 @@ def test_halvings_are_bounded():
 
 def test_no_test_in_3d():
     system = _system(S.spatial(stiff=1e3, rigid=True), 16)
-    assert system.model != PLANAR and not probe_start(system.rod, system.model)
+    assert system.model != PLANAR and not probe_start(system.rod, system.loads, system.model)
 
 
 @pytest.mark.parametrize("elements", [4, 16])

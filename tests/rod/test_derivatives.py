@@ -5,9 +5,11 @@ import numpy as np
 import pytest
 
 from matid.physics.kinematics import NORMALISED, RAW
+from matid.rod.cantilever import INTORDER, interpolate_p2
 from matid.rod.fem import Discretisation
-from matid.rod.models import FULL, PLANAR, RodSystem, ScaledRod, Segment
-from matid.rod.solve import INTORDER, interpolate_p2
+from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
+from matid.rod.system import RodSystem
+from matid.rod.terms import DistributedForce, Magnetisation, Magnets, Tip
 
 ROD = ScaledRod(
     E_t=0.7,
@@ -15,18 +17,20 @@ ROD = ScaledRod(
     E_e=2e4,
     segments=(Segment(0.6, 0.8, 5.0, 4.0, 1e5, 2e5),),
     kappa_ref=(0.4, -1.3, 0.2),
-    mu=((0.2, 1.0, 2.5),),
-    B=(0.3, -0.5, 0.8),
-    f=(0.7, -0.2, 1.1),
-    tip_force=(0.5, 1.5, -0.5),
-    magnets=((1.0, 0.8),),
+)
+B = (0.3, -0.5, 0.8)
+LOADS = (
+    Magnetisation(B, ((0.2, 1.0, 2.5),)),
+    DistributedForce((0.7, -0.2, 1.1)),
+    Tip((0.5, 1.5, -0.5), (0.0, 0.0, 0.0)),
+    Magnets(B, ((1.0, 0.8),)),
 )
 
 
 def system(model: str, *, element: str = "P2", **kw) -> RodSystem:
     nf = 3 if model == PLANAR else 7
     disc = Discretisation(np.linspace(0.0, 1.0, 6), nf, element=element, intorder=INTORDER[element])
-    return RodSystem(disc, ROD, model=model, c_u=3.0, **kw)
+    return RodSystem(disc, ROD, LOADS, model=model, c_u=3.0, **kw)
 
 
 @pytest.mark.parametrize(("model", "variant"), [(PLANAR, NORMALISED), (FULL, NORMALISED), (FULL, RAW)])
@@ -120,8 +124,8 @@ def test_bend_mesh_derivative_and_bordered_solve():
 def test_stiff_rod_in_the_full_model_converges_with_the_mixed_tangent():
     """Regression: with the switch to the consistent tangent at corrections of 1e-3 the round-off
     stagnation test fired on this scene (tip force F L^2/E_b = 2, E_s = E_e = 1e8 E_b/L^2)."""
+    from matid.rod.cantilever import solve_cantilever
     from matid.rod.scenes import scene_from_dict
-    from matid.rod.solve import solve_cantilever
 
     L, Eb = 0.03, 9e-5
     scale = Eb / L**2

@@ -6,9 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from matid.errors import DataError
 from matid.rod.fem import Discretisation, graded_vertices
-from matid.rod.models import FULL, RodSystem, ScaledRod, Segment
+from matid.rod.models import FULL, ScaledRod, Segment
 from matid.rod.scenes import scene_from_dict
+from matid.rod.system import RodSystem
+from matid.rod.terms import Magnetisation
 
 ROD = ScaledRod(
     E_t=0.7,
@@ -16,14 +19,13 @@ ROD = ScaledRod(
     E_e=80.0,
     segments=(Segment(0.6, 1.0, 1.0, 0.7, 50.0, 80.0, kappa_ref=(0.3, -1.1, 0.4)),),
     kappa_ref=(0.1, 0.2, 0.0),
-    directed_mu=((0.2, 0.9, 1.5, (0.6, 0.0, 0.8)),),
-    B=(0.3, -0.5, 0.8),
 )
+LOADS = (Magnetisation((0.3, -0.5, 0.8), (), ((0.2, 0.9, 1.5, (0.6, 0.0, 0.8)),)),)
 
 
 def test_directed_magnetisation_and_segment_precurvature_match_the_jets() -> None:
     disc = Discretisation(graded_vertices(1.0, 6), 7, element="P2", intorder=2)
-    closed, jets = (RodSystem(disc, ROD, model=FULL, analytic=a) for a in (True, False))
+    closed, jets = (RodSystem(disc, ROD, LOADS, model=FULL, analytic=a) for a in (True, False))
     rng = np.random.default_rng(3)
     U = closed.reference() + 0.05 * rng.standard_normal(disc.n)
     X = closed.reduce(U)
@@ -45,5 +47,5 @@ def test_directed_magnetisation_and_segment_precurvature_match_the_jets() -> Non
 )
 def test_bad_designer_keys_are_named(table: dict, message: str) -> None:
     raw = {"rod": {"length": "30 mm", "E_b": 1e-4, "E_t": 1e-4, "E_s": 10, "E_e": 10}, **table}
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(DataError, match=message):
         scene_from_dict(raw)

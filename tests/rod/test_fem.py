@@ -9,9 +9,10 @@ import pytest
 from skfem import Basis, BilinearForm, ElementLineHermite, ElementLineP1, ElementLineP2, MeshLine
 
 from matid.bench import scenes as S
+from matid.rod.cantilever import solve_cantilever
 from matid.rod.fem import Discretisation
-from matid.rod.models import FULL, PLANAR, RodSystem, ScaledRod
-from matid.rod.solve import solve_cantilever
+from matid.rod.models import FULL, PLANAR, ScaledRod
+from matid.rod.system import RodSystem
 
 SKFEM = {"P1": ElementLineP1, "P2": ElementLineP2, "Hermite": ElementLineHermite}
 CASES = [("P2", 2), ("P2", 4), ("P1", 2), ("Hermite", 4)]

@@ -9,7 +9,8 @@ import pytest
 
 from matid.app.cli import main
 from matid.errors import DataError
-from matid.rod.scenes import MAX_FILE_BYTES, MAX_SCENE_ELEMENTS, load_scene
+from matid.rod.scene_values import MAX_FILE_BYTES
+from matid.rod.scenes import MAX_SCENE_ELEMENTS, load_scene
 
 ROD = """
 [rod]

@@ -5,8 +5,8 @@ import pytest
 
 from matid.bench import peers
 from matid.bench import scenes as S
+from matid.rod.cantilever import equilibrium
 from matid.rod.scenes import scene_from_dict
-from matid.rod.solve import equilibrium
 
 
 def _scenes():

@@ -6,7 +6,7 @@ import pytest
 
 from matid.bench import scenes as S
 from matid.bench.peers import precurved_3d
-from matid.rod.solve import Equilibrium, equilibrium, mesh
+from matid.rod.cantilever import Equilibrium, equilibrium, mesh
 
 SCENES = {
     "magnetic": lambda: S.magnetic(6.4, 120.0),
@@ -45,8 +45,8 @@ def test_stress_recovery_is_exact_for_linear_stresses():
 def test_a_segment_edited_in_place_is_solved_again():
     """The last scene's preparation is remembered between solves; editing a segment's overrides
     dict in place (the one mutable part of a frozen scene) must not return the old answer."""
+    from matid.rod.cantilever import solve_cantilever
     from matid.rod.scenes import Loads, Rod, Scene, SegmentSpec
-    from matid.rod.solve import solve_cantilever
 
     seg = SegmentSpec(0.0, 0.05, {"E_b": 1e-4})
     scene = Scene(

@@ -18,9 +18,11 @@ import scipy.sparse as sp
 
 from matid.physics import kinematics as kin
 from matid.rod.fem import Discretisation, graded_vertices
-from matid.rod.models import FULL, PLANAR, RodSystem, ScaledRod, Segment
+from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
 from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follow, newton
 from matid.rod.scenes import Scene, plane_of
+from matid.rod.system import RodSystem
+from matid.rod.terms import Scale, Term, loads_of
 
 #: A rigid segment: bending and twist RIGID_FACTOR times the rod's, shear and
 #: extension at least RIGID_FACTOR (scaled by E_b/L^2). Its share of the rod's
@@ -63,23 +65,16 @@ class Solution:
         return {key: getattr(self, key)[-1].tolist() for key in ("position", "d1", "d3")}
 
 
-def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
-    """The scene's rod and loads in scaled units; projected onto the plane when e_a is given."""
-    rod, loads = scene.rod, scene.loads
+def scaled(scene: Scene, e_a: np.ndarray | None) -> tuple[ScaledRod, tuple[Term, ...]]:
+    """The scene's rod and the terms of its loads in scaled units; projected onto the plane when
+    e_a is given."""
+    scale = Scale(scene.rod.length, scene.rod.E_b, e_a)
+    return scaled_rod(scene.rod, scale), loads_of(scene, scale)
+
+
+def scaled_rod(rod, scale: Scale) -> ScaledRod:
+    """The rod's stiffnesses (relative to E_b at the clamp), segments and precurvature, scaled."""
     L, Eb = rod.length, rod.E_b
-    if e_a is not None:
-        a0, a1 = float(e_a[0]), float(e_a[1])  # e_a is horizontal; n = e3 x e_a = (-a1, a0, 0)
-
-    def vec(v, factor):
-        v = [float(c) * factor for c in v]
-        if e_a is None:
-            return tuple(v)
-        return (v[0] * a0 + v[1] * a1, -v[0] * a1 + v[1] * a0, v[2])
-
-    def moment(v, factor):  # planar: the component about n
-        w = vec(v, factor)
-        return w if e_a is None else (0.0, w[1], 0.0)
-
     base = {"E_b": 1.0, "E_t": rod.E_t / Eb, "E_s": rod.E_s * L**2 / Eb, "E_e": rod.E_e * L**2 / Eb}
     segments = []
     for seg in rod.segments:
@@ -92,43 +87,19 @@ def scaled_rod(scene: Scene, e_a: np.ndarray | None) -> ScaledRod:
                 k: RIGID_FACTOR * v if k in ("E_b", "E_t") else max(v, RIGID_FACTOR)
                 for k, v in scaled.items()
             }
-        kappa = None if seg.precurvature is None else moment(seg.precurvature, L)
+        kappa = None if seg.precurvature is None else scale.moment(seg.precurvature, L)
         segments.append(Segment(seg.start / L, seg.end / L, **scaled, kappa_ref=kappa))
-    magnets, mu, directed = directed_magnetisation(loads, L, Eb)
     return ScaledRod(
         **{k: base[k] for k in ("E_t", "E_s", "E_e")},
         segments=tuple(segments),
-        kappa_ref=moment(rod.precurvature, L),
-        mu=mu,
-        B=vec(loads.B, 1.0),
-        f=vec(loads.distributed_force, L**3 / Eb),
-        tip_force=vec(loads.tip_force, L**2 / Eb),
-        tip_moment=moment(loads.tip_moment, L / Eb),
-        magnets=magnets,
-        directed_magnets=directed[0],
-        directed_mu=directed[1],
-        point_loads=tuple((at / L, vec(F, L**2 / Eb), moment(M, L / Eb)) for at, F, M in loads.point_loads),
+        kappa_ref=scale.moment(rod.precurvature, L),
     )
-
-
-def directed_magnetisation(loads, L: float, Eb: float) -> tuple:
-    """(magnets, mu, (directed magnets, directed mu)) scaled: a magnetisation along +-d3 is a signed
-    moment of the d3 terms, any other direction a term of its own (contract section 9)."""
-    magnets, mu, lumped, spread = [], [], [], []
-    for (at, m), a in zip(loads.magnets, loads.directions("magnet"), strict=True):
-        axial = a[0] == 0.0 and a[1] == 0.0
-        magnets.append((at / L, m * a[2] * L / Eb)) if axial else lumped.append((at / L, m * L / Eb, a))
-    for (s0, s1, m), a in zip(loads.magnetization, loads.directions("magnetization"), strict=True):
-        axial = a[0] == 0.0 and a[1] == 0.0
-        piece = (s0 / L, s1 / L, m * (a[2] if axial else 1.0) * L**2 / Eb)
-        mu.append(piece) if axial else spread.append(piece + (a,))
-    return tuple(magnets), tuple(mu), (tuple(lumped), tuple(spread))
 
 
 def default_penalty(rod: ScaledRod, variant: str) -> float:
     """c_u (scaled) of the unity penalty when none is given.
 
-    Normalised variant: the penalty only holds the nodal |q| (see models.gauge_terms);
+    Normalised variant: the penalty only holds the nodal |q| (matid.rod.terms.gauge);
     measured on the q = 6.4 magnetic cantilever (16 elements), Newton needs the fewest
     steps at c_u ~ sqrt(stiffest scaled term): E = 1e4 -> 4 steps at c_u = 1e2 (8 at 1),
     E = 1e8 -> 16 at 1e4 (36 at 1, 115 at 1e8). Raw variant (the paper's): the
@@ -174,13 +145,14 @@ def equilibrium(
     half mesh); the load continuation from the straight rod is the fallback when that fails.
     """
     t0 = time.perf_counter()
-    chosen, e_a, rod, at = _prepare(scene, model)
+    chosen, e_a, rod, loads, at = _prepare(scene, model)
     ne = elements or scene.elements or DEFAULT_ELEMENTS
     order = intorder or INTORDER[element]
     disc = mesh(ne, at, 3 if chosen == PLANAR else 7, element, order)
     system = RodSystem(
         disc,
         rod,
+        loads,
         model=chosen,
         variant=variant,
         c_u=c_u or default_penalty(rod, variant),
@@ -193,7 +165,7 @@ def equilibrium(
     X = _warm(system, start) if start is not None and element == "P2" else None
     if X is None:
         system.stress_start = None  # the continuation starts from the straight rod
-        x0, probe = system.reduce(system.reference()), probe_start(rod, chosen)
+        x0, probe = system.reduce(system.reference()), probe_start(rod, loads, chosen)
         X, info = follow(system, x0, [1.0], definite_start=probe)
     else:
         X, info = X
@@ -204,7 +176,7 @@ def equilibrium(
     )
 
 
-def probe_start(rod: ScaledRod, model: str) -> bool:
+def probe_start(rod: ScaledRod, loads: tuple[Term, ...], model: str) -> bool:
     """Whether the continuation's first step is tested for a stable start (newton.definite_step).
 
     Planar model: dead forces and moments have potentials linear in (x, z, theta) and the
@@ -214,12 +186,12 @@ def probe_start(rod: ScaledRod, model: str) -> bool:
     "3D, rigid magnet body") has an indefinite unloaded tangent at lam = 1e-3, yet Newton
     converges at lam = 0.125: the test would cost 10 halvings and 41 iterations, not 28.
     """
-    if model != PLANAR or not rod.has_field:
+    magnetic = [term for term in loads if term.label == "magnetic"]
+    if model != PLANAR or not magnetic:
         return False
     if any(rod.kappa_ref) or any(seg.kappa_ref is not None for seg in rod.segments):
         return True  # d3 turns along the unloaded rod: test
-    moments = [m for _, _, m in rod.mu] + [m for _, m in rod.magnets]
-    return any(m * rod.B[2] < 0.0 for m in moments)
+    return any(term.softens_straight_rod() for term in magnetic)
 
 
 @dataclass(frozen=True)
@@ -305,9 +277,9 @@ def scene_plane(scene: Scene) -> tuple[float, float, float] | None:
     return _remembered("plane", scene, lambda: plane_of(scene))
 
 
-def _prepare(scene: Scene, model: str) -> tuple[str, np.ndarray | None, ScaledRod, tuple[float, ...]]:
-    """(model, plane direction, scaled rod, mesh breaks) of a scene; the last one is remembered
-    (scenes are frozen), so the meshes of one error estimate compute them once."""
+def _prepare(scene: Scene, model: str) -> tuple:
+    """(model, plane direction, scaled rod, its load terms, mesh breaks) of a scene; the last one is
+    remembered (scenes are frozen), so the meshes of one error estimate compute them once."""
 
     def make():
         plane = scene_plane(scene) if model in ("auto", PLANAR) else None
@@ -315,7 +287,7 @@ def _prepare(scene: Scene, model: str) -> tuple[str, np.ndarray | None, ScaledRo
             raise ValueError("the scene is not planar: use model='full' or 'auto'")
         chosen = PLANAR if plane is not None else FULL
         e_a = None if chosen == FULL else np.asarray(plane)
-        return chosen, e_a, scaled_rod(scene, e_a), breaks(scene)
+        return chosen, e_a, *scaled(scene, e_a), breaks(scene)
 
     return _remembered(model, scene, make)
 

@@ -1,0 +1,283 @@
+"""The clamped rod's residual and tangent for :mod:`matid.rod.newton`: the rod's strain energy
+(:mod:`matid.physics.planar`, :mod:`matid.physics.full`) plus the scene's terms (:mod:`matid.rod.terms`).
+
+See :mod:`matid.rod.models` for the scaling and the total energy. The system binds each term once
+(its dofs, patterns and point values) and sums, at each evaluation: the strain energy's pointwise
+gradient and Hessian with the distributed terms' added in place, one vectorised assembly, then the
+nodal loads' residual and tangent blocks, then the constraints' (the unity gauge of the normalised
+full model). Only the terms a scene has run: no magnetic term without magnets in a field, no gauge
+in the planar model, no precurvature term when it is zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from matid.physics import full, planar
+from matid.physics import kinematics as kin
+from matid.physics.jet import Jet
+from matid.rod.fem import Discretisation
+from matid.rod.models import FULL, PLANAR, ScaledRod
+from matid.rod.terms import Term, UnityGauge
+from matid.rod.terms.base import at_points
+
+#: The names of Solution.terms beyond bending, shear and extension, in the order listed.
+LABELS = ("twist", "unity penalty", "magnetic", "precurvature", "point loads")
+
+
+@dataclass
+class RodSystem:
+    """Residual and tangent of a clamped rod and its loads for :mod:`matid.rod.newton`."""
+
+    disc: Discretisation
+    rod: ScaledRod
+    loads: tuple[Term, ...] = ()  # the scene's terms (matid.rod.terms.loads_of)
+    model: str = PLANAR
+    variant: str = kin.NORMALISED
+    c_u: float = 1.0
+    fixed: tuple[int, ...] | None = None  # fixed global dofs; default: clamp at s = 0
+    analytic: bool = True  # closed-form derivatives (False: jets, the cross-check)
+    banded: bool = False  # tangent in band storage (band.Banded: LAPACK Cholesky/LU) instead of CSR
+    mixed: bool = False  # mixed-integration-point tangent in Newton (see mixed_update)
+    terms: list[str] = field(init=False)  # the energy terms that run, from the rod, model and loads
+
+    def __post_init__(self) -> None:
+        self._stress = self._strain = None
+        #: point stresses (ne, nq, ns) for the mixed tangent's first iteration (a warm start
+        #: from a coarser mesh's recovered stresses)
+        self.stress_start: np.ndarray | None = None
+        self.props = at_points(self, self.rod, lambda: self.rod.stiffness_at(self.disc.s_quad))
+        nf = self.disc.nf
+        free = np.ones(self.disc.n, dtype=bool)
+        clamp = self.disc.vertex_dof(0) * nf + np.arange(nf)  # values only (Hermite: slopes stay free)
+        free[clamp if self.fixed is None else list(self.fixed)] = False
+        self.disc.set_free(free)  # a shared (cached) mesh keeps its patterns when the set is the same
+        self.index = self.disc.free_index  # free dof number of each dof, -1 where fixed
+        self.tip = self.disc.vertex_dof(self.disc.vertices.size - 1)
+        #: per-segment precurvature at the points (None: the rod's, uniform)
+        self.kappa = self.rod.kappa_ref_at(self.disc.s_quad)
+        gauge = (UnityGauge(self.c_u),) if self.model == FULL and self.variant == kin.NORMALISED else ()
+        #: (term, what it prepared for this system): distributed, nodal loads and constraints
+        self.distributed = self._bind(t for t in self.loads if t.kind == "distributed")
+        self.nodal = self._bind(t for t in self.loads if t.kind == "nodal")
+        self.constraints = self._bind(gauge)
+        self.terms = self._labels()
+
+    def _bind(self, terms) -> list[tuple[Term, object]]:
+        return [(term, term.prepare(self)) for term in terms if self.model in term.models]
+
+    def _labels(self) -> list[str]:
+        """The energy terms that run, as Solution.terms lists them."""
+        present = {term.label for term, _ in self.distributed + self.nodal if term.label}
+        if self.model == FULL:
+            present |= {"twist", "unity penalty"}
+        if any(self.rod.kappa_ref) or self.kappa is not None:
+            present.add("precurvature")
+        extra = sorted(present - set(LABELS))
+        return ["bending", "shear", "extension"] + [name for name in LABELS if name in present] + extra
+
+    # -- states -------------------------------------------------------------
+    def reference(self) -> np.ndarray:
+        """Straight rod along the axis, identity rotation."""
+        U = np.zeros((self.disc.nscalar, self.disc.nf))
+        U[:, 1 if self.model == PLANAR else 2] = self.disc.affine(0.0, 1.0)
+        if self.model == FULL:
+            U[:, 3] = self.disc.affine(1.0, 0.0)
+        return U.ravel()
+
+    def _reference(self) -> np.ndarray:
+        """:meth:`reference`, cached per mesh and model (the fixed dofs of :meth:`expand`); read-only."""
+        cache = self.disc.__dict__.setdefault("_references", {})
+        hit = cache.get(self.model)
+        if hit is None or hit[0] is not self.disc.s_dof:  # a moved mesh shares the dict, not s_dof
+            U = self.reference()
+            U.flags.writeable = False
+            hit = cache[self.model] = (self.disc.s_dof, U)
+        return hit[1]
+
+    # -- energy density -------------------------------------------------------
+    def density(self, u: list, du: list, lam: float):
+        """The energy density in jets (the oracle of :meth:`energy_derivatives`)."""
+        p, rod = self.props, self.rod
+        if self.model == PLANAR:
+            x, z, th = u
+            k2, nu1, nu3 = kin.planar_strains(du[0], du[1], th, du[2])
+            kref = lam * (rod.kappa_ref[1] if self.kappa is None else self.kappa[..., 1])
+            w = kin.planar_strain_energy(k2, nu1, nu3, p["E_b"], p["E_s"], p["E_e"], kref)
+        else:
+            q, dr, dq = u[3:], du[:3], du[3:]
+            kappa, nu = kin.strains(dr, q, dq, self.variant)
+            kref = [
+                lam * (k if self.kappa is None else self.kappa[..., i]) for i, k in enumerate(rod.kappa_ref)
+            ]
+            w = kin.strain_energy(kappa, nu, p["E_b"], p["E_t"], p["E_s"], p["E_e"], kref)
+            if self.variant == kin.RAW:  # the paper's integrated penalty; normalised: terms.gauge
+                w = w + kin.unity_penalty(q, self.c_u)
+        for term, prep in self.distributed:
+            w = w + term.density(self, prep, u, du, lam)
+        return w
+
+    def energy_derivatives(self, U: np.ndarray, lam: float, tangent: bool = True):
+        """Pointwise gradient and Hessian of the density: the closed forms of
+        :mod:`matid.physics.planar` and :mod:`matid.physics.full` plus the distributed terms'; the
+        jets of :meth:`density` only when ``analytic`` is off (their test oracle)."""
+        options = {"stress": self._stress, "want_strain": self.mixed}
+        if not self.analytic:
+            variables = Jet.variables(np.concatenate(self.disc.interpolate(U)), hessian=tangent)
+            nf = self.disc.nf
+            w = self.density(variables[:nf], variables[nf:], lam)
+            return w.g, w.h
+        z = self.disc.point_values(U)
+        kappa_ref = self.rod.kappa_ref if self.kappa is None else self.kappa  # per point: per segment
+        if self.model == PLANAR:
+            g, H, strain = planar.derivatives(z, lam, self.props, kappa_ref, tangent, **options)
+        else:  # the field on a magnetisation along d3 is a row of the full kernel (terms.magnetisation)
+            rows = [term.kernel(self, prep) for term, prep in self.distributed]
+            mu, B = next((row for row in rows if row is not None), (None, (0.0, 0.0, 0.0)))
+            args = (z, lam, self.props, kappa_ref, mu, B, tangent)
+            g, H, strain = full.derivatives(*args, variant=self.variant, c_u=self.c_u, **options)
+        for term, prep in self.distributed:
+            term.derivatives(self, prep, z, lam, g, H if tangent else None)
+        if self.mixed and tangent:
+            self._strain = strain
+        return g, H
+
+    # -- mixed-integration-point Newton (independent stresses at the quadrature points) ----------
+    def mixed_reset(self) -> None:
+        """Back to the consistent tangent (stresses from the displacements)."""
+        self._stress = None
+
+    def converged_stress(self) -> np.ndarray | None:
+        """C e(u) (ne, nq, ns) at the points of the last Newton evaluation (mixed systems)."""
+        return None if self._strain is None else self._strain[0]
+
+    def hold_stress(self) -> None:
+        """Keep the converged state's point stresses for the next Newton solve's first mixed
+        tangent (the continuation's next load step); the residual, hence the root, is unchanged."""
+        if self.mixed:
+            self.stress_start = self.converged_stress()
+
+    def mixed_begin(self) -> None:
+        """The first iteration's tangent: from ``stress_start`` when given (mixed), else consistent."""
+        self._stress = None if (self.stress_start is None or not self.mixed) else self.stress_start.copy()
+
+    def mixed_update(self, dx: np.ndarray, alpha: float) -> None:
+        """Point stresses after a Newton step alpha dx: sigma += alpha (C (e(u) + J du) - sigma).
+
+        The mixed (Hellinger-Reissner) Newton condensed at each point: the right-hand side is
+        the ordinary residual, only the tangent's geometric part uses sigma, which follows the
+        *linearised* strain. On stiff rods this removes the alternating overshoot of the axial
+        strain (theta^2/2 after a rotation step) that costs the displacement Newton its steps;
+        at convergence sigma = C e(u), the same solution (Magisano, Leonetti & Garcea 2017).
+        """
+        if not self.mixed or self._strain is None:
+            return
+        sigma_u, CJ = self._strain
+        dU = np.zeros(self.disc.n)
+        dU[self.disc.free] = dx
+        dz = self.disc.point_values(dU)  # P + (2 nf,)
+        target = sigma_u + np.matmul(CJ, dz[..., None])[..., 0]
+        old = sigma_u if self._stress is None else self._stress
+        self._stress = old + alpha * (target - old)
+
+    @property
+    def roundoff(self) -> float:
+        """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
+        stiff = max([float(v.max()) for v in self.props.values()])  # the method: no np.max dispatch
+        return 1e-15 * max(stiff, 1.0)
+
+    # -- residual and tangent on the free dofs ---------------------------------
+    def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):
+        """Residual on the free dofs and, with ``tangent``, its Jacobian (banded or CSR)."""
+        U = self.expand(X) if U is None else U
+        g, H = self.energy_derivatives(U, lam, tangent)
+        self.last_points = (U, g, H)  # pointwise derivatives of this evaluation (bend: dR/dsigma)
+        if self.banded:
+            R = self.disc.residual(g)
+            K = self.disc.tangent(H, self.symmetric) if tangent else None
+        else:
+            R, K = self.disc.assemble(g, H)
+        blocks: list = []
+        for group in (self.nodal, self.constraints):  # each group's residual summed, then added
+            if group:
+                Rn = np.zeros(self.disc.n)
+                for term, prep in group:
+                    term.nodal(self, prep, U, lam, Rn, blocks)
+                R += Rn
+        for pattern, values in blocks if tangent else ():
+            if self.banded:
+                K.add(pattern, values)
+            else:
+                entries = (values.reshape(-1)[pattern.keep], (pattern.rows, pattern.cols))
+                K = K + sp.csr_matrix(entries, shape=K.shape)
+        return R[self.disc.free], K
+
+    @property
+    def symmetric(self) -> bool:
+        """The tangent is a Hessian, except with a dead moment in 3D (no potential)."""
+        bound = self.distributed + self.nodal + self.constraints
+        return all(term.symmetric(self) for term, _ in bound)
+
+    def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
+        """Why a converged state is no answer, or None: a saddle of the potential is not an equilibrium
+        a rod can hold (used by :func:`matid.rod.newton.follow` to halve the load step).
+
+        ``factor``: Newton's last factorised tangent; a successful banded Cholesky of it
+        (every pivot > 0) is the stability test, read off without a second factorisation.
+        """
+        for term, prep in self.nodal + self.constraints:
+            if type(term).reject is not Term.reject:  # a term with states that are no answer
+                reason = term.reject(self, prep, self.expand(X), lam)
+                if reason:
+                    return reason
+        if getattr(factor, "positive_definite", None) is True:
+            return None
+        if self.negative_modes(X, lam):
+            if not self.symmetric:
+                return (
+                    "no stable equilibrium assured: with a dead moment in 3D (no potential) the "
+                    "symmetrised tangent is not positive definite (physics.md section 8)"
+                )
+            return "unstable equilibrium (the tangent stiffness is not positive definite: buckling or snap)"
+        return None
+
+    def negative_modes(self, X: np.ndarray, lam: float) -> int | None:
+        """Non-positive pivots of the tangent at X: 0 iff it is positive definite (a stable state).
+
+        The test of Cholesky: SuperLU in symmetric mode without off-diagonal
+        pivoting (checked: perm_r == perm_c) computes K = L D L^T, and every
+        pivot of D is positive iff K is (for a positive definite K this
+        elimination is backward stable, so a pivot <= 0 is no round-off).
+        None when the test cannot be made.
+
+        With dead moments in 3D (physics.md section 8), which have no potential: the test of
+        the symmetrised tangent (K + K^T)/2, i.e. positive second-order work of every
+        perturbation (Hill's criterion: sufficient, coordinate-free). Measured: it rejects the
+        saddle of a magnet in a reversed field (two negative eigenvalues, so det K > 0 there: a
+        sign change of det K would miss it), and pure dead tip moments above ~2.2 E_b/L in
+        3D (det K > 0 there too: stability is then not assured, rather than assumed).
+        """
+        K = self.evaluate(X, lam)[1].tocsr()
+        if not self.symmetric:
+            K = (K + K.T) * 0.5
+        try:
+            lu = spla.splu(
+                K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+            )
+        except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
+            return 1
+        if not np.array_equal(lu.perm_r, lu.perm_c):
+            return None
+        return int(np.sum(lu.U.diagonal() <= 0.0))
+
+    def expand(self, X: np.ndarray) -> np.ndarray:
+        U = self._reference().copy()
+        U[self.disc.free] = X
+        return U
+
+    def reduce(self, U: np.ndarray) -> np.ndarray:
+        return U[self.disc.free].copy()

@@ -1,0 +1,39 @@
+"""The loads on the rod, one module each (:mod:`matid.rod.terms.base` says what a term gives).
+
+:data:`LOADS` lists the scene's loads in the order the system sums them; :func:`loads_of` builds
+those a scene has. A new load is one module here, one entry in LOADS and its keys in
+:mod:`matid.rod.scenes`.
+"""
+
+from __future__ import annotations
+
+from matid.rod.terms.base import Scale, Term
+from matid.rod.terms.distributed import DistributedForce
+from matid.rod.terms.gauge import UnityGauge
+from matid.rod.terms.magnetisation import Magnetisation
+from matid.rod.terms.magnets import Magnets
+from matid.rod.terms.point_loads import PointLoads
+from matid.rod.terms.tip import Tip
+
+#: Every load a cantilever scene may have, in the order their residuals are summed.
+LOADS = (Magnetisation, DistributedForce, Tip, Magnets, PointLoads)
+
+
+def loads_of(scene, scale: Scale) -> tuple[Term, ...]:
+    """The terms of the loads ``scene`` has (scaled by ``scale``); none for a load it does not have."""
+    built = (kind.from_scene(scene, scale) for kind in LOADS)
+    return tuple(term for term in built if term is not None)
+
+
+__all__ = [
+    "LOADS",
+    "DistributedForce",
+    "Magnetisation",
+    "Magnets",
+    "PointLoads",
+    "Scale",
+    "Term",
+    "Tip",
+    "UnityGauge",
+    "loads_of",
+]
