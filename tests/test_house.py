@@ -12,9 +12,10 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "matid"
 
 # Lower floors first. A module may import only from a floor strictly below its own (or its own
-# package). errors and units are the ground; the data model and the paper's physics sit on them.
-FLOORS = ["errors", "limits", "units", "toml", "physics", "model", "rod", "fits", "io", "example", "report", "bench",
-          "app", "__main__", "__init__"]
+# package). The package's own __init__ (its version; the API is imported lazily, by name) and
+# errors and units are the ground; the data model and the paper's physics sit on them.
+FLOORS = ["__init__", "errors", "limits", "units", "toml", "physics", "model", "rod", "fits", "io", "example",
+          "report", "bench", "app", "__main__"]
 MAX_MODULE_LINES = 400
 MAX_FUNCTION_LINES = 80
 
