@@ -1,117 +1,34 @@
-"""The stability catalogue: each case's scene, solve, reference, tolerance and basis.
+"""The stability catalogue: each case's scene, solve, reference, tolerance, basis and expected outcome.
 
-References are independent of the solver where one exists (closed forms, the
-elastica BVP of :mod:`matid.bench.references`) and are computed once, on first
-use, so the quick subset computes only what it needs. Where no independent
-reference exists (3D scenes) a fine-mesh or Richardson solve says so.
+The references and error measures are in :mod:`matid.bench.measures`. Every case states the
+outcome it must give (:class:`matid.bench.case.Expect`); the ones that must raise say where
+and why: a planar magnetic cantilever pushed past buckling stops at q = q_c (load factor
+q_c / q), a dead end moment in 3D at half a turn, the raw penalty at c_u >= 1e10 at round-off.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from functools import cache
 
 import numpy as np
 
 from matid.bench import scenes as S
-from matid.bench.checks import planar_state_check
+from matid.bench.case import FLAGGED, PENALTY_C, Q_CRIT, SOLVES, Case, raises
 from matid.bench.common import tip_xz
-from matid.bench.references import (
-    Elastica,
-    circle_shape,
-    first_branch,
-    follow_elastica,
-    richardson,
-    rigid_tip_magnet,
+from matid.bench.measures import (
+    arc_error,
+    bend_reference,
+    branch_tip,
+    cantilever_case,
+    elastica,
+    relative_error,
+    spatial_tip,
+    straight_error,
+    tip3_error,
+    tip_error,
 )
-from matid.bench.stability import PENALTY_C, Q_CRIT, Case
+from matid.bench.references import richardson, rigid_tip_magnet
 from matid.rod.bend import BendModel
-from matid.rod.cantilever import solve_cantilever
-
-# -- references (computed once, on first use) ---------------------------------------------------
-
-
-@cache
-def _elastica(
-    alpha: float = 0.0, E_s: float = math.inf, E_e: float = math.inf, q: float = 0.0, psi_deg: float = 0.0
-) -> np.ndarray:
-    rod = Elastica(force=(alpha, 0.0), q=q, field_angle=math.radians(psi_deg), E_s=E_s, E_e=E_e)
-    return follow_elastica(rod)["tip"][:2]
-
-
-@cache
-def _first_branch(q: float, psi_deg: float) -> np.ndarray:
-    """Tip (x, z)/L of the first-mode branch bending towards +x (shooting scan; see references)."""
-    return first_branch(Elastica(q=q, field_angle=math.radians(psi_deg)))["tip"][:2]
-
-
-@cache
-def _spatial(elements: int, stiff: float = 1e6, rigid: bool = False) -> np.ndarray:
-    sol = solve_cantilever(S.spatial(stiff=stiff, rigid=rigid), elements=elements)
-    return np.asarray(sol.position[-1]) / S.L
-
-
-@cache
-def _bend_reference(n: int, specimen: float, deflections: tuple[float, ...]) -> np.ndarray:
-    E = S.BEND_E
-    forces = [
-        BendModel(S.bend_geometry(specimen), elements=m).solve(*E, deflections).force for m in (n, 2 * n)
-    ]
-    return richardson(*forces)
-
-
-def _tip_error(reference: Callable[[], np.ndarray]) -> Callable[[object], float]:
-    return lambda sol: float(np.linalg.norm(tip_xz(sol, S.L) - reference()))
-
-
-def _tip3_error(reference: Callable[[], np.ndarray]) -> Callable[[object], float]:
-    return lambda sol: float(np.linalg.norm(np.asarray(sol.position[-1]) / S.L - reference()))
-
-
-def _arc_error(turns: float) -> Callable[[object], float]:
-    def error(sol) -> float:
-        exact = np.insert(circle_shape(np.asarray(sol.s) / S.L, turns), 1, 0.0, axis=1)  # (x, 0, z)
-        return float(np.max(np.linalg.norm(np.asarray(sol.position) / S.L - exact, axis=1)))
-
-    return error
-
-
-def _relative_error(value: np.ndarray, reference: np.ndarray) -> float:
-    return float(np.max(np.abs(value - reference) / np.abs(reference)))
-
-
-def _straight_error(sol) -> float:
-    p = np.asarray(sol.position)
-    return float(np.max(np.abs(p - np.column_stack([0 * p[:, 0], 0 * p[:, 0], sol.s])))) / S.L
-
-
-def _case(
-    family: str,
-    name: str,
-    parameters: dict,
-    scene,
-    error: Callable[[object], float],
-    reference: str,
-    *,
-    elements: int = 16,
-    solve: dict | None = None,
-    check: bool = False,
-    **options,
-) -> Case:
-    """A cantilever case: ``solve_cantilever(scene, elements, **solve)``, its elements appended to
-    ``parameters``; ``check``: rebuild the returned planar state (residual, stability)."""
-    return Case(
-        family,
-        name,
-        {**parameters, "elements": elements},
-        lambda: solve_cantilever(scene, elements=elements, **(solve or {})),
-        error,
-        reference,
-        check=(lambda sol: planar_state_check(scene, sol)) if check else None,
-        **options,
-    )
-
 
 # -- the cases --------------------------------------------------------------------------------------
 
@@ -137,27 +54,28 @@ def cases(quick: bool = False) -> list[Case]:
 def _penalty_cases() -> list[Case]:
     scene = S.spatial(stiff=1e6)
     raw = [
-        _case(
+        cantilever_case(
             "raw-quaternion penalty",
             f"raw q, c_u = {c_u:.0e}",
             {"scene": SPATIAL, "model": "full", "variant": "raw", "c_u (scaled)": c_u},
             scene,
-            _tip3_error(lambda: _spatial(16)),
+            tip3_error(lambda: spatial_tip(16)),
             "normalised variant on the same mesh (isolates the penalty error)",
             solve={"model": "full", "variant": "raw", "c_u": c_u},
             tolerance=1e-3,
             penalty_c_u=c_u,
+            expect=_raw_expect(c_u),
             quick=c_u in (1e2, 1e6),
             basis=f"0.1 % of L; the raw penalty's own error is <= {PENALTY_C:g}/c_u (measured ~1.4/c_u)",
         )
         for c_u in (1e2, 1e4, 1e6, 1e8, 1e10, 1e12)
     ]
-    normalised = _case(
+    normalised = cantilever_case(
         "precurved 3D rod",
         "normalised q, default c_u",
         {"scene": SPATIAL, "model": "full", "variant": "normalised"},
         scene,
-        _tip3_error(lambda: richardson(_spatial(64), _spatial(128))),
+        tip3_error(lambda: richardson(spatial_tip(64), spatial_tip(128))),
         "Richardson extrapolation of the normalised variant on 64 and 128 elements",
         solve={"model": "full"},
         quick=True,
@@ -165,14 +83,22 @@ def _penalty_cases() -> list[Case]:
     return [*raw, normalised]
 
 
+def _raw_expect(c_u: float):
+    """c_u = 1e2: within its own penalty error, flagged; 1e4 to 1e8: ok; from 1e10 the penalty's
+    stiffness spread puts Newton's round-off floor above its tolerance at the first step."""
+    if c_u < 1e3:
+        return FLAGGED
+    return raises(at=0.0, says="Newton stagnated") if c_u >= 1e10 else SOLVES
+
+
 def _tip_force_case(family: str, name: str, E_s: float, E_e: float, quick: bool) -> Case:
     """Tip force F L^2/E_b = 2 against the planar rod BVP with the same E_s, E_e."""
-    return _case(
+    return cantilever_case(
         family,
         name,
         {"scene": "tip force F L^2/E_b = 2", "E_s L^2/E_b": E_s, "E_e L^2/E_b": E_e},
         S.tip_force(2.0, E_s=E_s, E_e=E_e),
-        _tip_error(lambda: _elastica(2.0, E_s, E_e)),
+        tip_error(lambda: elastica(2.0, E_s, E_e)),
         BVP,
         check=True,
         quick=quick,
@@ -185,12 +111,12 @@ def _stiffness_cases() -> list[Case]:
         for E in (1e2, 1e4, 1e6, 1e8, 1e10)
     ]
     magnetic = [
-        _case(
+        cantilever_case(
             "slenderness",
             f"magnetic cantilever, E_s = E_e = {E:.0e}",
             {"scene": "magnetic cantilever q = 6.4, 120 deg", "E_s L^2/E_b": E, "E_e L^2/E_b": E},
             S.magnetic(6.4, 120.0, E_s=E, E_e=E),
-            _tip_error(lambda: _elastica(q=6.4, psi_deg=120.0)),
+            tip_error(lambda: elastica(q=6.4, psi_deg=120.0)),
             "elastica BVP (exact for any E_s, E_e: a uniform field exerts no force)",
             check=True,
         )
@@ -205,17 +131,18 @@ def _stiffness_cases() -> list[Case]:
 
 def _rotation_cases() -> list[Case]:
     return [
-        _case(
+        cantilever_case(
             "large rotation",
             f"end moment, tip at {360 * turns:.0f} deg ({model})",
             {"scene": "pure end moment", "M L/E_b": 2 * math.pi * turns, "model": model},
             S.end_moment(turns),
-            _arc_error(turns),
+            arc_error(turns),
             "closed form (circular arc), largest nodal error",
             solve={"model": model},
             check=model == "auto",
             tolerance=1e-4,
             basis="P2 at 16 elements: 3e-6 per turn^4 (convergence section, circle); factor >= 10",
+            expect=SOLVES if model == "auto" else raises(at=0.5 / turns, says="dead moment in 3D"),
             quick=quick,
         )
         for turns, model, quick in (
@@ -229,12 +156,12 @@ def _rotation_cases() -> list[Case]:
 
 def _bifurcation_cases() -> list[Case]:
     near = [
-        _case(
+        cantilever_case(
             "near bifurcation",
             f"field 179.5 deg, q = {factor:g} q_c",
             {"scene": "magnetic cantilever", "q": factor * Q_CRIT, "q_c": Q_CRIT, "field angle (deg)": 179.5},
             S.magnetic(factor * Q_CRIT, 179.5),
-            _tip_error(lambda q=factor * Q_CRIT: _first_branch(q, 179.5)),
+            tip_error(lambda q=factor * Q_CRIT: branch_tip(q, 179.5)),
             "elastica, first-mode branch towards +x (shooting scan, checked by solve_bvp); "
             "stability: tangent eigenvalues",
             check=True,
@@ -244,29 +171,27 @@ def _bifurcation_cases() -> list[Case]:
     ]
     q = 1.2 * Q_CRIT
     reversal = [
-        _case(
+        cantilever_case(
             "field reversal",
             "field 180 deg, q = 0.9 q_c",
             {"scene": "magnetic cantilever", "q": 0.9 * Q_CRIT, "field angle (deg)": 180.0},
             S.magnetic(0.9 * Q_CRIT, 180.0),
-            _tip_error(lambda: np.array([0.0, 1.0])),
+            tip_error(lambda: np.array([0.0, 1.0])),
             "the straight rod (stable below q_c)",
             check=True,
         ),
-        _case(
+        cantilever_case(
             "field reversal",
             "field 180 deg, q = 1.2 q_c",
             {"scene": "magnetic cantilever", "q": q, "field angle (deg)": 180.0},
             S.magnetic(q, 180.0),
             lambda sol: float(
-                min(
-                    np.linalg.norm(tip_xz(sol, S.L) - _first_branch(q, 180.0) * [sign, 1.0])
-                    for sign in (1, -1)
-                )
+                min(np.linalg.norm(tip_xz(sol, S.L) - branch_tip(q, 180.0) * [sign, 1.0]) for sign in (1, -1))
             ),
             "the buckled state (either mirror image; elastica, shooting scan): the straight "
             "rod is an equilibrium but unstable beyond q_c",
             check=True,
+            expect=raises(at=Q_CRIT / q, says="unstable equilibrium"),
             quick=True,
         ),
     ]
@@ -285,7 +210,7 @@ def _bend_cases(quick: bool) -> list[Case]:
             "to 20 % of the span (d = 2 mm)",
             {"span (mm)": 10, "specimen (mm)": 30, "deflections (mm)": [1e3 * v for v in d], "elements": 24},
             lambda: model.solve(*E, d),
-            lambda p: _relative_error(p.force, _bend_reference(n_ref, 0.03, d)),
+            lambda p: relative_error(p.force, bend_reference(n_ref, 0.03, d)),
             f"Richardson extrapolation of BendModel on {n_ref} and {2 * n_ref} elements",
             tolerance=1e-4,
             basis="relative force; 24 elements give ~1e-6 (convergence section); factor 100",
@@ -305,7 +230,7 @@ def _bend_cases(quick: bool) -> list[Case]:
             "SlipOffError expected (a ConvergenceError subclass); converging to 12 mm would be wrong",
             tolerance=None,
             basis="must raise",
-            expect="SlipOffError",
+            expect=raises("SlipOffError", says="slips off"),
             quick=True,
         ),
     ]
@@ -313,33 +238,33 @@ def _bend_cases(quick: bool) -> list[Case]:
 
 def _mesh_cases() -> list[Case]:
     magnetic = "magnetic cantilever q = 6.4"
-    mag_ref = _tip_error(lambda: _elastica(q=6.4, psi_deg=120.0))
+    mag_ref = tip_error(lambda: elastica(q=6.4, psi_deg=120.0))
     zero = [
-        _case(
+        cantilever_case(
             "zero load",
             "no field (planar)",
             {"scene": "magnetic cantilever, q = 0"},
             S.magnetic(0.0, 120.0),
-            _straight_error,
+            straight_error,
             "the straight rod",
             check=True,
             tolerance=1e-12,
             basis=EXACT,
             quick=True,
         ),
-        _case(
+        cantilever_case(
             "zero load",
             "no load (full model)",
             {"scene": "tip force 0", "model": "full"},
             S.tip_force(0.0),
-            _straight_error,
+            straight_error,
             "the straight rod",
             solve={"model": "full"},
             tolerance=1e-12,
             basis=EXACT,
         ),
     ]
-    single = _case(
+    single = cantilever_case(
         "mesh extremes",
         "a single element",
         {"scene": magnetic},
@@ -352,7 +277,7 @@ def _mesh_cases() -> list[Case]:
         quick=True,
     )
     many = [
-        _case(
+        cantilever_case(
             "mesh extremes",
             f"10^4 elements, E_s = E_e = 1e{math.log10(E):.0f}",
             {"scene": magnetic, "E_s L^2/E_b": E},
@@ -372,7 +297,7 @@ def _mesh_cases() -> list[Case]:
 def _rigid_cases() -> list[Case]:
     ref = rigid_tip_magnet(0.9, 0.1, 2.0, math.radians(120.0))[:2]
     planar = [
-        _case(
+        cantilever_case(
             "rigid segment",
             f"rigid magnet body, E_s = E_e = {stiff:.0e}, {n} elements",
             {
@@ -381,7 +306,7 @@ def _rigid_cases() -> list[Case]:
                 "E_e L^2/E_b": stiff,
             },
             S.rigid_tip_magnet(stiff=stiff),
-            _tip_error(lambda: ref),
+            tip_error(lambda: ref),
             "closed form: arc under the magnet's torque, then the straight rigid body",
             elements=n,
             check=True,
@@ -391,7 +316,7 @@ def _rigid_cases() -> list[Case]:
         for stiff, n, quick in ((1e4, 16, False), (1e8, 16, True), (1e8, 64, False))
     ]
     spatial = [
-        _case(
+        cantilever_case(
             "rigid segment",
             f"3D, rigid magnet body, E_s = E_e = {stiff:.0e}",
             {
@@ -400,7 +325,7 @@ def _rigid_cases() -> list[Case]:
                 "model": "full",
             },
             S.spatial(stiff=stiff, rigid=True),
-            _tip3_error(lambda stiff=stiff: _spatial(48, stiff, True)),
+            tip3_error(lambda stiff=stiff: spatial_tip(48, stiff, True)),
             "the same scene on 48 elements (self-convergence: no independent 3D reference)",
         )
         for stiff in (1e3, 1e6)
