@@ -14,7 +14,10 @@ and ``info["rows_left_out"]``):
    compensated as ASTM D790 (section 12.1) does: the tangent of steepest slope
    of the loading curve is extended to zero force; its deflection intercept d0
    becomes the zero of deflection (d <- d - d0) and rows at d <= d0 are left
-   out. It is applied only when a toe is there (:func:`toe_offset`) and d0 > 0.
+   out. It is applied only when a toe is there (:func:`toe_offset`) and d0 > 0. Without a
+   toe, rows below zero deflection whose force is within ``PRE_CONTACT_NOISE`` noise
+   deviations of zero (crosshead scatter of either sign before the nose touches) are left
+   out as before contact; a force above that at a negative deflection stays an error.
 4. **Yield**: the force falling below the line of the initial stretch before
    the peak (a plastic hinge, a kink) is found as the upper onset of the linear
    range of :mod:`matid.fits.onset`; rows beyond it are left out when the
@@ -34,12 +37,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from matid.errors import DataError, FitError
-from matid.fits import onset
+from matid.fits import onset, stats
 
 #: A toe is compensated when the initial slope is below this fraction of the typical early slope.
 TOE_SLOPE_RATIO = 0.5
 #: Compliance below this fraction of pure bending: the data are absurd (wrong unit), not noisy.
 ABSURD_COMPLIANCE_RATIO = 0.5
+#: Rows below zero deflection whose |force| is within this many noise deviations are before contact.
+PRE_CONTACT_NOISE = 5.0
 
 
 @dataclass(frozen=True)
@@ -132,6 +137,12 @@ def cut(d: np.ndarray, F: np.ndarray, window: np.ndarray, *, windowed: bool = Fa
         toe = used & (d <= d0)
         reasons[f"toe (slack) before the ASTM D790 zero at {1e3 * d0:.4g} mm"] = int(toe.sum())
         used &= ~toe
+    elif idx.size:
+        # crosshead scatter of either sign around zero before the nose touches (an MTS 793 export):
+        # rows below zero deflection whose force is within the noise of zero have not touched yet
+        before = used & (d < 0)
+        if before.any() and np.max(np.abs(F[before])) <= PRE_CONTACT_NOISE * stats.difference_noise(F[idx]):
+            used = _drop(used, before, "before contact (deflection below zero, force within the noise)", reasons)
     return Cut(_yield(d, F, used, reasons), d0, reasons)
 
 

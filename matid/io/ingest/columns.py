@@ -78,6 +78,15 @@ def header(
         if name in overrides:
             unit, row = overrides[name], 0
         columns.append(_column(i, cells[i] if name in mapping else shown, name, unit, row, kind, path))
+    # columns no test uses may share a name ('Total Cycle Count(Linear Waveform)' and '...(Rotary
+    # Waveform)', the brackets read as units): each keeps its own under its position
+    names_ = [c.name for c in columns]
+    columns = [
+        Column(c.index, c.written, f"{c.name}_col{c.index + 1}", c.unit, c.unit_row)
+        if names_.count(c.name) > 1 and c.name not in TEST_COLUMNS[kind]
+        else c
+        for c in columns
+    ]
     _check_duplicates(columns, path, header_row)
     return columns
 

@@ -120,7 +120,8 @@ def _table(
 
 def load_measurements(study: Study) -> list[Measurement]:
     """Read the file of every test of ``study`` (excluded ones too), in study order."""
-    measurements = []
+    measurements: list[Measurement] = []
+    seen: dict[str, Test] = {}  # sha256 -> the first test that read it
     for test in study.tests:
         if not os.path.lexists(test.file):
             raise DataError(
@@ -136,6 +137,17 @@ def load_measurements(study: Study) -> list[Measurement]:
             negate=test.negate,
             encoding=test.encoding,
         )
+        first = seen.setdefault(table.sha256, test)
+        if first is not test and not (first.exclude or test.exclude):
+            # the same rows twice would double n_points and shrink the interval by sqrt(2)
+            one = Path(first.file).resolve() == Path(test.file).resolve()
+            same = "the same file" if one else "the same contents"
+            raise DataError(
+                f"[[test]] #{first.index + 1} and #{test.index + 1} ({test.kind}) name {same} "
+                f"(sha256 {table.sha256[:12]}...; first: {first.file}): a record counts once; "
+                "remove one, or exclude = true on it",
+                file=test.file,
+            )
         measurements.append(Measurement(test=test, table=table))
     return measurements
 
