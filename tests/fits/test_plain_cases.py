@@ -14,9 +14,9 @@ import pytest
 from matid.fits import branch
 from matid.fits.shear.fit import fit_three_point_bend
 from matid.fits.torsion import fit_torsion
-from matid.io.ingest.read import Measurement, Table
-from matid.io.results import Estimate
-from matid.io.study import Specimen, Test
+from matid.model.measurement import Measurement, Table
+from matid.model.results import Estimate
+from matid.model.study import Specimen, Test
 
 E_T = 4.4e-5  # N m^2
 ONSET, SCALE = 60.0, 150.0  # rad/m: linear up to ONSET; the peak at ONSET + SCALE
