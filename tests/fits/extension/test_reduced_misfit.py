@@ -60,3 +60,27 @@ def test_bin_means_give_the_full_records_values_when_the_model_misses_the_record
         assert binned[name].n_points == full[name].n_points == 8000
         assert abs(binned[name].value - full[name].value) < full[name].stderr, name
         assert binned[name].stderr == pytest.approx(full[name].stderr, rel=0.1), name
+
+
+def test_e_e_interval_reaches_below_the_end_of_a_hold_that_still_relaxes(tmp_path):
+    """The equilibrium stiffness is at most force / strain at the end of the hold. With the
+    relaxation time held at 20 s ([[fixed]] from another test) the SLS puts k1 between the
+    mid-hold and the end: E_e must say that it lies above the end of the hold and widen its
+    interval to below it (the noise-only interval excluded every value the record allows)."""
+    t, eps, force = power_law_record(8000, 0.1)
+    noisy = force + np.random.default_rng(3).normal(0.0, NOISE, t.size)
+    write_bluehill(tmp_path / "relax.csv", t, eps * GAUGE, noisy)
+    (tmp_path / "study.toml").write_text(
+        '[study]\nname = "power-law relaxation"\n\n[[specimen]]\nid = "R1"\nwidth = "10 mm"\n'
+        'height = "1 mm"\n\n[[test]]\nkind = "extension"\nspecimen = "R1"\nfile = "relax.csv"\n'
+        'gauge_length = "80 mm"\ncolumns = { time = "Time", elongation = "Extension", force = "Load" }\n'
+        '\n[[fixed]]\nspecimen = "R1"\nparameter = "sls_k2"\nvalue = "1 N"\n'
+        '\n[[fixed]]\nspecimen = "R1"\nparameter = "sls_eta"\nvalue = "20 N s"\n',
+        encoding="utf-8",
+    )
+    (fit,) = run_study(load_study(tmp_path / "study.toml")).fits
+    e_e = next(e for e in fit.estimates if e.parameter == "E_e")
+    end = float(np.mean(force[-100:] / eps[-100:]))  # noise-free stiffness over the last 10 s
+    assert e_e.value > end
+    assert e_e.ci95[0] < end < e_e.ci95[1]
+    assert any("end of its hold" in w for w in e_e.warnings)
