@@ -38,7 +38,7 @@ import numpy as np
 
 from matid.errors import FitError
 from matid.fits.extension import prony
-from matid.fits.extension.checks import _k1_warnings, _unidentifiable
+from matid.fits.extension.checks import _k1_warnings, _unidentifiable, end_of_hold, nonlinear
 from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _models, _solve, _values
 from matid.fits.extension.runs import _Run, _run, _unique
 from matid.fits.extension.stats import _correlation, _covariance_fit, _intervals, _misfit, _sandwich, _stderr
@@ -148,6 +148,33 @@ def _prony(runs, sigma, k, fixed_k):
     return choice, estimates, e_e, sls
 
 
+def _widened(e_e: Estimate, warning: str, low: float, high: float) -> Estimate:
+    ci = (min(low, e_e.ci95[0]), max(high, e_e.ci95[1])) if e_e.ci95 else None
+    return replace(e_e, ci95=ci, warnings=(warning, *e_e.warnings))
+
+
+def _nonlinear(e_e: Estimate, runs, k, best: prony.PronyFit | None) -> Estimate:
+    """E_e with its interval spanning the elastic tangents over the strain range, and why, when
+    the force is not linear in strain (:func:`checks.nonlinear`); the relaxing part is that of
+    the model that gave E_e (the preferred Prony series, else the SLS)."""
+    if best is None:
+        relaxing = [run.history.force(0.0, k["k2"], k["eta"]) for run in runs]
+    else:
+        relaxing = [prony.prony_force(run.t, run.eps, 0.0, best.ks, best.taus) for run in runs]
+    found = nonlinear(runs, relaxing, e_e.value)
+    return e_e if found is None else _widened(e_e, *found)
+
+
+def _below_hold(e_e: Estimate, runs) -> Estimate:
+    """E_e with its interval reaching down to what a run's hold allows, and why, when it lies
+    above the stiffness measured at the end of that hold (:func:`checks.end_of_hold`)."""
+    found = end_of_hold(runs, e_e.value, e_e.stderr)
+    if found is None:
+        return e_e
+    warning, low = found
+    return _widened(e_e, warning, low, -math.inf)
+
+
 def fit_extension(
     measurements: Sequence[Measurement], *, specimen: str, fixed: Mapping[str, float] = {}
 ) -> TestFit:
@@ -186,6 +213,9 @@ def fit_extension(
     if prony_estimates:
         k0 = prony_estimates[0]
         e_e = replace(k0, parameter="E_e", warnings=(prony_e_e, *k0.warnings))
+    if "k1" not in fixed_k:
+        best = choice.fits[choice.best] if prony_estimates else None
+        e_e = _below_hold(_nonlinear(e_e, runs, k, best), runs)
     estimates = (e_e, *sls, *prony_estimates)
     models = _models(runs, k)
     info = _info(runs, models, k, sigma, n - result.nvarys)

@@ -25,7 +25,6 @@ import numpy as np
 from scipy import optimize
 
 from matid.errors import FitError
-from matid.fits import stats
 from matid.fits.extension.runs import SLACK, _near_zero, _Run
 
 _PARAM_NAMES = {"k1": "sls_k1", "k2": "sls_k2", "eta": "sls_eta"}
@@ -143,25 +142,11 @@ def _minimise(runs, sigma, starts, ref, fixed) -> tuple[lmfit.Minimizer, lmfit.m
     return best
 
 
-def _correlated(runs: Sequence[_Run], result, sigma: np.ndarray, ref) -> tuple[list[_Run], np.ndarray]:
-    """Runs whose residuals are bin means get the AR(1) correlation of their full-resolution
-    residuals (it sets the bins' weights); returns the runs and the residuals at ``result``
-    with those weights (``result.residual`` itself when no run is reduced)."""
-    if all(run.reduce.starts is None for run in runs):
-        return list(runs), result.residual
-    models = _models(runs, _values(result.params, ref))
-    runs = [
-        replace(run, rho=stats.ar1_rho((f - run.force)[run.used], None, result.nvarys))
-        if run.reduce.starts is not None
-        else run
-        for run, f in zip(runs, models, strict=True)
-    ]
-    return runs, residual(result.params, runs, sigma, ref)
-
-
 def _run_noise(resid: np.ndarray, nvarys: int, runs: Sequence[_Run], sigma: np.ndarray) -> np.ndarray:
-    """Noise of each run from its own residuals, each run taking its share of the dof."""
-    n = np.array([run.reduce.size for run in runs])
+    """Noise of each run from its own residuals on every used row (``resid``, weighted by
+    ``sigma``; also for a run fitted on bin means, whose weights then match the fit on every
+    row), each run taking its share of the dof."""
+    n = np.array([int(run.used.sum()) for run in runs])
     share = 1.0 - nvarys / n.sum()
     pieces = np.split(resid, np.cumsum(n)[:-1])
     return np.array(
@@ -188,7 +173,7 @@ def _solve(runs: Sequence[_Run], fixed: Mapping[str, float], reweight: int = 2):
         runs = slack
         minimizer, result = _minimise(runs, sigma, [_values(result.params, ref)], ref, fixed)
     for _ in range(reweight):
-        runs, resid = _correlated(runs, result, sigma, ref)
+        resid = residual(result.params, runs, sigma, ref, rows=True)
         sigma = _run_noise(resid, result.nvarys, runs, sigma)
         if not np.all(sigma > 0):
             break  # an exact fit: keep the weights

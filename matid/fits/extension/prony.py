@@ -134,10 +134,10 @@ class PronyFit:
     k0: float
     ks: tuple[float, ...]
     taus: tuple[float, ...]
-    residual: np.ndarray
+    residual: np.ndarray  # weighted, on every used row (also when fitted on bin means)
     n: int
     covariance: stats.Covariance | None
-    rows: int | None = None  # rows fitted, when the n residuals are bin means of more rows
+    rows: int | None = None  # rows fitted
 
     @property
     def rss(self) -> float:
@@ -230,6 +230,9 @@ def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
     if np.any(coef <= 0) or np.any(np.diff(log_taus) < 1e-3):
         return None  # a vanished or duplicated arm: this n says nothing beyond n - 1
     x = np.r_[np.log(coef), log_taus]
+    rows = _model_residual(data, x, n_terms)
+    if any(d.reduce.starts is not None for d in data):  # bin means: the criteria see every row
+        resid = rows
     return PronyFit(
         n_terms,
         float(coef[0]),
@@ -237,16 +240,15 @@ def fit_prony(data: Sequence[Data], n_terms: int) -> PronyFit | None:
         tuple(float(t) for t in np.exp(log_taus)),
         resid,
         resid.size,
-        _cov(data, x, n_terms),
+        _cov(data, x, n_terms, rows),
         sum(int(d.used.sum()) for d in data),
     )
 
 
-def _cov(data, x: np.ndarray, n_terms: int) -> stats.Covariance | None:
+def _cov(data, x: np.ndarray, n_terms: int, r0: np.ndarray) -> stats.Covariance | None:
     """AR(1) sandwich covariance of the log-parameters on a central-difference Jacobian, on
     every used row (also where the fit itself ran on bin means: the rows carry the AR(1)
-    structure the sandwich models)."""
-    r0 = _model_residual(data, x, n_terms)
+    structure the sandwich models); ``r0``: the weighted residuals on those rows at x."""
     jac = stats.central_jacobian(lambda y: _model_residual(data, y, n_terms), x, 1e-5)
     try:
         return stats.ar1_covariance(jac, r0, [int(d.used.sum()) for d in data])
@@ -293,7 +295,7 @@ def choose(data: Sequence[Data], max_terms: int = MAX_TERMS) -> Choice | None:
     # effective sample size of the richest fit (its residuals are the closest to the noise;
     # the SLS's own would count a misfit as correlated noise), else noise wander buys arms
     richest = fits[max(fits)]
-    segments = [d.reduce.size for d in data]
+    segments = [int(d.used.sum()) for d in data]
     n_eff = (
         stats.effective_n(richest.residual, segments, richest.n_params)
         if richest.covariance is not None

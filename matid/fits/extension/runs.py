@@ -41,7 +41,6 @@ class _Run:
     window: np.ndarray  # rows inside the test's window
     used: np.ndarray  # rows whose residuals enter the fit (the model runs over all rows)
     left_out: Mapping[str, int] = field(default_factory=dict)  # reason -> rows
-    rho: float = 0.0  # AR(1) correlation of the noise: the weights of bin means (reduce)
 
     @functools.cached_property
     def history(self) -> History:
@@ -50,7 +49,7 @@ class _Run:
     @functools.cached_property
     def reduce(self) -> Reduction:
         """Rows -> residuals: the used rows, as bin means on a long record (:mod:`.reduce`)."""
-        return reduction(self.t, self.eps, self.used, self.rate, self.rho)
+        return reduction(self.t, self.eps, self.used, self.rate)
 
     @property
     def duration(self) -> float:
