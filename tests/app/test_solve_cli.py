@@ -145,7 +145,9 @@ def _read_only_folder(tmp_path):
     if os.geteuid() != 0:
         ro.chmod(0o555)
         return ro
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(ro)], capture_output=True)
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(ro)], capture_output=True
+    )
     return ro if done.returncode == 0 else None
 
 
