@@ -9,7 +9,8 @@ are never passed through here: a negative number stays a number.
 
 Control characters (C0 but tab and newline; DEL; C1) are shown escaped
 (``\\x1b``), so that no cell carries an escape code to a terminal and openpyxl
-never refuses a cell (it refuses most of C0). A carriage return is one of them
+never refuses a cell (it refuses most of C0). Bidirectional controls (U+202E
+and kin) are shown escaped too: they would reorder what follows them. A carriage return is one of them
 (a CRLF becomes a newline first): Python's csv module quotes a field holding a
 newline but not one holding a lone CR, which a spreadsheet reads as the end of
 the row, so ``"x\\r=1+1"`` would start a row with a formula.
@@ -21,12 +22,20 @@ import re
 
 #: First characters that make a spreadsheet read a cell as a formula (OWASP, CSV injection).
 FORMULA_LEADS = ("=", "+", "-", "@", "\t", "\r")
-_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
+#: Control characters (C0 but tab and newline; DEL; C1) and the bidirectional controls (U+061C,
+#: U+200E-F, U+202A-E, U+2066-9), which reorder the rest of a terminal line or a cell ("Trojan source").
+_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]")
+
+
+def _code(char: str) -> str:
+    point = ord(char)
+    return f"\\x{point:02x}" if point < 0x100 else f"\\u{point:04x}"
 
 
 def escaped(text: str) -> str:
-    """``text`` with every control character but tab and newline written as ``\\xNN`` (CRLF: newline)."""
-    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", text.replace("\r\n", "\n"))
+    """``text`` with every control character but tab and newline written as ``\\xNN``, and every
+    bidirectional control as ``\\uNNNN`` (CRLF: newline)."""
+    return _CONTROL.sub(lambda m: _code(m.group()), text.replace("\r\n", "\n"))
 
 
 def text_cell(value: object) -> str:
