@@ -194,3 +194,35 @@ def test_two_fixed_values_for_one_parameter_are_refused(tmp_path):
 def test_a_fixed_value_per_parameter_is_still_accepted(tmp_path):
     fixed = FIXED.format("6.5e-5 N m^2") + FIXED.replace("E_b", "E_e").format("120 N")
     assert len(load_study(study(tmp_path, fixed=fixed)).fixed) == 2
+
+
+# -- tiny data: refused as data, never a crash ---------------------------------------------------
+
+
+def _scaled(column: int, scale: float) -> str:
+    lines = (EXAMPLE / TORSION).read_text().splitlines()
+    out = []
+    for line in lines:
+        cells = line.split(",")
+        try:
+            cells[column] = repr(float(cells[column]) * scale)
+        except (ValueError, IndexError):
+            pass
+        out.append(",".join(cells))
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("column", [0, 1], ids=["twist_angle", "torque"])
+def test_a_column_of_vanishing_values_is_a_data_error_naming_it(tmp_path, column):
+    """Before: torsion angles scaled by 1e-300 gave exit 3 (ZeroDivisionError), torques by 1e-300 an
+    'identified' not-identifiable result. After: a DataError naming the file and the column."""
+    test = load_study(study(tmp_path, data=_scaled(column, 1e-300))).tests[0]
+    name = ("twist_angle", "torque")[column]
+    with pytest.raises(DataError, match=rf"column '{name}.*': .*largest magnitude .* below"):
+        read_table(test.file, test.kind)
+
+
+def test_a_small_but_measurable_column_is_read(tmp_path):
+    """Torques of ~1e-9 N m (a micro-scale rig) stay data: the floor is far below any instrument."""
+    test = load_study(study(tmp_path, data=_scaled(1, 1e-6))).tests[0]
+    assert read_table(test.file, test.kind).columns["torque"].max() > 0
