@@ -99,7 +99,7 @@ def _unless_stopped() -> None:
 
 def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> StudyOutcome:
     """Load, fit and write one study into ``out``; never raises: errors become the outcome's code."""
-    from matid.app.cli import error_message, exit_code
+    from matid.app.cli import error_message, exit_code, study_code
     from matid.app.pipeline import run_study, write_outputs
     from matid.io.results import table_rows
     from matid.io.study import load_study
@@ -117,7 +117,7 @@ def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> S
         error = error_message(exc) + (f"\n{traceback.format_exc()}" if code == 3 else "")
         return StudyOutcome(source, name, code, error=error, runtime_s=time.perf_counter() - clock)
     warnings = result.warnings()
-    code = 0 if result.ok and not (strict and warnings) else 1
+    code = study_code(result, strict)
     return StudyOutcome(
         source,
         name,
