@@ -31,16 +31,24 @@ from matid.limits import MAX_TOML_BYTES, MAX_TOML_DEPTH, MAX_VALUE_CHARS, SHOWN_
 
 #: Control characters refused in a TOML key or string (tab, newline and CR are text).
 CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")
-#: Control characters shown escaped in messages and cells (C0 but tab and newline; DEL; C1).
-_SHOWN_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
+#: Control characters shown escaped in messages and cells (C0 but tab and newline; DEL; C1) and the
+#: bidirectional controls (U+061C, U+200E-F, U+202A-E, U+2066-9), which reorder the rest of a
+#: terminal line or a cell ("Trojan source").
+_SHOWN_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]")
 _KEY = r"""(?:[A-Za-z0-9_-]++|"(?:[^"\\\n]|\\.)*+"|'[^'\n]*+')"""
 #: A dotted key or table name of more than MAX_TOML_DEPTH parts, where a key may start.
 _DEEP_KEY = re.compile(rf"(?:^|[\[{{,])[ \t]*+(?:{_KEY}[ \t]*+\.[ \t]*+){{{MAX_TOML_DEPTH}}}", re.M)
 
 
+def _code(char: str) -> str:
+    point = ord(char)
+    return f"\\x{point:02x}" if point < 0x100 else f"\\u{point:04x}"
+
+
 def escaped(text: str) -> str:
-    """``text`` with every control character but tab and newline written as ``\\xNN`` (CRLF: newline)."""
-    return _SHOWN_CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", text.replace("\r\n", "\n"))
+    """``text`` with every control character but tab and newline written as ``\\xNN``, and every
+    bidirectional control as ``\\uNNNN`` (CRLF: newline)."""
+    return _SHOWN_CONTROL.sub(lambda m: _code(m.group()), text.replace("\r\n", "\n"))
 
 
 def shown(value: object, limit: int = SHOWN_CHARS) -> str:

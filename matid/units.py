@@ -236,7 +236,16 @@ UNIT_SYSTEMS: dict[str, dict[str, tuple[str, float]]] = {
 }
 
 
+def unit_system(name: object) -> str:
+    """``name`` if it is an output unit system (:data:`UNIT_SYSTEMS`); a UnitError naming the argument
+    ``units`` and the choices otherwise."""
+    if not isinstance(name, str) or name not in UNIT_SYSTEMS:
+        choices = ", ".join(repr(n) for n in UNIT_SYSTEMS)
+        raise UnitError(f"units must be one of {choices}, got {name!r}")
+    return name
+
+
 def from_si(value: float, kind: str, system: str = "SI") -> tuple[float, str]:
     """Convert an SI value of ``kind`` to the output unit ``system``; returns (value, unit)."""
-    unit, factor = UNIT_SYSTEMS[system][kind]
+    unit, factor = UNIT_SYSTEMS[unit_system(system)][kind]
     return value * factor, unit

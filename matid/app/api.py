@@ -72,20 +72,24 @@ class FitResult:
     def table(self, units: str = "SI") -> pd.DataFrame:
         """One row per specimen and parameter: the columns of ``stiffness.csv``, warnings then status
         (``ok``, ``check``, ``not_identifiable``: no value, the reason in warnings; contract section 10).
+        ``units``: "SI" or "cgs" (another name is a ValueError naming the choices).
 
         The numbers are floats; printed, each row shows value and bounds with the digits its
         standard error supports (:class:`matid.report.notebook.StiffnessTable`)."""
         from matid.io.results import CSV_COLUMNS, table_rows
         from matid.report.notebook import StiffnessTable
+        from matid.units import unit_system
 
-        return StiffnessTable(table_rows(self.study_result, units), columns=CSV_COLUMNS)
+        return StiffnessTable(table_rows(self.study_result, unit_system(units)), columns=CSV_COLUMNS)
 
     def plot(self, parameter: str, specimen: str, units: str = "SI") -> Figure:
         """The report's figure of the fit that gives ``parameter`` of ``specimen`` (data, model,
         residuals) as a matplotlib Figure; DataError naming the fits there are if none gives it."""
         from matid.errors import DataError
         from matid.report.figures import fit_figure
+        from matid.units import unit_system
 
+        unit_system(units)
         fits = self.study_result.fits
         names = {parameter, {"sls_k1": "E_e", "E_e": "sls_k1"}.get(parameter, parameter)}
         match = next(
@@ -99,8 +103,9 @@ class FitResult:
     def write(self, out: str | Path, *, units: str = "SI") -> list[Path]:
         """Write the files of ``matid fit --out OUT`` (docs/contract.md sections 4, 7); returns the paths."""
         from matid.app.pipeline import write_outputs
+        from matid.units import unit_system
 
-        return write_outputs(self.study_result, Path(out), units=units)
+        return write_outputs(self.study_result, Path(out), units=unit_system(units))
 
     def __repr__(self) -> str:
         status = "ok" if self.ok else f"{len(self.failures)} failed"

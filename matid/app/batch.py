@@ -41,6 +41,8 @@ from typing import Any
 
 from matid.errors import DataError, MatidError
 
+#: The files a batch writes into DIR beside the study folders (matid.app.compare.write_summary).
+SUMMARY_NAMES = ("summary.csv", "summary.xlsx", "summary.html")
 #: Seconds between a worker's looks at the batch's stop event (the parent's death wakes it at once).
 WATCH_S = 0.05
 #: The stop event of the batch in a worker process (None in the batch's own process and on Dask).
@@ -99,7 +101,7 @@ def _unless_stopped() -> None:
 
 def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> StudyOutcome:
     """Load, fit and write one study into ``out``; never raises: errors become the outcome's code."""
-    from matid.app.cli import error_message, exit_code
+    from matid.app.cli import error_message, exit_code, study_code
     from matid.app.pipeline import run_study, write_outputs
     from matid.io.results import table_rows
     from matid.io.study import load_study
@@ -117,7 +119,7 @@ def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> S
         error = error_message(exc) + (f"\n{traceback.format_exc()}" if code == 3 else "")
         return StudyOutcome(source, name, code, error=error, runtime_s=time.perf_counter() - clock)
     warnings = result.warnings()
-    code = 0 if result.ok and not (strict and warnings) else 1
+    code = study_code(result, strict)
     return StudyOutcome(
         source,
         name,
@@ -149,6 +151,8 @@ def run_batch(
     """
     out = Path(out)
     names = [study_folder_name(s) for s in sources]
+    for source, name in zip(sources, names, strict=True):
+        _check_folder_name(source, name, out)
     for name in names:
         if names.count(name) > 1:
             same = [str(s) for s, n in zip(sources, names, strict=True) if n == name]
@@ -169,6 +173,21 @@ def run_batch(
     from matid.app.compare import write_summary
 
     return BatchResult(outcomes, write_summary(outcomes, out))
+
+
+def _check_folder_name(source: str | Path, name: str, out: Path) -> None:
+    """A study's output folder DIR/<name> must not be a file the batch writes into DIR (a summary, its
+    temporary file) or a lock or temporary folder of another study's: a DataError before any fit."""
+    hidden = name.startswith(".") and (
+        ".matid-" in name or any(name.startswith(f".{n}.") for n in SUMMARY_NAMES)
+    )
+    if name in SUMMARY_NAMES or hidden:
+        raise DataError(
+            f"the study {source} would be written into {out / name}, but '{name}' is the name of an "
+            f"output of the batch ({', '.join(SUMMARY_NAMES)}, or matid's temporary and lock files); "
+            "rename its folder",
+            file=out,
+        )
 
 
 def _gather(completed: Iterable[tuple[int, Any]], tasks: list[tuple], done: Callable) -> list[StudyOutcome]:

@@ -255,7 +255,19 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
     print("outputs:")
     for path in paths:
         print(f"  {path}")
-    return 0 if result.ok and not (strict and result.warnings()) else 1
+    return study_code(result, strict)
+
+
+def study_code(result: StudyResult, strict: bool = False) -> int:
+    """The exit code of a fitted study: 0 if every fit was done and, with ``strict``, no value has a
+    warning or a status other than ``ok`` (a not-identifiable value may have no warning); else 1."""
+    from matid.model.status import parameter_statuses
+
+    if not result.ok:
+        return 1
+    if strict and (result.warnings() or any(s.status != "ok" for s in parameter_statuses(result).values())):
+        return 1
+    return 0
 
 
 def fit_warnings(result: StudyResult) -> list[str]:

@@ -18,7 +18,7 @@ import statistics
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from matid.app.batch import StudyOutcome
+from matid.app.batch import SUMMARY_NAMES, StudyOutcome
 from matid.io.results import CSV_COLUMNS, atomic_write, csv_text
 
 #: Columns of summary.csv and of the sheet ``summary``: the study folder name, then stiffness.csv's.
@@ -93,12 +93,13 @@ def write_summary(outcomes: Sequence[StudyOutcome], out: Path) -> list[Path]:
     from matid.io.xlsx import workbook
 
     rows = summary_rows(outcomes)
+    csv_name, xlsx_name, html_name = SUMMARY_NAMES  # the names run_batch keeps free of study folders
     files: dict[str, str | bytes] = {
-        "summary.csv": csv_text(rows, SUMMARY_COLUMNS),
-        "summary.xlsx": workbook(
+        csv_name: csv_text(rows, SUMMARY_COLUMNS),
+        xlsx_name: workbook(
             {"summary": (SUMMARY_COLUMNS, rows), "studies": (STUDY_COLUMNS, study_rows(outcomes))}
         ),
-        "summary.html": comparison_page(outcomes),
+        html_name: comparison_page(outcomes),
     }
     for name, content in files.items():
         atomic_write(out / name, content)

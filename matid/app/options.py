@@ -46,7 +46,10 @@ def add_units_and_strict(parser: argparse.ArgumentParser) -> None:
         help="unit system of the reported stiffnesses (default SI: N, N m^2, N s; cgs: dyn, dyn cm^2, dyn s)",
     )
     parser.add_argument(
-        "--strict", action="store_true", help="exit 1 when there is any warning (docs/contract.md section 7)"
+        "--strict",
+        action="store_true",
+        help="exit 1 when there is any warning or a value whose status is not ok, e.g. not identifiable "
+        "(docs/contract.md sections 5 and 7)",
     )
 
 

@@ -51,15 +51,20 @@ def _register_solve(subparsers) -> None:
 
 
 def _cmd_solve(args: argparse.Namespace) -> int:
-    """Load, solve, write solution.json and shape.png whole (nothing at all when the solve fails)."""
+    """Load, solve, publish solution.json and shape.png as one folder (nothing at all when the solve
+    fails), as ``matid fit`` publishes its report (:mod:`matid.io.publish`): ``--out`` is checked and
+    locked before the solve (a file, under a file, read-only, holding other files, or being written
+    by another matid run: exit 2), and a write error (a full disk) leaves the previous outputs whole
+    (exit 4)."""
     import dataclasses
     import json
 
-    from matid.io.results import atomic_write
+    from matid.io.publish import claim_output
     from matid.rod.api import resolve_model, solve
     from matid.rod.output import shape_png, solution_json
     from matid.rod.scenes import load_scene
 
+    claim = claim_output(args.out)  # checked and locked before any solving; freed on return
     scene = load_scene(args.scene)
     if args.tolerance is not None:
         scene = dataclasses.replace(scene, tolerance=args.tolerance)
@@ -76,14 +81,12 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         raise ConvergenceError(f"{args.scene}: no equilibrium: {exc}{reached}") from exc
     doc = json.dumps(solution_json(sol), indent=1) + "\n"
     png = shape_png(sol, name=Path(args.scene).stem)
-    json_path, png_path = args.out / "solution.json", args.out / "shape.png"
-    atomic_write(json_path, doc)
-    atomic_write(png_path, png)
+    paths = claim.publish({"solution.json": doc, "shape.png": png})
     print(solve_summary(sol))
     for warning in sol.extra.get("warnings", []):
         print(f"warning: {warning}", file=sys.stderr)
     if not args.quiet:
-        print(f"outputs:\n  {json_path}\n  {png_path}")
+        print("outputs:\n" + "\n".join(f"  {path}" for path in paths))
     return 0
 
 

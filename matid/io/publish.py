@@ -21,6 +21,10 @@ and new files when the process dies between two of them. Here instead:
    folder -> ``DIR``. Between the two a reader finds no ``DIR`` (never a mix); a
    crash just there leaves the old report whole under the hidden name, and the
    next claim of ``DIR`` moves it back before doing anything else.
+4. Only folders matid made are ever removed or moved back: each hidden folder's
+   name is appended to the lock file (fsynced) right after it is made, by the
+   process holding the lock; the next claim acts on the names listed there and
+   then empties the list. A user's own ``.DIR.matid-new-zz`` is never touched.
 
 A failure while writing (disk full, I/O error) removes the new folder and raises
 :class:`OutputError` (exit 1) saying the previous report is unchanged. Because
@@ -61,6 +65,8 @@ OUTPUT_NAMES = frozenset(
 )
 NEW, OLD, LOCK = ".matid-new-", ".matid-old-", ".matid-lock"
 AT_FDCWD, RENAME_EXCHANGE = -100, 2
+#: Most bytes of the lock file's list of temporary folders read back (a run lists two names at most).
+MAX_JOURNAL = 1 << 16
 
 
 class OutputError(MatidError):
@@ -69,6 +75,12 @@ class OutputError(MatidError):
 
 def _hidden(real: Path, suffix: str) -> str:
     return f".{real.name}{suffix}"
+
+
+def _is_temporary(name: str, real: Path) -> bool:
+    """``name`` is a name matid gives a temporary folder of ``real`` (a listed name is checked again:
+    the lock file is a plain file a user could edit)."""
+    return any(name.startswith(_hidden(real, t)) and "/" not in name for t in (NEW, OLD))
 
 
 def _is_own_leftover(name: str) -> bool:
@@ -152,13 +164,32 @@ class Claim:
             self.fd = None
 
     def _recover(self) -> None:
-        """Undo what a crashed run left beside the folder: put a moved-away report back, drop temp folders."""
+        """Undo what a crashed run left beside the folder: put a moved-away report back, drop temp folders.
+
+        Only the folders listed in the lock file (:meth:`made`) are touched, so a user's folder that
+        happens to be named like one is never deleted; the list is emptied afterwards."""
         parent, real = self.real.parent, self.real
-        olds = sorted(parent.glob(_hidden(real, OLD) + "*"), key=lambda p: p.stat().st_mtime)
+        os.lseek(self.fd, 0, os.SEEK_SET)
+        listed = os.read(self.fd, MAX_JOURNAL).decode("utf-8", "replace").split("\n")
+        ours = [parent / n for n in dict.fromkeys(listed) if _is_temporary(n, real) and (parent / n).is_dir()]
+        olds = sorted(
+            (p for p in ours if p.name.startswith(_hidden(real, OLD))), key=lambda p: p.stat().st_mtime
+        )
         if olds and not real.exists():
             os.rename(olds.pop(), real)  # a crash between the two fallback renames
-        for stale in [*olds, *parent.glob(_hidden(real, NEW) + "*")]:
-            shutil.rmtree(stale, ignore_errors=True)
+        for stale in ours:
+            if stale.exists():
+                shutil.rmtree(stale, ignore_errors=True)
+        os.ftruncate(self.fd, 0)
+
+    def made(self, folder: Path) -> Path:
+        """Record ``folder`` (a hidden temporary folder this run just made) in the lock file, fsynced, so
+        that a later claim may remove it (or move it back) if this run dies; returns it."""
+        if self.fd is not None:
+            os.lseek(self.fd, 0, os.SEEK_END)
+            os.write(self.fd, f"{folder.name}\n".encode())
+            os.fsync(self.fd)
+        return folder
 
     def publish(
         self, files: Mapping[str, bytes | str], *, before_swap: Callable[[], None] | None = None
@@ -179,10 +210,12 @@ class Claim:
                 f"{self.out}: cannot write the outputs: {exc.strerror}; nothing was changed"
             ) from exc
         try:
+            self.made(new)
             _fill(new, files, mode=_folder_mode(real))
             if before_swap is not None:
                 before_swap()
-            _swap_in(new, real)
+            _swap_in(new, real, self.made)
+            os.ftruncate(self.fd, 0)  # the temporary folders are gone: nothing left to list
         except OSError as exc:
             shutil.rmtree(new, ignore_errors=True)
             raise OutputError(
@@ -233,14 +266,20 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
-def _swap_in(new: Path, real: Path) -> None:
-    """Make ``new`` the folder ``real`` in one atomic step (two renames where the syscall is missing)."""
+def _swap_in(new: Path, real: Path, made: Callable[[Path], Path]) -> None:
+    """Make ``new`` the folder ``real`` in one atomic step (two renames where the syscall is missing);
+    ``made`` records a temporary folder made here (:meth:`Claim.made`)."""
     if not real.exists():
         os.rename(new, real)
     elif exchange(new, real):
         shutil.rmtree(new, ignore_errors=True)  # ``new`` now holds the old report
     else:
         old = Path(tempfile.mkdtemp(prefix=_hidden(real, OLD), dir=real.parent))
+        try:
+            made(old)
+        except OSError:
+            os.rmdir(old)  # still the empty placeholder
+            raise
         os.rename(real, old)  # replaces the empty placeholder folder
         os.rename(new, real)
         shutil.rmtree(old, ignore_errors=True)

@@ -11,6 +11,7 @@ quantity is SI only where that is plausible for its kind
 
 from __future__ import annotations
 
+import unicodedata
 from pathlib import Path
 
 from matid.errors import DataError
@@ -67,12 +68,14 @@ def load_study(path: str | Path) -> Study:
     duplicates = {i for i in ids if ids.count(i) > 1}
     if duplicates:
         raise DataError(f"duplicate specimen id '{shown(sorted(duplicates)[0])}'", file=source)
+    _check_look_alikes(source, ids)
     if not specimens:
         raise DataError("no [[specimen]] entries", file=source)
     tests = tuple(_test(source, i, e, set(ids), outside) for i, e in enumerate(_list(raw, "test", source)))
     if not tests:
         raise DataError("no [[test]] entries", file=source)
     fixed = tuple(_fixed(source, i, entry, set(ids)) for i, entry in enumerate(_list(raw, "fixed", source)))
+    _check_fixed_once(source, fixed)
     return Study(
         name=bounded_text(head.get("name", source.parent.name)),
         temperature=bounded_text(head.get("temperature", "")),
@@ -133,12 +136,56 @@ def _value(source: Path, where: str, key: str, value: object, kind: str) -> floa
     return number
 
 
+def specimen_id(text: object) -> str:
+    """A specimen id as matid keeps it: stripped, in Unicode normal form NFC (an id typed as
+    ``u`` + combining diaeresis is the same id as ``ü``)."""
+    return unicodedata.normalize("NFC", str(text).strip())
+
+
+def look_alike_key(sid: str) -> str:
+    """Two ids with the same key look alike on a page: equal after NFKC (width, ligatures),
+    case folding and removal of format characters (Unicode category Cf: zero-width, bidi controls)."""
+    text = unicodedata.normalize("NFKC", sid).casefold()
+    return unicodedata.normalize("NFKC", "".join(c for c in text if unicodedata.category(c) != "Cf"))
+
+
+def _check_look_alikes(source: Path, ids: list[str]) -> None:
+    seen: dict[str, str] = {}
+    for sid in ids:
+        other = seen.setdefault(look_alike_key(sid), sid)
+        if other != sid:
+            raise DataError(
+                f"specimen ids '{shown(other)}' and '{shown(sid)}' look alike (they differ only by case, "
+                "width or invisible characters) and would be printed alike; rename one",
+                file=source,
+            )
+
+
+def _check_fixed_once(source: Path, fixed: tuple[Fixed, ...]) -> None:
+    first: dict[tuple[str, str], int] = {}
+    for i, f in enumerate(fixed):
+        j = first.setdefault((f.specimen, f.parameter), i)
+        if j != i:
+            raise DataError(
+                f"[[fixed]] #{i + 1}: a second value of {f.parameter} of specimen {shown(f.specimen)} "
+                f"(the first is [[fixed]] #{j + 1}); keep one",
+                file=source,
+            )
+
+
 def _specimen(source: Path, index: int, entry: dict) -> Specimen:
     where = f"[[specimen]] #{index + 1}"
     _check_keys(source, where, entry, TABLE_KEYS["specimen"])
-    sid = str(entry.get("id", "")).strip()
+    sid = specimen_id(entry.get("id", ""))
     if not sid:
         raise DataError(f"{where}: missing 'id'", file=source)
+    invisible = next((c for c in sid if unicodedata.category(c) == "Cf"), None)
+    if invisible is not None:
+        raise DataError(
+            f"{where}: id '{shown(sid)}' holds the invisible format character U+{ord(invisible):04X} "
+            f"({unicodedata.name(invisible, 'unnamed')}); an id is printed in every table: remove it",
+            file=source,
+        )
     sid = bounded_text(sid, 200)
     nu = entry.get("poisson_ratio")
     if nu is not None and (isinstance(nu, bool) or not isinstance(nu, (int, float)) or not -1.0 < nu <= 0.5):
@@ -192,7 +239,7 @@ def _test(source: Path, index: int, entry: dict, ids: set[str], outside: bool = 
 
 
 def _specimen_of(source: Path, where: str, entry: dict, ids: set[str]) -> str:
-    specimen = str(entry.get("specimen", ""))
+    specimen = specimen_id(entry.get("specimen", ""))
     if specimen not in ids:
         raise DataError(f"{where}: unknown specimen '{shown(specimen)}'", file=source)
     return specimen

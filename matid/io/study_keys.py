@@ -132,16 +132,39 @@ def negate(source: Path, where: str, entry: dict, kind: str) -> tuple[str, ...]:
     return tuple(_column_key(source, where, "negate", name, kind) for name in names)
 
 
+#: Text encodings of Python's that are not the character set of a file (the "Python Specific
+#: Encodings" of the codecs documentation, and the stateful UTF-7): ingest finds the byte offset of a
+#: row by encoding the text before it again, which these do not give back.
+NOT_FILE_ENCODINGS = frozenset(
+    {"idna", "punycode", "raw-unicode-escape", "unicode-escape", "undefined", "utf-7"}
+)
+
+
 def encoding(source: Path, where: str, entry: dict) -> str | None:
+    """The codec name of ``encoding``: a text encoding Python knows (bytes <-> str). A bytes-to-bytes
+    or str-to-str codec (rot13, hex, base64, bz2, uu, zlib, quopri) cannot read a file as text:
+    ``str.encode`` and ``bytes.decode`` accept text encodings only, and say so with a LookupError.
+    The codecs of :data:`NOT_FILE_ENCODINGS` are text encodings but not of files."""
     if "encoding" not in entry:
         return None
     name = str(entry["encoding"])
+    examples = "e.g. utf-8, cp1252, gbk, utf-16"
     try:
-        return codecs.lookup(name).name
+        codec = codecs.lookup(name).name
     except LookupError as exc:
+        raise DataError(f"{where}: unknown encoding '{shown(name)}' ({examples})", file=source) from exc
+    try:
+        "".encode(codec)
+        b"".decode(codec)
+    except (LookupError, UnicodeError) as exc:  # not a text encoding; "undefined" refuses everything
         raise DataError(
-            f"{where}: unknown encoding '{shown(name)}' (e.g. utf-8, cp1252, gbk, utf-16)", file=source
+            f"{where}: encoding '{shown(name)}' is not a text encoding ({examples})", file=source
         ) from exc
+    if codec in NOT_FILE_ENCODINGS:
+        raise DataError(
+            f"{where}: encoding '{shown(name)}' is not a text encoding of files ({examples})", file=source
+        )
+    return codec
 
 
 def data_file(source: Path, where: str, name: str, outside: bool = False) -> Path:

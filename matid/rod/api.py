@@ -13,6 +13,7 @@ left half its mirror image z -> -z, theta -> -theta.
 
 from __future__ import annotations
 
+import os
 from dataclasses import replace
 
 import numpy as np
@@ -27,7 +28,7 @@ from matid.rod.cantilever import Equilibrium, Solution, equilibrium, scene_plane
 from matid.rod.checks import penalty_error, strain_warnings
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
-from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene
+from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene, load_scene
 
 MODELS = ("auto", PLANAR, FULL)
 #: Energy terms of the bend half model (no field, no twist: planar by construction).
@@ -52,7 +53,7 @@ def resolve_model(scene: Scene, model: str = "auto") -> str:
 
 
 def solve(
-    scene: Scene,
+    scene: Scene | str | os.PathLike,
     *,
     elements: int | None = None,
     model: str = "auto",
@@ -61,10 +62,18 @@ def solve(
 ) -> Solution:
     """Static equilibrium of a scene, SI, lab frame. Raises ConvergenceError (SlipOffError) on failure.
 
-    ``elements`` overrides the scene's; for the three-point bend it counts the
-    elements of the half model. ``variant`` ("normalised" or "raw") and
-    ``element`` ("P2", "P1" or "Hermite", the paper's cubic) apply to the cantilever models.
+    ``scene`` is a :class:`~matid.rod.scenes.Scene` or the path of a scene file (read by
+    :func:`~matid.rod.scenes.load_scene`); anything else is a TypeError. ``elements`` overrides
+    the scene's; for the three-point bend it counts the elements of the half model. ``variant``
+    ("normalised" or "raw") and ``element`` ("P2", "P1" or "Hermite", the paper's cubic) apply to the
+    cantilever models.
     """
+    if isinstance(scene, (str, os.PathLike)):
+        scene = load_scene(scene)
+    elif not isinstance(scene, Scene):
+        raise TypeError(
+            f"scene must be a matid.rod.Scene or the path of a scene file, got {type(scene).__name__}"
+        )
     if variant not in (kin.NORMALISED, kin.RAW):
         raise ValueError(f"variant must be 'normalised' or 'raw', got {variant!r}")
     if element not in ELEMENTS:

@@ -18,7 +18,6 @@ import numpy as np
 
 from matid.errors import DataError
 from matid.rod.accuracy import MAX_ELEMENTS
-from matid.toml import parse_toml
 from matid.rod.scene_values import (
     TABLE_KEYS,
     ZERO,
@@ -33,6 +32,7 @@ from matid.rod.scene_values import (
     stiffness_from_json,
     vector,
 )
+from matid.toml import parse_toml
 from matid.units import UnitError, to_si
 
 #: Most elements a scene may ask for: the automatic meshing stops there too.
@@ -52,6 +52,20 @@ class SegmentSpec:
     precurvature: Vector | None = None  # this segment's kappa_ref (director frame); None: the rod's
 
 
+def _check_vector(where: str, value: object) -> None:
+    """A DataError naming ``where`` unless ``value`` is three real numbers (x, y, z): the scene's
+    dataclasses are also built by hand (the Python API), not only by :func:`load_scene`."""
+    try:
+        if isinstance(value, (str, bytes)):
+            raise TypeError(value)
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise DataError(f"{where}: expected 3 components (x, y, z), got {value!r:.60}") from None
+    if a.shape != (3,):
+        got = a.shape[0] if a.ndim == 1 else f"an array of shape {a.shape}"
+        raise DataError(f"{where}: expected 3 components (x, y, z), got {got}")
+
+
 @dataclass(frozen=True)
 class Rod:
     length: float
@@ -68,6 +82,10 @@ class Rod:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise DataError(f"rod {name} must be positive and finite, got {value}")
+        _check_vector("precurvature", self.precurvature)
+        for i, seg in enumerate(self.segments):
+            if seg.precurvature is not None:
+                _check_vector(f"segments[{i}] precurvature", seg.precurvature)
         for seg in self.segments:
             if not 0.0 <= seg.start < seg.end <= self.length * (1 + 1e-12):
                 raise DataError(
@@ -90,11 +108,17 @@ class Loads:
     point_loads: tuple[tuple[float, Vector, Vector], ...] = ()  # (at, dead force, dead moment)
 
     def __post_init__(self) -> None:
+        for name in ("B", "distributed_force", "tip_force", "tip_moment"):
+            _check_vector(name, getattr(self, name))
+        for i, (_, force, moment) in enumerate(self.point_loads):
+            _check_vector(f"point_loads[{i}] force", force)
+            _check_vector(f"point_loads[{i}] moment", moment)
         for name, items in (("magnet", self.magnets), ("magnetization", self.magnetization)):
             directions = getattr(self, f"{name}_directions")
             if directions and len(directions) != len(items):
                 raise DataError(f"{name}_directions: one direction per {name} ({len(items)})")
-            for a in directions:
+            for i, a in enumerate(directions):
+                _check_vector(f"{name}_directions[{i}]", a)
                 if abs(math.hypot(*a) - 1.0) > 1e-9:
                     raise DataError(f"{name} direction {a} is not a unit vector")
 
@@ -126,6 +150,7 @@ class Aim:
     field_magnitude: float
 
     def __post_init__(self) -> None:
+        _check_vector("aim.tip_direction", self.tip_direction)
         if abs(math.hypot(*self.tip_direction) - 1.0) > 1e-9:
             raise DataError(f"aim.tip_direction {self.tip_direction} is not a unit vector")
         if not (math.isfinite(self.field_magnitude) and self.field_magnitude > 0):

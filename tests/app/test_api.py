@@ -178,3 +178,19 @@ def test_plot_returns_the_fit_figure(session):
     assert isinstance(fig, Figure) and fig.axes and fig.axes[0].lines
     with pytest.raises(DataError, match="no fit gives E_s of specimen T1; fitted: T1 E_b"):
         result.plot("E_s", "T1")
+
+
+@pytest.mark.parametrize("method", ["table", "write", "plot"])
+def test_an_unknown_unit_system_names_the_argument_and_the_choices(session, tmp_path, method):
+    """Before: ``table(units="bogus")`` raised KeyError: 'bogus' (write and plot too, deep inside).
+    After: a ValueError (matid.units.UnitError) naming ``units`` and the systems there are, before any
+    work."""
+    result = session[0]["result"]
+    call = {
+        "table": lambda: result.table(units="bogus"),
+        "write": lambda: result.write(tmp_path / "out", units="bogus"),
+        "plot": lambda: result.plot("E_b", "T1", units="bogus"),
+    }[method]
+    with pytest.raises(ValueError, match=r"units must be one of 'SI', 'cgs', got 'bogus'"):
+        call()
+    assert not (tmp_path / "out").exists()

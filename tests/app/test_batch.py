@@ -138,6 +138,18 @@ def test_same_folder_name_is_refused(tmp_path, monkeypatch):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("name", ["summary.csv", "summary.html", ".a.matid-lock"])
+def test_a_study_folder_named_like_an_output_of_the_batch_is_refused_before_fitting(tmp_path, name):
+    """Before: a study folder named summary.csv was fitted into DIR/summary.csv/, then writing the
+    summary table over that folder failed: exit 3 after every fit. After: exit 2 naming the folder,
+    before anything is fitted or written."""
+    a, b = small_study(tmp_path / "a"), small_study(tmp_path / name)
+    code, out, err = run(["fit", str(a), str(b), "--out", str(tmp_path / "o"), "--jobs", "1", "--quiet"])
+    assert code == 2, err
+    assert f"'{name}'" in err and "output" in err
+    assert not (tmp_path / "o").exists()
+
+
 def test_dask_local_cluster(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
     light_report(monkeypatch)  # processes=False: the worker runs in this process, patched too

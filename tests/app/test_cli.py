@@ -412,3 +412,42 @@ def test_demo_runs_without_a_stdout_in_one_process(tmp_path, monkeypatch):
     monkeypatch.setattr(sys, "stdout", None)
     assert main(["demo", "--quiet", "--out", str(tmp_path / "out")]) == 0
     assert (tmp_path / "out" / "report.pdf").is_file()
+
+
+SLIT_STUDY = """
+[[specimen]]
+id = "{sid}"
+outer_diameter = "2.4 mm"
+inner_diameter = "1.6 mm"
+slit = true
+
+[[test]]
+kind = "torsion"
+specimen = "{sid}"
+file = "t.csv"
+length = "60 mm"
+"""
+
+
+def _slit_study(folder: Path, sid: str = "T1") -> Path:
+    """An open tube twisted: E_t is fitted, E_s_torsion is not identifiable (withheld), no warning."""
+    folder.mkdir(parents=True)
+    shutil.copy(resources.files("matid.example") / "torsion_T1_L60.csv", folder / "t.csv")
+    (folder / "study.toml").write_text(SLIT_STUDY.format(sid=sid))
+    return folder
+
+
+def test_strict_exits_1_on_a_value_that_is_not_identifiable(tmp_path):
+    """Before: a not-identifiable value without a warning gave exit 0 under --strict (alone and in a
+    batch). After: exit 1; without --strict still 0."""
+    study = str(_slit_study(tmp_path / "a"))
+    code, out, err = run(["fit", study, "--out", str(tmp_path / "out"), "--quiet"])
+    assert code == 0, err
+    assert re.search(r"E_s_torsion\s+not identifiable", out) and "warnings: none" in out
+    code, _, err = run(["fit", study, "--out", str(tmp_path / "out"), "--quiet", "--strict"])
+    assert code == 1, err
+    other = str(_slit_study(tmp_path / "b"))
+    code, _, err = run(
+        ["fit", study, other, "--out", str(tmp_path / "many"), "--jobs", "1", "--quiet", "--strict"]
+    )
+    assert code == 1, err

@@ -129,3 +129,112 @@ def test_console_script_runs(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "tip at (25.0256, 0, 8.71892) mm" in proc.stdout
     assert json.loads((tmp_path / "solution.json").read_text())["elements"] == 20
+
+
+# -- the outputs are published like `matid fit`'s (issue 30, item 3) ---------------------------------
+
+FAST = [str(EXAMPLES / "tip_force.toml"), "--elements", "8"]
+
+
+def _read_only_folder(tmp_path):
+    """A folder this process cannot write into (a read-only tmpfs as root), or None."""
+    import os
+
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    if os.geteuid() != 0:
+        ro.chmod(0o555)
+        return ro
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(ro)], capture_output=True
+    )
+    return ro if done.returncode == 0 else None
+
+
+@pytest.mark.parametrize("where", ["a file", "under a file", "read-only", "foreign files"])
+def test_an_unusable_out_exits_2_before_solving(tmp_path, where):
+    """Before: exit 3 (FileExistsError, NotADirectoryError, PermissionError) or files written beside
+    the user's own. After: exit 2 naming --out, nothing written."""
+    out = tmp_path / "out"
+    if where == "a file":
+        out.write_text("mine")
+    elif where == "under a file":
+        (tmp_path / "f").write_text("mine")
+        out = tmp_path / "f" / "out"
+    elif where == "foreign files":
+        out.mkdir()
+        (out / "notes.txt").write_text("mine")
+    else:
+        ro = _read_only_folder(tmp_path)
+        if ro is None:
+            pytest.skip("root without a tmpfs mount: cannot make a read-only folder")
+        out = ro / "out"
+    try:
+        code, stdout, err = run(["solve", *FAST, "--out", str(out)])
+    finally:
+        if where == "read-only":
+            subprocess.run(["umount", "-l", str(tmp_path / "ro")], check=False)
+            (tmp_path / "ro").chmod(0o755)
+    assert code == 2, err
+    assert "--out" in err and str(out) in err and "internal error" not in err
+    assert stdout == ""  # refused before the solve: no summary line
+    if where == "foreign files":
+        assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]
+
+
+def test_a_full_disk_exits_4_and_leaves_the_previous_outputs_whole(tmp_path, monkeypatch):
+    """Before: a full disk between solution.json and shape.png gave exit 3 and left the new
+    solution.json beside the old shape.png. After: exit 4, both old files unchanged, no temporaries."""
+    import os
+
+    out = tmp_path / "out"
+    code, _, err = run(["solve", str(EXAMPLES / "tip_force.toml"), "--elements", "4", "--out", str(out)])
+    assert code == 0, err
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    calls = []
+    real_fsync = os.fsync
+
+    def full(fd):
+        calls.append(fd)
+        if len(calls) > 1:  # the first file got through, the second finds the disk full
+            raise OSError(28, "No space left on device")
+        real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", full)
+    code, _, err = run(["solve", *FAST, "--out", str(out)])
+    monkeypatch.undo()
+    assert code == 4, err
+    assert "No space left on device" in err and "unchanged" in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert [p.name for p in tmp_path.iterdir() if ".matid-new-" in p.name or ".matid-old-" in p.name] == []
+
+
+HOLDER = """
+import sys, time
+from matid.io.publish import claim_output
+claim = claim_output(sys.argv[1])
+print("locked", flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_second_run_into_the_same_folder_is_refused(tmp_path):
+    """Before: two solves into one folder could interleave their files (no lock). After: while one
+    matid run holds the folder, a solve into it exits 2 and writes nothing."""
+    import os
+
+    out = tmp_path / "out"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", HOLDER, str(out)],
+        stdout=subprocess.PIPE,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    try:
+        assert holder.stdout.readline().strip() == b"locked"
+        code, _, err = run(["solve", *FAST, "--out", str(out)])
+    finally:
+        holder.kill()
+        holder.wait()
+        holder.stdout.close()
+    assert code == 2 and "another matid run" in err
+    assert not out.exists()

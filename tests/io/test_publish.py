@@ -86,18 +86,59 @@ def test_exchange_swaps_two_folders(tmp_path):
     assert ((a / "x").read_text(), (b / "x").read_text()) == ("b", "a")
 
 
+CRASHER = textwrap.dedent(
+    """
+    import os, sys
+    from pathlib import Path
+    from matid.io import publish
+    publish.exchange = lambda a, b: False  # the two-rename fallback
+    real, calls = os.rename, []
+    def rename(a, b):
+        calls.append(b)
+        if len(calls) == 2:
+            os._exit(9)  # killed between the two renames
+        real(a, b)
+    publish.os.rename = rename
+    publish.publish({"report.html": "newer"}, Path(sys.argv[1]))
+    """
+)
+
+
 def test_without_renameat2_two_renames_publish_and_a_crash_between_them_is_recovered(tmp_path, monkeypatch):
     out = tmp_path / "out"
     publish.publish(OLD, out)
     monkeypatch.setattr(publish, "exchange", lambda a, b: False)
     publish.publish(NEW, out)
     assert _contents(out) == _encoded(NEW) and _beside(out) == []
-    # a crash after the first fallback rename: the report sits under the hidden -old- name, DIR is missing
-    os.rename(out, tmp_path / ".out.matid-old-crashed")
-    (tmp_path / ".out.matid-new-crashed").mkdir()
+    monkeypatch.undo()
+    # a run killed after the first fallback rename: the report sits under the hidden -old- name, DIR is
+    # missing, the new folder is left beside it
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    crash = subprocess.run([sys.executable, "-c", CRASHER, str(out)], env=env, timeout=60)
+    assert crash.returncode == 9 and not out.exists() and len(_beside(out)) == 2
     with claim_output(out):
         assert _contents(out) == _encoded(NEW)
     assert _beside(out) == []
+
+
+def test_a_users_folders_named_like_matids_temporaries_are_never_touched(tmp_path):
+    """Before: a claim of DIR deleted every ``.DIR.matid-new-*`` and ``.DIR.matid-old-*`` beside it (a
+    user's ``.T1.matid-new-zz`` with their files in it), and with DIR missing renamed a user's
+    ``.DIR.matid-old-*`` to DIR. After: only the temporary folders matid made (and recorded in the
+    lock file) are removed or moved back."""
+    out = tmp_path / "T1"
+    mine = {name: tmp_path / name for name in (".T1.matid-new-zz", ".T1.matid-old-zz")}
+    for folder in mine.values():
+        folder.mkdir()
+        (folder / "data.txt").write_text("mine")
+    with claim_output(out):
+        assert not out.exists()  # nothing was moved to DIR
+    publish.publish(OLD, out)
+    publish.publish(NEW, out)
+    assert _contents(out) == _encoded(NEW)
+    for folder in mine.values():
+        assert (folder / "data.txt").read_text() == "mine"
+    assert sorted(_beside(out)) == sorted(mine)
 
 
 def test_a_write_error_leaves_the_old_folder_and_no_temp_folder(tmp_path, monkeypatch):

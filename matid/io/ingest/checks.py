@@ -1,7 +1,8 @@
 """Checks that the data of a test can describe it, at input (docs/contract.md section 7).
 
 A value beyond the physical bound of its quantity (:data:`matid.units.PHYSICAL_BOUND`,
-after SI conversion) is a unit or export mistake; loads recorded with the
+after SI conversion), or a column whose values all vanish against it (:data:`DYNAMIC_RANGE`),
+is a unit or export mistake; loads recorded with the
 machine's sign convention (compression negative) would otherwise fail deep in a
 solver. Each check raises a DataError naming the file, the column and, where one
 row is at fault, the row, and says what to change.
@@ -26,6 +27,11 @@ POSITIVE: dict[str, tuple[str, ...]] = {
     "three_point_bend": ("force", "deflection"),
 }
 WRONG_SIGN_FRACTION = 0.1
+#: A column whose largest magnitude is not 0 but below its quantity's physical bound divided by this
+#: (1e-24 N, 1e-25 rad, 1e-29 m) holds no measurement: a unit or export mistake. The fits' sums of
+#: squares and their inverses overflow or divide by zero on such values (torsion angles of 1e-200 rad:
+#: ZeroDivisionError); 1e30 leaves every real instrument's range far inside.
+DYNAMIC_RANGE = 1e30
 
 
 def check(
@@ -42,6 +48,7 @@ def check(
     for name, quantity in used.items():
         if name in values:
             _bounded(values[name], quantity, rows, written[name], path)
+            _not_vanishing(values[name], quantity, written[name], path)
     for name in POSITIVE.get(kind, ()):
         if name in values:
             _positive(values[name], name, written[name], path, negate)
@@ -57,6 +64,20 @@ def _bounded(v: np.ndarray, quantity: str, rows: Sequence[int], column: str, pat
             f"bound {bound:g} {SI_UNITS[quantity]} for a {quantity}; check the unit of the column",
             file=path,
             row=rows[k],
+            column=column,
+        )
+
+
+def _not_vanishing(v: np.ndarray, quantity: str, column: str, path: Path) -> None:
+    peak = float(np.max(np.abs(v))) if v.size else 0.0
+    floor = PHYSICAL_BOUND[quantity] / DYNAMIC_RANGE
+    if 0.0 < peak < floor:
+        unit = SI_UNITS[quantity]
+        raise DataError(
+            f"the largest magnitude of the column is {peak:.6g} {unit} (after unit conversion), below "
+            f"{floor:g} {unit}: no {quantity} measured on a catheter bench is that small; check the unit "
+            "of the column",
+            file=path,
             column=column,
         )
 

@@ -86,6 +86,11 @@ def decode(raw: bytes, path: Path, encoding: str | None = None) -> tuple[str, st
                 f"{raw[exc.start : exc.start + 1]!r}; remove `encoding` to detect it",
                 file=path,
             ) from None
+        except UnicodeError as exc:  # a codec that reports no position (punycode, idna)
+            raise DataError(
+                f"cannot be read as {encoding} (the test's encoding): {exc}; remove `encoding` to detect it",
+                file=path,
+            ) from None
     for bom, name, _ in BOMS:
         if raw.startswith(bom):
             try:
