@@ -47,13 +47,6 @@ if TYPE_CHECKING:
 
 #: Parameters left out of the console summary (sls_k1 is E_e); the files hold them all.
 _SUMMARY_SKIP = {"sls_k1"}
-#: The parameter each test kind is for, to name what a failure costs.
-_KIND_PARAMETER = {
-    "extension": "E_e",
-    "magnetic_bending": "E_b",
-    "torsion": "E_t",
-    "three_point_bend": "E_s",
-}
 
 
 def run() -> None:
@@ -292,7 +285,11 @@ def summary(result: StudyResult, *, units: str = "SI") -> str:
 
 
 def _what(failure: Failure) -> str:
-    parameter = _KIND_PARAMETER.get(failure.kind, failure.kind)
+    """The specimen, the parameter the failed kind is for (its first) and the kind."""
+    from matid.fits.kinds import BY_NAME  # the fits are loaded by then: a summary follows a fit
+
+    kind = BY_NAME.get(failure.kind)
+    parameter = kind.parameters[0] if kind else failure.kind
     return f"{failure.specimen} {parameter} ({failure.kind.replace('_', ' ')})"
 
 
