@@ -39,8 +39,9 @@ from typing import TYPE_CHECKING
 
 from matid import __version__
 from matid.app.options import _positive_int, add_command, add_units_and_strict
+from matid.app.outcome import error_message, exit_code
 from matid.app.solve_cli import _register_design, _register_solve
-from matid.errors import DataError, MatidError
+from matid.errors import MatidError
 
 if TYPE_CHECKING:
     from matid.model.results import Failure, StudyResult
@@ -309,19 +310,3 @@ def _guarded(args: argparse.Namespace) -> int:
             traceback.print_exception(exc, file=sys.stderr)
         print(f"matid: error: {escaped(error_message(exc) + hint)}", file=sys.stderr)
         return code
-
-
-def exit_code(exc: Exception) -> int:
-    """The exit code of an error (see the module docstring): 2, 4, 1 for another MatidError, 3 for a bug."""
-    from matid.io.publish import OutputError
-
-    if isinstance(exc, DataError):
-        return 2
-    if isinstance(exc, OutputError):
-        return 4
-    return 1 if isinstance(exc, MatidError) else 3
-
-
-def error_message(exc: Exception) -> str:
-    """What ``matid`` says of an error: its message, or for a bug its type and message."""
-    return str(exc) if isinstance(exc, MatidError) else f"internal error: {type(exc).__name__}: {exc}"
