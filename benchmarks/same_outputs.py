@@ -5,7 +5,8 @@ two-study batch, and compare every output with a reference run made before the c
     python benchmarks/same_outputs.py check REF_DIR     # after it: exit 1 when any file differs
 
 Compared: CSV and Markdown as text; JSON as data with run-time keys (``*runtime*``) left out;
-XLSX cell by cell; HTML and PDF as text with run times and the checkout's path masked (the 'Run started' stamp and the
+XLSX cell by cell; HTML and PDF as text with run times and the checkout's path masked (the
+'Run started' stamp and the
 seconds of lines that report a run time); PNG byte for byte (matplotlib is deterministic for one
 version). The runs use ``RL_invariant=1`` (reportlab's reproducible PDFs) and one job.
 """
@@ -100,8 +101,12 @@ def check(ref: Path) -> int:
     """Run every case afresh and compare with ``ref``; print the files that differ."""
     new = ref.parent / (ref.name + "-new")
     make(new)
-    files = sorted(p.relative_to(ref) for p in ref.rglob("*") if p.is_file())
-    extra = sorted(p.relative_to(new) for p in new.rglob("*") if p.is_file() and not (ref / p.relative_to(new)).exists())
+    def outputs(folder: Path) -> list[Path]:  # matid's empty lock files are not outputs
+        return sorted(p.relative_to(folder) for p in folder.rglob("*")
+                      if p.is_file() and not p.name.endswith(".matid-lock"))
+
+    files = outputs(ref)
+    extra = [f for f in outputs(new) if not (ref / f).exists()]
     differ = [f for f in files if not (new / f).exists() or _view(ref / f) != _view(new / f)]
     for f in differ + extra:
         print(f"differs: {f}" if f in differ else f"new file: {f}")

@@ -5,6 +5,7 @@ dependency, and only hides a circle from the interpreter, not from the reader.
 """
 
 import ast
+import sys
 from pathlib import Path
 
 import pytest
@@ -80,7 +81,8 @@ def test_imports_point_down():
 
 def test_physics_rod_and_fits_never_reach_io_report_or_app():
     above = {"io", "report", "app"}
-    reaching = [f"{m} imports {t}" for m, ts in GRAPH.items() if _floor(m) in {"physics", "rod", "fits", "model"}
+    low = {"physics", "rod", "fits", "model"}
+    reaching = [f"{m} imports {t}" for m, ts in GRAPH.items() if _floor(m) in low
                 for t in ts if _floor(t) in above]
     assert reaching == []
 
@@ -158,3 +160,21 @@ def test_modules_and_functions_are_small(module):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
             and node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES]
     assert long == []
+
+
+def _third_party(path: Path) -> set[str]:
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            names.add((node.module or "").split(".")[0])
+    return names - {"matid", "__future__"} - set(sys.stdlib_module_names)
+
+
+def test_physics_and_the_model_build_on_numpy_and_pandas_only():
+    """physics: numpy only (scipy for special functions); model: numpy and pandas (its tables)."""
+    allowed = {"physics": {"numpy", "scipy"}, "model": {"numpy", "pandas"}}
+    found = [f"{m} imports {n}" for m, path in MODULES.items() if _floor(m) in allowed
+             for n in _third_party(path) - allowed[_floor(m)]]
+    assert found == []

@@ -35,14 +35,13 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from matid.app.outcome import SUMMARY_NAMES, StudyOutcome, error_message, exit_code, study_code
 from matid.errors import DataError, MatidError
 
-#: The files a batch writes into DIR beside the study folders (matid.app.compare.write_summary).
-SUMMARY_NAMES = ("summary.csv", "summary.xlsx", "summary.html")
 #: Seconds between a worker's looks at the batch's stop event (the parent's death wakes it at once).
 WATCH_S = 0.05
 #: The stop event of the batch in a worker process (None in the batch's own process and on Dask).
@@ -53,21 +52,6 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM during a batch: it stops as after Ctrl-C, and ``matid`` exits 143."""
 
     exit_code = 143
-
-
-@dataclass(frozen=True)
-class StudyOutcome:
-    """What one study's task hands back (picklable, plain data)."""
-
-    source: str  # the path as given
-    name: str  # the study folder name: DIR/<name>/
-    code: int  # exit code of this study alone (docs/contract.md section 5)
-    rows: list[dict] = field(default_factory=list)  # stiffness table rows, as stiffness.csv
-    warnings: list[str] = field(default_factory=list)
-    error: str = ""  # why the study stopped (code 2, 3, or a MatidError)
-    failures: list[str] = field(default_factory=list)  # fits that could not be done (code 1)
-    paths: list[str] = field(default_factory=list)
-    runtime_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -101,7 +85,6 @@ def _unless_stopped() -> None:
 
 def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> StudyOutcome:
     """Load, fit and write one study into ``out``; never raises: errors become the outcome's code."""
-    from matid.app.cli import error_message, exit_code, study_code
     from matid.app.pipeline import run_study, write_outputs
     from matid.io.results import table_rows
     from matid.io.study import load_study

@@ -39,21 +39,15 @@ from typing import TYPE_CHECKING
 
 from matid import __version__
 from matid.app.options import _positive_int, add_command, add_units_and_strict
+from matid.app.outcome import error_message, exit_code, study_code
 from matid.app.solve_cli import _register_design, _register_solve
-from matid.errors import DataError, MatidError
+from matid.errors import MatidError
 
 if TYPE_CHECKING:
     from matid.model.results import Failure, StudyResult
 
 #: Parameters left out of the console summary (sls_k1 is E_e); the files hold them all.
 _SUMMARY_SKIP = {"sls_k1"}
-#: The parameter each test kind is for, to name what a failure costs.
-_KIND_PARAMETER = {
-    "extension": "E_e",
-    "magnetic_bending": "E_b",
-    "torsion": "E_t",
-    "three_point_bend": "E_s",
-}
 
 
 def run() -> None:
@@ -258,16 +252,6 @@ def fit_and_write(source: Path, out: Path, *, units: str, quiet: bool, strict: b
     return study_code(result, strict)
 
 
-def study_code(result: StudyResult, strict: bool = False) -> int:
-    """The exit code of a fitted study: 0 if every fit was done and, with ``strict``, no value has a
-    warning or a status other than ``ok`` (a not-identifiable value may have no warning); else 1."""
-    from matid.model.status import parameter_statuses
-
-    if not result.ok:
-        return 1
-    if strict and (result.warnings() or any(s.status != "ok" for s in parameter_statuses(result).values())):
-        return 1
-    return 0
 
 
 def fit_warnings(result: StudyResult) -> list[str]:
@@ -304,7 +288,11 @@ def summary(result: StudyResult, *, units: str = "SI") -> str:
 
 
 def _what(failure: Failure) -> str:
-    parameter = _KIND_PARAMETER.get(failure.kind, failure.kind)
+    """The specimen, the parameter the failed kind is for (its first) and the kind."""
+    from matid.fits.kinds import BY_NAME  # the fits are loaded by then: a summary follows a fit
+
+    kind = BY_NAME.get(failure.kind)
+    parameter = kind.parameters[0] if kind else failure.kind
     return f"{failure.specimen} {parameter} ({failure.kind.replace('_', ' ')})"
 
 
@@ -324,19 +312,3 @@ def _guarded(args: argparse.Namespace) -> int:
             traceback.print_exception(exc, file=sys.stderr)
         print(f"matid: error: {escaped(error_message(exc) + hint)}", file=sys.stderr)
         return code
-
-
-def exit_code(exc: Exception) -> int:
-    """The exit code of an error (see the module docstring): 2, 4, 1 for another MatidError, 3 for a bug."""
-    from matid.io.publish import OutputError
-
-    if isinstance(exc, DataError):
-        return 2
-    if isinstance(exc, OutputError):
-        return 4
-    return 1 if isinstance(exc, MatidError) else 3
-
-
-def error_message(exc: Exception) -> str:
-    """What ``matid`` says of an error: its message, or for a bug its type and message."""
-    return str(exc) if isinstance(exc, MatidError) else f"internal error: {type(exc).__name__}: {exc}"

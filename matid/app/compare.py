@@ -18,7 +18,7 @@ import statistics
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from matid.app.batch import SUMMARY_NAMES, StudyOutcome
+from matid.app.outcome import SUMMARY_NAMES, StudyOutcome
 from matid.io.results import CSV_COLUMNS, atomic_write, csv_text
 
 #: Columns of summary.csv and of the sheet ``summary``: the study folder name, then stiffness.csv's.

@@ -1,7 +1,7 @@
 """The fit pipeline: study -> measurements -> fits -> StudyResult -> files.
 
 :func:`run_study` reads every file of a study, then fits each specimen and test
-kind in the order of :data:`FIT_ORDER` with the fitter registered in
+kind in the order of :data:`matid.fits.kinds.KINDS` with the fitter registered in
 :data:`FITTERS`. Later kinds see what earlier ones gave: the shear fit of a
 three-point bend needs E_b and E_e of the same specimen, so extension and
 bending run first and every fitter receives ``known``, the estimates obtained so
@@ -33,35 +33,17 @@ import numpy as np
 
 from matid import __version__
 from matid.errors import ConvergenceError, DataError, FitError
-from matid.fits.bending import fit_bending
-from matid.fits.extension.fit import fit_extension
-from matid.fits.shear.fit import fit_three_point_bend
-from matid.fits.shear.torsion import with_E_s_torsion
-from matid.fits.torsion import fit_torsion
+from matid.fits.kinds import KINDS
 from matid.io.ingest.read import load_measurements
 from matid.io.publish import publish
 from matid.io.results import stiffness_csv, stiffness_json
 from matid.io.xlsx import stiffness_xlsx
+from matid.model.kind import Kind
 from matid.model.measurement import Measurement
 from matid.model.results import Estimate, Failure, InputFile, StudyResult, TestFit
 from matid.model.study import Specimen, Study
 
 Progress = Callable[[str], None]
-
-#: Fit order: extension and bending before three_point_bend, which needs E_e and E_b.
-FIT_ORDER = ("extension", "magnetic_bending", "torsion", "three_point_bend")
-
-#: Parameters each kind gives; a kind is skipped when all of them are fixed.
-#: (E_e is sls_k1, so extension is skipped only when k1, k2 and eta are all fixed.)
-GIVES: dict[str, tuple[str, ...]] = {
-    "extension": ("sls_k1", "sls_k2", "sls_eta"),
-    "magnetic_bending": ("E_b",),
-    "torsion": ("E_t",),
-    "three_point_bend": ("E_s",),
-}
-
-#: Fixed parameters passed on to the extension fit.
-_EXTENSION_FIXED = ("E_e", "sls_k1", "sls_k2", "sls_eta")
 
 #: Numerical failures inside a fit that mean "this fit could not be done", not a bug.
 FIT_FAILURES = (FitError, ConvergenceError, np.linalg.LinAlgError, FloatingPointError)
@@ -69,33 +51,9 @@ FIT_FAILURES = (FitError, ConvergenceError, np.linalg.LinAlgError, FloatingPoint
 VERSION_PACKAGES = ("numpy", "scipy", "lmfit", "scikit-fem", "pint", "matplotlib")
 
 
-def _fit_extension(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
-    sls_fixed = {k: v for k, v in fixed.items() if k in _EXTENSION_FIXED}
-    return fit_extension(measurements, specimen=specimen.id, fixed=sls_fixed)
-
-
-def _fit_bending(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
-    return fit_bending(measurements, specimen=specimen.id)
-
-
-def _fit_torsion(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
-    return with_E_s_torsion(fit_torsion(measurements, specimen=specimen.id), specimen)
-
-
-def _fit_shear(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
-    return fit_three_point_bend(measurements, specimen=specimen, fixed=fixed, known=known)
-
-
-#: kind -> fitter(measurements, *, specimen, fixed, known) -> TestFit, given all included measurements
-#: of the kind on one specimen; ``fixed`` holds the study's fixed values for the specimen (parameter ->
-#: SI value), ``known`` the estimates already obtained for it (earlier kinds, then fixed entries).
-#: Replace an entry to plug in a fit.
-FITTERS: dict[str, Callable[..., TestFit]] = {
-    "extension": _fit_extension,
-    "magnetic_bending": _fit_bending,
-    "torsion": _fit_torsion,
-    "three_point_bend": _fit_shear,
-}
+#: kind name -> its fitter (:data:`matid.model.kind.Fitter`), from the registry; replace an entry to
+#: plug in a fit.
+FITTERS: dict[str, Callable[..., TestFit]] = {kind.name: kind.fit for kind in KINDS}
 
 
 def versions() -> dict[str, str]:
@@ -144,7 +102,7 @@ def run_study(study: Study, *, progress: Progress | None = None) -> StudyResult:
     pending: list[Failure] = []
     for spec in study.specimens:
         known = {e.parameter: e for e in fixed if e.extra.get("specimen") == spec.id}
-        for kind in FIT_ORDER:
+        for kind in KINDS:
             outcome = _fit_kind(study, measurements, spec, kind, known, say)
             if isinstance(outcome, TestFit):
                 fits.append(outcome)
@@ -169,33 +127,34 @@ def _fit_kind(
     study: Study,
     measurements: Sequence[Measurement],
     spec: Specimen,
-    kind: str,
+    kind: Kind,
     known: Mapping[str, Estimate],
     say: Progress,
 ) -> TestFit | tuple[bool, Failure] | None:
     """One kind on one specimen: a TestFit, (failed?, Failure) or None (nothing to do)."""
-    all_tests = study.tests_of(kind, spec.id, included=False)
+    name = kind.name
+    all_tests = study.tests_of(name, spec.id, included=False)
     if not all_tests:
         return None
     fixed = {f.parameter: f.value for f in study.fixed if f.specimen == spec.id}
     fixed_names = set(fixed) | ({"sls_k1"} if "E_e" in fixed else set())
-    if all(p in fixed_names for p in GIVES[kind]):
-        say(f"{kind} {spec.id}: {', '.join(GIVES[kind])} fixed in study.toml, not fitted")
+    if all(p in fixed_names for p in kind.gives):
+        say(f"{name} {spec.id}: {', '.join(kind.gives)} fixed in study.toml, not fitted")
         return None
     wanted = {id(t) for t in all_tests if not t.exclude}
     mine = [m for m in measurements if id(m.test) in wanted]
     if not mine:
         reason = f"all {len(all_tests)} of its tests are excluded in study.toml"
-        return False, Failure(kind, spec.id, reason)
+        return False, Failure(name, spec.id, reason)
     files = ", ".join(m.test.file.name for m in mine)
-    say(f"fitting {kind} {spec.id} ({len(mine)} test{'s' * (len(mine) > 1)}: {files})")
+    say(f"fitting {name} {spec.id} ({len(mine)} test{'s' * (len(mine) > 1)}: {files})")
     clock = time.perf_counter()
     try:
-        fit = FITTERS[kind](mine, specimen=spec, fixed=fixed, known=dict(known))
+        fit = FITTERS[name](mine, specimen=spec, fixed=fixed, known=dict(known))
     except FIT_FAILURES as exc:
-        say(f"{kind} {spec.id}: FAILED: {exc}")
-        return True, Failure(kind, spec.id, str(exc) or type(exc).__name__)
-    say(f"{kind} {spec.id}: done in {time.perf_counter() - clock:.1f} s")
+        say(f"{name} {spec.id}: FAILED: {exc}")
+        return True, Failure(name, spec.id, str(exc) or type(exc).__name__)
+    say(f"{name} {spec.id}: done in {time.perf_counter() - clock:.1f} s")
     return fit
 
 

@@ -92,7 +92,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 
 def _deflection_reached(scene, exc: ConvergenceError) -> str:
     """The bend's load factor is a fraction of the largest deflection: say which deflection that is."""
-    if scene.kind != "three_point_bend" or isinstance(exc, SlipOffError) or exc.load_factor is None:
+    if scene.bend is None or isinstance(exc, SlipOffError) or exc.load_factor is None:
         return ""
     return f" = nose deflection {exc.load_factor * max(scene.bend.deflections) * 1e3:.6g} mm"
 

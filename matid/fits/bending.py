@@ -24,11 +24,12 @@ import scipy.stats
 
 from matid.errors import DataError, FitError
 from matid.fits import branch, linear
+from matid.model.kind import Kind
 from matid.model.results import TestFit
 
 if TYPE_CHECKING:
     from matid.model.measurement import Measurement, Table
-    from matid.model.study import Test
+    from matid.model.study import Specimen, Test
 
 #: p-value below which per-length bending slopes are said to disagree.
 SLOPES_ALPHA = 0.01
@@ -122,6 +123,20 @@ def fit_bending(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
         **branch.left_out_info(records),
     }
     line, x_label = (records, fit, warnings), "tip angle / free length [rad/m]"
-    return linear.slope_result(
-        "magnetic_bending", specimen, measurements, "E_b", line, lengths, x_label, info
-    )
+    return linear.slope_result(KIND.name, specimen, measurements, "E_b", line, lengths, x_label, info)
+
+
+def _fit(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
+    return fit_bending(measurements, specimen=specimen.id)
+
+
+KIND = Kind(
+    name="magnetic_bending",
+    title="Magnetic bending",
+    columns={"tip_angle": "angle", "torque": "torque", "field": "field", "field_angle": "angle"},
+    required=(("tip_angle",), ("torque", "field"), ("torque", "field_angle")),
+    keys={"free_length": "length"},
+    optional={"magnet_moment": "moment"},
+    parameters=("E_b",),
+    fit=_fit,
+)

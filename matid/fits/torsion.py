@@ -20,10 +20,13 @@ import numpy as np
 
 from matid.errors import DataError, FitError
 from matid.fits import branch, linear
+from matid.fits.shear.torsion import with_E_s_torsion
+from matid.model.kind import Kind
 from matid.model.results import TestFit
 
 if TYPE_CHECKING:
     from matid.model.measurement import Measurement
+    from matid.model.study import Specimen
 
 _ADVICE = (
     "Check the fit plot; set a window on twist_angle to the part the line follows, or check "
@@ -62,4 +65,19 @@ def fit_torsion(measurements: Sequence[Measurement], *, specimen: str) -> TestFi
     }
     lengths = [m.test.params["length"] for m in measurements]
     x_label = "twist angle / length [rad/m]"
-    return linear.slope_result("torsion", specimen, measurements, "E_t", line, lengths, x_label, info)
+    return linear.slope_result(KIND.name, specimen, measurements, "E_t", line, lengths, x_label, info)
+
+
+def _fit(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
+    return with_E_s_torsion(fit_torsion(measurements, specimen=specimen.id), specimen)
+
+
+KIND = Kind(
+    name="torsion",
+    title="Torsion",
+    columns={"twist_angle": "angle", "torque": "torque"},
+    required=(("twist_angle",), ("torque",)),
+    keys={"length": "length"},
+    parameters=("E_t",),
+    fit=_fit,
+)

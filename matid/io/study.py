@@ -15,19 +15,11 @@ import unicodedata
 from pathlib import Path
 
 from matid.errors import DataError
+from matid.fits.kinds import BY_NAME
 from matid.io import study_keys as keys
 from matid.io.study_keys import bounded_text, nearest
 from matid.limits import MAX_ENTRIES
-from matid.model.study import (
-    DEFLECTION_AT,
-    OPTIONAL_KEYS,
-    PARAMETERS,
-    TEST_KINDS,
-    Fixed,
-    Specimen,
-    Study,
-    Test,
-)
+from matid.model.study import DEFLECTION_AT, PARAMETERS, Fixed, Specimen, Study, Test
 from matid.toml import load_toml, shown
 from matid.units import PHYSICAL_BOUND, PLAUSIBLE_BARE, UnitError, to_si
 
@@ -204,18 +196,18 @@ def _specimen(source: Path, index: int, entry: dict) -> Specimen:
 def _test(source: Path, index: int, entry: dict, ids: set[str], outside: bool = False) -> Test:
     where = f"[[test]] #{index + 1}"
     kind = entry.get("kind")
-    if not isinstance(kind, str) or kind not in TEST_KINDS:
-        hint = nearest(str(kind), list(TEST_KINDS))
+    if not isinstance(kind, str) or kind not in BY_NAME:
+        hint = nearest(str(kind), list(BY_NAME))
         raise DataError(
-            f"{where}: kind must be one of {', '.join(TEST_KINDS)}, got '{shown(kind)}'{hint}",
+            f"{where}: kind must be one of {', '.join(BY_NAME)}, got '{shown(kind)}'{hint}",
             file=source,
         )
     _check_test_keys(source, where, entry, kind)
     specimen = _specimen_of(source, where, entry, ids)
     if not entry.get("file") or not isinstance(entry["file"], str):
         raise DataError(f"{where}: missing 'file' (a file name string)", file=source)
-    params = {key: _quantity(source, where, entry, key, q) for key, q in TEST_KINDS[kind].items()}
-    for key, q in OPTIONAL_KEYS.get(kind, {}).items():
+    params = {key: _quantity(source, where, entry, key, q) for key, q in BY_NAME[kind].keys.items()}
+    for key, q in BY_NAME[kind].optional.items():
         if key in entry:
             params[key] = _quantity(source, where, entry, key, q)
     given = dict(
@@ -232,10 +224,10 @@ def _test(source: Path, index: int, entry: dict, ids: set[str], outside: bool = 
     if given["deflection_at"] not in DEFLECTION_AT:
         got = shown(given["deflection_at"])
         raise DataError(f"{where}: deflection_at must be 'nose' or 'centreline', got '{got}'", file=source)
-    try:
-        return Test(kind=kind, specimen=specimen, params=params, index=index, **given)
-    except ValueError as exc:
-        raise DataError(f"{where}: {exc}", file=source) from exc
+    for key in BY_NAME[kind].keys:
+        if not params[key] > 0:
+            raise DataError(f"{where}: {kind} test needs a positive {key}", file=source)
+    return Test(kind=kind, specimen=specimen, params=params, index=index, **given)
 
 
 def _specimen_of(source: Path, where: str, entry: dict, ids: set[str]) -> str:
@@ -245,17 +237,11 @@ def _specimen_of(source: Path, where: str, entry: dict, ids: set[str]) -> str:
     return specimen
 
 
-def _kind_keys(kind: str) -> tuple[str, ...]:
-    """The keys of a [[test]] of ``kind`` beyond :data:`TEST_COMMON_KEYS`."""
-    bend = ("deflection_at",) if kind == "three_point_bend" else ()
-    return (*TEST_KINDS[kind], *OPTIONAL_KEYS.get(kind, {}), *bend)
-
-
 def _check_test_keys(source: Path, where: str, entry: dict, kind: str) -> None:
-    own = (*TEST_COMMON_KEYS, *_kind_keys(kind))
+    own = (*TEST_COMMON_KEYS, *BY_NAME[kind].test_keys)
     for key in entry:
         if key not in own:
-            owners = [k for k in TEST_KINDS if key in _kind_keys(k)]
+            owners = [name for name, k in BY_NAME.items() if key in k.test_keys]
             other = f", a key of {' and '.join(owners)} tests, not of {kind} tests" if owners else ""
             _check_keys(source, where, {key: None}, own, other)
 

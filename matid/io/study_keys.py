@@ -1,7 +1,7 @@
 """Parsing of the section-7 keys of a ``[[test]]``, booleans and free text, for :mod:`matid.io.study`.
 
 ``columns``, ``units``, ``negate``, ``window`` and ``encoding`` (docs/contract.md
-section 7): each names a data column the test kind uses (:data:`TEST_COLUMNS`),
+section 7): each names a data column the test kind uses (its :attr:`~matid.model.kind.Kind.columns`),
 checked here with the nearest valid name suggested. Free text is bounded. The data
 file of a test lies inside the study's folder unless ``[study] allow_outside = true``
 (:func:`data_file`, section 11).
@@ -15,18 +15,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 from matid.errors import DataError
+from matid.fits.kinds import BY_NAME
 from matid.limits import MAX_TEXT
 from matid.toml import shown
 from matid.units import UnitError, si_factor
-
-#: Per test kind, the data columns its fits use and their quantity kinds
-#: (docs/contract.md sections 2 and 7): only these need a known unit.
-TEST_COLUMNS: dict[str, dict[str, str]] = {
-    "extension": {"time": "time", "force": "force", "elongation": "length", "strain": "strain"},
-    "magnetic_bending": {"tip_angle": "angle", "torque": "torque", "field": "field", "field_angle": "angle"},
-    "torsion": {"twist_angle": "angle", "torque": "torque"},
-    "three_point_bend": {"deflection": "length", "force": "force"},
-}
 
 #: Keys of a [[test]] on how its file is read (section 7), parsed here.
 READING_KEYS = ("columns", "units", "negate", "window", "encoding")
@@ -67,7 +59,7 @@ def text(source: Path, where: str, entry: dict, key: str, default: str = "") -> 
 
 def _column_key(source: Path, where: str, key: str, name: object, kind: str) -> str:
     """``name`` checked to be a data column the ``kind`` uses."""
-    valid = list(TEST_COLUMNS[kind])
+    valid = list(BY_NAME[kind].columns)
     if name not in valid:
         raise DataError(
             f"{where}: {key}: `{shown(name)}` is not a column of {kind} tests "
@@ -93,7 +85,7 @@ def window(
         if not isinstance(bounds, list) or len(bounds) != 2:
             got = shown(bounds)
             raise DataError(f'{where}: window.{column} must be ["low", "high"], got {got}', file=source)
-        q = TEST_COLUMNS[kind][column]
+        q = BY_NAME[kind].columns[column]
         low, high = (value(source, where, f"window.{column}", b, q) for b in bounds)
         if not low < high:
             raise DataError(f"{where}: window.{column} needs low < high, got {shown(bounds)}", file=source)
@@ -118,7 +110,7 @@ def units(source: Path, where: str, entry: dict, kind: str) -> dict[str, str]:
         if not isinstance(unit, str):
             raise DataError(f"{where}: units.{column} must be a unit string", file=source)
         try:
-            si_factor(unit, TEST_COLUMNS[kind][column])
+            si_factor(unit, BY_NAME[kind].columns[column])
         except UnitError as exc:
             raise DataError(f"{where}: units.{column}: {exc}", file=source) from exc
         units[column] = unit

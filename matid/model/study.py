@@ -16,15 +16,6 @@ from types import MappingProxyType
 from matid.model.views import PicklesViews
 from matid.physics.moduli import Section
 
-#: Per test kind: the toml keys it needs and their quantity kinds; optional keys.
-TEST_KINDS: dict[str, dict[str, str]] = {
-    "extension": {"gauge_length": "length"},
-    "magnetic_bending": {"free_length": "length"},
-    "torsion": {"length": "length"},
-    "three_point_bend": dict.fromkeys(("span", "specimen_length", "support_radius", "nose_radius"), "length"),
-}
-OPTIONAL_KEYS: dict[str, dict[str, str]] = {"magnetic_bending": {"magnet_moment": "moment"}}
-
 #: Where a three-point bend's deflection is measured: at the nose (crosshead) or the centreline.
 DEFLECTION_AT = ("nose", "centreline")
 
@@ -116,17 +107,11 @@ class Test(PicklesViews):
     encoding: str | None = None
 
     def __post_init__(self) -> None:
-        if self.kind not in TEST_KINDS:
-            raise ValueError(f"unknown test kind {self.kind!r}")
         for name in ("params", "window", "columns", "units"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
         object.__setattr__(self, "negate", tuple(self.negate))
         if self.deflection_at not in DEFLECTION_AT:
             raise ValueError(f"deflection_at must be 'nose' or 'centreline', got {self.deflection_at!r}")
-        for key in TEST_KINDS[self.kind]:
-            value = self.params.get(key)
-            if value is None or not value > 0:
-                raise ValueError(f"{self.kind} test needs a positive {key}")
 
 
 @dataclass(frozen=True)

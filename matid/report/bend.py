@@ -130,8 +130,8 @@ def _shape(raw: Mapping, where: str) -> Shape:
 
 
 def bend_drawings(fit: TestFit, units: str = "SI") -> list[Drawing]:
-    """The three bend figures of ``fit`` (none without ``info["plot_data"]``)."""
-    if fit.kind != "three_point_bend" or not isinstance(fit.info.get("plot_data"), Mapping):
+    """The three bend figures of a three-point-bend ``fit`` (none without ``info["plot_data"]``)."""
+    if not isinstance(fit.info.get("plot_data"), Mapping):
         return []
     plots = bend_plots(fit.info["plot_data"])
 

@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 from matid import __version__
+from matid.fits.kinds import BY_NAME, KINDS
 from matid.io.results import stiffness_json
 from matid.model.results import Failure, InputFile, StudyResult, TestFit
 from matid.model.status import INSEPARABLE_R, STRONG_R
@@ -37,14 +38,11 @@ from matid.report.summary import (
 )
 from matid.report.verdict import STATUS_LEGEND, in_units, reason_line, status_words, summary_intro
 
-#: Section titles and the parameters each test kind gives, in report order.
-KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "extension": ("Extension", ("E_e", "sls_k1", "sls_k2", "sls_eta")),
-    "magnetic_bending": ("Magnetic bending", ("E_b",)),
-    "torsion": ("Torsion", ("E_t",)),
-    "three_point_bend": ("Three-point bend", ("E_s",)),
-}
-PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in KINDS.items() for p in params}
+#: Section titles and the parameters each test kind gives, in report order (from the registry).
+SECTIONS: dict[str, tuple[str, tuple[str, ...]]] = {k.name: (k.title, k.parameters) for k in KINDS}
+PARAMETER_TEST_KIND = {p: kind for kind, (_, params) in SECTIONS.items() for p in params}
+#: The drawings a kind may name (:attr:`matid.model.kind.Kind.drawings`) -> what draws them.
+DRAWINGS = {"bend": bend_drawings, "force_time": hold_drawings}
 
 MODULI_COLUMNS = ("specimen", "modulus", "from", "value", "± standard error (1σ)", "unit", "check")
 MODULI_NUMERIC = (False, False, False, True, True, False, False)
@@ -122,7 +120,7 @@ class Report:
 def build_report(result: StudyResult, units: str) -> Report:
     """Everything the report shows, formatted once for both renderers."""
     doc = stiffness_json(result, units)
-    titles = {kind: title for kind, (title, _) in KINDS.items()}
+    titles = {kind: title for kind, (title, _) in SECTIONS.items()}
     notes = [replace(n, text=in_units(n.text, units)) for n in notes_of(result, titles)]
     moduli = moduli_rows(result, units)
     others = dict(result.versions)
@@ -172,12 +170,12 @@ def _summary_row(sid: str, name: str, item: Mapping, marks: list[int], units: st
 
 
 def _parameters_of(kind: str) -> str:
-    return KINDS[kind][1][0] if kind in KINDS else kind
+    return SECTIONS[kind][1][0] if kind in SECTIONS else kind
 
 
 def failure_message(failure: Failure) -> str:
     kind = _test_kind(failure.kind)
-    title = KINDS[kind][0].lower() if kind in KINDS else failure.kind
+    title = SECTIONS[kind][0].lower() if kind in SECTIONS else failure.kind
     return f"{failure.specimen}: {_parameters_of(kind)} could not be fitted ({title}): {failure.reason}"
 
 
@@ -250,7 +248,7 @@ def _correlation(fit: TestFit) -> Table | None:
 def _sections(result: StudyResult, doc: Mapping, units: str) -> list[Section]:
     """A section per test kind with anything to show, a block per specimen."""
     sections = []
-    for kind, (title, params) in KINDS.items():
+    for kind, (title, params) in SECTIONS.items():
         specimens = _specimens_of(result, kind)
         if specimens:
             blocks = (
@@ -272,8 +270,9 @@ def _specimens_of(result: StudyResult, kind: str) -> list[str]:
 
 def _drawings(fit: TestFit, units: str) -> tuple[tuple[Drawing, ...], tuple[ExtraFigure, ...]]:
     """The drawings of ``fit``, or why they cannot be drawn (as a failed extra figure)."""
+    names = BY_NAME[fit.kind].drawings if fit.kind in BY_NAME else ()
     try:
-        return (*bend_drawings(fit, units), *hold_drawings(fit, units)), ()
+        return tuple(d for name in names for d in DRAWINGS[name](fit, units)), ()
     except (KeyError, TypeError, ValueError, IndexError) as exc:  # malformed plot data: say so, go on
         return (), (ExtraFigure("Figures from the fit data", None, f"{type(exc).__name__}: {exc}"),)
 

@@ -8,8 +8,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from matid.fits.kinds import BY_NAME
 from matid.model.results import InputFile
-from matid.model.study import OPTIONAL_KEYS, TEST_KINDS, Test
+from matid.model.study import Test
 from matid.report.formats import format_value
 
 #: Set-up values shown in a unit of their own: kind -> (factor from SI, unit).
@@ -69,7 +70,8 @@ def _resolved(path: Path) -> str:
 
 def _setup(test: Test) -> str:
     """The set-up of a test in readable units: lengths in mm, the rest in SI."""
-    kinds = {**TEST_KINDS.get(test.kind, {}), **OPTIONAL_KEYS.get(test.kind, {})}
+    kind = BY_NAME.get(test.kind)
+    kinds = {**kind.keys, **kind.optional} if kind else {}
     parts = []
     for key, value in test.params.items():
         shown = SETUP_UNITS.get(kinds.get(key))

@@ -14,8 +14,9 @@ import openpyxl
 import pytest
 
 from matid.app import pipeline
-from matid.app.batch import Progress, StudyOutcome, run_batch
+from matid.app.batch import Progress, run_batch
 from matid.app.cli import main
+from matid.app.outcome import StudyOutcome
 from tests import fuzzhostile
 from tests.app.test_cli import CSV_HEADER, OUTPUTS, small_study
 from tests.io.test_results import E_T_WARNING, add_warnings, bending_study, drop_test

@@ -7,8 +7,8 @@ import re
 import statistics
 from pathlib import Path
 
-from matid.app.batch import StudyOutcome
 from matid.app.compare import comparison_page
+from matid.app.outcome import StudyOutcome
 
 TOML = """[study]
 name = "{name}"

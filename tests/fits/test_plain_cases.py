@@ -122,7 +122,8 @@ def _bend_fit(d, force):
         {"span": SPAN, "specimen_length": 0.03, "support_radius": 2e-3, "nose_radius": 2e-3},
     )
     table = Table(Path("3pb.csv"), {"deflection": d, "force": force}, {}, {}, "")
-    known = {"E_b": Estimate("E_b", E_B, 0.0, None, 0, "linear"), "E_e": Estimate("E_e", 120.0, 0.0, None, 0, "sls")}
+    known = {"E_b": Estimate("E_b", E_B, 0.0, None, 0, "linear"),
+             "E_e": Estimate("E_e", 120.0, 0.0, None, 0, "sls")}
     return fit_three_point_bend(
         [Measurement(test, table)],
         specimen=Specimen("T1", 2.4e-3, 1.6e-3),
@@ -168,7 +169,8 @@ def test_bend_with_a_toe_before_contact(seed):
     toe = 0.25 * D_TOP
     d = np.linspace(0.0, toe + D_TOP, 80)
     f_top = float(_timoshenko(D_TOP))
-    clean = np.where(d < toe, 0.02 * f_top * (d / toe) ** 2, _timoshenko(np.maximum(d - toe, 0.0)) + 0.02 * f_top)
+    loaded = _timoshenko(np.maximum(d - toe, 0.0)) + 0.02 * f_top
+    clean = np.where(d < toe, 0.02 * f_top * (d / toe) ** 2, loaded)
     fit = _bend_fit(d, clean + _noise(rng, d.size, f_top))
     assert fit.estimate("E_s").value == pytest.approx(E_S, rel=0.01)
 

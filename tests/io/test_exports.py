@@ -373,8 +373,8 @@ def test_demo_study_in_machine_styles_fits_to_ground_truth(tmp_path):
     import tomllib
 
     from matid.app.pipeline import run_study
+    from matid.fits.kinds import BY_NAME
     from matid.io.study import load_study
-    from matid.io.study_keys import TEST_COLUMNS
 
     raw = tomllib.loads((EXAMPLE / "study.toml").read_text(encoding="utf-8"))
     out = ["[study]", f"name = {_toml_value(raw['study']['name'])}", ""]
@@ -387,7 +387,7 @@ def test_demo_study_in_machine_styles_fits_to_ground_truth(tmp_path):
         name = f"{Path(entry['file']).stem}_{style}.{'txt' if style in ('utf16', 'mts') else 'csv'}"
         used = _restyle(table, spec, tmp_path / name)
         # only columns / negate / encoding help: the file is as the machine wrote it
-        mapped = {c: spec["names"][c][0] for c in used if c in TEST_COLUMNS[entry["kind"]]}
+        mapped = {c: spec["names"][c][0] for c in used if c in BY_NAME[entry["kind"]].columns}
         entry = {**entry, "file": name, "columns": mapped}
         if spec["negate"]:
             entry["negate"] = list(spec["negate"])

@@ -22,8 +22,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from matid.app import pipeline
-from matid.app.batch import StudyOutcome
 from matid.app.compare import write_summary
+from matid.app.outcome import StudyOutcome
 from matid.io.cells import FORMULA_LEADS, cell, text_cell
 from matid.io.results import csv_text, stiffness_csv, table_rows
 from matid.io.study import load_study

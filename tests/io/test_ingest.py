@@ -14,11 +14,9 @@ from hypothesis import strategies as st
 
 from matid.errors import DataError
 from matid.io.ingest.checks import DYNAMIC_RANGE
-from matid.io.ingest.columns import REQUIRED
 from matid.io.ingest.read import load_measurements, read_table
 from matid.io.study import load_study
 from matid.model.measurement import Table
-from matid.model.study import TEST_KINDS
 from matid.units import PHYSICAL_BOUND
 
 EXT_BRACKETS = "time [s],force [N],elongation [mm]\n0,0.5,0.1\n1,1.5,0.2\n2,2.5,0.3\n"
@@ -200,11 +198,6 @@ def test_arrays_are_read_only(tmp_path):
         table["force"][0] = 1.0
     with pytest.raises(TypeError):
         table.columns["force"] = np.zeros(3)
-
-
-def test_required_covers_every_test_kind():
-    assert set(REQUIRED) == set(TEST_KINDS)
-    assert REQUIRED["extension"][2] == ("elongation", "strain")
 
 
 def test_unknown_kind_is_a_programming_error(tmp_path):

@@ -77,7 +77,8 @@ length = "60 mm"
 def _torsion_csv(path: Path) -> Path:
     angle = np.linspace(0.0, 20.0, 30)
     path.write_text(
-        "twist_angle [deg],torque [N m]\n" + "".join(f"{a:.4f},{1e-4 * a:.6g}\n" for a in angle), encoding="utf-8"
+        "twist_angle [deg],torque [N m]\n" + "".join(f"{a:.4f},{1e-4 * a:.6g}\n" for a in angle),
+        encoding="utf-8",
     )
     return path
 

@@ -21,9 +21,9 @@ from pathlib import Path
 import pytest
 
 from matid.app.api import fit
+from matid.fits.kinds import KINDS
 from matid.io.study import TABLE_KEYS, TEST_COMMON_KEYS
-from matid.io.study_keys import TEST_COLUMNS
-from matid.model.study import OPTIONAL_KEYS, PARAMETER_KINDS, TEST_KINDS, Test
+from matid.model.study import PARAMETER_KINDS, Test
 from matid.report import render_report
 from matid.report.quantities import UNSTATED
 from matid.report.summary import interval_text, value_cells
@@ -43,11 +43,10 @@ FILE_NAME = re.compile(r"[^\s/]+\.(?:csv|txt|dat|toml|json|xlsx|py)\b")
 USER_NAMES = {
     *PARAMETER_KINDS,
     *(k for keys in TABLE_KEYS.values() for k in keys),
-    *(k for kind in TEST_KINDS.values() for k in kind),
-    *(k for kind in OPTIONAL_KEYS.values() for k in kind),
+    *(k for kind in KINDS for k in kind.test_keys),
     *TEST_COMMON_KEYS,
     *(f.name for f in dataclasses.fields(Test)),
-    *(c for columns in TEST_COLUMNS.values() for c in columns),
+    *(c for kind in KINDS for c in kind.columns),
 }
 #: A table cell that is a number (or an interval "a to b") with nothing else.
 BARE_NUMBER = re.compile(r"^[-+−]?\d[\d.,]*(?:e[-+]?\d+)?(?:\s*(?:to|,)\s*[-+−]?\d[\d.]*(?:e[-+]?\d+)?)?$")

@@ -42,6 +42,7 @@ from matid.fits.extension.checks import _k1_warnings, _unidentifiable, end_of_ho
 from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _models, _solve, _values
 from matid.fits.extension.runs import _Run, _run, _unique
 from matid.fits.extension.stats import _correlation, _covariance_fit, _intervals, _misfit, _sandwich, _stderr
+from matid.model.kind import Kind
 from matid.model.results import Estimate, Series, TestFit
 
 if TYPE_CHECKING:
@@ -227,7 +228,7 @@ def fit_extension(
     if prony_estimates:  # E_e is the Prony series': the force-time plot draws that model
         _plot_prony(info["plot_data"], runs, choice.fits[choice.best])
     return TestFit(
-        kind="extension",
+        kind=KIND.name,
         specimen=specimen,
         tests=tuple(m.test for m in measurements),
         estimates=estimates,
@@ -237,3 +238,27 @@ def fit_extension(
         correlation=corr,
         info=info,
     )
+
+
+#: Fixed parameters the extension fit holds (E_e is sls_k1).
+FIXABLE = ("E_e", "sls_k1", "sls_k2", "sls_eta")
+
+
+def _fit(measurements, *, specimen, fixed, known) -> TestFit:
+    return fit_extension(
+        measurements, specimen=specimen.id, fixed={k: v for k, v in fixed.items() if k in FIXABLE}
+    )
+
+
+KIND = Kind(
+    name="extension",
+    title="Extension",
+    columns={"time": "time", "force": "force", "elongation": "length", "strain": "strain"},
+    required=(("time",), ("force",), ("elongation", "strain")),
+    keys={"gauge_length": "length"},
+    positive=("force", "elongation", "strain"),
+    parameters=("E_e", "sls_k1", "sls_k2", "sls_eta"),
+    gives=("sls_k1", "sls_k2", "sls_eta"),  # E_e is sls_k1: skipped only when k1, k2 and eta are fixed
+    fit=_fit,
+    drawings=("force_time",),
+)

@@ -40,89 +40,35 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from matid.errors import DataError, FitError
+from matid.errors import FitError
+from matid.fits.bending import KIND as BENDING
 from matid.fits.shear.checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
+from matid.fits.shear.data import BendData, bend_data, timoshenko_force, timoshenko_start
 from matid.fits.shear.problem import Problem, fe_error, least_squares, span_fits, statistics
 from matid.fits.shear.torsion import agreement
-from matid.fits.shear.window import Cut, check_plausible, cut
 from matid.fits.stats import Covariance, lack_of_fit, t95
+from matid.model.kind import Kind
 from matid.model.measurement import Measurement
 from matid.model.results import Estimate, Series, TestFit
 from matid.model.study import Specimen
-from matid.rod.bend import BendGeometry
 
 #: The FE error must stay below this fraction of the statistical standard error
 #: (or below FE_ERROR_FLOOR, for noise-free data whose standard error is zero).
 FE_ERROR_FRACTION = 0.1
 FE_ERROR_FLOOR = 1e-6
 START_ELEMENTS = 16
+#: Why a nose-travel test of a specimen with centreline tests is not fitted.
+LEFT_OUT = (
+    "nose travel, left out: centreline tests of this specimen are fitted (nose travel includes the "
+    "local contact compliance)"
+)
 MAX_ELEMENTS = 256
-
-
-@dataclass
-class BendData:
-    """One bend test: its geometry and the rows in the fit (loading branch, sorted by deflection).
-
-    ``d`` is the nose travel, or with ``centreline`` the mid-span centreline
-    deflection relative to the support sections (contract section 7,
-    ``deflection_at``), in both cases after the toe compensation ``cut.d0``.
-    """
-
-    measurement: Measurement
-    geometry: BendGeometry
-    d: np.ndarray  # rows in the fit, increasing
-    F: np.ndarray
-    loading: np.ndarray  # mask over all rows of the file: the rows in the fit
-    centreline: bool
-    cut: Cut
-
-
-def bend_data(m: Measurement, specimen: Specimen, E_b: float) -> BendData:
-    """The rows of one bend file that enter the fit (:mod:`matid.fits.shear.window`), checked."""
-    p = m.test.params
-    try:
-        geometry = BendGeometry(
-            p["span"], p["specimen_length"], p["support_radius"], p["nose_radius"], specimen.section.depth
-        )
-    except ValueError as exc:
-        raise DataError(str(exc), file=m.test.file) from exc
-    d, F = np.asarray(m.table["deflection"], float), np.asarray(m.table["force"], float)
-    window = m.in_window()
-    if not np.any(F[window] > 0):
-        check_plausible(d[window], F[window], span=geometry.span, E_b=E_b, file=m.test.file)
-    c = cut(d, F, window, windowed=bool(m.test.window))
-    dl, Fl = d[c.used] - c.d0, F[c.used]
-    if dl.size < 3 or dl[-1] <= 0:
-        raise FitError(f"{m.test.file.name}: fewer than 3 loading points with positive deflection")
-    if np.any(dl < 0):
-        raise DataError("negative deflection on the loading branch", file=m.test.file, column="deflection")
-    check_plausible(dl, Fl, span=geometry.span, E_b=E_b, file=m.test.file)
-    centreline = getattr(m.test, "deflection_at", "nose") == "centreline"
-    return BendData(m, geometry, dl, Fl, c.used, centreline, c)
-
-
-def timoshenko_force(d: np.ndarray, S: float, E_b: float, E_s: float) -> np.ndarray:
-    """F = d / (S^3/(48 E_b) + S/(4 E_s)), physics.md section 5."""
-    return d / (S**3 / (48 * E_b) + S / (4 * E_s))
-
-
-def timoshenko_start(data: Sequence[BendData], E_b: float) -> float:
-    """E_s from the compliance of the first fifth of each loading branch (linear regime)."""
-    estimates = []
-    for b in data:
-        n = max(3, b.d.size // 5)
-        d, F = b.d[:n], b.F[:n]
-        C = float(np.dot(d, d) / np.dot(d, F))  # compliance d/F through the origin
-        shear = C - b.geometry.span**3 / (48 * E_b)
-        if shear > 0:
-            estimates.append(b.geometry.span / (4 * shear))
-    return float(np.median(estimates)) if estimates else 1e3 * E_b / min(b.geometry.span for b in data) ** 2
 
 
 def _held(known: Mapping[str, Estimate], name: str, specimen: str) -> Estimate:
     est = known.get(name)
     if est is None:
-        source = "a magnetic_bending test" if name == "E_b" else "extension tests"
+        source = f"a {BENDING.name} test" if name == "E_b" else "extension tests"
         raise FitError(
             f"E_s of specimen {specimen} needs {name}: add {source} or a [[fixed]] {name} for {specimen}"
         )
@@ -210,7 +156,6 @@ def fit_three_point_bend(
     E_e_est = _held(known, "E_e", specimen.id)
     every = [bend_data(m, specimen, E_b_est.value) for m in measurements]
     data = [b for b in every if b.centreline] or every
-    left_out = [b for b in every if b not in data]
     nose = not data[0].centreline
     spans = sorted({b.geometry.span for b in data})
     if fit_E_b and len(spans) < 2:
@@ -225,12 +170,39 @@ def fit_three_point_bend(
     E_s = float(np.exp(out.x[0]))
     var_log, held = _propagated_variance(out, E_b_est, E_e_est, fit_E_b)
     mf = model_form_variance(data, E_b_est.value, check.info, E_s, model_form)
-    var_log += mf["var_log"]
-    m = out.r.size
-    t = t95(out.covariance.dof)
-    sd_log = float(np.sqrt(var_log))
+    sd_log = float(np.sqrt(var_log + mf["var_log"]))
     E_b = float(np.exp(out.x[1])) if fit_E_b else E_b_est.value
     shares = [shear_share(b.geometry.span, E_b, E_s) for b in data]
+    design = _design_note(specimen, known, E_b_est.value)
+    warnings, extra_info = _checks(out, data, shares, check, sd_log, E_b, E_s, mf, design)
+    left_out = [b for b in every if b not in data]
+    if left_out:
+        extra_info["left_out_tests"] = dict.fromkeys(
+            (b.measurement.test.file.name for b in left_out), LEFT_OUT
+        )
+    fe = _fe_info(out, t0)
+    estimates, correlation = _estimates(
+        out, check, sd_log, E_b, E_s, fe, fit_E_b, known, warnings, extra_info
+    )
+    measured = "nose travel" if nose else "centreline deflection"
+    info = {**_info(data, out, shares, held, E_s, fe), **extra_info, "measurement": measured}
+    return TestFit(
+        kind=KIND.name,
+        specimen=specimen.id,
+        tests=tuple(b.measurement.test for b in every),
+        estimates=tuple(estimates),
+        series=tuple(_series(b, force) for b, force in zip(data, out.problem.force, strict=True))
+        + tuple(_series(b, None) for b in left_out),
+        x_label="deflection [m]",
+        y_label="force [N]",
+        correlation=correlation,
+        info=info,
+    )
+
+
+def _checks(out: Outcome, data, shares, check, sd_log, E_b, E_s, mf, design) -> tuple[list, dict]:
+    """The fit's warnings (identifiability, precision, lack of fit, spans that disagree) and the
+    figures behind them for ``info`` (with the model-form share ``mf`` and the design note)."""
     warnings = list(check.warnings)
     if "reference_kGA_N" not in check.info and max(shares) < MIN_SHEAR_SHARE:
         warnings.append(
@@ -245,10 +217,10 @@ def fit_three_point_bend(
         "Check the window (toe, yield), the unit of the force, and the set-up (span, radii).",
     )
     warnings += [misfit] if misfit else []
-    per_span = span_fits(out.problem, out.x, E_b, spans)
+    per_span = span_fits(out.problem, out.x, E_b, sorted({b.geometry.span for b in data}))
     extra_info = {"assessment": check.info, "per_span": per_span, "model_form": mf}
     extra_info["lack_of_fit"] = fit_check.as_info()
-    extra_info["experiment_design"] = _design_note(specimen, known, E_b_est.value)
+    extra_info["experiment_design"] = design
     extra_info["residual_correlation"] = {
         "rho": out.covariance.rho,
         "n_eff": out.covariance.n_eff,
@@ -259,13 +231,11 @@ def fit_three_point_bend(
             [(p["span"], p["E_s"], p["sd_log"]) for p in per_span], E_s
         )
         warnings += [warning] if warning else []
-    if left_out:
-        extra_info["left_out_tests"] = {
-            b.measurement.test.file.name: "nose travel, left out: centreline tests of this specimen "
-            "are fitted (nose travel includes the local contact compliance)"
-            for b in left_out
-        }
-    fe = {
+    return warnings, extra_info
+
+
+def _fe_info(out: Outcome, t0: float) -> dict:
+    return {
         "element": "P2",
         "elements": out.elements,
         "discretization_error": out.fe_error,
@@ -274,6 +244,12 @@ def fit_three_point_bend(
         "levels": out.levels,  # error against run time of every mesh level tried
         "interpolation": out.problem.interpolation(),
     }
+
+
+def _estimates(out: Outcome, check, sd_log, E_b, E_s, fe, fit_E_b, known, warnings, extra_info):
+    """E_s (its interval widened by the assessment, compared with E_s_torsion) and, with ``fit_E_b``,
+    E_b and their correlation."""
+    t, m = t95(out.covariance.dof), out.r.size
     est = _log_estimate("E_s", E_s, sd_log, t, m, fe)
     if check.widen > 1:
         est = replace(est, ci95=(est.ci95[0], float(est.ci95[1] * check.widen)))
@@ -285,20 +261,7 @@ def fit_three_point_bend(
         cov = out.cov_log
         estimates.append(_log_estimate("E_b", E_b, float(np.sqrt(cov[1, 1])), t, m, fe))
         correlation = {"E_s|E_b": float(cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1]))}
-    measured = "nose travel" if nose else "centreline deflection"
-    info = {**_info(data, out, shares, held, E_s, fe), **extra_info, "measurement": measured}
-    return TestFit(
-        kind="three_point_bend",
-        specimen=specimen.id,
-        tests=tuple(b.measurement.test for b in every),
-        estimates=tuple(estimates),
-        series=tuple(_series(b, force) for b, force in zip(data, out.problem.force, strict=True))
-        + tuple(_series(b, None) for b in left_out),
-        x_label="deflection [m]",
-        y_label="force [N]",
-        correlation=correlation,
-        info=info,
-    )
+    return estimates, correlation
 
 
 def _design_note(specimen: Specimen, known: Mapping[str, Estimate], E_b: float) -> str:
@@ -390,3 +353,21 @@ def _plot_data(data, out: Outcome, r10: np.ndarray) -> dict:
         )
     ]
     return {"curves": curves, "noise_N": out.sigma}
+
+
+def _fit(measurements, *, specimen: Specimen, fixed, known) -> TestFit:
+    return fit_three_point_bend(measurements, specimen=specimen, fixed=fixed, known=known)
+
+
+KIND = Kind(
+    name="three_point_bend",
+    title="Three-point bend",
+    columns={"deflection": "length", "force": "force"},
+    required=(("deflection",), ("force",)),
+    keys=dict.fromkeys(("span", "specimen_length", "support_radius", "nose_radius"), "length"),
+    options=("deflection_at",),
+    positive=("force", "deflection"),
+    parameters=("E_s",),
+    fit=_fit,
+    drawings=("bend",),
+)

@@ -37,7 +37,7 @@ from matid.fits.stats import Covariance, ar1_covariance, difference_noise
 from matid.rod.bend import BendModel, BendPath
 
 if TYPE_CHECKING:
-    from matid.fits.shear.fit import BendData
+    from matid.fits.shear.data import BendData
 
 #: Knots of the first solve of a test; up to 2 START_KNOTS - 1 rows (one refinement of every
 #: interval) every distinct row is a knot.

@@ -142,7 +142,8 @@ def cut(d: np.ndarray, F: np.ndarray, window: np.ndarray, *, windowed: bool = Fa
         # rows below zero deflection whose force is within the noise of zero have not touched yet
         before = used & (d < 0)
         if before.any() and np.max(np.abs(F[before])) <= PRE_CONTACT_NOISE * stats.difference_noise(F[idx]):
-            used = _drop(used, before, "before contact (deflection below zero, force within the noise)", reasons)
+            reason = "before contact (deflection below zero, force within the noise)"
+            used = _drop(used, before, reason, reasons)
     return Cut(_yield(d, F, used, reasons), d0, reasons)
 
 

@@ -16,16 +16,11 @@ from pathlib import Path
 import numpy as np
 
 from matid.errors import DataError
-from matid.io.study_keys import TEST_COLUMNS
+from matid.fits.kinds import BY_NAME
 from matid.units import PHYSICAL_BOUND, SI_UNITS
 
-#: Columns that must be positive for the test (tension, compression, nose travel
-#: counted positive); a column whose positive side never reaches this fraction of
-#: its largest magnitude has the wrong sign.
-POSITIVE: dict[str, tuple[str, ...]] = {
-    "extension": ("force", "elongation", "strain"),
-    "three_point_bend": ("force", "deflection"),
-}
+#: A column the kind wants positive (:attr:`~matid.model.kind.Kind.positive`) whose positive
+#: side never reaches this fraction of its largest magnitude has the wrong sign.
 WRONG_SIGN_FRACTION = 0.1
 #: A column whose largest magnitude is not 0 but below its quantity's physical bound divided by this
 #: (1e-24 N, 1e-25 rad, 1e-29 m) holds no measurement: a unit or export mistake. The fits' sums of
@@ -44,12 +39,12 @@ def check(
 ) -> None:
     """Bounds, then signs. The torsion sign and the bend's loading branch are checked by the
     fits on the rows they fit (a window or the automatic range; docs/contract.md section 10)."""
-    used = TEST_COLUMNS[kind]
+    used = BY_NAME[kind].columns
     for name, quantity in used.items():
         if name in values:
             _bounded(values[name], quantity, rows, written[name], path)
             _not_vanishing(values[name], quantity, written[name], path)
-    for name in POSITIVE.get(kind, ()):
+    for name in BY_NAME[kind].positive:
         if name in values:
             _positive(values[name], name, written[name], path, negate)
 

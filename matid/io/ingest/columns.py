@@ -14,21 +14,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from matid.errors import DataError
+from matid.fits.kinds import BY_NAME, KINDS
 from matid.io.ingest.detect import Layout, header_names, names
-from matid.io.study_keys import TEST_COLUMNS, bounded_text
+from matid.io.study_keys import bounded_text
 
 #: Known columns (those of every test kind) and the quantity kind of their unit.
-KNOWN: dict[str, str] = {name: q for used in TEST_COLUMNS.values() for name, q in used.items()}
-
-#: Per test kind, groups of alternatives: each group needs at least one of its
-#: columns. "torque, or both field and field_angle" is written as the two groups
-#: (torque, field) and (torque, field_angle).
-REQUIRED: dict[str, list[tuple[str, ...]]] = {
-    "extension": [("time",), ("force",), ("elongation", "strain")],
-    "magnetic_bending": [("tip_angle",), ("torque", "field"), ("torque", "field_angle")],
-    "torsion": [("twist_angle",), ("torque",)],
-    "three_point_bend": [("deflection",), ("force",)],
-}
+KNOWN: dict[str, str] = {name: q for kind in KINDS for name, q in kind.columns.items()}
 
 _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\[\]()]*)[\])]$")
 _WRAPPED_UNIT = re.compile(r"^[\[(](?P<unit>.*)[\])]$")
@@ -83,7 +74,7 @@ def header(
     names_ = [c.name for c in columns]
     columns = [
         Column(c.index, c.written, f"{c.name}_col{c.index + 1}", c.unit, c.unit_row)
-        if names_.count(c.name) > 1 and c.name not in TEST_COLUMNS[kind]
+        if names_.count(c.name) > 1 and c.name not in BY_NAME[kind].columns
         else c
         for c in columns
     ]
@@ -129,7 +120,7 @@ def _units_row(line: str, layout: Layout) -> list[str]:
 
 def _column(index: int, written: str, name: str, unit: str, row: int, kind: str, path: Path) -> Column:
     written = bounded_text(written, 200)
-    if name in TEST_COLUMNS[kind] and not unit:
+    if name in BY_NAME[kind].columns and not unit:
         raise DataError(
             f"column has no unit (write e.g. '{name} [unit]' in the header, a units row under it, "
             f'or units = {{ {name} = "..." }} in the [[test]])',
@@ -155,7 +146,7 @@ def _check_duplicates(columns: list[Column], path: Path, row: int) -> None:
 
 def check_required(columns: list[Column], kind: str, path: Path, row: int) -> None:
     found = [c.name for c in columns]
-    for group in REQUIRED[kind]:
+    for group in BY_NAME[kind].required:
         if not any(name in found for name in group):
             wanted = " or ".join(f"'{name}'" for name in group)
             shown = bounded_text(", ".join(c.written for c in columns), 300)

@@ -4,7 +4,7 @@
 units row), :mod:`~matid.io.ingest.columns` names the columns and their units,
 :mod:`~matid.io.ingest.frame` parses the numbers, ``negate`` flips signs and
 :mod:`~matid.io.ingest.checks` rejects values beyond physical bounds or of the wrong sign.
-The columns the test kind uses (:data:`matid.io.study_keys.TEST_COLUMNS`) must have a known unit
+The columns the test kind uses (its :attr:`~matid.model.kind.Kind.columns`) must have a known unit
 and numbers in every row; other columns are kept as floats (in SI when pint knows their
 unit) and never stop the run.
 
@@ -23,15 +23,16 @@ from pathlib import Path
 import numpy as np
 
 from matid.errors import DataError
+from matid.fits.kinds import BY_NAME
 from matid.io.ingest import checks as ingest_checks
-from matid.io.ingest.columns import KNOWN, REQUIRED, Column, check_required, header
+from matid.io.ingest.columns import KNOWN, Column, check_required, header
 from matid.io.ingest.detect import HEAD_LINES, Layout, decode, detect, lines_of, preamble
 from matid.io.ingest.frame import Rows, Start, locate, read_rows
 from matid.io.ingest.frame import column as frame_column
-from matid.io.study_keys import TEST_COLUMNS, bounded_text
+from matid.io.study_keys import bounded_text
 from matid.limits import MAX_CSV_BYTES, MAX_CSV_ROWS
 from matid.model.measurement import Measurement, Table
-from matid.model.study import Study
+from matid.model.study import Study, Test
 from matid.units import DIMENSIONS, UnitError, si_factor
 
 MIN_ROWS = 3
@@ -53,8 +54,8 @@ def read_table(
     ``columns``, ``units``, ``negate`` and ``encoding`` are the test's keys of
     docs/contract.md section 7.
     """
-    if kind not in REQUIRED:
-        raise ValueError(f"unknown test kind {kind!r} (one of {', '.join(REQUIRED)})")
+    if kind not in BY_NAME:
+        raise ValueError(f"unknown test kind {kind!r} (one of {', '.join(BY_NAME)})")
     path = Path(path)
     raw = _read_bytes(path)
     text, used = decode(raw, path, encoding)
@@ -92,7 +93,7 @@ def _table(
         metadata.setdefault("preamble", bounded_text(" / ".join(text)))
     cols = header(lines, layout, kind, mapping, overrides, path)
     check_required(cols, kind, path, row=layout.header_at + 1)
-    used = TEST_COLUMNS[kind]
+    used = BY_NAME[kind].columns
     rows = read_rows(raw, start, layout, path)
     if len(rows.lines) < MIN_ROWS:
         last = int(rows.lines[-1]) if len(rows.lines) else layout.data_at + 1
