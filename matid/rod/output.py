@@ -35,6 +35,14 @@ UNITS = {
     "aim.tip_direction_error_rad": "rad",
     "aim.runtime_s": "s",
 }
+#: The units of the contact keys (contract section 12), listed only in solutions that have them.
+CONTACT_UNITS = {
+    "contacts.s": "m",
+    "contacts.position": "m",
+    "contacts.force": "N",
+    "contacts.gap_min": "m",
+    "contact_tolerance": "m",
+}
 
 
 def solution_json(sol: Solution) -> dict:
@@ -60,6 +68,10 @@ def solution_json(sol: Solution) -> dict:
     if "aim" in sol.extra:
         doc["aim"] = dict(sol.extra["aim"])
     doc["warnings"] = list(sol.extra.get("warnings", []))
+    if "contacts" in sol.extra:  # contract section 12
+        doc["contacts"] = [dict(c) for c in sol.extra["contacts"]]
+        doc["contact_tolerance"] = float(sol.extra["contact_tolerance"])
+        doc["units"].update(CONTACT_UNITS)
     if sol.three_point_bend is not None:
         doc["three_point_bend"] = {key: _floats(value) for key, value in sol.three_point_bend.items()}
     if sol.discretization_error is not None:
