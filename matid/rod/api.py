@@ -76,6 +76,8 @@ def solve(
         raise DataError(
             f"elements: at most {MAX_SCENE_ELEMENTS} (the automatic meshing's limit), got {elements}"
         )
+    if scene.advance is not None:  # parsed (scene_contact) but the step-by-step solve is not built
+        raise DataError("[advance]: advancing out of a sheath is not solved yet (issue 31)")
     if scene.aim is not None:  # the inverse problem (contract section 9): the field is solved for
         return _solve_aimed(scene, elements=elements, model=model, variant=variant, element=element)
     chosen = resolve_model(scene, model)

@@ -168,3 +168,30 @@ def test_a_straight_lumen_is_the_planar_wall_solution_rotated():
         print(f"| straight lumen ({sol.model}) | {sol.elements} | {e_tip:.2e} | {e_force:.2e} | - | {sol.discretization_error:.2e} |")
         assert e_tip < 1e-6 and e_force < 1e-4
         assert sol.discretization_error >= (max(e_tip, e_force) - FLOOR) / 3
+
+
+def test_example_wall_tip_against_the_reference():
+    """examples/scenes/wall_tip.toml: its tip and wall reaction against the shooting reference."""
+    from pathlib import Path
+
+    from matid.rod.scenes import load_scene
+
+    scene = load_scene(Path(__file__).resolve().parents[2] / "examples" / "scenes" / "wall_tip.toml")
+    sol = solve(scene)
+    (at, m), B = scene.loads.magnets[0], scene.loads.B
+    wall = scene.walls[0]
+    ref = cr.solve_planar_contact(
+        scene.rod.length, scene.rod.E_b, scene.rod.outer_diameter / 2,
+        [((wall.point[0], wall.point[2]), (wall.normal[0], wall.normal[2]))],
+        B=(B[0], B[2]), m=m, contacts=[("tip", 0)],
+    )  # fmt: skip
+    tip = np.asarray(sol.tip["position"])[[0, 2]]
+    assert np.abs(tip - ref["tip"]).max() < 1e-6 * scene.rod.length
+    force = np.asarray(sol.extra["contacts"][0]["force"])[[0, 2]]
+    assert np.linalg.norm(force - ref["contacts"][0]["force_vector"]) < 1e-4 * abs(ref["contacts"][0]["force"])
+
+
+def test_advance_is_refused_until_it_is_solved():
+    scene = scene_from_dict({"rod": rod(), "advance": {"free_lengths": ["10 mm", "50 mm"]}})
+    with pytest.raises(DataError, match="advance"):
+        solve(scene)
