@@ -29,6 +29,7 @@ from matid.rod.checks import penalty_error, strain_warnings
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
 from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene, load_scene
+from matid.rod.terms.contact import CONTACT_FRACTION, to_lab
 
 MODELS = ("auto", PLANAR, FULL)
 #: Energy terms of the bend half model (no field, no twist: planar by construction).
@@ -84,6 +85,8 @@ def solve(
         raise DataError(
             f"elements: at most {MAX_SCENE_ELEMENTS} (the automatic meshing's limit), got {elements}"
         )
+    if scene.advance is not None:  # parsed (scene_contact) but the step-by-step solve is not built
+        raise DataError("[advance]: advancing out of a sheath is not solved yet (issue 31)")
     if scene.aim is not None:  # the inverse problem (contract section 9): the field is solved for
         return _solve_aimed(scene, elements=elements, model=model, variant=variant, element=element)
     chosen = resolve_model(scene, model)
@@ -93,7 +96,7 @@ def solve(
         nonlocal last
         if scene.kind == "cantilever":  # presented as a Solution only if it is the answer
             last = equilibrium(scene, elements=n, model=chosen, variant=variant, element=element, start=last)
-            return last, last.tip(), last.runtime_s
+            return last, last.quantities(), last.runtime_s
         sol = solve_bend(scene, elements=n)
         force = np.asarray(sol.three_point_bend["force"])
         return sol, force / max(float(np.max(np.abs(force))), 1e-300), sol.runtime_s
@@ -113,6 +116,8 @@ def solve(
             estimate["penalty_error"] = penalty_error(result)
             error += estimate["penalty_error"]
         extra = {"error_estimate": estimate, "warnings": strain_warnings(result)}
+        if result.contact is not None:  # walls and lumen (contract section 12)
+            extra.update(contacts_of(result))
         return result.solution(discretization_error=error, extra=extra)
     return replace(result, discretization_error=est.error, extra={**result.extra, "error_estimate": estimate})
 
@@ -201,3 +206,10 @@ def whole_tube(model: BendModel, path: BendPath):
     d1 = np.column_stack([np.cos(theta), zero, -np.sin(theta)])
     d3 = np.column_stack([np.sin(theta), zero, np.cos(theta)])
     return s, position, d1, d3
+
+
+def contacts_of(result: Equilibrium) -> dict:
+    """{"contacts", "contact_tolerance"} of a converged state with walls or a lumen, SI, lab frame."""
+    rod = result.scene.rod
+    contacts = to_lab(result.contact[0], result.e_a, rod.length, rod.E_b)
+    return {"contacts": contacts, "contact_tolerance": CONTACT_FRACTION * result.scene.tolerance * rod.length}

@@ -23,6 +23,7 @@ from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follo
 from matid.rod.scenes import Scene, plane_of
 from matid.rod.system import RodSystem
 from matid.rod.terms import Scale, Term, loads_of
+from matid.rod.terms.contact import contact_of, settle
 
 #: A rigid segment: bending and twist RIGID_FACTOR times the rod's, shear and
 #: extension at least RIGID_FACTOR (scaled by E_b/L^2). Its share of the rod's
@@ -169,10 +170,17 @@ def equilibrium(
         X, info = follow(system, x0, [1.0], definite_start=probe)
     else:
         X, info = X
+    X = settle(system, X, info, newton, _check_admissible)  # walls and lumen (terms.contact)
     U = system.expand(X).reshape(disc.nscalar, disc.nf)
     runtime = time.perf_counter() - t0
+    bound = contact_of(system)
+    if bound is None:
+        contact = None
+    else:
+        term, state = bound[0], system.expand(X)
+        contact = (term.contacts(system, *bound[1:], state), term.quantities(system, *bound[1:], state))
     return Equilibrium(
-        scene, chosen, disc, U, e_a, info, runtime, tuple(system.terms), system.converged_stress()
+        scene, chosen, disc, U, e_a, info, runtime, tuple(system.terms), system.converged_stress(), contact
     )
 
 
@@ -208,6 +216,7 @@ class Equilibrium:
     runtime_s: float
     terms: tuple[str, ...]
     stress: np.ndarray | None = None  # C e(u) at the quadrature points (ne, nq, ns), mixed Newton
+    contact: tuple | None = None  # (contacts, quantities) scaled, of terms.contact; None: no walls
 
     def stress_at(self, disc: Discretisation) -> np.ndarray | None:
         """The point stresses recovered at another mesh's quadrature points: linear through the
@@ -246,6 +255,15 @@ class Equilibrium:
         if self.disc.element != "P2":
             return None
         return self.disc.vertices.copy(), self.U[self.disc.value_dofs]
+
+    def quantities(self) -> np.ndarray:
+        """What the error estimate follows: the tip, and with contact each boundary's resultant
+        (relative to the largest) and its force-weighted s."""
+        if self.contact is None:
+            return self.tip()
+        q = self.contact[1].reshape(-1, 4).copy()
+        q[:, :3] /= max(float(np.abs(q[:, :3]).max()), 1e-300)
+        return np.concatenate([self.tip(), q.ravel()])
 
     def tip(self) -> np.ndarray:
         """(tip position / L, tip d3): the Solution's last row (to round-off), without building it."""

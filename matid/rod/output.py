@@ -35,6 +35,14 @@ UNITS = {
     "aim.tip_direction_error_rad": "rad",
     "aim.runtime_s": "s",
 }
+#: The units of the contact keys (contract section 12), listed only in solutions that have them.
+CONTACT_UNITS = {
+    "contacts.s": "m",
+    "contacts.position": "m",
+    "contacts.force": "N",
+    "contacts.gap_min": "m",
+    "contact_tolerance": "m",
+}
 
 
 def solution_json(sol: Solution) -> dict:
@@ -60,6 +68,10 @@ def solution_json(sol: Solution) -> dict:
     if "aim" in sol.extra:
         doc["aim"] = dict(sol.extra["aim"])
     doc["warnings"] = list(sol.extra.get("warnings", []))
+    if "contacts" in sol.extra:  # contract section 12
+        doc["contacts"] = [dict(c) for c in sol.extra["contacts"]]
+        doc["contact_tolerance"] = float(sol.extra["contact_tolerance"])
+        doc["units"].update(CONTACT_UNITS)
     if sol.three_point_bend is not None:
         doc["three_point_bend"] = {key: _floats(value) for key, value in sol.three_point_bend.items()}
     if sol.discretization_error is not None:
@@ -92,9 +104,11 @@ def shape_png(sol: Solution, *, dpi: int = 120, name: str = "") -> bytes:
         _force_curve(axes[1], sol.three_point_bend)
     else:
         _loads(axes[0], sol, 0)
+        _contacts(axes[0], sol, 0)
         if panels == 2:
             _centreline(axes[1], sol, 1, "y")
             _loads(axes[1], sol, 1)
+            _contacts(axes[1], sol, 1)
     warned = bool(sol.extra.get("warnings"))
     title = shape_title(sol, name)
     fig.suptitle(title, color="C3" if warned else "black", fontsize=9 if warned else None)
@@ -168,6 +182,46 @@ def _loads(ax, sol: Solution, component: int) -> None:
             ax.plot([], [], "-", color="C1", label="dead force (arrow: direction)")
     if loads.magnets or loads.magnetization or forces:
         ax.legend(loc="best", fontsize=8)
+
+
+def _contacts(ax, sol: Solution, component: int) -> None:
+    """Walls (their trace in the view, grey), the lumen's centreline and its two walls in the view,
+    and the contact forces as red arrows (length: a fifth of the rod for the largest)."""
+    scene, L = sol.scene, sol.scene.rod.length
+    if not scene.walls and scene.lumen is None:
+        return
+    z0, z1 = ax.get_xlim()
+    for k, wall in enumerate(scene.walls):
+        p, n = np.asarray(wall.point) * MM, np.asarray(wall.normal)
+        t = np.array([-n[component], n[2]])  # along the wall in the (z, component) view
+        if np.hypot(*t) < 1e-12:
+            continue
+        t = t / np.hypot(*t)
+        span = 2.0 * L * MM
+        zs, vs = p[2] + span * np.array([-t[0], t[0]]), p[component] + span * np.array([-t[1], t[1]])
+        ax.plot(zs, vs, "-", color="0.4", lw=3, alpha=0.5, label="wall" if k == 0 else None)
+    if scene.lumen is not None:
+        line = scene.lumen.line()
+        pts = np.concatenate([np.linspace(a, b, 20) for a, b in line.lines]) if line.lines else None
+        if pts is not None:
+            order = np.argsort(pts[:, 2])
+            c, _ = line.closest(np.column_stack([np.zeros(200), np.zeros(200), np.linspace(-L, 2 * L, 200)]))
+            ax.plot(c[:, 2] * MM, c[:, component] * MM, ":", color="0.4", lw=1, label="lumen centreline")
+            del order
+            w = scene.lumen.radius * MM
+            ax.plot(c[:, 2] * MM, c[:, component] * MM + w, "-", color="0.4", lw=2, alpha=0.5)
+            ax.plot(c[:, 2] * MM, c[:, component] * MM - w, "-", color="0.4", lw=2, alpha=0.5)
+    contacts = sol.extra.get("contacts", [])
+    largest = max((np.linalg.norm(c["force"]) for c in contacts), default=0.0)
+    for k, c in enumerate(contacts):
+        P, Fv = np.asarray(c["position"]), np.asarray(c["force"]) * 0.2 * L / max(largest, 1e-300)
+        ax.annotate("", xy=((P[2] + Fv[2]) * MM, (P[component] + Fv[component]) * MM),
+                    xytext=(P[2] * MM, P[component] * MM),
+                    arrowprops={"arrowstyle": "->", "color": "C3", "lw": 2})  # fmt: skip
+        if k == 0:
+            ax.plot([], [], "-", color="C3", label="contact force")
+    ax.set_xlim(z0, z1)
+    ax.legend(loc="best", fontsize=8)
 
 
 def _bend_setup(ax, sol: Solution) -> None:

@@ -93,6 +93,10 @@ TABLE_KEYS = {
     "field": {"B"},
     "tip": {"force", "moment"},
     "three_point_bend": {"span", "support_radius", "nose_radius", "deflection"},
+    # contract section 12, read by matid.rod.scene_contact
+    "wall": {"point", "normal"},
+    "lumen": {"centreline", "radius", "corner_radius"},
+    "advance": {"free_lengths"},
 }
 
 

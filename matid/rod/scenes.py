@@ -18,6 +18,7 @@ import numpy as np
 
 from matid.errors import DataError
 from matid.rod.accuracy import MAX_ELEMENTS
+from matid.rod.scene_contact import Lumen, Wall, check_contact, contact_keys
 from matid.rod.scene_values import (
     TABLE_KEYS,
     ZERO,
@@ -166,6 +167,9 @@ class Scene:
     elements: int | None = None
     tolerance: float = 1e-6
     aim: Aim | None = None  # the inverse problem: the field direction is solved for
+    walls: tuple[Wall, ...] = ()  # contract section 12 (matid.rod.scene_contact)
+    lumen: Lumen | None = None
+    advance: tuple[float, ...] | None = None  # free lengths, solved in order
 
     def __post_init__(self) -> None:
         if self.kind not in ("cantilever", "three_point_bend"):
@@ -184,6 +188,7 @@ class Scene:
             raise DataError("[aim] applies to cantilever scenes only")
         if self.aim is not None and not (self.loads.magnets or self.loads.magnetization):
             raise DataError("[aim] needs a magnet or a magnetisation: a field turns nothing else")
+        check_contact(self)
 
 
 def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
@@ -204,6 +209,7 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     moments += [np.asarray(seg.precurvature, float) for seg in rod.segments if seg.precurvature]
     scale = max([np.abs(v).max() for v in forces + moments] + [1e-300])
     candidates = [v[:2] for v in forces] + [np.array([m[1], -m[0]]) for m in moments]  # n x e3
+    candidates += [c * scale for c in _contact_directions(scene)]  # walls and lumen: unit
     unit = (c / np.linalg.norm(c) for c in candidates if np.linalg.norm(c) > tol * scale)
     direction = next(unit, np.array([1.0, 0.0]))
     if any(abs(m[2]) > tol * scale for m in moments):
@@ -212,6 +218,16 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
         if abs(c[0] * direction[1] - c[1] * direction[0]) > tol * scale:
             return None
     return (float(direction[0]), float(direction[1]), 0.0)
+
+
+def _contact_directions(scene: Scene) -> list[np.ndarray]:
+    """Unit transverse directions a planar solve must keep in its plane: of each wall's normal and
+    each lumen centreline point (a wall or lumen off the plane makes the scene 3D)."""
+    vectors = [np.asarray(w.normal, float) for w in scene.walls]
+    if scene.lumen is not None:
+        size = max(float(np.abs(np.asarray(scene.lumen.centreline)).max()), scene.lumen.radius)
+        vectors += [np.asarray(p, float) / size for p in scene.lumen.centreline]
+    return [v[:2] / np.linalg.norm(v[:2]) for v in vectors if np.linalg.norm(v[:2]) > 1e-12]
 
 
 # -- loading -----------------------------------------------------------------
@@ -331,6 +347,7 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
         elements=elements,
         tolerance=float(tolerance),
         aim=_aim(raw),
+        **contact_keys(raw),
     )
 
 

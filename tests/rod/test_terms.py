@@ -12,7 +12,7 @@ from matid.rod.cantilever import _prepare, mesh
 from matid.rod.models import PLANAR
 from matid.rod.scenes import load_scene, scene_from_dict
 from matid.rod.system import RodSystem
-from matid.rod.terms import LOADS, DistributedForce, Magnetisation, Magnets, PointLoads, Tip, UnityGauge
+from matid.rod.terms import LOADS, Contact, DistributedForce, Magnetisation, Magnets, PointLoads, Tip, UnityGauge
 
 SCENES = Path(__file__).resolve().parents[2] / "examples" / "scenes"
 ROD = {"length": "30 mm", "E_b": 1e-4, "E_t": 1e-4, "E_s": 10, "E_e": 10}
@@ -54,13 +54,14 @@ def test_every_load_and_the_gauge_of_the_full_model() -> None:
         "load": {"distributed_force": ["0 N/m", "1 N/m", "0 N/m"]},  # out of the field's plane: 3D
         "tip": {"force": ["0.01 N", "0 N", "0 N"]},
         "point_load": [{"at": "15 mm", "force": ["0.01 N", "0 N", "0 N"]}],
+        "wall": [{"point": ["-20 mm", "0 mm", "0 mm"], "normal": [1, 0, 0]}],
     }
     system = _system(scene_from_dict(raw))
     assert system.model != PLANAR
-    assert _types(system) == [Magnetisation, DistributedForce, Tip, Magnets, PointLoads, UnityGauge]
+    assert _types(system) == [Magnetisation, DistributedForce, Tip, Magnets, PointLoads, Contact, UnityGauge]
     assert set(LOADS) <= set(_types(system))
     assert system.terms == [
-        "bending", "shear", "extension", "twist", "unity penalty", "magnetic", "point loads"
+        "bending", "shear", "extension", "twist", "unity penalty", "magnetic", "point loads", "contact"
     ]  # fmt: skip
 
 

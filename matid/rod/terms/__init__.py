@@ -8,6 +8,7 @@ those a scene has. A new load is one module here, one entry in LOADS and its key
 from __future__ import annotations
 
 from matid.rod.terms.base import Scale, Term
+from matid.rod.terms.contact import Contact
 from matid.rod.terms.distributed import DistributedForce
 from matid.rod.terms.gauge import UnityGauge
 from matid.rod.terms.magnetisation import Magnetisation
@@ -16,7 +17,7 @@ from matid.rod.terms.point_loads import PointLoads
 from matid.rod.terms.tip import Tip
 
 #: Every load a cantilever scene may have, in the order their residuals are summed.
-LOADS = (Magnetisation, DistributedForce, Tip, Magnets, PointLoads)
+LOADS = (Magnetisation, DistributedForce, Tip, Magnets, PointLoads, Contact)
 
 
 def loads_of(scene, scale: Scale) -> tuple[Term, ...]:
@@ -27,6 +28,7 @@ def loads_of(scene, scale: Scale) -> tuple[Term, ...]:
 
 __all__ = [
     "LOADS",
+    "Contact",
     "DistributedForce",
     "Magnetisation",
     "Magnets",
