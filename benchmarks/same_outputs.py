@@ -23,6 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 TIMED = re.compile(r"run time|Run started|runtime|elements: error|from scratch|Runtime", re.I)
 RUN_TIME_FIGURE = re.compile(r'(<img src="data:image/png;base64,)[^"]*("[^>]*alt="[^"]*run time)')
+#: Where a run put the batch's studies (this script's lots-in/, or an older reference's temp folder).
+LOTS = re.compile(r"[^\s\"'<>]*?(lots-in|matid-same-outputs-lots)")
 SECONDS = re.compile(r"\d[\d.eE+-]*\s*(ms|s|UTC)\b|\d{4}-\d\d-\d\d \d\d:\d\d:\d\d")
 
 
@@ -30,7 +32,7 @@ def _runs(out: Path) -> list[tuple[str, list[str]]]:
     runs = [("demo", ["demo", "--out", str(out / "demo")])]
     for scene in sorted((ROOT / "examples" / "scenes").glob("*.toml")):
         runs.append((scene.stem, ["solve", str(scene), "--out", str(out / "scenes" / scene.stem)]))
-    lots = Path(tempfile.gettempdir()) / "matid-same-outputs-lots"  # one path: reports print it
+    lots = out / "lots-in"  # the batch's studies (their path is masked in the views)
     for name in ("lotA", "lotB"):
         shutil.copytree(ROOT / "matid" / "example", lots / name, dirs_exist_ok=True)
     runs.append(("batch", ["fit", str(lots / "lotA"), str(lots / "lotB"), "--out", str(out / "batch"),
@@ -53,6 +55,11 @@ def make(out: Path) -> None:
     (out / "exit_codes.json").write_text(json.dumps(codes, indent=1, sort_keys=True))
 
 
+def _masked(text: str) -> str:
+    """``text`` with the checkout's path and the batch studies' folder masked."""
+    return LOTS.sub("LOTS", text.replace(str(ROOT), "ROOT"))
+
+
 def _strip(data):
     if isinstance(data, dict):
         return {k: _strip(v) for k, v in data.items() if "runtime" not in k}
@@ -67,7 +74,7 @@ def _text(path: Path) -> str:
         text = "\n".join(page.extract_text() for page in PdfReader(path).pages)
     else:
         text = path.read_text(errors="replace")
-    text = text.replace(str(ROOT), "ROOT")  # the demo's inputs are named by their path in the checkout
+    text = _masked(text)  # the demo's inputs are named by their path in the checkout
     text = RUN_TIME_FIGURE.sub(r"\1\2", text)
     text = re.sub(r"\d[\d.]* s</td>", "N s</td>", text)  # the run-time column of summary.html
     return "\n".join(SECONDS.sub("N", line) if TIMED.search(line) else line for line in text.splitlines())
@@ -78,7 +85,7 @@ def _cells(path: Path) -> list:
     book = load_workbook(path)
     views = []
     for sheet in book:
-        rows = [[c.value.replace(str(ROOT), "ROOT") if isinstance(c.value, str) else c.value for c in row]
+        rows = [[_masked(c.value) if isinstance(c.value, str) else c.value for c in row]
                 for row in sheet.iter_rows()]
         timed = [i for i, name in enumerate(rows[0] if rows else []) if "runtime" in str(name)]
         views.append((sheet.title, [[None if i in timed else v for i, v in enumerate(r)] for r in rows]))
@@ -87,9 +94,9 @@ def _cells(path: Path) -> list:
 
 def _view(path: Path):
     if path.suffix == ".json":
-        return _strip(json.loads(path.read_text().replace(json.dumps(str(ROOT))[1:-1], "ROOT")))
+        return _strip(json.loads(_masked(path.read_text())))
     if path.suffix in {".csv", ".stdout"}:
-        return path.read_text(errors="replace").replace(str(ROOT), "ROOT")
+        return _masked(path.read_text(errors="replace"))
     if path.suffix == ".xlsx":
         return _cells(path)
     if path.suffix in {".html", ".pdf"}:
@@ -99,7 +106,7 @@ def _view(path: Path):
 
 def check(ref: Path) -> int:
     """Run every case afresh and compare with ``ref``; print the files that differ."""
-    new = ref.parent / (ref.name + "-new")
+    new = Path(tempfile.mkdtemp(prefix="matid-same-outputs-"))  # concurrent checks never share it
     make(new)
     def outputs(folder: Path) -> list[Path]:  # matid's empty lock files are not outputs
         return sorted(p.relative_to(folder) for p in folder.rglob("*")
