@@ -264,9 +264,10 @@ def fit_warnings(result: StudyResult) -> list[str]:
 
 def summary(result: StudyResult, *, units: str = "SI") -> str:
     """A compact table of the stiffnesses (status in words, value, 95 % interval, unit, method:
-    page 1's, from stiffness.json), then what was not fitted."""
+    page 1's, from stiffness.json), which of two estimates of one stiffness to use, then what was
+    not fitted."""
     from matid.io.results import stiffness_json
-    from matid.report.verdict import STATUS_WORDS
+    from matid.report.verdict import STATUS_WORDS, use_lines
 
     doc = stiffness_json(result, units)
     rows = [("specimen", "parameter", "status", "value", "95 % interval", "unit", "method")]
@@ -282,6 +283,8 @@ def summary(result: StudyResult, *, units: str = "SI") -> str:
             rows.append((sid, name, status, value, interval, item["unit"], item["method"]))
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in rows]
+    uses = use_lines(doc)
+    lines += ["which value to use (a stiffness estimated twice):", *(f"  - {u}" for u in uses)] if uses else []
     lines += [f"{_what(f)}: could not be fitted: {f.reason}" for f in result.failures]
     lines += [f"{_what(p)}: not yet fitted ({p.reason})" for p in result.pending]
     return "\n".join(lines)

@@ -22,7 +22,7 @@ import numpy as np
 from matid import __version__
 from matid.io.cells import text_cell
 from matid.model.results import Estimate, StudyResult, each_value
-from matid.model.status import Status, parameter_statuses, status_text
+from matid.model.status import Status, choices, parameter_statuses, status_text
 from matid.units import from_si
 
 
@@ -48,7 +48,7 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
     """The ``stiffness.json`` document (docs/contract.md sections 4 and 7)."""
     specimens: dict[str, dict] = {}
     warns, windows = parameter_warnings(result), parameter_windows(result)
-    statuses = parameter_statuses(result)
+    statuses, uses = parameter_statuses(result), choices(result)
     for sid, params in result.estimates().items():
         entry = {}
         for name, est in params.items():
@@ -67,6 +67,9 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
                 "warnings": warns.get((sid, name), []),
                 "window": windows.get((sid, name)),
             }
+            use = uses.get((sid, name))
+            if use is not None:  # one of two estimates of one stiffness: which to use, and why
+                item["use"] = {"quantity": use.quantity, "parameter": use.parameter, "why": use.why}
             item.update({k: v for k, v in est.extra.items() if k != "specimen" and k not in item})
             entry[name] = item
         specimens[sid] = entry
