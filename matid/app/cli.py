@@ -171,15 +171,23 @@ def fit_many(args: argparse.Namespace) -> int:
 
 
 def batch_summary(batch) -> str:
-    """Per study: exit code and counts; per parameter: mean ± sd across specimens; then the warnings."""
-    from matid.app.compare import statistics_by_parameter, summary_rows
+    """Per study: exit code and counts; per parameter and section: mean ± sd across specimens of the
+    values with status ok, and the values left out; then the warnings."""
+    from matid.app.compare import geometry_of, left_out_text, statistics_by_parameter, summary_rows
 
     lines = [
         f"{o.name}: exit {o.code}, {len(o.rows)} values, {len(o.warnings)} warnings" for o in batch.outcomes
     ]
-    for s in statistics_by_parameter(summary_rows(batch.outcomes)):
+    for s in statistics_by_parameter(summary_rows(batch.outcomes), geometry_of(batch.outcomes)):
+        where = f"{s['parameter']} ({s['geometry']})" if s["geometry"] else s["parameter"]
+        left = left_out_text(s)
+        left = f"; left out: {left}" if left else ""
+        if s["mean"] is None:
+            lines.append(f"{where}: no value with status ok to pool{left}")
+            continue
         sd = "" if s["sd"] is None else f" ± {s['sd']:.2g}"
-        lines.append(f"{s['parameter']}: {s['mean']:.5g}{sd} {s['unit']} (mean ± sd of {s['n']} specimens)")
+        pooled = f"mean ± sd of {s['n']} specimens" if s["n"] > 1 else "one specimen"
+        lines.append(f"{where}: {s['mean']:.5g}{sd} {s['unit']} ({pooled}, status ok){left}")
     lines += _warning_lines([f"{o.name}: {w}" for o in batch.outcomes for w in o.warnings])
     return "\n".join(lines)
 
