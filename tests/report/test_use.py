@@ -114,3 +114,22 @@ def test_no_page_holds_only_the_end_of_page_one(demo):
     last_row = next(i for i, text in enumerate(pages) if "T2 G E_t / J" in text)
     first_section = next(i for i, text in enumerate(pages) if "Extension, specimen T1" in text)
     assert first_section == last_row or (last_row == 0 and first_section == 1)
+
+
+def test_a_fits_warning_is_one_entry_referred_to_by_each_of_its_parameters():
+    from matid.io.results import stiffness_json
+
+    result = make_result()
+    fit = next(f for f in result.fits if len(f.estimates) > 1)
+    text = "the SLS does not describe the data within their noise"
+    fits = tuple(dataclasses.replace(f, warnings=(*f.warnings, text)) if f is fit else f for f in result.fits)
+    doc = stiffness_json(dataclasses.replace(result, fits=fits))
+    listed = [i for i, w in enumerate(doc["warnings"]) if w.endswith(text)]
+    assert len(listed) == 1  # one fact, one entry
+    params = doc["specimens"][fit.specimen]
+    for est in fit.estimates:
+        item = params[est.parameter]
+        assert listed[0] in item["warning_refs"] and text in item["warnings"]
+    for sid, items in doc["specimens"].items():
+        for item in items.values():
+            assert [w for w in item["warnings"]] == [doc["warnings"][i].split(": ", 1)[1] for i in item["warning_refs"]]
