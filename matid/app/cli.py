@@ -171,15 +171,23 @@ def fit_many(args: argparse.Namespace) -> int:
 
 
 def batch_summary(batch) -> str:
-    """Per study: exit code and counts; per parameter: mean ± sd across specimens; then the warnings."""
-    from matid.app.compare import statistics_by_parameter, summary_rows
+    """Per study: exit code and counts; per parameter and section: mean ± sd across specimens of the
+    values with status ok, and the values left out; then the warnings."""
+    from matid.app.compare import geometry_of, left_out_text, statistics_by_parameter, summary_rows
 
     lines = [
         f"{o.name}: exit {o.code}, {len(o.rows)} values, {len(o.warnings)} warnings" for o in batch.outcomes
     ]
-    for s in statistics_by_parameter(summary_rows(batch.outcomes)):
+    for s in statistics_by_parameter(summary_rows(batch.outcomes), geometry_of(batch.outcomes)):
+        where = f"{s['parameter']} ({s['geometry']})" if s["geometry"] else s["parameter"]
+        left = left_out_text(s)
+        left = f"; left out: {left}" if left else ""
+        if s["mean"] is None:
+            lines.append(f"{where}: no value with status ok to pool{left}")
+            continue
         sd = "" if s["sd"] is None else f" ± {s['sd']:.2g}"
-        lines.append(f"{s['parameter']}: {s['mean']:.5g}{sd} {s['unit']} (mean ± sd of {s['n']} specimens)")
+        pooled = f"mean ± sd of {s['n']} specimens" if s["n"] > 1 else "one specimen"
+        lines.append(f"{where}: {s['mean']:.5g}{sd} {s['unit']} ({pooled}, status ok){left}")
     lines += _warning_lines([f"{o.name}: {w}" for o in batch.outcomes for w in o.warnings])
     return "\n".join(lines)
 
@@ -264,9 +272,10 @@ def fit_warnings(result: StudyResult) -> list[str]:
 
 def summary(result: StudyResult, *, units: str = "SI") -> str:
     """A compact table of the stiffnesses (status in words, value, 95 % interval, unit, method:
-    page 1's, from stiffness.json), then what was not fitted."""
+    page 1's, from stiffness.json), which of two estimates of one stiffness to use, then what was
+    not fitted."""
     from matid.io.results import stiffness_json
-    from matid.report.verdict import STATUS_WORDS
+    from matid.report.verdict import STATUS_WORDS, use_lines
 
     doc = stiffness_json(result, units)
     rows = [("specimen", "parameter", "status", "value", "95 % interval", "unit", "method")]
@@ -282,6 +291,8 @@ def summary(result: StudyResult, *, units: str = "SI") -> str:
             rows.append((sid, name, status, value, interval, item["unit"], item["method"]))
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in rows]
+    uses = use_lines(doc)
+    lines += ["which value to use (a stiffness estimated twice):", *(f"  - {u}" for u in uses)] if uses else []
     lines += [f"{_what(f)}: could not be fitted: {f.reason}" for f in result.failures]
     lines += [f"{_what(p)}: not yet fitted ({p.reason})" for p in result.pending]
     return "\n".join(lines)

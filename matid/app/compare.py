@@ -50,24 +50,38 @@ def statistics_by_parameter(
     rows: Sequence[dict], geometry: Mapping[tuple[str, str], str] | None = None
 ) -> list[dict[str, object]]:
     """Per parameter (in table order) and, given ``geometry`` ((study, specimen) -> section),
-    per section: unit, n specimens, mean, sd (None for n < 2), cv."""
+    per section: unit, n specimens pooled, mean, sd (None for n < 2), cv, the rows pooled and the rows
+    ``left_out``. Only values whose status is ``ok`` are pooled: a value to check, or one the data do
+    not determine, is left out and named, never averaged in."""
     out = []
     for name in PARAMETER_ORDER:
         if name in _COMPARE_SKIP:
             continue
-        mine = [r for r in rows if r["parameter"] == name and r["value"] is not None]  # not_identifiable
         groups: dict[str, list[dict]] = {}
-        for r in mine:
-            section = geometry.get((r["study"], r["specimen"]), "") if geometry else ""
-            groups.setdefault(section, []).append(r)
+        for r in rows:
+            if r["parameter"] == name:
+                section = geometry.get((r["study"], r["specimen"]), "") if geometry else ""
+                groups.setdefault(section, []).append(r)
         for section, group in groups.items():
-            values = [float(r["value"]) for r in group]
-            mean = statistics.fmean(values)
+            pooled = [r for r in group if r.get("status", "ok") == "ok" and r["value"] is not None]
+            values = [float(r["value"]) for r in pooled]
+            mean = statistics.fmean(values) if values else None
             sd = statistics.stdev(values) if len(values) > 1 else None
-            cv = None if sd is None or mean == 0 else abs(sd / mean)
+            cv = None if sd is None or not mean else abs(sd / mean)
             out.append({"parameter": name, "unit": group[0]["unit"], "n": len(values), "mean": mean, "sd": sd,
-                        "cv": cv, "rows": group, "geometry": section})  # fmt: skip
+                        "cv": cv, "rows": pooled, "left_out": [r for r in group if r not in pooled],
+                        "geometry": section})  # fmt: skip
     return out
+
+
+def left_out_text(stat: Mapping) -> str:
+    """The values a mean leaves out, by study / specimen with their status ("" when none)."""
+    from matid.report.verdict import STATUS_WORDS
+
+    return ", ".join(
+        f"{r['study']} / {r['specimen']} ({STATUS_WORDS.get(str(r.get('status')), r.get('status'))})"
+        for r in stat["left_out"]
+    )
 
 
 def geometry_of(outcomes: Sequence[StudyOutcome]) -> dict[tuple[str, str], str]:
@@ -107,37 +121,42 @@ def write_summary(outcomes: Sequence[StudyOutcome], out: Path) -> list[Path]:
 
 
 def comparison_figure(stats: Sequence[dict]) -> bytes:
-    """PNG: one panel per parameter, each specimen's value with its 95 % interval, mean ± sd shaded."""
+    """PNG: one panel per parameter and section, each specimen's value with its 95 % interval (values
+    left out of the mean hollow and grey), the mean ± sd of the pooled ones shaded."""
     from matplotlib.figure import Figure
 
-    height = sum(0.9 + 0.28 * s["n"] for s in stats) or 1.0
+    height = sum(0.9 + 0.28 * (s["n"] + len(s["left_out"])) for s in stats) or 1.0
     fig = Figure(figsize=(7.5, height), layout="constrained")
     axes = fig.subplots(max(len(stats), 1), 1, squeeze=False)[:, 0]
     for ax, s in zip(axes, stats, strict=False):
-        rows = s["rows"]
-        labels = [escaped(f"{r['study']} / {r['specimen']}") for r in rows]  # no control glyphs
-        y = list(range(len(labels)))
-        values = [float(r["value"]) for r in rows]
-        low = [0.0 if r["ci95_low"] is None else v - r["ci95_low"] for v, r in zip(values, rows, strict=True)]
-        high = [
-            0.0 if r["ci95_high"] is None else r["ci95_high"] - v for v, r in zip(values, rows, strict=True)
-        ]
+        shown = [r for r in (*s["rows"], *s["left_out"]) if r["value"] is not None]
+        labels = [escaped(f"{r['study']} / {r['specimen']}") for r in shown]  # no control glyphs
         if s["sd"] is not None:
             ax.axvspan(
                 s["mean"] - s["sd"], s["mean"] + s["sd"], color="tab:blue", alpha=0.12, label="mean ± sd"
             )
-        ax.axvline(s["mean"], color="tab:blue", lw=1, label="mean")
-        ax.errorbar(
-            values, y, xerr=[low, high], fmt="o", color="black", ms=4, capsize=3, label="value, 95 % interval"
-        )
-        ax.set_yticks(y, labels)
+        if s["mean"] is not None:
+            ax.axvline(s["mean"], color="tab:blue", lw=1, label="mean")
+        for pooled, style in ((True, {"color": "black"}), (False, {"color": "grey", "mfc": "white"})):
+            mine = [(i, r) for i, r in enumerate(shown) if (r in s["rows"]) == pooled]
+            if not mine:
+                continue
+            values = [float(r["value"]) for _, r in mine]
+            low = [0.0 if r["ci95_low"] is None else v - r["ci95_low"] for v, (_, r) in zip(values, mine)]
+            high = [0.0 if r["ci95_high"] is None else r["ci95_high"] - v for v, (_, r) in zip(values, mine)]
+            label = "value, 95 % interval" if pooled else "left out of the mean (not ok)"
+            ax.errorbar(values, [i for i, _ in mine], xerr=[low, high], fmt="o", ms=4, capsize=3, label=label,
+                        **style)  # fmt: skip
+        ax.set_yticks(list(range(len(labels))), labels)
         ax.invert_yaxis()
         ax.set_xlabel(f"{s['parameter']} [{s['unit']}]")
         if s.get("geometry"):
             ax.set_title(f"{s['parameter']}, {s['geometry']}", fontsize="medium", loc="left")
         ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4), useMathText=True)
-    if stats:
-        axes[0].legend(loc="lower left", bbox_to_anchor=(0, 1.02), ncols=3, frameon=False, fontsize="small")
+    legend = {label: handle for ax in axes for handle, label in zip(*ax.get_legend_handles_labels())}
+    if legend:
+        fig.legend(legend.values(), legend.keys(), loc="outside upper left", ncols=4, frameon=False,
+                   fontsize="small")  # fmt: skip
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=110)
     return buffer.getvalue()
@@ -159,7 +178,8 @@ def comparison_page(outcomes: Sequence[StudyOutcome]) -> str:
     esc = html.escape
     stat_rows = "".join(
         f"<tr><td>{s['parameter']}</td><td>{s['n']}</td><td>{_num(s['mean'])}</td><td>{_num(s['sd'], 2)}</td>"
-        f"<td>{_percent(s['cv'])}</td><td>{esc(s['unit'])}</td><td>{esc(s['geometry'])}</td></tr>"
+        f"<td>{_percent(s['cv'])}</td><td>{esc(s['unit'])}</td><td>{esc(s['geometry'])}</td>"
+        f"<td>{esc(left_out_text(s))}</td></tr>"
         for s in stats
     )
     failed = [o for o in outcomes if o.code != 0]
@@ -175,7 +195,7 @@ def comparison_page(outcomes: Sequence[StudyOutcome]) -> str:
         n_studies=len(outcomes),
         n_specimens=len({(r["study"], r["specimen"]) for r in summary_rows(outcomes)}),
         failed=f'<div class="failed"><h2>{len(failed)} failed</h2><ul>{failed_box}</ul></div>' * bool(failed),
-        stats=stat_rows or "<tr><td colspan=7>no values</td></tr>",
+        stats=stat_rows or "<tr><td colspan=8>no values</td></tr>",
         values=_value_rows(stats) or "<tr><td colspan=7>no values</td></tr>",
         studies=study_table,
         figure=f'<img alt="values per specimen with 95 % intervals" src="data:image/png;base64,{figure}">'
@@ -202,7 +222,7 @@ def _value_rows(stats: Sequence[dict]) -> str:
     esc = html.escape
     rows = []
     for s in stats:
-        for r in s["rows"]:
+        for r in (*s["rows"], *s["left_out"]):
             low, high = _num(r["ci95_low"]), _num(r["ci95_high"])
             interval = f"{low} to {high}" if low and high else ""
             status = str(r.get("status", "ok"))
@@ -234,9 +254,10 @@ img {{ max-width: 100%; }}
 </thead>
 <tbody>{studies}</tbody></table>
 <h2>Mean ± standard deviation across specimens of one section</h2>
-<p>Specimens of different sections are never pooled; a value the data do not determine is left out.</p>
-<table><thead><tr><th>parameter</th><th>specimens</th><th>mean</th><th>sd</th><th>cv</th><th>unit</th>
-<th>section (outer/inner diameter)</th></tr></thead>
+<p>Specimens of different sections are never pooled, and only values whose status is "use it" are: a value
+to check, or one the data do not determine, is left out of the mean and named in the last column.</p>
+<table><thead><tr><th>parameter</th><th>specimens pooled</th><th>mean</th><th>sd</th><th>cv</th><th>unit</th>
+<th>section</th><th>left out (status)</th></tr></thead>
 <tbody>{stats}</tbody></table>
 <h2>Each specimen with its 95 % interval</h2>
 {figure}

@@ -22,7 +22,7 @@ import numpy as np
 from matid import __version__
 from matid.io.cells import text_cell
 from matid.model.results import Estimate, StudyResult, each_value
-from matid.model.status import Status, parameter_statuses, status_text
+from matid.model.status import Status, choices, parameter_statuses, status_text
 from matid.units import from_si
 
 
@@ -48,7 +48,7 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
     """The ``stiffness.json`` document (docs/contract.md sections 4 and 7)."""
     specimens: dict[str, dict] = {}
     warns, windows = parameter_warnings(result), parameter_windows(result)
-    statuses = parameter_statuses(result)
+    statuses, uses, refs = parameter_statuses(result), choices(result), warning_refs(result)
     for sid, params in result.estimates().items():
         entry = {}
         for name, est in params.items():
@@ -65,8 +65,12 @@ def stiffness_json(result: StudyResult, units: str = "SI") -> dict:
                 "n_points": est.n_points,
                 "method": est.method,
                 "warnings": warns.get((sid, name), []),
+                "warning_refs": refs.get((sid, name), []),
                 "window": windows.get((sid, name)),
             }
+            use = uses.get((sid, name))
+            if use is not None:  # one of two estimates of one stiffness: which to use, and why
+                item["use"] = {"quantity": use.quantity, "parameter": use.parameter, "why": use.why}
             item.update({k: v for k, v in est.extra.items() if k != "specimen" and k not in item})
             entry[name] = item
         specimens[sid] = entry
@@ -91,6 +95,20 @@ def parameter_warnings(result: StudyResult) -> dict[tuple[str, str], list[str]]:
     """(specimen, parameter) -> its warnings: those of the fit that gave it (a fit's warning, e.g. lack
     of fit, concerns each of its parameters: docs/contract.md section 7), then its own."""
     return each_value(result, lambda est, fit: [*(fit.warnings if fit else ()), *est.warnings])
+
+
+def warning_refs(result: StudyResult) -> dict[tuple[str, str], list[int]]:
+    """(specimen, parameter) -> the positions (from 0) in stiffness.json's top-level ``warnings`` of
+    its warnings: a fit's warning is one fact, listed once there and referred to by each parameter
+    of the fit (its ``warnings`` repeat the text, contract section 7)."""
+    position = {entry: i for i, entry in reversed(list(enumerate(result.warning_list())))}
+
+    def refs(est: Estimate, fit) -> list[int]:
+        mine = [(fit.specimen, fit.kind, w) for w in fit.warnings] if fit else []
+        mine += [(fit.specimen if fit else "", est.parameter, w) for w in est.warnings]
+        return sorted({position[m] for m in mine if m in position})
+
+    return each_value(result, refs)
 
 
 def rows_used(result: StudyResult) -> dict[Path, int]:

@@ -156,3 +156,73 @@ def _strongest_correlation(parameter: str, fit: TestFit | None) -> tuple[str | N
         if parameter == "E_e" and "sls_k1" in names and math.isfinite(r) and abs(r) > abs(best[1]):
             best = (names["sls_k1"], float(r))  # E_e is k1 of the SLS
     return best
+
+
+#: One stiffness estimated two ways: the name of the quantity, then its estimates (first: the default).
+ESTIMATES_OF = {"k G A (shear stiffness)": ("E_s", "E_s_torsion")}
+#: What each estimate is, in the words of the ``use`` reason.
+SOURCE_WORDS = {"E_s": "the three-point bend", "E_s_torsion": "torsion and the section's shear coefficient"}
+
+
+@dataclass(frozen=True)
+class Use:
+    """Which of a specimen's estimates of one stiffness to use (``parameter``; None: neither), and why."""
+
+    quantity: str
+    parameter: str | None
+    why: str
+
+
+def choices(result: StudyResult) -> dict[tuple[str, str], Use]:
+    """(specimen, parameter) -> :class:`Use`, for every parameter that is one of two estimates of one
+    stiffness of a specimen that has both (E_s from the bend, E_s_torsion from torsion). Decided from
+    the statuses only (:func:`status`): the estimate that is ``ok`` when the other is not; of two
+    ``ok`` ones (a disagreement the fits saw is a warning, so a ``check``) the narrower relative
+    interval; neither when none is ``ok``."""
+    statuses = parameter_statuses(result)
+    out: dict[tuple[str, str], Use] = {}
+    for sid, params in result.estimates().items():
+        for quantity, names in ESTIMATES_OF.items():
+            if not all(n in params for n in names):
+                continue
+            choice = choose(quantity, {n: (params[n], statuses[(sid, n)]) for n in names})
+            out.update({(sid, n): choice for n in names})
+    return out
+
+
+def choose(quantity: str, found: Mapping[str, tuple[Estimate, Status]]) -> Use:
+    ok = [n for n, (_, s) in found.items() if s.status == "ok"]
+    others = [n for n in found if n not in ok]
+    if not ok:
+        why = "; ".join(f"{n} is {_words(found[n][1])}: {_head(found[n][1].reason)}" for n in others)
+        return Use(quantity, None, f"neither estimate of {quantity} is ok ({why}); read the warnings")
+    if len(ok) == 1:
+        name, (other,) = ok[0], others
+        why = (f"{name} (from {SOURCE_WORDS[name]}) is ok; {other} (from {SOURCE_WORDS[other]}) is "
+               f"{_words(found[other][1])}: {_head(found[other][1].reason)}")  # fmt: skip
+        return Use(quantity, name, why)
+    rel = {n: _relative_width(found[n][0]) for n in ok}
+    name = min(ok, key=lambda n: rel[n])
+    widths = ", ".join(f"{n} {100 * rel[n]:.2g} %" for n in ok)
+    why = f"both are ok; {name} has the narrower 95 % interval (half-width relative to the value: {widths})"
+    return Use(quantity, name, why)
+
+
+def _words(verdict: Status) -> str:
+    return {"check": "to check", "not_identifiable": "not identifiable"}.get(verdict.status, verdict.status)
+
+
+def _head(reason: str) -> str:
+    """The first clause of a reason (up to ": " or "; " outside brackets)."""
+    depth = 0
+    for i, char in enumerate(reason):
+        depth += {"(": 1, ")": -1}.get(char, 0)
+        if depth == 0 and reason[i : i + 2] in (": ", "; ") and i > 10:
+            return reason[:i]
+    return reason
+
+
+def _relative_width(est: Estimate) -> float:
+    if est.ci95 is None or not est.value:
+        return math.inf
+    return (est.ci95[1] - est.ci95[0]) / 2 / abs(est.value)

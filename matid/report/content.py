@@ -32,11 +32,20 @@ from matid.report.summary import (
     mark_text,
     marks_of,
     merged_names,
+    moduli_intro,
     moduli_rows,
     notes_of,
     value_cells,
 )
-from matid.report.verdict import STATUS_LEGEND, in_units, reason_line, status_words, summary_intro
+from matid.report.verdict import (
+    STATUS_LEGEND,
+    in_units,
+    reason_line,
+    status_words,
+    summary_intro,
+    use_lines,
+    use_words,
+)
 
 #: Section titles and the parameters each test kind gives, in report order (from the registry).
 SECTIONS: dict[str, tuple[str, tuple[str, ...]]] = {k.name: (k.title, k.parameters) for k in KINDS}
@@ -109,12 +118,15 @@ class Report:
     status_legend: tuple[tuple[str, str], ...]  # each status word and what it asks of the reader
     summary: Table
     moduli: Table | None  # E and G from the stiffnesses and the section
+    moduli_intro: str  # what E and G are computed from: the sections' dimensions
     notes: tuple[Note, ...]  # every warning of the fits, numbered as the summary marks them
     failures: tuple[str, ...]
     pending: tuple[str, ...]
     sections: tuple[Section, ...]
     provenance: Table
     glossary: tuple[tuple[str, str], ...] = ()
+    #: Which of two estimates of one stiffness to use (E_s or E_s_torsion), per specimen, and why.
+    use: tuple[str, ...] = ()
 
 
 def build_report(result: StudyResult, units: str) -> Report:
@@ -140,12 +152,14 @@ def build_report(result: StudyResult, units: str) -> Report:
         status_legend=STATUS_LEGEND,
         summary=summary_table(result, doc, marks_of(result, notes, titles), units),
         moduli=Table(MODULI_COLUMNS, tuple(moduli), MODULI_NUMERIC) if moduli else None,
+        moduli_intro=moduli_intro(result),
         notes=tuple(notes),
         failures=tuple(failure_message(f) for f in result.failures),
         pending=tuple(pending_message(p, with_specimen=True) for p in result.pending),
         sections=tuple(_sections(result, doc, units)),
         provenance=provenance_table(result.inputs),
         glossary=glossary(units),
+        use=tuple(in_units(line, units) for line in use_lines(doc)),
     )
 
 
@@ -164,7 +178,8 @@ def _summary_row(sid: str, name: str, item: Mapping, marks: list[int], units: st
     """Page 1's row: the status in words, the value and its 95 % interval, the reason in one line."""
     value, _, _, low, high, unit = value_cells(item)
     fixed = "fixed in study.toml, not fitted" if item["method"] == "fixed" else ""
-    why = " ".join(part for part in (in_units(reason_line(item), units) or fixed, mark_text(marks)) if part)
+    reason = "; ".join(part for part in (use_words(name, item), in_units(reason_line(item), units) or fixed) if part)
+    why = " ".join(part for part in (reason, mark_text(marks)) if part)
     status = status_words(str(item.get("status", "ok")))
     return (sid, name, status, value, interval_text(low, high), unit, why)
 

@@ -16,7 +16,7 @@ import io
 from reportlab.lib import colors
 from reportlab.lib.pagesizes import A4
 from reportlab.lib.units import inch
-from reportlab.platypus import BaseDocTemplate, Frame, PageBreak, PageTemplate, TableStyle
+from reportlab.platypus import BaseDocTemplate, CondPageBreak, Frame, PageBreak, PageTemplate, TableStyle
 from reportlab.platypus.flowables import Flowable, HRFlowable
 
 from matid.report.content import Block, Report, Section, Table, TestView
@@ -55,8 +55,8 @@ def render_pdf(report: Report, images: Images) -> bytes:
     buffer = io.BytesIO()
     doc = _document(buffer, report)
     story = _first_page(report)
-    for section in report.sections:
-        story += _section(section, images)
+    for i, section in enumerate(report.sections):
+        story += _section(section, images, first=i == 0)
     story += _provenance(report)
     story += _glossary(report)
     with binary_streams():
@@ -119,14 +119,15 @@ def _first_page(report: Report) -> list[Flowable]:
     story = [*_title(report), space(8), *_part("Summary of stiffnesses", "summary")]
     story += [para(f"{words}: {meaning}", 8, space=1) for words, meaning in report.status_legend]
     story.append(para(report.summary_intro, 8, muted=True, space=4))
-    story += [_summary_table(report.summary), space(8), *_warnings(report)]
+    story += [_summary_table(report.summary), space(8)]
+    if report.use:
+        title = para("Which value to use where a stiffness is estimated twice", 8.5, bold=True)
+        story += [box(title, report.use, GREEN, width=WIDTH), space(8)]
+    story += _warnings(report)
     if report.moduli:
-        moduli = (
-            "E = E_e / A, E = E_b / I and G = E_t / J of the tube section (diameters of the study, "
-            "taken as exact)."
-        )
-        story += [*_part("Material moduli", "moduli"), para(moduli, 8, muted=True, space=4)]
-        story.append(_table(report.moduli, size=6.5))
+        intro = para(report.moduli_intro, 8, muted=True, space=4)
+        story.append(Together([*_part("Material moduli", "moduli"), intro, _table(report.moduli, size=6.5)]))
+        story.append(space(12))
     return story
 
 
@@ -174,8 +175,15 @@ def _warnings(report: Report) -> list[Flowable]:
 # -- the sections --------------------------------------------------------------------------------
 
 
-def _section(section: Section, images: Images) -> list[Flowable]:
-    story = [PageBreak(), *_part(f"{section.title} ({section.parameters})", section.kind)]
+#: Room (points) the first section needs below page 1's content to start on the same page: so that
+#: the end of page 1 (the moduli, the last warnings) never stands alone on a page of its own.
+FIRST_SECTION_ROOM = 0.45 * A4[1]
+
+
+def _section(section: Section, images: Images, *, first: bool = False) -> list[Flowable]:
+    """A test-kind section from a new page (the first one: on the same page when there is room)."""
+    start = CondPageBreak(FIRST_SECTION_ROOM) if first else PageBreak()
+    story = [start, *_part(f"{section.title} ({section.parameters})", section.kind)]
     for block in section.blocks:
         story += _block(section, block, images)
     return story

@@ -155,7 +155,7 @@ def moduli_rows(result: StudyResult, units: str) -> list[tuple[str, ...]]:
         for source, m in found.items():
             note = ""
             if source == "E_b" and "E_e" in found:
-                note = agreement_text(found["E_e"], m)
+                note = agreement_text(found["E_e"], m, spec.section)
             if statuses[(sid, source)].status == "check":
                 note = "; ".join(filter(None, (f"from {source}, a value to check", note)))
             section = {"E_e": "A", "E_b": "I", "E_t": "J"}[source]
@@ -166,11 +166,29 @@ def moduli_rows(result: StudyResult, units: str) -> list[tuple[str, ...]]:
     return rows
 
 
-def agreement_text(from_extension, from_bending) -> str:
+def moduli_intro(result: StudyResult) -> str:
+    """What the moduli are computed from: each kind of section of the study and the dimensions it reads
+    (a coupon's width and height, a tube's diameters), taken as exact."""
+    shapes = {s.section.shape for s in result.study.specimens}
+    words = []
+    if shapes & {"tube", "slit"}:
+        words.append("the outer and inner diameters of each tube")
+    if "rectangle" in shapes:
+        words.append("the width and height of each rectangular section")
+    sizes = " and ".join(words) or "the section of each specimen"
+    return f"E = E_e / A, E = E_b / I and G = E_t / J, with A, I and J from {sizes} in the study, taken as exact."
+
+
+def _exact(section) -> str:
+    return "width and height taken as exact" if section.shape == "rectangle" else "diameters taken as exact"
+
+
+def agreement_text(from_extension, from_bending, section=None) -> str:
     check = agreement(from_extension, from_bending)
     side = "above" if check.relative_difference > 0 else "below"
     diff = f"E_b / I is {abs(check.relative_difference) * 100:.2g} % {side} E_e / A"
     if check.z is None:
         return diff + " (no standard error to compare with)"
     verdict = "agree" if check.agree else "differ"
-    return f"{diff}: {fmt(check.z, 2)} combined standard errors, the two {verdict} (diameters taken as exact)"
+    exact = "diameters taken as exact" if section is None else _exact(section)
+    return f"{diff}: {fmt(check.z, 2)} combined standard errors, the two {verdict} ({exact})"

@@ -70,6 +70,41 @@ def reason_line(item: Mapping) -> str:
     return f"{reason}. Measure instead: {instead}" if status == "not_identifiable" and instead else reason
 
 
+def use_words(name: str, item: Mapping) -> str:
+    """Page 1's pointer for one of two estimates of one stiffness (``use`` of stiffness.json): which
+    one to use ("" for a parameter estimated once)."""
+    use = item.get("use")
+    if not isinstance(use, Mapping):
+        return ""
+    quantity = str(use.get("quantity", "")).split(" (")[0]
+    if use.get("parameter") is None:
+        return f"neither estimate of {quantity} is ok"
+    if use["parameter"] == name:
+        return f"the one to use for {quantity}"
+    return f"use {use['parameter']} for {quantity} instead"
+
+
+def use_lines(doc: Mapping) -> tuple[str, ...]:
+    """One line per specimen and stiffness estimated twice: the estimate to use, its value, and why."""
+    lines = []
+    for sid, params in doc["specimens"].items():
+        seen = set()
+        for item in params.values():
+            use = item.get("use")
+            if not isinstance(use, Mapping) or use.get("quantity") in seen:
+                continue
+            seen.add(use.get("quantity"))
+            chosen = params.get(use.get("parameter") or "")
+            if chosen is None:
+                lines.append(f"{sid}, {use['quantity']}: use neither: {use['why']}")
+                continue
+            low, high = chosen.get("ci95") or (None, None)
+            interval = f", 95 % interval {low:.4g} to {high:.4g}" if low is not None and high is not None else ""
+            value = f"{chosen['value']:.4g} {chosen['unit']}{interval}"
+            lines.append(f"{sid}, {use['quantity']}: use {use['parameter']} = {value}. Why: {use['why']}.")
+    return tuple(lines)
+
+
 def in_units(text: str, units: str) -> str:
     """``text`` with its SI stiffnesses (``19.33 N``, ``46.6-49.2 N``, ``9e-5 N m^2``) and compliances
     (``0.063-0.17 mm/N``) in ``units``."""

@@ -90,7 +90,7 @@ def test_comparison_shows_mean_and_sd_across_specimens(three):
     values = [float(r["value"]) for r in read_csv(out / "summary.csv") if r["parameter"] == "E_b"]
     assert len(values) == 3 and statistics.stdev(values) > 0  # lot_c is fitted without one length
     mean, sd = statistics.fmean(values), statistics.stdev(values)
-    assert f"E_b: {mean:.5g} ± {sd:.2g} N m^2 (mean ± sd of 3 specimens)" in stdout
+    assert f"): {mean:.5g} ± {sd:.2g} N m^2 (mean ± sd of 3 specimens, status ok)" in stdout
     html = (out / "summary.html").read_text(encoding="utf-8")
     assert '<img alt="values per specimen' in html and "data:image/png;base64," in html
     assert f"<td>E_b</td><td>3</td><td>{mean:.4g}</td><td>{sd:.2g}</td>" in html

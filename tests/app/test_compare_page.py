@@ -62,15 +62,31 @@ def test_failed_study_first_and_each_study_linked(tmp_path):
     assert '<a href="broken/report.html">' not in page  # no report was written
 
 
-def test_mean_and_sd_only_within_one_section(tmp_path):
+def test_mean_and_sd_only_within_one_section_and_only_of_values_ok(tmp_path):
+    """small/A (ok) and small/B (check it) share a section: only A is pooled, B is named as left out;
+    large/C, another section, is never pooled with them."""
     page = comparison_page(outcomes(tmp_path))
-    mean, sd = statistics.fmean([6e-5, 7e-5]), statistics.stdev([6e-5, 7e-5])
-    assert f"<td>E_b</td><td>2</td><td>{mean:.4g}</td><td>{sd:.2g}</td>" in page
     assert re.search(
-        r"<td>E_b</td><td>1</td><td>0.0009</td><td></td><td></td><td>N m\^2</td><td>tube 4/3 mm", page
+        r"<td>E_b</td><td>1</td><td>6e-05</td><td></td><td></td><td>N m\^2</td><td>tube 2/1.5 mm</td>"
+        r"<td>small / B \(check it\)</td>", page
     )
-    pooled = statistics.fmean([6e-5, 7e-5, 9e-4])
-    assert f"<td>{pooled:.4g}</td>" not in page
+    assert re.search(
+        r"<td>E_b</td><td>1</td><td>0.0009</td><td></td><td></td><td>N m\^2</td><td>tube 4/3 mm</td><td></td>", page
+    )
+    for pooled in ([6e-5, 7e-5], [6e-5, 7e-5, 9e-4]):
+        assert f"<td>{statistics.fmean(pooled):.4g}</td>" not in page
+
+
+def test_the_terminal_summary_pools_the_same_way(tmp_path):
+    from types import SimpleNamespace
+
+    from matid.app.cli import batch_summary
+
+    text = batch_summary(SimpleNamespace(outcomes=outcomes(tmp_path)))
+    assert "E_b (tube 2/1.5 mm): 6e-05 N m^2 (one specimen, status ok); left out: small / B (check it)" in text
+    assert "E_b (tube 4/3 mm): 0.0009 N m^2 (one specimen, status ok)" in text
+    assert f"{statistics.fmean([6e-5, 7e-5]):.5g}" not in text and "of 2 specimens" not in text
+    assert "of 3 specimens" not in text
 
 
 def test_values_to_check_are_marked(tmp_path):

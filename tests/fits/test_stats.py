@@ -107,3 +107,25 @@ def test_mean_variance_factor_is_the_variance_of_a_block_mean(rho):
         i = np.arange(m)
         dense = float(np.sum(rho ** np.abs(i[:, None] - i[None, :]))) / m**2
         assert st.mean_variance_factor(np.array([m]), rho)[0] / m == pytest.approx(dense, rel=1e-12)
+
+
+def test_lag1_test_flags_a_short_misfit_the_runs_test_misses():
+    """30 rows of a smooth misfit: reduced chi2 above 2 and neighbours alike (lag-1 p < 1e-3), while the
+    runs test, which sees only signs, stays above 1e-3 (the demo's T2 bend: runs p 0.0014, r 0.69)."""
+    rng = np.random.default_rng(2)
+    x = np.linspace(0.0, 1.0, 30)
+    r = 0.5 * np.sin(2 * np.pi * 1.6 * x) + 0.3 * rng.standard_normal(30)
+    lof = st.lack_of_fit(r, 2)
+    assert lof.reduced_chi2 > st.MISFIT_CHI2 and lof.runs_p > st.MISFIT_RUNS_P
+    assert lof.lag1_p < st.MISFIT_LAG1_P
+    assert lof.misfit and lof.as_info()["misfit"] is True
+    assert lof.warning("the line") is not None
+
+
+def test_lag1_p_holds_its_false_alarm_rate_on_short_independent_records():
+    """Under independence the lag-1 test at 1e-3 alarms at most at its nominal rate (30 rows, 20 000
+    records), and at about 5 % for p < 0.05: the normal law is a fair approximation at this length."""
+    rng = np.random.default_rng(1)
+    p = np.array([st.lag1_p(st.lag1(rng.standard_normal(30)), 30) for _ in range(20_000)])
+    assert np.mean(p < 1e-3) <= 1e-3
+    assert 0.03 < np.mean(p < 0.05) < 0.06
