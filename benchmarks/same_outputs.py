@@ -23,8 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 TIMED = re.compile(r"run time|Run started|runtime|elements: error|from scratch|Runtime", re.I)
 RUN_TIME_FIGURE = re.compile(r'(<img src="data:image/png;base64,)[^"]*("[^>]*alt="[^"]*run time)')
-#: Where a run put the batch's studies (this script's lots-in/, or an older reference's temp folder).
-LOTS = re.compile(r"[^\s\"'<>]*?(lots-in|matid-same-outputs-lots)")
+#: Where runs put the batch's studies (each run's lots-in/; an older reference's temp folder): masked.
+LOTS = [str(Path(tempfile.gettempdir()) / "matid-same-outputs-lots")]
 SECONDS = re.compile(r"\d[\d.eE+-]*\s*(ms|s|UTC)\b|\d{4}-\d\d-\d\d \d\d:\d\d:\d\d")
 
 
@@ -57,7 +57,9 @@ def make(out: Path) -> None:
 
 def _masked(text: str) -> str:
     """``text`` with the checkout's path and the batch studies' folder masked."""
-    return LOTS.sub("LOTS", text.replace(str(ROOT), "ROOT"))
+    for lots in LOTS:
+        text = text.replace(lots, "LOTS")
+    return text.replace(str(ROOT), "ROOT")
 
 
 def _strip(data):
@@ -108,9 +110,10 @@ def check(ref: Path) -> int:
     """Run every case afresh and compare with ``ref``; print the files that differ."""
     new = Path(tempfile.mkdtemp(prefix="matid-same-outputs-"))  # concurrent checks never share it
     make(new)
+    LOTS.extend([str(ref / "lots-in"), str(new / "lots-in")])
     def outputs(folder: Path) -> list[Path]:  # matid's empty lock files are not outputs
         return sorted(p.relative_to(folder) for p in folder.rglob("*")
-                      if p.is_file() and not p.name.endswith(".matid-lock"))
+                      if p.is_file() and not p.name.endswith(".matid-lock") and "lots-in" not in p.parts)
 
     files = outputs(ref)
     extra = [f for f in outputs(new) if not (ref / f).exists()]
