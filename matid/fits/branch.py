@@ -30,7 +30,7 @@ import numpy as np
 
 from matid.errors import DataError
 from matid.fits import stats
-from matid.fits.onset import LINEAR_RANGE_MIN_POINTS, linear_range
+from matid.fits.onset import LINEAR_RANGE_MIN_POINTS, linear_ranges
 
 #: A hold is a run of constant x at least this many rows long ...
 HOLD_ROWS = 10
@@ -124,6 +124,9 @@ class Record:
     used: np.ndarray
     excluded: dict[str, np.ndarray] = field(default_factory=dict)
     flipped: bool = False
+    #: Rows the onset test accepts as one line, before trimming (:func:`matid.fits.onset.linear_ranges`);
+    #: None with a window or before :func:`automatic`.
+    accepted: np.ndarray | None = None
 
     @property
     def left_out(self) -> dict[str, int]:
@@ -189,12 +192,12 @@ def automatic(rec: Record) -> Record:
     idx = np.flatnonzero(rec.used)
     if idx.size == 0:
         return rec
-    inside = np.zeros(rec.x.size, dtype=bool)
-    inside[idx] = linear_range(rec.x[idx], rec.y[idx])
+    inside, accepted = np.zeros(rec.x.size, dtype=bool), np.zeros(rec.x.size, dtype=bool)
+    inside[idx], accepted[idx] = linear_ranges(rec.x[idx], rec.y[idx])
     x0, xs = rec.x[idx[0]], rec.x[inside]
     near = np.abs(rec.x - x0) < np.min(np.abs(xs - x0), initial=np.inf)
     rec = rec.leave_out(inside | ~near, BEFORE)
-    return rec.leave_out(inside, BEYOND)
+    return replace(rec.leave_out(inside, BEYOND), accepted=accepted)
 
 
 def select(

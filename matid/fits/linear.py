@@ -17,7 +17,9 @@ origin: an offset per file would cost precision for nothing. On top of lmfit's r
 matid gives the interval as the AR(1) sandwich of :mod:`matid.fits.stats` on Student's t
 with n_eff - p dof, so it holds for dense records whose noise is correlated, and widens
 when the line misses the data; :func:`matid.fits.stats.lack_of_fit` then names the
-misfit in a warning.
+misfit in a warning. A line that misses the data, or holds few of the loading rows, is not
+the curve's one slope: its interval then also spans the slopes over plausible ranges
+(:func:`range_spread`), since the noise of one chosen range does not say what the choice moves.
 
 Which rows enter: :func:`matid.fits.branch.select`, each row left out with its reason.
 
@@ -73,7 +75,7 @@ def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 class Warning:
     """A warning of a fit: its text and a machine-readable kind for the value's status."""
 
-    kind: str  # sign_flipped, zero_in_interval, little_linear, misfit, slopes_disagree
+    kind: str  # sign_flipped, zero_in_interval, little_linear, misfit, range_spread, slopes_disagree
     text: str
 
 
@@ -278,11 +280,56 @@ def share_warnings(records: Sequence[Record]) -> list[Warning]:
     return out
 
 
+#: After these warnings the line is not the data's one slope: its interval carries the range's choice.
+RANGE_KINDS = ("misfit", "little_linear")
+
+
+def range_slopes(records: Sequence[Record]) -> list[float]:
+    """Slopes of ``y = c + b x`` over each half (in x) of each record's fitted rows and of the rows
+    its onset test accepts as one line (``Record.accepted``): the slopes a reader could have
+    taken as "the" slope of a curve that has none. Halves with under 3 distinct rows give none."""
+    out = []
+    for r in records:
+        for mask in (r.used, r.accepted):
+            if mask is None or not mask.any():
+                continue
+            x, y = r.x[mask], r.y[mask]
+            for half in np.array_split(np.argsort(x, kind="stable"), 2):
+                slope, se = _line(x[half], y[half])
+                if math.isfinite(se):
+                    out.append(slope)
+    return out
+
+
+def range_spread(
+    records: Sequence[Record], fit: LineFit, warnings: Sequence[Warning], parameter: str, advice: str
+) -> tuple[LineFit, list[Warning]]:
+    """The fit with its interval widened to the spread of :func:`range_slopes`, and a warning saying
+    so, when a warning of RANGE_KINDS says the line misses the data or holds few of the loading
+    rows: the noise interval of one range then understates what the choice of range moves. The
+    fit unchanged where the spread lies inside the interval or no such warning applies."""
+    if not any(w.kind in RANGE_KINDS for w in warnings):
+        return fit, []
+    slopes = range_slopes(records)
+    low, high = min(slopes, default=fit.ci95[0]), max(slopes, default=fit.ci95[1])
+    if fit.ci95[0] <= low and high <= fit.ci95[1]:
+        return fit, []
+    ci = (min(fit.ci95[0], low), max(fit.ci95[1], high))
+    text = (
+        f"{parameter} depends on the range fitted: over the halves of the rows fitted and of the rows "
+        f"the onset test accepts as one line, the slope runs from {low:.4g} to {high:.4g}; the 95 % "
+        f"interval ({ci[0]:.4g} to {ci[1]:.4g}) includes this spread. Set a window to the range you "
+        f"mean, or record more points in the small-strain range. {advice}"
+    ).rstrip()
+    return replace(fit, ci95=ci), [Warning("range_spread", text)]
+
+
 def fit_slope(
     records: Sequence[Record], *, specimen: str, parameter: str, against: str, model: str, advice: str
 ) -> tuple[list[Record], LineFit, list[Warning]]:
-    """Records oriented (:func:`orient`), their joint line, and its warnings: sign, linear share
-    and the lack-of-fit warning of :mod:`matid.fits.stats` naming ``model``."""
+    """Records oriented (:func:`orient`), their joint line, and its warnings: sign, linear share,
+    the lack-of-fit warning of :mod:`matid.fits.stats` naming ``model``, and after either of
+    those the spread of the slope over plausible ranges (:func:`range_spread`)."""
     records, warnings = orient(records, "torque", against)
     try:
         fit = fit_lines(records)
@@ -291,7 +338,9 @@ def fit_slope(
         raise FitError(f"specimen {specimen}: {exc}") from exc
     warnings += share_warnings(records)
     text = fit.lof.warning(model, fit.inflation, advice)
-    return records, fit, warnings + ([Warning("misfit", text)] if text else [])
+    warnings += [Warning("misfit", text)] if text else []
+    fit, spread = range_spread(records, fit, warnings, parameter, advice)
+    return records, fit, warnings + spread
 
 
 def slope_result(kind: str, specimen: str, measurements, parameter: str, line, lengths, x_label: str, info):

@@ -16,8 +16,10 @@ the noise); the range is found in x, with no start at zero or direction assumed:
       end, the better kept); a side whose term is not significant (the same corrected
       F-test, at alpha / candidates: the onset is the best of many) stays at the end of
       the data, and so does the start's side when it would hold more than ``TOE_SHARE``
-      of the rows (a curve bent from the start, not a toe). It uses the shape of the
-      whole curve, unlike window tests that admit rows past an onset.
+      of the rows (a curve bent from the start, not a toe); so does the far side when the
+      same departure started at the near onset fits as well (:func:`_distinct`: the "line"
+      between them is the start of a curve). It uses the shape of the whole curve, unlike
+      window tests that admit rows past an onset.
    c. While curvature is still significant inside, the end whose removal leaves the
       straighter stretch (p larger by ``TRIM_PREFERENCE``) is trimmed, else the end away
       from the first recorded row, down to ``LINEAR_RANGE_MIN_POINTS``.
@@ -152,11 +154,31 @@ def _onsets(u: np.ndarray, y: np.ndarray, order: np.ndarray):
     high = _extra_p(full[:, [0, 1, 2]], full, y, noise) < strict
     # a toe is a small part at the start of loading; "most of the record before the line"
     # is a curve bent from the start, whose linear range trimming then finds at the start
+    # likewise a departure on the far side that the data cannot tell from one at the near onset
+    # (the hinge's quadratic then covers the whole record) is a curve bent from the start
     if np.argmin(order) < n / 2:
         low &= lo <= TOE_SHARE * n
+        high &= _distinct(u, y, full, lo, hi, noise, far=3)
     else:
         high &= hi >= (1.0 - TOE_SHARE) * n
+        low &= _distinct(u, y, full, hi, lo, noise, far=2)
     return (lo if low else 0), (hi if high else n - 1)
+
+
+def _distinct(u, y, full: np.ndarray, near: int, onset: int, noise, *, far: int) -> bool:
+    """Whether the far side's departure at ``onset`` fits better than the same departure started
+    at the near onset ``near`` (no line between them), by the corrected F-test at
+    LINEAR_RANGE_ALPHA on one dof: else the stretch between the onsets is no line but the start
+    of a curve (a closed tube on a machine angle channel: an onset 11 rows into 1143)."""
+    moved = full.copy()
+    moved[:, far] = (np.maximum if far == 3 else np.minimum)(u - u[near], 0.0) ** 2
+    rss_far, rss_near = _rss(full, y), _rss(moved, y)
+    dof = y.size - full.shape[1]
+    if rss_far <= 0.0 or dof < 1 or onset == near:
+        return True
+    factor, n_eff = noise
+    f = max(rss_near - rss_far, 0.0) / (rss_far / dof) / factor
+    return float(scipy.stats.f.sf(f, 1, max(n_eff - full.shape[1], 1.0))) < LINEAR_RANGE_ALPHA
 
 
 def _p(u, y, order, lo: int, hi: int) -> float:
@@ -191,19 +213,29 @@ def linear_range(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Mask of the rows in the linear range ``x_lo <= x <= x_hi`` of ``y = c + a x`` data, rows
     in recording order (module docstring); with LINEAR_RANGE_MIN_POINTS finite rows or fewer,
     all of them."""
+    return linear_ranges(x, y)[0]
+
+
+def linear_ranges(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(linear range, accepted range): the mask of :func:`linear_range` and that of the rows
+    between the onsets of step b, before trimming: the stretch the onset test cannot tell from
+    one line at its (Bonferroni-strict) level. Where the slope differs between the two, the
+    choice of range is part of the slope's uncertainty (:func:`matid.fits.linear.range_spread`)."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if x.ndim != 1 or x.shape != y.shape:
         raise ValueError("x and y must be 1-d arrays of the same length")
     ok = np.isfinite(x) & np.isfinite(y)
     index = np.flatnonzero(ok)[np.argsort(x[ok], kind="stable")]
     if index.size <= LINEAR_RANGE_MIN_POINTS or np.ptp(x[index]) <= 0:
-        return ok
+        return ok, ok
     xs = x[index]
     u, yy = (xs - 0.5 * (xs[0] + xs[-1])) / (0.5 * (xs[-1] - xs[0])), y[index]
     if _curvature_p(u, yy, index) >= LINEAR_RANGE_ALPHA:
-        return ok
-    lo, hi = _trim(u, yy, index, *_onsets(u, yy, index))
-    return ok & (x >= xs[lo]) & (x <= xs[hi])
+        return ok, ok
+    first = _onsets(u, yy, index)
+    lo, hi = _trim(u, yy, index, *first)
+    accepted = ok & (x >= xs[first[0]]) & (x <= xs[first[1]])
+    return ok & (x >= xs[lo]) & (x <= xs[hi]), accepted
 
 
 def departure(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float]:

@@ -221,8 +221,10 @@ def test_torsion_warns_when_little_is_linear():
     phi = np.linspace(0.0, 3.0, 80)
     torque = torsion_curve(phi / 0.02, 0.3 / 0.02, change=-0.5) + rng.normal(0.0, 1e-6, phi.size)
     run = measurement("torsion", "soft.csv", {"length": 0.02}, twist_angle=phi, torque=torque)
-    (warning,) = fit_torsion([run], specimen="T1").estimate("E_t").warnings
+    est = fit_torsion([run], specimen="T1").estimate("E_t")
+    warning = est.warnings[0]
     assert warning.startswith("soft.csv: only") and "linear range" in warning
+    assert est.extra["warning_kinds"] in (("little_linear",), ("little_linear", "range_spread"))
 
 
 def test_torsion_stiffening_onset_and_unequal_noise_is_unbiased():
@@ -360,9 +362,13 @@ def test_a_curve_in_bending_is_cut_to_its_linear_range_and_said():
     assert top < 0.3  # the start of loading, where the curve is nearest a line
     # least-squares slope of E theta (1 + 0.2 theta) over low <= theta <= top: E (1 + 0.2 (low + top))
     assert est.value == pytest.approx(E_B * (1.0 + 0.2 * (low + top)), rel=0.005)
-    (warning,) = est.warnings
+    warning, spread = est.warnings
     assert warning.startswith("c.csv: only") and "of 300 loading points are in the linear range" in warning
-    assert est.extra["warning_kinds"] == ("little_linear",)
+    assert est.extra["warning_kinds"] == ("little_linear", "range_spread")
+    # the interval spans the slopes over the halves of the fitted rows: E (1 + 0.2 (2 low + top) / 2 ...)
+    assert est.ci95[0] <= E_B * (1.0 + 0.2 * (1.5 * low + 0.5 * top)) * (1 + 1e-3)
+    assert est.ci95[1] >= E_B * (1.0 + 0.2 * (0.5 * low + 1.5 * top)) * (1 - 1e-3)
+    assert "depends on the range fitted" in spread
     assert sum(fit.info["left_out"]["c.csv"].values()) == 300 - est.n_points > 150
     first = int(np.argmax(fit.series[0].used))
     assert fit.info["left_out_rows"]["c.csv"]["beyond the linear range"] == [[first + est.n_points, 299]]

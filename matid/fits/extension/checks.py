@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from matid.fits import stats
+from matid.fits import branch, stats
 from matid.fits.extension.lsq import _PARAM_NAMES
 from matid.fits.extension.runs import _Run
 
@@ -135,8 +135,24 @@ _NONLINEAR_SHARE = 0.05
 _NONLINEAR_T = 3.0
 
 
+def single_ramps(runs: Sequence[_Run]) -> bool:
+    """Whether every run's used rows are one ramp at one rate: strain never held or reversed
+    (:func:`matid.fits.branch.branch`), one run or all at the same rate within 10 %. Such
+    records cannot tell relaxation from an elastic curve that bends with strain (both bend the
+    ramp; a hold, an unloading or a second rate would part them)."""
+    for run in runs:
+        eps, force = run.eps[run.used], run.force[run.used]
+        if eps.size < 3 or any(mask.any() for mask in branch.branch(eps, force).values()):
+            return False
+    rates = [run.rate for run in runs]
+    return max(rates) <= 1.1 * min(rates)
+
+
 def nonlinear(
-    runs: Sequence[_Run], relaxing: Sequence[np.ndarray], e_e: float
+    runs: Sequence[_Run],
+    relaxing: Sequence[np.ndarray],
+    e_e: float,
+    what: str = "the elastic tangent (force less the model's relaxing part)",
 ) -> tuple[str, float, float] | None:
     """(warning, low, high) when the force is not linear in strain over the record, else None.
 
@@ -167,8 +183,8 @@ def nonlinear(
     if abs(t_hi - t_lo) <= _NONLINEAR_SHARE * e_e:
         return None
     warning = (
-        f"the force is not linear in strain over the record: the elastic tangent (force less the "
-        f"model's relaxing part) is {t_lo:.4g} N at strain {lo:.3g} and {t_hi:.4g} N at strain "
+        f"the force is not linear in strain over the record: {what} "
+        f"is {t_lo:.4g} N at strain {lo:.3g} and {t_hi:.4g} N at strain "
         f"{hi:.3g}; E_e = {e_e:.4g} N is a mean over strain {lo:.3g} to {hi:.3g} and its interval "
         "spans the tangents; for the small-strain value, give the test a window on strain where "
         "the tangent holds"

@@ -38,7 +38,7 @@ import numpy as np
 
 from matid.errors import FitError
 from matid.fits.extension import prony
-from matid.fits.extension.checks import _k1_warnings, _unidentifiable, end_of_hold, nonlinear
+from matid.fits.extension.checks import _k1_warnings, _unidentifiable, end_of_hold, nonlinear, single_ramps
 from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _models, _solve, _values
 from matid.fits.extension.runs import _Run, _run, _unique
 from matid.fits.extension.stats import _correlation, _covariance_fit, _intervals, _misfit, _sandwich, _stderr
@@ -163,6 +163,12 @@ def _nonlinear(e_e: Estimate, runs, k, best: prony.PronyFit | None) -> Estimate:
     else:
         relaxing = [prony.prony_force(run.t, run.eps, 0.0, best.ks, best.taus) for run in runs]
     found = nonlinear(runs, relaxing, e_e.value)
+    if found is None and single_ramps(runs):  # the relaxing part may be an elastic curve's bend
+        what = (
+            "a single ramp at one rate cannot tell relaxation from an elastic curve that bends "
+            "with strain, and the force's own tangent"
+        )
+        found = nonlinear(runs, [np.zeros(run.t.size) for run in runs], e_e.value, what)
     return e_e if found is None else _widened(e_e, *found)
 
 
