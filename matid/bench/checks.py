@@ -43,7 +43,7 @@ def planar_state_check(scene: Scene, sol) -> dict:
 
 def _rebuild(scene: Scene, sol):
     from matid.rod import cantilever as solve_mod
-    from matid.rod.fem import Discretisation, graded_vertices
+    from matid.rod.fem import Discretisation
     from matid.rod.models import PLANAR
     from matid.rod.scenes import plane_of
     from matid.rod.system import RodSystem
@@ -51,7 +51,7 @@ def _rebuild(scene: Scene, sol):
     if sol.model != PLANAR or sol.element != "P2":
         raise ValueError("only planar P2 solutions are checked")
     e_a, e3 = np.asarray(plane_of(scene)), np.array([0.0, 0.0, 1.0])
-    vertices = graded_vertices(1.0, sol.elements, breaks=solve_mod.breaks(scene))
+    vertices = np.asarray(sol.s)[::2] / scene.rod.length  # P2 nodes: vertex, mid-point, vertex, ...
     disc = Discretisation(vertices, 3, element="P2", intorder=2)
     system = RodSystem(disc, *solve_mod.scaled(scene, e_a), model=PLANAR)
     L = scene.rod.length

@@ -11,15 +11,16 @@ in the planar model, no precurvature term when it is zero.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from matid.physics import full, planar
 from matid.physics import kinematics as kin
 from matid.physics.jet import Jet
+from matid.rod import stability
 from matid.rod.fem import Discretisation
 from matid.rod.models import FULL, PLANAR, ScaledRod
 from matid.rod.terms import Term, UnityGauge
@@ -223,8 +224,8 @@ class RodSystem:
         return all(term.symmetric(self) for term, _ in bound)
 
     def reject(self, X: np.ndarray, lam: float, factor: object = None) -> str | None:
-        """Why a converged state is no answer, or None: a saddle of the potential is not an equilibrium
-        a rod can hold (used by :func:`matid.rod.newton.follow` to halve the load step).
+        """Why a converged state is no answer, or None: an unstable equilibrium is not one a rod can
+        hold (used by :func:`matid.rod.newton.follow` to halve the load step).
 
         ``factor``: Newton's last factorised tangent; a successful banded Cholesky of it
         (every pivot > 0) is the stability test, read off without a second factorisation.
@@ -238,41 +239,38 @@ class RodSystem:
             return None
         if self.negative_modes(X, lam):
             if not self.symmetric:
+                w = self.unstable[0]
                 return (
-                    "no stable equilibrium assured: with a dead moment in 3D (no potential) the "
-                    "symmetrised tangent is not positive definite (physics.md section 8)"
+                    f"unstable equilibrium: {self.unstable.size} eigenvalue(s) of the tangent with a "
+                    f"non-positive real part (lowest {w.real:.3g}{w.imag:+.3g}j; a dead moment in 3D, "
+                    "judged on overdamped slender-rod dynamics: matid.rod.stability)"
                 )
             return "unstable equilibrium (the tangent stiffness is not positive definite: buckling or snap)"
         return None
 
     def negative_modes(self, X: np.ndarray, lam: float) -> int | None:
-        """Non-positive pivots of the tangent at X: 0 iff it is positive definite (a stable state).
-
-        The test of Cholesky: SuperLU in symmetric mode without off-diagonal
-        pivoting (checked: perm_r == perm_c) computes K = L D L^T, and every
-        pivot of D is positive iff K is (for a positive definite K this
-        elimination is backward stable, so a pivot <= 0 is no round-off).
+        """Unstable modes of the tangent at X: 0 iff the state is stable (:mod:`matid.rod.stability`);
         None when the test cannot be made.
 
-        With dead moments in 3D (physics.md section 8), which have no potential: the test of
-        the symmetrised tangent (K + K^T)/2, i.e. positive second-order work of every
-        perturbation (Hill's criterion: sufficient, coordinate-free). Measured: it rejects the
-        saddle of a magnet in a reversed field (two negative eigenvalues, so det K > 0 there: a
-        sign change of det K would miss it), and pure dead tip moments above ~2.2 E_b/L in
-        3D (det K > 0 there too: stability is then not assured, rather than assumed).
+        Symmetric tangent: its non-positive L D L^T pivots. With a dead moment in 3D (no
+        potential): 0 when the symmetric part is positive definite (positive second-order work:
+        stable whatever the dissipation), else the eigenvalues of the pencil (K, D) with a
+        non-positive real part, D the drag of :func:`matid.rod.stability.drag` (kept in
+        ``self.unstable``).
         """
-        K = self.evaluate(X, lam)[1].tocsr()
-        if not self.symmetric:
-            K = (K + K.T) * 0.5
-        try:
-            lu = spla.splu(
-                K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-            )
-        except RuntimeError:  # an exactly zero pivot: singular, a bifurcation point
-            return 1
-        if not np.array_equal(lu.perm_r, lu.perm_c):
-            return None
-        return int(np.sum(lu.U.diagonal() <= 0.0))
+        K = self.evaluate(X, lam)[1]
+        csr = K.tocsr()
+        if self.symmetric:
+            return stability.ldl_negative(csr)
+        if stability.ldl_negative((csr + csr.T) * 0.5) == 0:
+            return 0
+        self.unstable = stability.unstable_modes(csr, self.drag, getattr(K, "factor", None))
+        return int(self.unstable.size)
+
+    @functools.cached_property
+    def drag(self):
+        """The dissipation of the stability test of loads without a potential (built once)."""
+        return stability.drag(self.disc)
 
     def expand(self, X: np.ndarray) -> np.ndarray:
         U = self._reference().copy()
