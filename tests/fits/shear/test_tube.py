@@ -124,10 +124,15 @@ def test_stated_nose_bias_holds_at_high_load():
     assert est.warnings[0].startswith("E_s is likely too low") and est.ci95[0] < E_s < est.ci95[1]
 
 
-def test_local_compliance_law_matches_the_continuum_tube():
-    """0.19-0.28 mm/N measured (under-resolved by ~15 %) must lie in the predicted range."""
+@pytest.mark.parametrize("name", ["S6_bench.json", "S10_bench.json", "S15_bench.json", "S30_bench.json"])
+def test_local_compliance_law_holds_on_spans_it_was_not_calibrated_on(name):
+    """The band is calibrated on spans 8 and 20 mm (matid.fits.shear.torsion); the local compliance
+    (nose travel minus centreline deflection, over F) of the continuum at the held-out spans
+    must lie in it (measured 0.206-0.312 mm/N against the band 0.188-0.312 mm/N)."""
     low, high = shear_torsion.local_compliance(TUBE, 50e6)
-    assert low <= 0.19e-3 and 0.28e-3 <= high <= 0.4e-3
+    rows = json.loads((DATA / name).read_text())["rows"]
+    measured = np.array([(r["delta"] - r["delta_centroid"]) / r["F"] for r in rows]) * 1e-3  # m/N
+    assert np.all((low <= measured) & (measured <= high)), (name, measured, (low, high))
 
 
 # --------------------------------------------------------------------------- E_s from torsion
@@ -191,7 +196,7 @@ def rod(span: float, n: int = 24, frac: float = 0.05) -> tuple[np.ndarray, np.nd
 
 
 def fit_rod(tests, **kw):
-    """Data of the rod model itself: no contact compliance, no model-form error."""
+    """Rod data (the shooting model): no contact compliance, no model-form error."""
     return shear.fit_three_point_bend(
         tests, specimen=SPEC, known=KNOWN, local_compliance=(0.0, 0.0), model_form=0.0, **kw
     )
