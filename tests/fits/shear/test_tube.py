@@ -50,8 +50,8 @@ def bend(d, F, span, *, at="nose", length=None, name="3pb.csv", window=None) -> 
     )
 
 
-def tube3d(span_mm: int, column: str) -> tuple[np.ndarray, np.ndarray]:
-    rows = json.loads((DATA / f"T{span_mm}.json").read_text())["rows"]
+def tube3d(span_mm: int, column: str, name: str = "T{}.json") -> tuple[np.ndarray, np.ndarray]:
+    rows = json.loads((DATA / name.format(span_mm)).read_text())["rows"]
     return np.r_[0.0, [r[column] for r in rows]] * 1e-3, np.r_[0.0, [r["F"] for r in rows]]
 
 
@@ -77,11 +77,13 @@ def test_centreline_of_the_continuum_tube(span_mm):
         assert any("poorly determined" in w for w in est.warnings)
 
 
-@pytest.mark.parametrize("span_mm", [8, 20])
+@pytest.mark.parametrize("span_mm", [10, 15])
 def test_nose_travel_of_the_continuum_tube_is_never_a_confident_wrong_number(span_mm):
     """Fitted on nose travel the rod model gives 0.23-0.62 of k G A. Here: a warning first, naming the
-    local compliance and what to measure instead, and an interval widened by the predicted bias."""
-    d, F = tube3d(span_mm, "delta")
+    local compliance and what to measure instead, and an interval widened by the predicted bias.
+    On spans the contact-compliance constant was not calibrated on (8 and 20 mm: see
+    matid.fits.shear.torsion): our continuum's 10 and 15 mm."""
+    d, F = tube3d(span_mm, "delta", "S{}_bench.json")
     est = shear.fit_three_point_bend([bend(d, F, span_mm * 1e-3)], specimen=TUBE, known=TUBE_KNOWN).estimate(
         "E_s"
     )
