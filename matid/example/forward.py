@@ -10,7 +10,8 @@ the files. The equations are those of ``physics.md``:
 - tip magnet in a uniform field, section 5: ``theta = (m B L/E_b) sin(psi - theta)``;
 - torsion: ``tau = E_t phi/L`` in the linear range, plus a documented
   departure beyond an onset twist per length (``torsion_torque``);
-- three-point bend: ``bend_force``, matid's rod model of the bend on a fine mesh;
+- three-point bend: ``bend_force``, a strong-form shooting model of the bend
+  (:mod:`matid.example.bend_shooting`), independent of matid's rod model that the fit uses;
   for nose travel, ``bend_force_nose`` adds the local contact travel at the
   three contacts that a real tube shows (``contact_travel``, physics.md section 7).
 """
@@ -22,6 +23,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
+from matid.example.bend_shooting import bend_path
 from matid.fits.shear.torsion import CONTACT_N, CONTACT_REF
 
 
@@ -133,39 +135,22 @@ def torsion_torque(
     return E_t * (k + sign * np.sign(k) * excess**2 / (2.0 * scale))
 
 
-#: Elements of the half model for synthetic bend data: finer than matid's fits use, so
-#: that the data carry no discretisation error of the fit's own mesh.
-BEND_ELEMENTS = 96
-
-
 def bend_force(d: np.ndarray, *, E_b: float, E_s: float, E_e: float, **geometry: float) -> np.ndarray:
-    """Nose force of the three-point bend test against nose deflection ``d``; ``geometry``: the
-    fields of :class:`matid.rod.bend.BendGeometry` (span, specimen_length, support_radius,
-    nose_radius, outer_diameter).
+    """Nose force of the three-point bend test against nose deflection ``d``; ``geometry``: span,
+    specimen_length, support_radius, nose_radius, outer_diameter (SI).
 
-    matid's Cosserat rod model of the bend (matid.rod.bend: half model, sliding
-    contact with the rollers and the nose, large deflection) on a fine mesh of
-    ``BEND_ELEMENTS`` P2 elements. In the small-deflection limit it tends to the
-    Timoshenko closed form ``d = F S^3 / (48 E_b) + F S / (4 E_s)``.
+    The strong-form shooting model of :mod:`matid.example.bend_shooting` (half model, sliding
+    contact with the rollers and the nose, large deflection, shear and extension): a model
+    other than the one matid fits (matid.rod.bend), agreeing with it to its discretisation
+    error (tests/example/test_bend_shooting.py). In the small-deflection limit it tends to
+    the Timoshenko closed form ``d = F S^3 / (48 E_b) + F S / (4 E_s)``.
     """
     d = np.asarray(d, dtype=float)
     flat = np.atleast_1d(d)
     order = np.argsort(flat, kind="stable")
-    _, path = _bend_path(flat[order], E_b, E_s, E_e, geometry)
     force = np.empty_like(flat)
-    force[order] = path.force
+    force[order] = bend_path(flat[order], E_b=E_b, E_s=E_s, E_e=E_e, **geometry)[0]
     return force.reshape(d.shape)
-
-
-def _bend_path(d: np.ndarray, E_b: float, E_s: float, E_e: float, geometry: dict):
-    """(model, path) of :func:`bend_force` at increasing nose deflections ``d``."""
-    from matid.rod.bend import BendGeometry, BendModel
-
-    model = BendModel(BendGeometry(**geometry), elements=BEND_ELEMENTS)
-    for name, value in [("E_b", E_b), ("E_s", E_s), ("E_e", E_e)]:
-        if not value > 0.0:
-            raise ValueError(f"{name} must be positive, got {value}")
-    return model, model.solve(E_b, E_s, E_e, d)
 
 
 #: The 3D continuum tube's local contact travel (benchmarks/README.md, "The 3D tube"):
@@ -215,12 +200,11 @@ def bend_centreline(
     d: np.ndarray, *, E_b: float, E_s: float, E_e: float, **geometry: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """(centreline deflection, force) at increasing nose deflections ``d`` (same keywords as
-    :func:`bend_force`): the mid-span centreline relative to the sections over the supports
-    (:func:`matid.fits.shear.centreline.centreline_deflection`), as a side camera measures it."""
-    from matid.fits.shear.centreline import centreline_deflection
-
-    model, path = _bend_path(np.asarray(d, dtype=float), E_b, E_s, E_e, geometry)
-    return centreline_deflection(model, path), path.force
+    :func:`bend_force`): the mid-span centreline relative to the material sections at S/2, as
+    a side camera measures it (what matid.fits.shear.centreline compares), from the same
+    shooting model."""
+    force, centre, _ = bend_path(np.asarray(d, dtype=float), E_b=E_b, E_s=E_s, E_e=E_e, **geometry)
+    return centre, force
 
 
 def unloading_force(

@@ -227,8 +227,9 @@ def _ground_truth(layout: dict, truth: dict, variant: str, seed: int) -> dict:
         "relaxation_time_s": {sid: p["sls_eta"] / p["sls_k2"] for sid, p in truth.items()},
         "torsion_law": {**law, "unit": "rad/m", "formula":
                         "tau = E_t (k + sign sgn(k) max(|k| - onset, 0)^2 / (2 scale)), k = phi/L"},
-        "three_point_bend_model": "matid.rod.bend Cosserat rod model with sliding contact, "
-                                  "96 P2 elements in the half model",
+        "three_point_bend_model": "strong-form shooting of the planar Reissner rod with shear and "
+                                  "extension, sliding contact (matid.example.bend_shooting; "
+                                  "not the model the fit uses)",
         "three_point_bend_contact": "nose travel = rod deflection + local contact travel "
                                     f"{1e3 * CONTACT_C:g} mm (F/N * 50 MPa/E)^{CONTACT_N:g} "
                                     "* (R_m/1 mm)^1.5 (0.4 mm/t)^2.5 (forward.contact_travel)",

@@ -124,7 +124,8 @@ def test_demo_records_run_and_versions(demo):
 
 def test_progress_names_each_fit(tmp_path):
     lines: list[str] = []
-    run_study(load_study(small_study(tmp_path)), progress=lines.append)
+    result = run_study(load_study(small_study(tmp_path)), progress=lines.append)
+    assert result.ok, result.failures  # every fit ran to its end, the bend's solver included
     assert any("fitting torsion T1" in line and "torsion_T1_L60.csv" in line for line in lines)
     assert any(line.startswith("torsion T1: done in") for line in lines)
 
@@ -157,13 +158,15 @@ def test_fixed_sls_values_go_to_the_extension_fit(tmp_path, monkeypatch):
     fixed = '\n[[fixed]]\nspecimen = "T1"\nparameter = "E_e"\nvalue = "120 N"\n'
     calls: list[dict] = []
     monkeypatch.setitem(FITTERS, "extension", fake_fit("sls_k2", 90.0, calls))
-    run_study(load_study(small_study(tmp_path, fixed=fixed)))
+    result = run_study(load_study(small_study(tmp_path, fixed=fixed)))
     assert calls[0]["fixed"] == {"E_e": 120.0}
+    assert result.ok, result.failures
 
 
 def test_real_extension_fit_holds_fixed_e_e(tmp_path):
     fixed = '\n[[fixed]]\nspecimen = "T1"\nparameter = "E_e"\nvalue = "121 N"\n'
     result = run_study(load_study(small_study(tmp_path, fixed=fixed)))
+    assert result.ok, result.failures
     fit = next(f for f in result.fits if f.kind == "extension")
     assert fit.estimate("E_e").value == 121.0 and fit.estimate("E_e").method == "fixed"
     assert fit.estimate("sls_k2").method == "sls"

@@ -6,8 +6,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from matid.errors import DataError, FitError
@@ -299,27 +297,53 @@ def test_flipped_torque_sign_is_applied_and_said():
     assert fit.info["sign_flipped"] == ["tube.csv"]
 
 
-@settings(max_examples=25, deadline=None)
-@given(
-    sign=st.sampled_from([1.0, -1.0]),
-    slope=st.floats(-1.0, 1.0),
-    offset=st.floats(-0.5, 0.5),
-    seed=st.integers(0, 2**16),
-)
-def test_torsion_never_gives_a_stiffness_at_or_below_zero(sign, slope, offset, seed):
-    """Any sign, any slope down to none, any offset: E_t > 0 with an interval, or a FitError."""
-    rng = np.random.default_rng(seed)
+def torsion_with_t(t: float, *, offset: float, seed: int = 3) -> Measurement:
+    """A torsion record whose least-squares slope is exactly t standard errors of E_T/2 / L:
+    noise orthogonal to (1, twist) leaves the line's slope and intercept as built and sets
+    its standard error, so the case's outcome follows from t alone (SIGN_T = 3 flips)."""
     twist = np.linspace(0.0, 2.0, 60)
-    torque = sign * (slope * E_T * twist / 0.05 + offset * E_T * 40) + 1e-4 * rng.normal(size=60)
-    run = measurement("torsion", "t.csv", {"length": 0.05}, twist_angle=twist, torque=torque)
-    try:
-        est = fit_torsion([run], specimen="T1").estimate("E_t")
-    except FitError as exc:
-        assert "<= 0" in str(exc)
+    basis = np.column_stack([np.ones_like(twist), twist])
+    e = np.random.default_rng(seed).normal(size=twist.size)
+    e -= basis @ np.linalg.lstsq(basis, e, rcond=None)[0]  # no part along the line
+    slope = 0.5 * E_T / 0.05 * np.sign(t)  # torque per radian
+    se_unit = np.sqrt(e @ e / (twist.size - 2) / np.sum((twist - twist.mean()) ** 2))
+    torque = slope * twist + offset + e * abs(slope) / (abs(t) * se_unit)
+    window = {"twist_angle": (0.0, 2.0)}  # every row, no linear-range search on the noise
+    return measurement("torsion", "t.csv", {"length": 0.05}, window, twist_angle=twist, torque=torque)
+
+
+TORSION_CASES = {  # name: (t of the slope, offset, expected outcome)
+    "rising clearly (t 40)": (40.0, 0.002, "value"),
+    "rising clearly from a negative offset (t 40)": (40.0, -0.002, "value"),
+    "falling clearly (t -40): sign flipped": (-40.0, 0.002, "flipped"),
+    "rising within noise (t 0.5): value, interval reaches zero": (0.5, 0.0, "not distinguishable"),
+    "falling within noise (t -1.5): no stiffness": (-1.5, 0.002, "refused"),
+    "falling just short of a flip (t -2.5): no stiffness": (-2.5, -0.002, "refused"),
+}
+
+
+@pytest.mark.parametrize("case", list(TORSION_CASES))
+def test_torsion_never_gives_a_stiffness_at_or_below_zero(case):
+    """Each case with its one expected outcome: a value > 0 (flipped and said when the slope is
+    clearly negative, warned when its interval reaches zero), or a FitError for a slope <= 0."""
+    t, offset, expected = TORSION_CASES[case]
+    run = torsion_with_t(t, offset=offset)
+    if expected == "refused":
+        with pytest.raises(FitError, match="<= 0"):
+            fit_torsion([run], specimen="T1")
         return
-    assert est.value > 0 and est.ci95[0] < est.value < est.ci95[1]
-    if est.ci95[0] <= 0:
-        assert any("not distinguishable from zero" in w for w in est.warnings)
+    fit = fit_torsion([run], specimen="T1")
+    est = fit.estimate("E_t")
+    assert np.all(fit.series[0].used)  # every row fitted: the slope is the one built
+    assert est.value == pytest.approx(0.5 * E_T, rel=1e-6)
+    assert est.ci95[0] < est.value < est.ci95[1]
+    if expected == "not distinguishable":
+        assert est.ci95[0] <= 0 and any("not distinguishable from zero" in w for w in est.warnings)
+    elif expected == "flipped":
+        assert est.ci95[0] > 0 and fit.info["sign_flipped"] == ["t.csv"]
+        assert len(est.warnings) == 1 and "negate" in est.warnings[0]
+    else:
+        assert est.ci95[0] > 0 and est.warnings == () and fit.info["sign_flipped"] == []
 
 
 def test_window_leaves_rows_out_and_says_why():

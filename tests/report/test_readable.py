@@ -149,6 +149,7 @@ def synthetic() -> str:
 
 
 def test_demo_report_reads_without_repr_label_or_bare_number(demo):
+    assert demo[0].ok, demo[0].failures  # the report of a demo whose every fit ran
     page = (demo[1] / "report.html").read_text(encoding="utf-8")
     assert readability_problems(page) == []
     assert UNSTATED not in page  # every figure the fitters write has its quantity registered

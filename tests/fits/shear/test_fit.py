@@ -1,7 +1,7 @@
 """E_s from the three-point bend: the rod model inside least squares (physics.md section 6).
 
-Synthetic curves come from the rod model itself on a finer mesh than the fit uses
-(``matid.example.forward.bend_force``, 96 P2 elements), with seeded noise of
+Synthetic curves come from an independent strong-form shooting model of the bend
+(``matid.example.forward.bend_force``, matid.example.bend_shooting), with seeded noise of
 0.3 % of the largest force as in the demo study. Tolerances are set from the
 scatter measured over 20 seeds (see each test).
 """
@@ -59,7 +59,7 @@ def noisy(force: np.ndarray, seed: int) -> np.ndarray:
 
 
 def fit_rod(*args, **kwargs):
-    """The shear fit on data of the rod model itself: no local contact compliance, no model-form error."""
+    """The shear fit on rod data (the shooting model): no local contact compliance, no model-form error."""
     return shear.fit_three_point_bend(*args, local_compliance=(0.0, 0.0), model_form=0.0, **kwargs)
 
 

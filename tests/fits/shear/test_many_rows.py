@@ -2,7 +2,7 @@
 
 The 3000-row record comes from the rod model on a finer mesh than the fit uses
 (48 P2 elements, every row solved by continuation: no interpolation; the centreline
-record from ``matid.example.forward.bend_centreline``, 96 elements), with seeded
+record from ``matid.example.forward.bend_centreline``, the shooting model), with seeded
 noise of 0.3 % of the largest force as in :mod:`tests.fits.shear.test_fit`. The fit
 solves 16-32 elements on a few knots.
 """

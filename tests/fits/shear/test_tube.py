@@ -50,8 +50,8 @@ def bend(d, F, span, *, at="nose", length=None, name="3pb.csv", window=None) -> 
     )
 
 
-def tube3d(span_mm: int, column: str) -> tuple[np.ndarray, np.ndarray]:
-    rows = json.loads((DATA / f"T{span_mm}.json").read_text())["rows"]
+def tube3d(span_mm: int, column: str, name: str = "T{}.json") -> tuple[np.ndarray, np.ndarray]:
+    rows = json.loads((DATA / name.format(span_mm)).read_text())["rows"]
     return np.r_[0.0, [r[column] for r in rows]] * 1e-3, np.r_[0.0, [r["F"] for r in rows]]
 
 
@@ -77,11 +77,13 @@ def test_centreline_of_the_continuum_tube(span_mm):
         assert any("poorly determined" in w for w in est.warnings)
 
 
-@pytest.mark.parametrize("span_mm", [8, 20])
+@pytest.mark.parametrize("span_mm", [10, 15])
 def test_nose_travel_of_the_continuum_tube_is_never_a_confident_wrong_number(span_mm):
     """Fitted on nose travel the rod model gives 0.23-0.62 of k G A. Here: a warning first, naming the
-    local compliance and what to measure instead, and an interval widened by the predicted bias."""
-    d, F = tube3d(span_mm, "delta")
+    local compliance and what to measure instead, and an interval widened by the predicted bias.
+    On spans the contact-compliance constant was not calibrated on (8 and 20 mm: see
+    matid.fits.shear.torsion): our continuum's 10 and 15 mm."""
+    d, F = tube3d(span_mm, "delta", "S{}_bench.json")
     est = shear.fit_three_point_bend([bend(d, F, span_mm * 1e-3)], specimen=TUBE, known=TUBE_KNOWN).estimate(
         "E_s"
     )
@@ -124,10 +126,15 @@ def test_stated_nose_bias_holds_at_high_load():
     assert est.warnings[0].startswith("E_s is likely too low") and est.ci95[0] < E_s < est.ci95[1]
 
 
-def test_local_compliance_law_matches_the_continuum_tube():
-    """0.19-0.28 mm/N measured (under-resolved by ~15 %) must lie in the predicted range."""
+@pytest.mark.parametrize("name", ["S6_bench.json", "S10_bench.json", "S15_bench.json", "S30_bench.json"])
+def test_local_compliance_law_holds_on_spans_it_was_not_calibrated_on(name):
+    """The band is calibrated on spans 8 and 20 mm (matid.fits.shear.torsion); the local compliance
+    (nose travel minus centreline deflection, over F) of the continuum at the held-out spans
+    must lie in it (measured 0.206-0.312 mm/N against the band 0.188-0.312 mm/N)."""
     low, high = shear_torsion.local_compliance(TUBE, 50e6)
-    assert low <= 0.19e-3 and 0.28e-3 <= high <= 0.4e-3
+    rows = json.loads((DATA / name).read_text())["rows"]
+    measured = np.array([(r["delta"] - r["delta_centroid"]) / r["F"] for r in rows]) * 1e-3  # m/N
+    assert np.all((low <= measured) & (measured <= high)), (name, measured, (low, high))
 
 
 # --------------------------------------------------------------------------- E_s from torsion
@@ -191,7 +198,7 @@ def rod(span: float, n: int = 24, frac: float = 0.05) -> tuple[np.ndarray, np.nd
 
 
 def fit_rod(tests, **kw):
-    """Data of the rod model itself: no contact compliance, no model-form error."""
+    """Rod data (the shooting model): no contact compliance, no model-form error."""
     return shear.fit_three_point_bend(
         tests, specimen=SPEC, known=KNOWN, local_compliance=(0.0, 0.0), model_form=0.0, **kw
     )

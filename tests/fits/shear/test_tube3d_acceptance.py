@@ -8,16 +8,20 @@ with the reference's mesh; written by ``fit_tube3d.py --export``). All are the s
 E 50 MPa, nu 0.45, R_o 1.2, R_i 0.8 mm, 2 mm rollers; its k G A with Hutchinson's
 coefficient is 27.17 N.
 
-- Centreline deflection: the interval covers k G A at every span. On the reference, E_s
-  within 3 % at spans up to 10 mm. Beyond 10 mm, within 3 % or warned "poorly
-  determined": the E_s error is eps / share, eps the continuum's compliance error against
-  the rod (0.4-0.9 % on the reference), and the shear share falls as S^-2. Our own
-  continuum is 1.2 % stiffer than the reference at 8 mm on the same mesh (eps 1.3-2.2 %,
-  benchmarks/README.md), so at 6-10 mm it gives +3.7 to +6.3 %: there only the interval
-  is checked.
-- Nose travel: never a confident wrong E_s. Withheld, or within 10 % with an interval
-  that covers k G A, or warned with the reason (the local contact compliance, or that
-  E_s is not identifiable at this span) and an interval that covers k G A.
+Each file and measurement has one expected outcome (no "A or B"):
+
+- Centreline deflection (no contact compliance in it; every file): the interval covers
+  k G A. Spans up to 10 mm: on the reference, E_s within 3 % and no warning; on our own
+  continuum (1.2 % stiffer than the reference at 8 mm on the same mesh, eps 1.3-2.2 %,
+  benchmarks/README.md) +0 to +7 % and no warning. Spans 15 and 20 mm: warned "poorly
+  determined" (the E_s error is eps / share, the shear share falls as S^-2). Span 30 mm:
+  warned "not identifiable" and "poorly determined".
+- Nose travel, only on spans the contact-compliance constant never saw: the constant
+  (matid.fits.shear.torsion KAPPA_RANGE, CONTACT_N; the demo's CONTACT_C) is calibrated on
+  spans 8 and 20 mm (T8, T20, S8_bench), so nose travel is accepted on 6, 10, 15 and 30 mm
+  (the shared reference keeps those for acceptance; S*_bench here). Span 6 mm: withheld,
+  naming the centreline. Longer: warned "likely too low" (15 mm and beyond also "poorly
+  determined", 30 mm also "not identifiable"), with an interval that covers k G A.
 """
 
 from __future__ import annotations
@@ -43,7 +47,6 @@ KNOWN = {
     "E_b": Estimate("E_b", 6.5345e-5, 0.0, None, 0, "linear"),
     "E_e": Estimate("E_e", 125.66, 0.0, None, 0, "sls"),
 }
-REASONS = ("E_s is likely too low", "E_s is not identifiable")
 
 
 def _files() -> list[Path]:
@@ -75,31 +78,59 @@ def test_the_reference_spans_are_found():
     assert {"T8.json", "T20.json"} <= names
 
 
+TOO_LOW, NOT_IDENTIFIABLE, POOR = (
+    "E_s is likely too low",
+    "E_s is not identifiable",
+    "E_s is poorly determined",
+)
+#: span [mm] -> the warnings (their openings, in order) of the centreline fit
+CENTRELINE = {6: (), 8: (), 10: (), 15: (POOR,), 20: (POOR,), 30: (NOT_IDENTIFIABLE, POOR)}
+#: span [mm] -> the nose-travel outcome: "withheld", or the warnings of the estimate
+NOSE = {6: "withheld", 10: (TOO_LOW,), 15: (TOO_LOW, POOR), 30: (TOO_LOW, NOT_IDENTIFIABLE, POOR)}
+#: spans whose nose travel calibrated the contact-compliance constant: never accepted on
+CALIBRATION_SPANS = {8, 20}
+
+
+def _span_mm(path: Path) -> int:
+    return round(float(json.loads(path.read_text())["params"]["S"]))
+
+
+def _openings(est: Estimate) -> tuple[str, ...]:
+    """The warnings by their openings (a warning of another kind stays whole, and fails the match)."""
+    kinds = (TOO_LOW, NOT_IDENTIFIABLE, POOR)
+    return tuple(next((o for o in kinds if w.startswith(o)), w) for w in est.warnings)
+
+
+HELD_OUT = [p for p in FILES if _span_mm(p) not in CALIBRATION_SPANS]
+
+
+def test_the_held_out_spans_are_found():
+    """Nose travel is accepted on spans the constant never saw: 6, 10, 15, 30 mm at least."""
+    assert {6, 10, 15, 30} <= {_span_mm(p) for p in HELD_OUT}
+
+
 @pytest.mark.parametrize("path", FILES, ids=[p.name for p in FILES])
-def test_centreline_gives_E_s_within_3_percent(path):
+def test_centreline_gives_E_s_as_expected(path):
     span, est = _fit(path, "delta_centroid")
     error = est.value / KGA - 1
-    poor = any("poorly determined" in w for w in est.warnings)
     where = f"{path.name}: E_s {est.value:.3f} N ({100 * error:+.1f} %), {est.ci95}, {est.warnings}"
     assert est.ci95[0] < KGA < est.ci95[1], where
-    if span > 10.0001e-3:
-        assert abs(error) <= 0.03 or poor, where
-    elif not path.name.endswith("_bench.json"):
-        assert abs(error) <= 0.03 and not poor, where
-    else:  # our own continuum: its own eps (1.3-2.2 %) over the share gives +3.7 to +6.3 % here
-        assert 0.0 < error <= 0.07 and not poor, where
+    assert _openings(est) == CENTRELINE[_span_mm(path)], where
+    if span <= 10.0001e-3 and path.name.endswith("_bench.json"):
+        assert 0.0 < error <= 0.07, where  # our own continuum: its eps over the share
+    elif span <= 10.0001e-3:
+        assert abs(error) <= 0.03, where
 
 
-@pytest.mark.parametrize("path", FILES, ids=[p.name for p in FILES])
-def test_nose_travel_is_never_a_confident_wrong_number(path):
-    try:
-        _, est = _fit(path, "delta")
-    except FitError as err:
-        assert "withheld" in str(err) and 'deflection_at = "centreline"' in str(err)
+@pytest.mark.parametrize("path", HELD_OUT, ids=[p.name for p in HELD_OUT])
+def test_nose_travel_on_a_held_out_span_is_as_expected(path):
+    expected = NOSE[_span_mm(path)]
+    if expected == "withheld":
+        with pytest.raises(FitError, match="withheld") as err:
+            _fit(path, "delta")
+        assert 'deflection_at = "centreline"' in str(err.value)
         return
-    covers = est.ci95[0] < KGA < est.ci95[1]
+    _, est = _fit(path, "delta")
     where = f"{path.name}: E_s {est.value:.3f} N, {est.ci95}, {est.warnings}"
-    if abs(est.value / KGA - 1) <= 0.10:
-        assert covers, where
-    else:
-        assert covers and any(w.startswith(REASONS) for w in est.warnings), where
+    assert est.value < 0.7 * KGA and est.ci95[0] < KGA < est.ci95[1], where
+    assert _openings(est) == expected, where
