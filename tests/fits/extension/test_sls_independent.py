@@ -196,9 +196,10 @@ def _warnings(study: Path) -> set[tuple[str | None, str]]:
 
 def test_the_warnings_of_unidentifiable_k2_and_eta_do_not_hang_on_the_last_digit(tmp_path):
     """tau 2000 s beyond 38 s runs: k2 and eta end anywhere along a flat valley. One force reading
-    moved by 0.1 uN (its last written digit; the noise is 4 mN) must not change any warning: the
-    printed tau and relative standard errors moved with it (4.4e+03 s, 9494 % against 9490 %), so
-    the same study could warn differently from one run to the next (the flaky test above)."""
+    moved by 0.1 uN (its last written digit; the noise is 4 mN) must not change the warnings on
+    k2, eta and E_e: the printed tau and relative standard errors moved with it (4.4e+03 s, 9494 %
+    against 9490 %), so the same study could warn differently from one run to the next (the flaky
+    test above). The misfit warning's statistics of the residuals may move with the data."""
     study = make_study(tmp_path / "a", seed=13, tau=2000.0)
     moved = make_study(tmp_path / "b", seed=13, tau=2000.0)
     path = moved.parent / "zug_r1.TXT"
@@ -207,9 +208,12 @@ def test_the_warnings_of_unidentifiable_k2_and_eta_do_not_hang_on_the_last_digit
     force_mN = float(force.replace(",", ".")) + 1e-4
     lines[200] = ";".join([t, elongation, f"{force_mN:.4f}".replace(".", ","), *rest])
     path.write_bytes("\r\n".join(lines).encode("cp1252"))
-    first = _warnings(study)
+    first, second = (
+        {(p, w) for p, w in _warnings(s) if "describe the data within their noise" not in w}
+        for s in (study, moved)
+    )
     assert any("not identifiable" in w for _, w in first), first
-    assert _warnings(moved) == first
+    assert second == first
 
 
 def test_e_e_of_a_true_sls_keeps_its_interval(tmp_path):
