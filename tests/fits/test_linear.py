@@ -6,10 +6,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.stats
 from scipy.optimize import brentq
 
 from matid.errors import DataError, FitError
 from matid.fits.bending import bending_torque, fit_bending, magnet_torque
+from matid.fits.branch import Record
+from matid.fits.linear import OFFSET_ALPHA, fit_lines, orient
 from matid.fits.onset import linear_range
 from matid.fits.stats import ar1_noise
 from matid.fits.torsion import fit_torsion
@@ -445,3 +448,90 @@ def test_bending_interval_coverage_dense_records(phi, low, high):
         est = fit_bending(runs, specimen="T1").estimate("E_b")
         hits += est.ci95[0] < E_B < est.ci95[1]
     assert low <= hits <= high
+
+
+# ------------------------------------------------------------ fit_lines and orient on closed forms
+
+
+def _one_record(y: np.ndarray, x: np.ndarray) -> Record:
+    return Record("a.csv", x, y, np.ones(x.size, dtype=bool))
+
+
+def test_lines_without_a_tare_offset_are_refitted_through_the_origin():
+    """i.i.d. noise, no offset (seed 2: p = 0.97): slope and standard error are those of the line
+    through the origin, b = sum xy / sum x^2 and se^2 = RSS / (n - 1) / sum x^2, not the offset model's."""
+    x = np.linspace(0.1, 1.0, 40)
+    y = 2.0 * x + np.random.default_rng(2).normal(0.0, 0.01, x.size)
+    fit = fit_lines([_one_record(y, x)])
+    assert fit.covariance.rho == 0.0 and fit.offset_p >= OFFSET_ALPHA
+    b = np.sum(x * y) / np.sum(x * x)
+    se = np.sqrt(np.sum((y - b * x) ** 2) / (x.size - 1) / np.sum(x * x))
+    assert fit.slope == pytest.approx(b, rel=1e-9)
+    assert fit.stderr == pytest.approx(se, rel=1e-6)
+    assert fit.intercepts == {"a.csv": 0.0}
+    half = scipy.stats.t.ppf(0.975, x.size - 1) * se
+    assert fit.ci95 == pytest.approx((b - half, b + half), rel=1e-6)
+    # the offset model's intercept is kept for the record, and its Wald p is the t test of it
+    ols = scipy.stats.linregress(x, y)
+    assert fit.offsets_estimated["a.csv"] == pytest.approx(ols.intercept, abs=1e-8)  # noise 1e-2
+    t = ols.intercept / ols.intercept_stderr
+    assert fit.offset_p == pytest.approx(2 * scipy.stats.t.sf(abs(t), x.size - 2), rel=1e-6)
+
+
+def test_a_tare_offset_is_kept_with_the_slope_of_the_offset_line():
+    """An offset of 2.5 % of full scale (p ~ 0): slope, its error and the offset are ordinary least
+    squares with an intercept (scipy.stats.linregress)."""
+    x = np.linspace(0.1, 1.0, 40)
+    y = 2.0 * x + 0.05 + np.random.default_rng(2).normal(0.0, 0.01, x.size)
+    fit = fit_lines([_one_record(y, x)])
+    ols = scipy.stats.linregress(x, y)
+    assert fit.offset_p < 1e-6
+    assert fit.slope == pytest.approx(ols.slope, rel=1e-9)
+    assert fit.stderr == pytest.approx(ols.stderr, rel=1e-6)
+    assert fit.intercepts["a.csv"] == pytest.approx(ols.intercept, rel=1e-6)
+
+
+def _noise_seed(low: float, high: float) -> tuple[np.ndarray, np.ndarray]:
+    """x and a pure-noise y whose own slope t statistic (scipy.stats.linregress) lies in (low, high)."""
+    x = np.linspace(0.0, 2.0, 60)
+    for seed in range(100):
+        y = 1e-4 * np.random.default_rng(seed).normal(size=x.size)
+        ols = scipy.stats.linregress(x, y)
+        if low < ols.slope / ols.stderr < high:
+            return x, y
+    raise AssertionError("no seed")
+
+
+def test_pure_noise_falling_by_chance_is_not_a_flipped_sign():
+    """t between -2.5 and -1: orient keeps the sign, and the joint slope <= 0 is a FitError."""
+    x, y = _noise_seed(-2.5, -1.0)
+    (rec,), warnings = orient([_one_record(y, x)], "torque", "twist")
+    assert not rec.flipped and not warnings and np.array_equal(rec.y, y)
+    run = measurement("torsion", "t.csv", {"length": 0.05}, twist_angle=x, torque=y)
+    with pytest.raises(FitError, match="<= 0"):
+        fit_torsion([run], specimen="T1")
+
+
+def test_pure_noise_rising_by_chance_is_a_stiffness_indistinguishable_from_zero():
+    x, y = _noise_seed(0.3, 1.5)
+    run = measurement("torsion", "t.csv", {"length": 0.05}, twist_angle=x, torque=y)
+    est = fit_torsion([run], specimen="T1").estimate("E_t")
+    assert est.value > 0 and est.ci95[0] < 0 < est.ci95[1]
+    assert any("not distinguishable from zero" in w for w in est.warnings)
+    assert not any("flipped sign" in w for w in est.warnings)
+
+
+def test_a_clearly_falling_record_is_flipped_at_t_below_minus_3_only():
+    """The flip threshold: a slope at t = -5 is negated (and said), the same record scaled to
+    t = -2 is not."""
+    x = np.linspace(0.0, 2.0, 60)
+    noise = np.random.default_rng(4).normal(size=x.size)
+    noise -= np.polyval(np.polyfit(x, noise, 1), x)  # no slope of its own: t is set by the line
+    se = scipy.stats.linregress(x, noise).stderr
+    for t, flipped in ((-5.0, True), (-2.0, False)):
+        y = t * se * x + noise
+        (rec,), warnings = orient([_one_record(y, x)], "torque", "twist")
+        assert rec.flipped is flipped and len(warnings) == int(flipped)
+        assert np.array_equal(rec.y, -y if flipped else y)
+        if flipped:
+            assert warnings[0].kind == "sign_flipped" and "t = -5.0" in warnings[0].text

@@ -76,11 +76,13 @@ def test_reference_point_force_is_beam_theory_with_shear() -> None:
     assert abs(out["position"][0] - bending_only) > 1e-3 * expected  # the shear term is seen
 
 
-def _designer_scenes():
-    for name in ("magnet_direction", "magnetization_direction", "curved_tip", "point_load"):
-        yield pytest.param(load_scene(EXAMPLES / f"{name}.toml"), id=name)
-    for name, raw in SCENES.items():
-        yield pytest.param(dataclasses.replace(scene_from_dict(raw), tolerance=1e-8), id=name)
+def _designer_scenes() -> list:
+    """A list, not a generator: a generator is used up by the first collection (tests/test_parametrize.py)."""
+    examples = ("magnet_direction", "magnetization_direction", "curved_tip", "point_load")
+    return [pytest.param(load_scene(EXAMPLES / f"{name}.toml"), id=name) for name in examples] + [
+        pytest.param(dataclasses.replace(scene_from_dict(raw), tolerance=1e-8), id=name)
+        for name, raw in SCENES.items()
+    ]
 
 
 @pytest.mark.parametrize("scene", _designer_scenes())
