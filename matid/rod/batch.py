@@ -19,7 +19,9 @@ import numpy as np
 from matid.physics import planar
 from matid.rod import newton as nw
 from matid.rod.band import BlockTridiagonal
+from matid.rod.cantilever import probe_start
 from matid.rod.fem import Discretisation
+from matid.rod.models import PLANAR
 from matid.rod.terms import DistributedForce, Magnetisation, Magnets, PointLoads, Tip
 
 #: The terms a stack evaluates (planar model); a scene with any other runs alone.
@@ -56,6 +58,8 @@ class Stack:
         for i, (_, loads) in enumerate(parts):
             for t in loads:
                 self._add(i, t, tip)
+        #: whose first load step is halved until the straight rod's tangent is definite there
+        self.probe = np.array([probe_start(rod, loads, PLANAR) for rod, loads in parts], bool)
         stiffest = np.max([v.reshape(self.N, -1).max(1) for v in self.props.values()], 0)
         self.roundoff = 1e-15 * np.maximum(1.0, stiffest)
         self._layout()
@@ -87,7 +91,16 @@ class Stack:
         j, i = v % n, v % n + v // n - u
         k = i // b
         slot = k * (3 * b * b) + (i % b) * 3 * b + (j - (k - 1) * b)
-        self.slots = np.where(v >= (2 * u + 1) * n, self.size, slot)
+        slots = np.where(v >= (2 * u + 1) * n, self.size, slot)
+        # each block slot gathers its (at most m) element-matrix entries: T[:, used] = sum_k Ke[:, src[k]]
+        keep = np.flatnonzero(slots < self.size)
+        order = keep[np.argsort(slots[keep], kind="stable")]
+        self.used, first, counts = np.unique(slots[order], return_index=True, return_counts=True)
+        src = np.full((counts.max(), self.used.size), slots.size)  # slots.size: a zero appended to Ke
+        for k in range(counts.max()):
+            has = counts > k
+            src[k, has] = order[first[has] + k]
+        self.src = src
         pad = np.arange(n, nb * b)
         self.pad = (pad // b) * 3 * b * b + (pad % b) * 3 * b + b + pad % b
         theta = d.free_index[np.arange(d.nscalar) * 3 + 2]  # free dof of each scalar dof's theta
@@ -103,7 +116,7 @@ class Stack:
         new.__dict__.update(self.__dict__)
         new.N = len(ids)
         new.props = {k: v[ids] for k, v in self.props.items()}
-        for name in ("k2", "mu", "B", "f", "dead", "magnet", "roundoff"):
+        for name in ("k2", "mu", "B", "f", "dead", "magnet", "roundoff", "probe"):
             setattr(new, name, getattr(self, name)[ids])
         return new
 
@@ -145,9 +158,13 @@ class Stack:
         T = None
         if tangent:
             H4 = H.reshape(N, ne, nq, 2, 3, 2, 3).transpose(0, 1, 2, 3, 5, 4, 6).reshape(N, ne, nq * 4, 9)
-            Ke = np.matmul(d.element_tables.transpose(0, 2, 1), H4)
-            index = (self.slots[None, :] + (self.size + 1) * np.arange(N)[:, None]).ravel()
-            T = np.bincount(index, weights=Ke.ravel(), minlength=N * (self.size + 1)).reshape(N, -1)
+            Ke = np.zeros((N, ne * 81 + 1))  # and a zero for the gather's padding
+            np.matmul(d.element_tables.transpose(0, 2, 1), H4, out=Ke[:, :-1].reshape(N, ne, 9, 9))
+            T = np.zeros((N, self.size + 1))
+            gathered = Ke[:, self.src[0]]
+            for k in range(1, self.src.shape[0]):
+                gathered += Ke[:, self.src[k]]
+            T[:, self.used] = gathered
             T[:, self.pad] = 1.0
         if self.magnet.any():
             th, m = U.reshape(N, -1, 3)[:, :, 2], lam[:, None] * self.magnet
@@ -241,6 +258,19 @@ def admissible(stack: Stack, X, lam, pd) -> np.ndarray:
     return pd
 
 
+def definite_steps(stack: Stack, X0: np.ndarray, step: np.ndarray) -> None:
+    """:func:`matid.rod.newton.definite_step` for the scenes that probe (``stack.probe``): their first
+    step halved, in place, while the tangent at the start is not positive definite at its load."""
+    ids = np.flatnonzero(stack.probe)
+    for _ in range(nw.MAX_DEFINITE_HALVINGS):
+        ids = ids[step[ids] >= 2.0 * nw.MIN_STEP]
+        if not ids.size:
+            return
+        T = stack.take(ids).evaluate(X0[ids], np.minimum(step[ids], 1.0))[1]
+        ids = ids[~T.positive_definite(np.arange(ids.size))]
+        step[ids] *= 0.5
+
+
 def follow(stack: Stack, X0: np.ndarray, stress0: np.ndarray | None = None):
     """:func:`matid.rod.newton.follow` to lam = 1 for every scene, each with its own load steps.
 
@@ -254,6 +284,7 @@ def follow(stack: Stack, X0: np.ndarray, stress0: np.ndarray | None = None):
     stress = np.full((N,) + nq + (2,), np.nan) if stress0 is None else stress0.copy()
     reason: list = [None] * N
     budget = max(nw.MIN_ITERATIONS, int(nw.WORK_BUDGET / max(X0.shape[1], 1)))
+    definite_steps(stack, X0, step)
     live = np.arange(N)
     while live.size:
         sub = stack.take(live)

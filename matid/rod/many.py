@@ -20,7 +20,7 @@ import numpy as np
 from matid.errors import MatidError
 from matid.rod import accuracy
 from matid.rod import batch as B
-from matid.rod.api import resolve_model, solve
+from matid.rod.api import solve
 from matid.rod.cantilever import INTORDER, Equilibrium, Solution, _prepare, interpolate_p2, mesh
 from matid.rod.checks import strain_warnings
 from matid.rod.models import PLANAR
@@ -44,13 +44,15 @@ def solve_many(scenes, *, elements: int | None = None) -> list[Solution | Failur
     out: list = [None] * len(scenes)
     groups: dict = {}
     for i, scene in enumerate(scenes):
-        key = _stack_key(scene, elements)
+        key, prepared = _stack_key(scene, elements)
         if key is None:
             out[i] = _alone(scene, elements)
         else:
-            groups.setdefault(key, []).append(i)
-    for (at, fixed), ids in groups.items():
-        for i, result in zip(ids, _solve_group([scenes[i] for i in ids], at, fixed), strict=True):
+            groups.setdefault(key, []).append((i, prepared))
+    for (at, fixed), members in groups.items():
+        ids = [i for i, _ in members]
+        solved = _solve_group([scenes[i] for i in ids], [p for _, p in members], at, fixed)
+        for i, result in zip(ids, solved, strict=True):
             out[i] = result
     return out
 
@@ -62,25 +64,25 @@ def _alone(scene: Scene, elements: int | None):
         return Failure(scene, str(exc))
 
 
-def _stack_key(scene: Scene, elements: int | None):
-    """(mesh breaks, fixed element count or None) of a scene the stack solves, else None."""
+def _stack_key(scene: Scene, elements: int | None) -> tuple:
+    """((mesh breaks, fixed element count or None), its _prepare) of a scene the stack solves,
+    else (None, None)."""
     if not isinstance(scene, Scene) or scene.kind != "cantilever" or scene.aim is not None:
-        return None
-    try:
-        if resolve_model(scene) != PLANAR:
-            return None
-    except ValueError:
-        return None
-    _, _, _, loads, at = _prepare(scene, "auto")
+        return None, None
     fixed = elements or scene.elements
     if fixed == 1:  # a single element is estimated against two: runs alone
-        return None
-    return (at, fixed) if B.stackable(loads) else None
+        return None, None
+    try:
+        prepared = _prepare(scene, "auto")
+    except ValueError:
+        return None, None
+    if prepared[0] != PLANAR or not B.stackable(prepared[3]):
+        return None, None
+    return (prepared[4], fixed), prepared
 
 
-def _solve_group(scenes: list[Scene], at: tuple, fixed: int | None) -> list:
+def _solve_group(scenes: list[Scene], prepared: list, at: tuple, fixed: int | None) -> list:
     """The scenes of one mesh family through the doubling meshes (accuracy.refine, per scene)."""
-    prepared = [_prepare(scene, "auto") for scene in scenes]
     N = len(scenes)
     results: list = [None] * N
     tips: list[list] = [[] for _ in range(N)]
@@ -103,7 +105,7 @@ def _solve_group(scenes: list[Scene], at: tuple, fixed: int | None) -> list:
             if done is None:
                 keep.append((i, eq))
             else:
-                results[i] = _present(eq, done, history[i], fixed, scenes[i].tolerance)
+                results[i] = _present(eq, prepared[i][2], done, history[i], fixed)
         live = [i for i, _ in keep]
         last = [eq for _, eq in keep]
         n = levels[1] if levels else 2 * n
@@ -122,7 +124,7 @@ def _finished(scene: Scene, tips: list, n: int, levels) -> tuple | None:
     return None
 
 
-def _present(eq: Equilibrium, done: tuple, history: list, fixed, tolerance) -> Solution:
+def _present(eq: Equilibrium, rod, done: tuple, history: list, fixed) -> Solution:
     """The Solution of api.solve: the estimate, the strain warnings."""
     error, order = done
     estimate = {
@@ -130,9 +132,9 @@ def _present(eq: Equilibrium, done: tuple, history: list, fixed, tolerance) -> S
         "order": order,
         "meshes": [n for n, _ in history],
         "total_runtime_s": sum(t for _, t in history),
-        "tolerance": None if fixed else tolerance,
+        "tolerance": None if fixed else eq.scene.tolerance,
     }
-    extra = {"error_estimate": estimate, "warnings": strain_warnings(eq)}
+    extra = {"error_estimate": estimate, "warnings": strain_warnings(eq, rod)}
     return eq.solution(discretization_error=error, extra=extra)
 
 
