@@ -62,12 +62,14 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     from matid.io.publish import claim_output
     from matid.rod.api import resolve_model, solve
     from matid.rod.output import shape_png, solution_json
-    from matid.rod.scenes import load_scene
+    from matid.rod.sweeps import load_sweep
 
     claim = claim_output(args.out)  # checked and locked before any solving; freed on return
-    scene = load_scene(args.scene)
+    scene, axes = load_sweep(args.scene)
     if args.tolerance is not None:
         scene = dataclasses.replace(scene, tolerance=args.tolerance)
+    if axes is not None:
+        return _solve_sweep(args, claim, scene, axes)
     try:
         resolve_model(scene, args.model)
     except ValueError as exc:
@@ -88,6 +90,32 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     if not args.quiet:
         print("outputs:\n" + "\n".join(f"  {path}" for path in paths))
     return 0
+
+
+def _solve_sweep(args: argparse.Namespace, claim, scene, axes) -> int:
+    """A scene with [[sweep]] (contract section 13): every state solved together, sweep.csv,
+    sweep.json and workspace.png published; exit 1 when a state failed (the rest still written)."""
+    import json
+
+    from matid.rod.sweep_output import sweep_csv, sweep_json, workspace_png
+    from matid.rod.sweeps import rows, solve_states
+
+    if args.model != "auto":
+        raise DataError("--model: a sweep picks the model per state (auto)", file=args.scene)
+    table = rows(axes, solve_states(scene, axes, elements=args.elements))
+    files = {
+        "sweep.csv": sweep_csv(table),
+        "sweep.json": json.dumps(sweep_json(axes, table), indent=1) + "\n",
+        "workspace.png": workspace_png(axes, table, name=Path(args.scene).stem),
+    }
+    paths = claim.publish(files)
+    failed = [r for r in table if not r["converged"]]
+    print(f"sweep: {len(table)} states, {len(table) - len(failed)} converged, {len(failed)} failed")
+    for r in failed[:5]:
+        print(f"failed: {r['reason']}", file=sys.stderr)
+    if not args.quiet:
+        print("outputs:\n" + "\n".join(f"  {path}" for path in paths))
+    return 1 if failed else 0
 
 
 def _deflection_reached(scene, exc: ConvergenceError) -> str:

@@ -95,7 +95,7 @@ def _matid_tip(scene: Scene) -> np.ndarray:
     return np.asarray(solve(scene).position[-1]) / scene.rod.length
 
 
-def _calibrate(base, reference: np.ndarray) -> float:
+def calibrate(base, reference: np.ndarray) -> float:
     for tol in BASELINE_TOLS:
         try:
             if np.max(np.abs(base.tip(tol=tol) - reference)) <= TARGET:
@@ -128,7 +128,7 @@ def run(quick: bool = False, repeats: int = REPEATS) -> dict:
     for index, p in enumerate(problems()):
         base = p["baseline"]
         reference = base.tip(tol=1e-9, nodes=200)
-        tol = _calibrate(base, reference)
+        tol = calibrate(base, reference)
         times, tips = _best_times(index, tol, repeats)
         rows.append(
             {

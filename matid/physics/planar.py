@@ -30,7 +30,8 @@ def derivatives(z, lam, props, kappa_ref, tangent, *, stress, want_strain):
     z: P + (6,) point values (x, z, t, x', z', t'); props: stiffness arrays (P);
     kappa_ref: 3-vector or P + (3,) per point (its second entry, about the plane normal, scaled by
     lam here).
-    ``stress`` (P + (2,)): (n1, n3) for the geometric part of H (the mixed tangent); strain:
+    ``stress`` (P + (2,)): (n1, n3) for the geometric part of H (the mixed tangent; NaN at a
+    point: that of the displacements, as without it); strain:
     ((n1, n3) of the displacements, C J) for that update with ``want_strain`` and ``tangent``, else None.
     """
     shape = z.shape[:-1]
@@ -58,9 +59,10 @@ def derivatives(z, lam, props, kappa_ref, tangent, *, stress, want_strain):
         CJ[:, 0, 2], CJ[:, 0, 3], CJ[:, 0, 4] = a, Esc, -Ess
         CJ[:, 1, 2], CJ[:, 1, 3], CJ[:, 1, 4] = b, Ees, Eec
         strain = (np.stack([n1, n3], axis=1).reshape(shape + (2,)), CJ.reshape(shape + (2, 6)))
-    if stress is not None:
+    if stress is not None:  # NaN rows: the displacements' stress (a stack of mixed and consistent)
         stress = stress.reshape(n, 2)
-        n1, n3 = stress[:, 0], stress[:, 1]
+        n1 = np.where(np.isnan(stress[:, 0]), n1, stress[:, 0])
+        n3 = np.where(np.isnan(stress[:, 1]), n3, stress[:, 1])
     H = np.zeros((n, 6, 6))
     H[:, 2, 2] = b * nu1 - a * nu3 - n1 * nu1 - n3 * nu3
     H[:, 2, 3] = H[:, 3, 2] = a * c + b * s - n1 * s + n3 * c

@@ -8,6 +8,18 @@
 from matid.rod.api import solve
 from matid.rod.bend import BendGeometry, BendModel
 from matid.rod.cantilever import Solution
+from matid.rod.many import Failure, solve_many
 from matid.rod.scenes import Scene, load_scene
+from matid.rod.sweeps import sweep
 
-__all__ = ["BendGeometry", "BendModel", "Scene", "Solution", "load_scene", "solve"]
+__all__ = [
+    "BendGeometry",
+    "BendModel",
+    "Failure",
+    "Scene",
+    "Solution",
+    "load_scene",
+    "solve",
+    "solve_many",
+    "sweep",
+]

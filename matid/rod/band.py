@@ -93,3 +93,73 @@ class BandFactor:
         out = np.empty_like(x)
         out[m.order] = x
         return out
+
+
+class BlockTridiagonal:
+    """A stack of N banded matrices (half-bandwidth b) as block-tridiagonal matrices of b x b blocks,
+    factorised together: one batched numpy call per block step, whatever N (physics.md section 10).
+
+    ``T`` (N, nb, b, 3b): block row k holds the blocks on block columns k-1, k, k+1; rows past the
+    matrix (padding to nb b) hold the identity. Block LU without pivoting across blocks (the
+    Schur complements S_k = A_k - C_k S_(k-1)^-1 B_(k-1) are inverted whole); a symmetric matrix is
+    positive definite iff every S_k is, which ``positive_definite`` reads per matrix.
+    """
+
+    def __init__(self, T: np.ndarray):
+        self.T = T
+        N, nb, b, _ = T.shape
+        A, C, B = T[..., b : 2 * b], T[..., :b], T[..., 2 * b :]
+        G, W, S = [], [], A[:, 0]
+        schur = []
+        for k in range(nb):
+            if k:
+                S = A[:, k] - C[:, k] @ W[-1]
+            schur.append(S)
+            G.append(_inverse(S))
+            W.append(G[-1] @ B[:, k])
+        self.C, self.G, self.W, self.schur = C, G, W, schur
+
+    def positive_definite(self, rows: np.ndarray) -> np.ndarray:
+        """Per matrix ``rows``: every Schur complement positive definite (a symmetric matrix: it is
+        then positive definite). One batched Cholesky; per matrix only when one of them fails."""
+        S = np.stack([S[rows] for S in self.schur], axis=1)
+        try:
+            np.linalg.cholesky(S)
+            return np.ones(S.shape[0], bool)
+        except np.linalg.LinAlgError:
+            return np.array([_cholesky_ok(one) for one in S], bool)
+
+    def solve(self, r: np.ndarray) -> np.ndarray:
+        """x with T x = r, r (N, nb b)."""
+        N, nb, b = r.shape[0], len(self.G), self.T.shape[2]
+        r = r.reshape(N, nb, b, 1)
+        z = []
+        for k in range(nb):
+            y = r[:, k] - self.C[:, k] @ z[-1] if k else r[:, 0]
+            z.append(self.G[k] @ y)
+        x = [z[-1]]
+        for k in range(nb - 2, -1, -1):
+            x.append(z[k] - self.W[k] @ x[-1])
+        return np.concatenate(x[::-1], axis=1).reshape(N, nb * b)
+
+
+def _inverse(S: np.ndarray) -> np.ndarray:
+    """Inverses of a stack of blocks; a singular one gives NaN (its matrix fails alone)."""
+    try:
+        return np.linalg.inv(S)
+    except np.linalg.LinAlgError:
+        out = np.full_like(S, np.nan)
+        for i, block in enumerate(S):
+            try:
+                out[i] = np.linalg.inv(block)
+            except np.linalg.LinAlgError:
+                pass
+        return out
+
+
+def _cholesky_ok(S: np.ndarray) -> bool:
+    try:
+        np.linalg.cholesky(S)
+    except np.linalg.LinAlgError:
+        return False
+    return bool(np.isfinite(S).all())

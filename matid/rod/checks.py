@@ -22,10 +22,10 @@ from matid.rod.models import PLANAR
 LINEAR_RANGE = 0.05
 
 
-def point_strains(eq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def point_strains(eq, rod=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(s / L, |nu - e3|, |kappa - kappa_ref| scaled by L) at the quadrature points of eq."""
     disc, model = eq.disc, eq.model
-    rod = _prepare(eq.scene, model)[2]
+    rod = _prepare(eq.scene, model)[2] if rod is None else rod
     vals, ders = disc.interpolate(eq.U.ravel())
     ref = rod.kappa_ref_at(disc.s_quad)
     ref = np.broadcast_to(np.asarray(rod.kappa_ref, float), disc.s_quad.shape + (3,)) if ref is None else ref
@@ -40,11 +40,11 @@ def point_strains(eq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return disc.s_quad, shear, bend
 
 
-def strain_warnings(eq) -> list[str]:
+def strain_warnings(eq, rod=None) -> list[str]:
     """Warnings for strains outside the linear law's range in a converged cantilever state."""
     scene = eq.scene
     L, radius = scene.rod.length, 0.5 * _outer_diameter(scene, eq)
-    s, shear, bend = point_strains(eq)
+    s, shear, bend = point_strains(eq, rod)
     out = []
     i = int(np.argmax(shear))
     if shear.flat[i] > LINEAR_RANGE:

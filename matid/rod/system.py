@@ -30,6 +30,18 @@ from matid.rod.terms.base import at_points
 LABELS = ("twist", "unity penalty", "magnetic", "precurvature", "point loads")
 
 
+def term_labels(model: str, rod: ScaledRod, loads, kappa: np.ndarray | None) -> list[str]:
+    """The energy terms that run for a rod, its bound load terms and per-point precurvature (or
+    None), as Solution.terms lists them."""
+    present = {term.label for term in loads if term.label}
+    if model == FULL:
+        present |= {"twist", "unity penalty"}
+    if any(rod.kappa_ref) or kappa is not None:
+        present.add("precurvature")
+    extra = sorted(present - set(LABELS))
+    return ["bending", "shear", "extension"] + [name for name in LABELS if name in present] + extra
+
+
 @dataclass
 class RodSystem:
     """Residual and tangent of a clamped rod and its loads for :mod:`matid.rod.newton`."""
@@ -73,13 +85,7 @@ class RodSystem:
 
     def _labels(self) -> list[str]:
         """The energy terms that run, as Solution.terms lists them."""
-        present = {term.label for term, _ in self.distributed + self.nodal if term.label}
-        if self.model == FULL:
-            present |= {"twist", "unity penalty"}
-        if any(self.rod.kappa_ref) or self.kappa is not None:
-            present.add("precurvature")
-        extra = sorted(present - set(LABELS))
-        return ["bending", "shear", "extension"] + [name for name in LABELS if name in present] + extra
+        return term_labels(self.model, self.rod, [t for t, _ in self.distributed + self.nodal], self.kappa)
 
     # -- states -------------------------------------------------------------
     def reference(self) -> np.ndarray:

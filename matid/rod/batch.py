@@ -1,0 +1,319 @@
+"""Many planar cantilever scenes on one mesh as one stacked system (physics.md section 10).
+
+:class:`Stack` holds N scenes on one :class:`~matid.rod.fem.Discretisation` (same mesh, element
+and model): their stiffnesses, precurvatures, fields and dead loads as arrays with a leading scene
+axis. One :meth:`Stack.evaluate` gives every residual and tangent: the point values by one batched
+matmul, the strain kernel :func:`matid.physics.planar.derivatives` on all points of all scenes,
+one assembly (a bincount straight into the block-tridiagonal layout of
+:class:`matid.rod.band.BlockTridiagonal`) factorised for all scenes at once. Per scene the
+arithmetic is that of :class:`matid.rod.system.RodSystem` (the same kernels, the same terms'
+data): :func:`newton` and :func:`follow` are :func:`matid.rod.newton.newton` and
+:func:`matid.rod.newton.follow` with their tests applied per scene, so a scene that converges,
+diverges or lands on an unstable state leaves the stack with its answer or its reason.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from matid.physics import planar
+from matid.rod import newton as nw
+from matid.rod.band import BlockTridiagonal
+from matid.rod.cantilever import probe_start
+from matid.rod.fem import Discretisation
+from matid.rod.models import PLANAR
+from matid.rod.terms import DistributedForce, Magnetisation, Magnets, PointLoads, Tip
+
+#: The terms a stack evaluates (planar model); a scene with any other runs alone.
+STACKED = (Magnetisation, DistributedForce, Tip, Magnets, PointLoads)
+UNSTABLE = "unstable equilibrium (the tangent stiffness is not positive definite: buckling or snap)"
+
+
+def stackable(loads) -> bool:
+    """Whether a planar scene's terms are all evaluated by :class:`Stack`."""
+    return all(type(t) in STACKED and not getattr(t, "directed", ()) for t in loads)
+
+
+class Stack:
+    """Residual and tangent of N planar cantilevers on one mesh (see the module docstring).
+
+    ``parts``: (scaled rod, its load terms) per scene, as :func:`matid.rod.cantilever.scaled` gives.
+    """
+
+    def __init__(self, disc: Discretisation, parts: list[tuple]):
+        self.disc, nf = disc, 3
+        free = np.ones(disc.n, dtype=bool)
+        free[disc.vertex_dof(0) * nf + np.arange(nf)] = False
+        disc.set_free(free)
+        self.N, s = len(parts), disc.s_quad
+        stiff = [rod.stiffness_at(s) for rod, _ in parts]
+        self.props = {k: np.stack([p[k] for p in stiff]) for k in ("E_b", "E_s", "E_e")}
+        kappa = [(rod.kappa_ref[1], rod.kappa_ref_at(s)) for rod, _ in parts]
+        self.k2 = np.stack([np.full(s.shape, k2) if k is None else k[..., 1] for k2, k in kappa])
+        self.mu, self.B = np.zeros((self.N,) + s.shape), np.zeros((self.N, 3))
+        self.f = np.zeros((self.N, 2))
+        self.dead = np.zeros((self.N, disc.n))  # dead nodal loads at lam = 1 (tip, point loads)
+        self.magnet = np.zeros((self.N, disc.nscalar))  # lumped moment at each scalar dof
+        tip = disc.vertex_dof(disc.vertices.size - 1)
+        for i, (_, loads) in enumerate(parts):
+            for t in loads:
+                self._add(i, t, tip)
+        #: whose first load step is halved until the straight rod's tangent is definite there
+        self.probe = np.array([probe_start(rod, loads, PLANAR) for rod, loads in parts], bool)
+        stiffest = np.max([v.reshape(self.N, -1).max(1) for v in self.props.values()], 0)
+        self.roundoff = 1e-15 * np.maximum(1.0, stiffest)
+        self._layout()
+
+    def _add(self, i: int, t, tip: int) -> None:
+        if isinstance(t, Magnetisation):
+            self.mu[i], self.B[i] = t.mu_at(self.disc.s_quad), t.B
+        elif isinstance(t, DistributedForce):
+            self.f[i] = t.f[0], t.f[2]
+        elif isinstance(t, Tip):
+            self.dead[i, tip * 3 : tip * 3 + 3] -= (t.force[0], t.force[2], t.moment[1])
+        elif isinstance(t, PointLoads):
+            for s, F, M in t.loads:
+                k = self.disc.vertex_dof(int(np.argmin(np.abs(self.disc.vertices - s))))
+                self.dead[i, k * 3 : k * 3 + 3] -= (F[0], F[2], M[1])
+        elif isinstance(t, Magnets):
+            self.B[i] = t.B
+            for s, m in t.along_d3:
+                self.magnet[i, self.disc.vertex_dof(int(np.argmin(np.abs(self.disc.vertices - s))))] += m
+
+    def _layout(self) -> None:
+        """The block-tridiagonal slot of every element-matrix entry (through the band storage)."""
+        d = self.disc
+        n, u = d.band_order.size, d.band_u
+        b = u
+        nb = -(-n // b)
+        self.n, self.b, self.nb, self.size = n, b, nb, nb * b * 3 * b
+        v = d.band_all
+        j, i = v % n, v % n + v // n - u
+        k = i // b
+        slot = k * (3 * b * b) + (i % b) * 3 * b + (j - (k - 1) * b)
+        slots = np.where(v >= (2 * u + 1) * n, self.size, slot)
+        # each block slot gathers its (at most m) element-matrix entries: T[:, used] = sum_k Ke[:, src[k]]
+        keep = np.flatnonzero(slots < self.size)
+        order = keep[np.argsort(slots[keep], kind="stable")]
+        self.used, first, counts = np.unique(slots[order], return_index=True, return_counts=True)
+        src = np.full((counts.max(), self.used.size), slots.size)  # slots.size: a zero appended to Ke
+        for k in range(counts.max()):
+            has = counts > k
+            src[k, has] = order[first[has] + k]
+        self.src = src
+        pad = np.arange(n, nb * b)
+        self.pad = (pad // b) * 3 * b * b + (pad % b) * 3 * b + b + pad % b
+        theta = d.free_index[np.arange(d.nscalar) * 3 + 2]  # free dof of each scalar dof's theta
+        p = np.where(theta >= 0, d.band_position[np.maximum(theta, 0)], -1)
+        self.theta_slot = np.where(p >= 0, (p // b) * 3 * b * b + (p % b) * 3 * b + b + p % b, self.size)
+        U = np.zeros((d.nscalar, 3))
+        U[:, 1] = d.affine(0.0, 1.0)
+        self.ref = U.ravel()
+
+    def take(self, ids: np.ndarray) -> Stack:
+        """The stack of the scenes ``ids`` (shares the mesh and its layout)."""
+        new = object.__new__(Stack)
+        new.__dict__.update(self.__dict__)
+        new.N = len(ids)
+        new.props = {k: v[ids] for k, v in self.props.items()}
+        for name in ("k2", "mu", "B", "f", "dead", "magnet", "roundoff", "probe"):
+            setattr(new, name, getattr(self, name)[ids])
+        return new
+
+    def expand(self, X: np.ndarray) -> np.ndarray:
+        U = np.broadcast_to(self.ref, (X.shape[0], self.ref.size)).copy()
+        U[:, self.disc.free] = X
+        return U
+
+    def reference(self) -> np.ndarray:
+        return np.broadcast_to(self.ref[self.disc.free], (self.N, self.n)).copy()
+
+    def point_values(self, U: np.ndarray) -> np.ndarray:
+        d = self.disc
+        Ue = U.reshape(-1, d.nscalar, 3)[:, d.edofs.T]  # (N, ne, nloc, nf)
+        return np.matmul(d.point_table, Ue).reshape(U.shape[0], d.ne, -1, 6)
+
+    def evaluate(self, X, lam, *, tangent=True, stress=None, want_strain=False):
+        """(R (N, n free), block-tridiagonal tangent or None, strain) at states X, load factors lam (N,)."""
+        d, N = self.disc, X.shape[0]
+        U = self.expand(X)
+        z = self.point_values(U)
+        lam3 = lam[:, None, None]
+        kappa = np.zeros(z.shape[:-1] + (3,))
+        kappa[..., 1] = lam3 * self.k2
+        opts = {"stress": stress, "want_strain": want_strain}
+        g, H, strain = planar.derivatives(z, 1.0, self.props, kappa, tangent, **opts)
+        if self.mu.any():
+            pts = np.broadcast_to(self.B[:, None, None, :], z.shape[:-1] + (3,)).reshape(-1, 3)
+            planar.magnetic(g, H, z, lam3 * self.mu, (pts[:, 0], 0.0, pts[:, 2]))
+        if self.f.any():
+            g[..., 0] -= lam3 * self.f[:, None, None, 0]
+            g[..., 1] -= lam3 * self.f[:, None, None, 1]
+        ne, nq = d.ne, g.shape[2]
+        Wt = d.weighted.transpose(2, 1, 0, 3).reshape(ne, -1, 2 * nq)
+        Re = np.matmul(Wt, g.reshape(N, ne, nq, 2, 3).transpose(0, 1, 3, 2, 4).reshape(N, ne, 2 * nq, 3))
+        index = (d.gdofs.ravel()[None, :] + d.n * np.arange(N)[:, None]).ravel()
+        R = np.bincount(index, weights=Re.ravel(), minlength=N * d.n).reshape(N, d.n)
+        R += lam[:, None] * self.dead
+        T = None
+        if tangent:
+            H4 = H.reshape(N, ne, nq, 2, 3, 2, 3).transpose(0, 1, 2, 3, 5, 4, 6).reshape(N, ne, nq * 4, 9)
+            Ke = np.zeros((N, ne * 81 + 1))  # and a zero for the gather's padding
+            np.matmul(d.element_tables.transpose(0, 2, 1), H4, out=Ke[:, :-1].reshape(N, ne, 9, 9))
+            T = np.zeros((N, self.size + 1))
+            gathered = Ke[:, self.src[0]]
+            for k in range(1, self.src.shape[0]):
+                gathered += Ke[:, self.src[k]]
+            T[:, self.used] = gathered
+            T[:, self.pad] = 1.0
+        if self.magnet.any():
+            th, m = U.reshape(N, -1, 3)[:, :, 2], lam[:, None] * self.magnet
+            Bx, Bz = self.B[:, None, 0], self.B[:, None, 2]
+            R.reshape(N, -1, 3)[:, :, 2] -= m * (np.cos(th) * Bx - np.sin(th) * Bz)
+            if tangent:
+                np.add.at(T, (slice(None), self.theta_slot), m * (np.sin(th) * Bx + np.cos(th) * Bz))
+        if T is not None:
+            T = BlockTridiagonal(T[:, : self.size].reshape(N, self.nb, self.b, 3 * self.b))
+        return R[:, d.free], T, strain
+
+    def solve(self, T: BlockTridiagonal, R: np.ndarray) -> np.ndarray:
+        """-T^-1 R in free-dof numbering."""
+        order = self.disc.band_order
+        r = np.zeros((R.shape[0], self.nb * self.b))
+        r[:, : self.n] = -R[:, order]
+        x = T.solve(r)
+        out = np.empty_like(R)
+        out[:, order] = x[:, : self.n]
+        return out
+
+    def stress_step(self, strain, dx, alpha, old) -> np.ndarray:
+        """:meth:`matid.rod.system.RodSystem.mixed_update` for the stack: sigma after a step alpha dx."""
+        sigma_u, CJ = strain
+        dU = np.zeros((dx.shape[0], self.disc.n))
+        dU[:, self.disc.free] = dx
+        target = sigma_u + np.matmul(CJ, self.point_values(dU)[..., None])[..., 0]
+        old = np.where(np.isnan(old), sigma_u, old)
+        return old + alpha[:, None, None, None] * (target - old)
+
+
+def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray):
+    """:func:`matid.rod.newton.newton` for every scene of ``stack`` at once, each at its own load
+    factor; ``stress0``: first mixed tangent's point stresses (NaN: consistent). Returns
+    (X, iterations, positive definite, converged stress, failure reason or None) per scene;
+    a scene leaves the stack as soon as it converges or fails."""
+    N = stack.N
+    X, its = X0.copy(), np.zeros(N, int)
+    pd, reason = np.zeros(N, bool), [None] * N
+    out_stress = np.full(stress0.shape, np.nan)
+    floor = np.minimum(np.maximum(nw.XTOL, stack.roundoff), nw.FLOOR_CAP)
+    sizes = np.full((N, nw.MAX_ITER + 1), np.nan)
+    live, sub, x, S = np.arange(N), stack, X0.copy(), stress0.copy()
+    for it in range(1, nw.MAX_ITER + 1):
+        R, T, strain = sub.evaluate(x, lam[live], stress=S, want_strain=True)
+        dx = sub.solve(T, R)
+        size = np.abs(dx).max(1) if dx.shape[1] else np.zeros(len(live))
+        h = sizes[live]
+        prev, third, count = h[:, it - 2] if it > 1 else np.nan, h[:, it - 4] if it > 3 else np.nan, it - 1
+        bad = ~np.isfinite(R).all(1) | ~np.isfinite(size)
+        done = ~bad & ((size <= nw.XTOL) | ((size <= floor[live]) & (count > 0) & (size > 0.1 * prev)))
+        diverge = ~bad & ~done & (count >= 3) & (size > prev) & (size > third)
+        sizes[live, it - 1] = size
+        its[live] = it
+        leave = bad | done | diverge | (it == nw.MAX_ITER)
+        if done.any():
+            X[live[done]] = x[done] + dx[done]
+            pd[live[done]] = T.positive_definite(np.flatnonzero(done))
+            out_stress[live[done]] = strain[0][done]
+        for j in np.flatnonzero(leave & ~done):
+            reason[live[j]] = (
+                "residual is not finite"
+                if bad[j]
+                else f"diverging: correction {size[j]:.3g} at iteration {it}"
+                if diverge[j]
+                else f"no convergence in {nw.MAX_ITER} iterations (correction {size[j]:.3g})"
+            )
+        stay = ~leave
+        if not stay.any():
+            break
+        alpha = np.minimum(1.0, nw.MAX_STEP / size[stay])
+        mixed = size[stay] > nw.MIXED_ABOVE
+        strain_s = (strain[0][stay], strain[1][stay])
+        S = stack.stress_step(strain_s, dx[stay], alpha, S[stay])
+        S[~mixed] = np.nan
+        x = x[stay] + dx[stay] * alpha[:, None]
+        if leave.any():
+            live = live[stay]
+            sub = stack.take(live)
+    return X, its, pd, out_stress, reason
+
+
+def admissible(stack: Stack, X, lam, pd) -> np.ndarray:
+    """Per scene: stable (every Schur complement of the tangent at X positive definite). As
+    :meth:`RodSystem.reject`: the last Newton factorisation first, the tangent at X when it failed."""
+    pd = pd.copy()
+    again = np.flatnonzero(~pd)
+    if again.size:
+        T = stack.take(again).evaluate(X[again], lam[again])[1]
+        pd[again] = T.positive_definite(np.arange(again.size))
+    return pd
+
+
+def definite_steps(stack: Stack, X0: np.ndarray, step: np.ndarray) -> None:
+    """:func:`matid.rod.newton.definite_step` for the scenes that probe (``stack.probe``): their first
+    step halved, in place, while the tangent at the start is not positive definite at its load."""
+    ids = np.flatnonzero(stack.probe)
+    for _ in range(nw.MAX_DEFINITE_HALVINGS):
+        ids = ids[step[ids] >= 2.0 * nw.MIN_STEP]
+        if not ids.size:
+            return
+        T = stack.take(ids).evaluate(X0[ids], np.minimum(step[ids], 1.0))[1]
+        ids = ids[~T.positive_definite(np.arange(ids.size))]
+        step[ids] *= 0.5
+
+
+def follow(stack: Stack, X0: np.ndarray, stress0: np.ndarray | None = None):
+    """:func:`matid.rod.newton.follow` to lam = 1 for every scene, each with its own load steps.
+
+    Returns (X, info per scene (iterations, steps, rejected), converged stress, reason or None).
+    """
+    N = stack.N
+    X, lam = X0.copy(), np.zeros(N)
+    step, slope = np.ones(N), np.zeros_like(X0)
+    its, steps, rejected = np.zeros(N, int), np.zeros(N, int), np.zeros(N, int)
+    nq = stack.disc.s_quad.shape
+    stress = np.full((N,) + nq + (2,), np.nan) if stress0 is None else stress0.copy()
+    reason: list = [None] * N
+    budget = max(nw.MIN_ITERATIONS, int(nw.WORK_BUDGET / max(X0.shape[1], 1)))
+    definite_steps(stack, X0, step)
+    live = np.arange(N)
+    while live.size:
+        sub = stack.take(live)
+        lam_try = np.where(np.abs(1.0 - lam[live]) <= step[live], 1.0, lam[live] + step[live])
+        guess = X[live] + slope[live] * (lam_try - lam[live])[:, None]
+        Xn, k, pd, sn, why = newton(sub, guess, lam_try, stress[live])
+        ok = np.array([w is None for w in why])
+        ok[ok] = admissible(sub.take(np.flatnonzero(ok)), Xn[ok], lam_try[ok], pd[ok])
+        for j, i in enumerate(live):
+            if not ok[j]:
+                rejected[i] += 1
+                step[i] *= 0.5
+                if step[i] < nw.MIN_STEP:
+                    reason[i] = f"Newton failed at load factor {lam_try[j]:.6g} ({why[j] or UNSTABLE})"
+                continue
+            its[i] += k[j]
+            steps[i] += 1
+            lam[i], X[i], stress[i] = lam_try[j], Xn[j], sn[j]
+            if its[i] > budget:
+                reason[i] = f"continuation gave up after {its[i]} Newton iterations in {steps[i]} load steps"
+            elif k[j] <= 2 * nw.FAST:
+                step[i] = min((2.0 if k[j] <= nw.FAST else 1.5) * step[i], nw.MAX_LOAD_STEP)
+        moving = ok & (lam[live] < 1.0)
+        if moving.any():  # the tangent predictor dx/dlam = -K^-1 (R(x, 1) - R(x, 0))
+            ids = live[moving]
+            part = stack.take(ids)
+            K = part.evaluate(X[ids], lam[ids])[1]
+            one = part.evaluate(X[ids], np.ones(ids.size), tangent=False)[0]
+            zero = part.evaluate(X[ids], np.zeros(ids.size), tangent=False)[0]
+            slope[ids] = part.solve(K, one - zero)
+        live = np.array([i for i in live if lam[i] < 1.0 and reason[i] is None], int)
+    return X, np.stack([its, steps, rejected], 1), stress, reason

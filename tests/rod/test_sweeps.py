@@ -1,0 +1,93 @@
+"""[[sweep]]: parsing, the product of states, matid.rod.sweep and `matid solve` of a sweep."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import matid.rod as R
+from matid.bench import scenes as S
+from matid.errors import DataError
+from matid.rod.sweeps import parse_sweep, states
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLE = ROOT / "examples" / "sweeps" / "magnetic_workspace.toml"
+
+
+def test_values_from_to_count_and_units():
+    axes = parse_sweep(
+        [
+            {"key": "field.B", "values": [["10 mT", 0, 0], [0, 0, "0.02 T"]]},
+            {"key": "rod.E_b", "from": "5e-5 N m^2", "to": "9e-5 N m^2", "count": 5},
+            {"key": "magnetization.1.per_length", "values": ["2 A"]},
+        ]
+    )
+    assert axes[0].values == ((0.01, 0.0, 0.0), (0.0, 0.0, 0.02))
+    assert np.allclose(axes[1].values, [5e-5, 6e-5, 7e-5, 8e-5, 9e-5])
+    assert axes[2].kind == "moment_per_length"
+
+
+@pytest.mark.parametrize(
+    "entry, message",
+    [
+        ({"key": "rod.colour", "values": [1]}, "not a sweepable key"),
+        ({"key": "field.B", "from": 0, "to": 1, "count": 2}, "is a vector"),
+        ({"key": "rod.E_b", "values": [1], "count": 2}, "not both"),
+        ({"key": "rod.E_b", "from": 1, "to": 2, "count": 0}, "count"),
+        ({"key": "rod.E_b", "values": ["3 furlong"]}, "sweep"),
+    ],
+)
+def test_bad_entries_refused(entry, message):
+    with pytest.raises(DataError, match=message):
+        parse_sweep([entry])
+
+
+def test_every_combination_last_fastest_and_bad_states_kept():
+    scene = S.magnetic(2.0, 90.0)
+    axes = parse_sweep({"rod.E_b": [1e-4, -1.0], "magnetization.1.per_length": [1.0, 2.0, 3.0]})
+    made = states(scene, axes)
+    assert [c for c, _ in made][:4] == [(1e-4, 1.0), (1e-4, 2.0), (1e-4, 3.0), (-1.0, 1.0)]
+    assert made[2][1].rod.E_b == 1e-4 and made[2][1].loads.magnetization[0][2] == 3.0
+    assert all(isinstance(s, DataError) for _, s in made[3:])  # E_b = -1: refused by the scene
+
+
+def test_sweep_dataframe_matches_solve():
+    scene = S.magnetic(4.0, 120.0)
+    B = [list(scene.loads.B), [0.0, 0.0, -1.0 * np.linalg.norm(scene.loads.B) * 4]]
+    df = R.sweep(scene, {"field.B": B, "rod.E_b": [scene.rod.E_b, 2 * scene.rod.E_b]})
+    assert len(df) == 4 and df["converged"].tolist() == [True, True, False, False]
+    assert "unstable" in df["reason"][2] and not df["stable"][2]
+    want = R.solve(scene)
+    tip = df.loc[0, ["tip_x [m]", "tip_y [m]", "tip_z [m]"]].to_numpy(float)
+    assert np.max(np.abs(tip - want.tip["position"])) / scene.rod.length < 1e-9
+    assert df.loc[0, "field.B_x [T]"] == scene.loads.B[0]
+
+
+def test_matid_solve_sweep_writes_every_row_and_exits_1(tmp_path):
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "matid", "solve", str(EXAMPLE), "--out", str(out)]
+    run = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, check=False)
+    assert run.returncode == 1, run.stderr
+    doc = json.loads((out / "sweep.json").read_text())
+    assert doc["states"] == 36 and doc["failed"] == 3
+    failed = [r for r in doc["rows"] if not r["converged"]]
+    assert all(r["field.B_z [T]"] == -0.02 and "unstable" in r["reason"] for r in failed)
+    lines = (out / "sweep.csv").read_text().splitlines()
+    assert len(lines) == 37 and lines[0].startswith("rod.E_b [N m^2],field.B_x [T]")
+    assert (out / "workspace.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_solve_without_sweep_does_not_import_pandas(tmp_path):
+    scene = ROOT / "examples" / "scenes" / "tip_force.toml"
+    code = (
+        "import sys; from matid.app.cli import main; "
+        f"code = main(['solve', r'{scene}', '--out', r'{tmp_path / 'o'}']); "
+        "assert 'pandas' not in sys.modules, 'pandas imported'; sys.exit(code)"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=False)
+    assert run.returncode == 0, run.stderr
