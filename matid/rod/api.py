@@ -21,6 +21,7 @@ import numpy as np
 from matid.errors import DataError
 from matid.physics import kinematics as kin
 from matid.rod.accuracy import refine
+from matid.rod.advance import solve_steps, step_entry
 from matid.rod.aim import AIM_TOL, aim, angle
 from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
@@ -85,12 +86,18 @@ def solve(
         raise DataError(
             f"elements: at most {MAX_SCENE_ELEMENTS} (the automatic meshing's limit), got {elements}"
         )
-    if scene.advance is not None:  # parsed (scene_contact) but the step-by-step solve is not built
-        raise DataError("[advance]: advancing out of a sheath is not solved yet (issue 31)")
+    if scene.advance is not None:  # quasi-static insertion (contract section 12)
+        return _solve_advanced(scene, elements=elements, model=model, variant=variant, element=element)
     if scene.aim is not None:  # the inverse problem (contract section 9): the field is solved for
         return _solve_aimed(scene, elements=elements, model=model, variant=variant, element=element)
+    return _solve_forward(scene, elements=elements, model=model, variant=variant, element=element)[0]
+
+
+def _solve_forward(scene: Scene, *, elements, model, variant, element, start=None):
+    """(Solution, its Equilibrium or None) of a scene on its meshes with the error estimate;
+    ``start``: a warm start (scaled P2 vertices, values) for the first mesh (cantilevers)."""
     chosen = resolve_model(scene, model)
-    last = None  # the last mesh's Equilibrium: each finer mesh starts from it
+    last = start  # the last mesh's Equilibrium: each finer mesh starts from it
 
     def at(n: int):
         nonlocal last
@@ -118,8 +125,19 @@ def solve(
         extra = {"error_estimate": estimate, "warnings": strain_warnings(result)}
         if result.contact is not None:  # walls and lumen (contract section 12)
             extra.update(contacts_of(result))
-        return result.solution(discretization_error=error, extra=extra)
-    return replace(result, discretization_error=est.error, extra={**result.extra, "error_estimate": estimate})
+        return result.solution(discretization_error=error, extra=extra), result
+    extra = {**result.extra, "error_estimate": estimate}
+    return replace(result, discretization_error=est.error, extra=extra), None
+
+
+def _solve_advanced(scene: Scene, **options):
+    """:func:`solve` of a scene with ``[advance]``: every step in order, each warm-started from the
+    last (:mod:`matid.rod.advance`); the last step's Solution with ``steps`` in its extra."""
+    steps = solve_steps(scene, lambda step, start: _solve_forward(step, start=start, **options))
+    free, sol, _ = steps[-1]
+    entries = [step_entry(f, s) for f, s, _ in steps]
+    runtime = sum(s.runtime_s for _, s, _ in steps)
+    return replace(sol, runtime_s=runtime, extra={**sol.extra, "steps": entries, "free_length": free})
 
 
 def bend_force_scale(scene: Scene) -> float:

@@ -35,6 +35,9 @@ UNITS = {
     "aim.tip_direction_error_rad": "rad",
     "aim.runtime_s": "s",
 }
+#: The units of the [advance] keys (contract section 12), listed only under [advance].
+ADVANCE_UNITS = {"free_length": "m", "steps.free_length": "m", "steps.tip.position": "m", "steps.position": "m",
+                 "steps.contacts.force": "N"}  # fmt: skip
 #: The units of the contact keys (contract section 12), listed only in solutions that have them.
 CONTACT_UNITS = {
     "contacts.s": "m",
@@ -74,6 +77,10 @@ def solution_json(sol: Solution) -> dict:
         doc["units"].update(CONTACT_UNITS)
     if sol.three_point_bend is not None:
         doc["three_point_bend"] = {key: _floats(value) for key, value in sol.three_point_bend.items()}
+    if "steps" in sol.extra:  # [advance]: the top level is the last step (contract section 12)
+        doc["free_length"] = float(sol.extra["free_length"])
+        doc["steps"] = [dict(step) for step in sol.extra["steps"]]
+        doc["units"].update(ADVANCE_UNITS)
     if sol.discretization_error is not None:
         doc["discretization_error"] = float(sol.discretization_error)  # relative, Richardson
         doc["error_estimate"] = sol.extra.get("error_estimate", {})
@@ -136,7 +143,12 @@ def _centreline(ax, sol: Solution, component: int, name: str) -> None:
     """The projection of the centreline onto the (z, component) plane, equal aspect."""
     z, v = sol.position[:, 2] * MM, sol.position[:, component] * MM
     ax.plot(sol.s * MM, np.zeros_like(sol.s), "--", color="0.6", lw=1, label="straight reference")
-    ax.plot(z, v, "-", color="C0", lw=2, label="deformed")
+    steps = sol.extra.get("steps", [])[:-1]  # [advance]: the earlier steps, faded (contract section 12)
+    for k, step in enumerate(steps):
+        P = np.asarray(step["position"]) * MM
+        label = f"earlier steps ({len(steps)})" if k == 0 else None
+        ax.plot(P[:, 2], P[:, component], "-", color=f"C{k % 10}", lw=1.2, alpha=0.45, label=label)
+    ax.plot(z, v, "-", color="C0", lw=2, label="deformed" if not steps else "last step")
     end = "rod end (s = L)" if sol.scene.kind == "three_point_bend" else "tip (s = L)"  # a bend has no tip
     ax.plot(z[-1], v[-1], "o", color="C3", ms=5, label=end)
     ax.set_xlabel("z [mm]")
@@ -211,15 +223,17 @@ def _contacts(ax, sol: Solution, component: int) -> None:
             w = scene.lumen.radius * MM
             ax.plot(c[:, 2] * MM, c[:, component] * MM + w, "-", color="0.4", lw=2, alpha=0.5)
             ax.plot(c[:, 2] * MM, c[:, component] * MM - w, "-", color="0.4", lw=2, alpha=0.5)
+    earlier = [(c, 0.4) for step in sol.extra.get("steps", [])[:-1] for c in step["contacts"]]
     contacts = sol.extra.get("contacts", [])
-    largest = max((np.linalg.norm(c["force"]) for c in contacts), default=0.0)
-    for k, c in enumerate(contacts):
+    drawn = earlier + [(c, 1.0) for c in contacts]
+    largest = max((np.linalg.norm(c["force"]) for c, _ in drawn), default=0.0)
+    for c, alpha in drawn:
         P, Fv = np.asarray(c["position"]), np.asarray(c["force"]) * 0.2 * L / max(largest, 1e-300)
         ax.annotate("", xy=((P[2] + Fv[2]) * MM, (P[component] + Fv[component]) * MM),
                     xytext=(P[2] * MM, P[component] * MM),
-                    arrowprops={"arrowstyle": "->", "color": "C3", "lw": 2})  # fmt: skip
-        if k == 0:
-            ax.plot([], [], "-", color="C3", label="contact force")
+                    arrowprops={"arrowstyle": "->", "color": "C3", "lw": 2, "alpha": alpha})  # fmt: skip
+    if drawn:
+        ax.plot([], [], "-", color="C3", label="contact force")
     ax.set_xlim(z0, z1)
     ax.legend(loc="best", fontsize=8)
 

@@ -190,9 +190,3 @@ def test_example_wall_tip_against_the_reference():
     assert np.abs(tip - ref["tip"]).max() < 1e-6 * scene.rod.length
     force = np.asarray(sol.extra["contacts"][0]["force"])[[0, 2]]
     assert np.linalg.norm(force - ref["contacts"][0]["force_vector"]) < 1e-4 * abs(ref["contacts"][0]["force"])
-
-
-def test_advance_is_refused_until_it_is_solved():
-    scene = scene_from_dict({"rod": rod(), "advance": {"free_lengths": ["10 mm", "50 mm"]}})
-    with pytest.raises(DataError, match="advance"):
-        solve(scene)
