@@ -21,7 +21,7 @@ import numpy as np
 from matid.errors import DataError
 from matid.physics import kinematics as kin
 from matid.rod.accuracy import refine
-from matid.rod.aim import AIM_TOL, aim, angle
+from matid.rod.aim import AIM_SECONDS, AIM_TOL, aim, angle
 from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.cantilever import Equilibrium, Solution, equilibrium, scene_plane
@@ -59,6 +59,7 @@ def solve(
     model: str = "auto",
     variant: str = kin.NORMALISED,
     element: str = "P2",
+    aim_seconds: float = AIM_SECONDS,
 ) -> Solution:
     """Static equilibrium of a scene, SI, lab frame. Raises ConvergenceError (SlipOffError) on failure.
 
@@ -66,7 +67,8 @@ def solve(
     :func:`~matid.rod.scenes.load_scene`); anything else is a TypeError. ``elements`` overrides
     the scene's; for the three-point bend it counts the elements of the half model. ``variant``
     ("normalised" or "raw") and ``element`` ("P2", "P1" or "Hermite", the paper's cubic) apply to the
-    cantilever models.
+    cantilever models. ``aim_seconds``: how long a scene's ``[aim]`` may search (then a
+    ConvergenceError naming the closest direction reached).
     """
     if isinstance(scene, (str, os.PathLike)):
         scene = load_scene(scene)
@@ -85,7 +87,8 @@ def solve(
             f"elements: at most {MAX_SCENE_ELEMENTS} (the automatic meshing's limit), got {elements}"
         )
     if scene.aim is not None:  # the inverse problem (contract section 9): the field is solved for
-        return _solve_aimed(scene, elements=elements, model=model, variant=variant, element=element)
+        options = {"elements": elements, "model": model, "variant": variant, "element": element}
+        return _solve_aimed(scene, aim_seconds, **options)
     chosen = resolve_model(scene, model)
     last = None  # the last mesh's Equilibrium: each finer mesh starts from it
 
@@ -117,17 +120,18 @@ def solve(
     return replace(result, discretization_error=est.error, extra={**result.extra, "error_estimate": estimate})
 
 
-def _solve_aimed(scene: Scene, **options):
+def _solve_aimed(scene: Scene, seconds: float, **options):
     """:func:`solve` of a scene with ``[aim]``: the field found by :func:`aim`, then the
     forward solve of the scene in it (its mesh and error estimate as any scene's); the aim is
     repeated on that mesh when its tip misses the target by more than AIM_TOL."""
-    found = aim(scene, elements=options.get("elements"))
+    found = aim(scene, elements=options.get("elements"), seconds=seconds)
     forward = replace(scene, aim=None, loads=replace(scene.loads, B=tuple(found.B)))
     sol = solve(forward, **options)
     target = np.asarray(scene.aim.tip_direction)
     solves, runtime = found.forward_solves, found.runtime_s
-    if angle(sol.tip["d3"], target) > AIM_TOL and sol.elements != found.elements:
-        again = aim(replace(scene, elements=sol.elements))
+    left = seconds - found.runtime_s  # one budget for the whole aim (docs/limits.md)
+    if angle(sol.tip["d3"], target) > AIM_TOL and sol.elements != found.elements and left > 0:
+        again = aim(replace(scene, elements=sol.elements), seconds=left)
         forward = replace(forward, loads=replace(scene.loads, B=tuple(again.B)))
         sol = solve(forward, **{**options, "elements": sol.elements})
         solves, runtime = solves + again.forward_solves, runtime + again.runtime_s
