@@ -42,7 +42,7 @@ AIM_TOL = 1e-8
 DEFAULT_ELEMENTS = 16
 #: Wall-clock seconds an aim may search (docs/limits.md): then the closest direction reached so far is
 #: the answer (a ConvergenceError naming it when it misses). Checked before each forward solve.
-AIM_SECONDS = 20.0
+AIM_SECONDS = 15.0
 
 
 class OutOfTime(Exception):
