@@ -104,7 +104,7 @@ class Forward:
             d3 = self.last.tip()[3:]
             error = angle(d3, self.target)
             if error < self.best[0]:
-                self.best = (error, np.asarray(B, float) / np.linalg.norm(B), d3)
+                self.best = (error, _unit(B), d3)
         return self.last
 
     def sensitivity(self, eq: Equilibrium) -> np.ndarray:
@@ -245,6 +245,13 @@ def _stage(
     )
     bu = direction(fit.x)[0]
     return bu, state(fit.x).tip()[3:]
+
+
+def _unit(v) -> np.ndarray:
+    """``v`` normalised without overflow or underflow (a field of 1e-300 T has a direction too)."""
+    v = np.asarray(v, float)
+    v = v / np.abs(v).max()
+    return v / np.linalg.norm(v)
 
 
 def _fmt(v: np.ndarray) -> str:

@@ -178,3 +178,29 @@ def test_a_small_twist_beside_a_field_with_no_magnet_stays_in_the_energy(tmp_pat
     assert sol.model == "full"
     d1 = sol.d1[-1]
     assert np.arctan2(d1[1], d1[0]) == pytest.approx(T * 0.03 / 4.4e-5, rel=1e-6)
+
+
+@pytest.mark.parametrize("value", ["[1e300, 1e300, 0]", "[1e-320, 0, 1e-320]"])
+def test_a_direction_of_huge_or_tiny_numbers_is_that_direction(tmp_path, value):
+    """Found by the solver fuzz: the norm of [1e300, 1e300, 0] overflowed and the direction was refused
+    as 'not finite'; a subnormal one underflowed to 'zero'."""
+    text = ROD + f'[[magnet]]\nat = "30 mm"\nmoment = "0.01 A m^2"\ndirection = {value}\n'
+    a = load_scene(scene(tmp_path, text)).loads.magnet_directions[0]
+    expected = (1.0, 1.0, 0.0) if "300" in value else (1.0, 0.0, 1.0)
+    assert np.allclose(a, np.array(expected) / np.sqrt(2), rtol=0, atol=1e-15)
+
+
+def test_an_aim_in_a_vanishing_field_reports_a_finite_closest_field():
+    """Found by the solver fuzz: |B| = 1.6e-301 T made the closest field B/|B| = nan (|B|^2 underflows)."""
+    import dataclasses
+
+    from matid.errors import ConvergenceError
+    from matid.rod.aim import aim
+    from matid.rod.scenes import Aim
+    from tests import ROOT
+
+    scene = load_scene(ROOT / "examples" / "scenes" / "aim.toml")
+    with pytest.raises(ConvergenceError) as caught:
+        aim(dataclasses.replace(scene, aim=Aim((0.5, 0.0, 0.8660254037844386), 1.6e-301)), seconds=5)
+    closest = caught.value.info["closest"]
+    assert np.isfinite(closest.B).all() and np.linalg.norm(closest.B / 1.6e-301) == pytest.approx(1.0)
