@@ -204,7 +204,8 @@ def direction(value: object, where: str) -> Vector:
     if any(abs(c) > sys.float_info.max for c in value):
         raise DataError(f"{where}: a direction must be finite and not zero, got {short(value)}")
     a = np.asarray(value, float)
-    if np.isfinite(a).all() and not 1e-150 < np.abs(a).max() < 1e150:
+    big = float(np.abs(a).max())
+    if np.isfinite(a).all() and big > 0 and not 1e-150 < big < 1e150:
         a = a / np.abs(a).max()  # no overflow (or underflow) in the norm of [1e300, 1e300, 0]
     norm = float(np.linalg.norm(a))
     if not (np.isfinite(a).all() and np.isfinite(norm) and norm > 0):
