@@ -1,6 +1,7 @@
 """The long fuzz run of issues 12 and 20: mutated and hostile studies and scenes, signals, a kill -9 loop.
 
     nice -n 10 python benchmarks/fuzz.py --examples 3500 --signals 120 --kills 50
+    nice -n 10 python benchmarks/fuzz.py --scenes-solved 6000   # issue 30: scenes through the solver
 
 runs ``pytest tests/test_fuzz.py --hypothesis-profile=long`` with ``--examples``
 cases per fuzz test (study, scene, and the hostile classes of tests/fuzzhostile.py:
@@ -35,6 +36,8 @@ def main() -> int:
     parser.add_argument("--examples", type=int, default=5000, help="cases per fuzz test (2 tests)")
     parser.add_argument("--kills", type=int, default=50, help="kill -9 trials")
     parser.add_argument("--signals", type=int, default=100, help="signalled single and batch runs")
+    parser.add_argument("--scenes-solved", type=int, default=0,
+                        help="only the solver fuzz (issue 30): this many mutated scenes, each solved end to end")  # fmt: skip
     parser.add_argument("--log", type=Path, default=Path(tempfile.gettempdir()) / "matid-fuzz.jsonl")
     parser.add_argument("--full-one-in", default=os.environ.get("MATID_FUZZ_FULL_ONE_IN", "100"))
     args = parser.parse_args()
@@ -53,6 +56,10 @@ def main() -> int:
     cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests/test_fuzz.py",
            "-k", "fuzzed" if args.signals else "fuzzed and not signals",  # ... so 0 deselects the test
            "--hypothesis-profile=long", "--hypothesis-show-statistics"]  # fmt: skip
+    if args.scenes_solved:  # issue 30: through the solver; a case past 60 s is a hang
+        env.update(MATID_FUZZ_SOLVED=str(args.scenes_solved), MATID_FUZZ_LIMIT="60")
+        cmd[cmd.index("-k") + 1] = "fuzzed_scene_solved"
+        args.kills = 0
     pytest = subprocess.run(cmd, cwd=ROOT, env=env, check=False)
     fuzz_s = time.perf_counter() - clock
     print(summarise(args.log, fuzz_s, pytest.returncode))
@@ -97,6 +104,11 @@ def counts(records: list[dict]) -> dict[str, list[dict]]:
         "later-changed folders (after the signal)": [r for r in signals if r.get("changed")],
         "runs with a process alive 5 s after": [r for r in signals if r.get("alive")],
         "formula in a sheet or formula-leading CSV cell": [r for r in records if r["code"] == "formula"],
+        "solved end to end": [r for r in records if r["stage"] == "solved"],
+        "silent absurdities (a value > 1e100, a load not in the energy)": [
+            r for r in records if r["code"] == "absurd"
+        ],
+        "hangs (> the case limit)": [r for r in records if r["code"] == "hang" and r["stage"] != "signal"],
         "files read from outside a study without leave": [r for r in records if r["code"] == "outside"],
         "outside files refused without naming the key": [r for r in records if r["code"] == "unnamed"],
         "files inside a study refused": [r for r in records if r["code"] == "refused"],

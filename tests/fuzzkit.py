@@ -41,6 +41,7 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 from hypothesis import strategies as st
 
 from tests import ROOT
@@ -503,6 +504,29 @@ def study_cases(draw):
     return kind, toml, files, labels, full
 
 
+#: Factors a scene quantity is multiplied by: orders of magnitude up to overflow, signs, zero.
+SCALES = [1e-300, 1e-100, 1e-30, 1e-8, 1e-3, 0.1, 0.5, 2, 10, 1e3, 1e8, 1e30, 1e155, 1e300, -1, -10, 0]
+
+
+def scaled(value: object, factor: float) -> object:
+    """``value`` (a quantity "30 mm", a bare number, or a list of them) times ``factor``; anything
+    else unchanged."""
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, (int, float)):
+        return value * factor
+    if isinstance(value, list):
+        return [scaled(v, factor) for v in value]
+    if isinstance(value, str):
+        number, _, unit = value.partition(" ")
+        try:
+            x = float(number)
+        except ValueError:
+            return value
+        return f"{x * factor:.9g} {unit}".strip()
+    return value
+
+
 @st.composite
 def scene_cases(draw):
     """(scene name, scene text/bytes, extra files, labels, solve?)."""
@@ -515,10 +539,12 @@ def scene_cases(draw):
         tables = [("", doc)] + [(k, v) for k, v in doc.items() if isinstance(v, dict)]
         tables += [(k, t) for k, v in doc.items() if isinstance(v, list) for t in v if isinstance(t, dict)]
         name, table = draw(st.sampled_from(tables))
-        what = draw(st.sampled_from(["value", "drop", "add", "stiffness", "vector"]))
+        what = draw(st.sampled_from(["value", "drop", "add", "stiffness", "vector", "scale", "scale"]))
         keys = sorted(table) or ["x"]
         key = draw(st.sampled_from(keys))
-        if what == "value":
+        if what == "scale" and key in table:  # a number the reader accepts in form: it reaches the solver
+            table[key] = scaled(table[key], draw(st.sampled_from(SCALES)))
+        elif what == "value":
             extra_values = [100_000_000, 5, 1e-300, "1e400 mm", "20 mT", "-1 N"]
             table[key] = draw(st.sampled_from(VALUES + extra_values).map(copy.deepcopy))
         elif what == "drop" and key in table:
@@ -558,6 +584,48 @@ def scene_cases(draw):
         labels.append("syntax")
     solve = _one_in(FULL_ONE_IN, text, extra)
     return path.stem, text, extra, labels, solve
+
+
+#: Factors that keep most scenes inside the schema's bounds (and so reach the solver).
+MILD = [2, 0.5, 10, 0.1, 1e3, 1e-3, -1]
+#: Entries added to a scene by :func:`solver_cases`, at drawn places along (and off) a 30 mm rod.
+PLACES = ["12 mm", "5 mm", "20 mm", "29.999 mm", "30 mm", "1e-9 mm", "0 mm", "30.001 mm", "31 mm", "-1 mm"]
+
+
+@st.composite
+def solver_cases(draw):
+    """(scene name, text, extra files, labels, solve?): an example scene whose numbers are scaled (by
+    SCALES) or which gains an entry ([[point_load]], [[magnetization]], [[segment]], [[magnet]]) at
+    drawn places: most are accepted and reach the solver (:func:`solve_case`)."""
+    import tomllib
+
+    path = draw(st.sampled_from(SCENES))
+    doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    labels = []
+    for _ in range(draw(st.integers(1, 3))):
+        if draw(st.integers(0, 3)) == 3 and doc.get("scene", "cantilever") == "cantilever":
+            kind = draw(st.sampled_from(["point_load", "magnetization", "segment", "magnet"]))
+            a, b = sorted(draw(st.sampled_from(PLACES[:5] * 3 + PLACES)) for _ in "ab")[::-1 if draw(st.booleans()) and draw(st.booleans()) else 1]
+            entry = {
+                "point_load": {"at": a, "force": ["1e-3 N", "0 N", "0 N"], "moment": ["0 N m", "2e-4 N m", "0 N m"]},
+                "magnetization": {"from": a, "to": b, "per_length": "0.4 A"},
+                "segment": {"from": a, "to": b, "E_b": "2e-4 N m^2"},
+                "magnet": {"at": a, "moment": "0.01 A m^2"},
+            }[kind]
+            doc.setdefault(kind, [])
+            if isinstance(doc[kind], list):
+                doc[kind].append(entry)
+            labels.append(f"{kind}: add {a}..{b}")
+            continue
+        tables = [(k, t) for k, v in doc.items() for t in (v if isinstance(v, list) else [v]) if isinstance(t, dict)]
+        name, table = draw(st.sampled_from(tables))
+        numeric = [k for k in sorted(table) if scaled(table[k], 2.0) != table[k]] or ["x"]
+        key = draw(st.sampled_from(numeric))
+        factor = draw(st.sampled_from(MILD * 4 + SCALES))  # mostly a value the reader accepts
+        if key in table:
+            table[key] = scaled(table[key], factor)
+        labels.append(f"{name}.{key}: x {factor:g}")
+    return path.stem, toml_dumps(doc), {}, labels, False
 
 
 # -- running a case --------------------------------------------------------------
@@ -708,11 +776,110 @@ def run_scene_case(case, work: Path, *, limit: float = LIMIT) -> Outcome:
                 code, message = 3, f"{type(exc).__name__}: {exc}"
     except Hang as exc:
         code, message = "hang", str(exc)
+    if code == 0 and SOLVE_ALL:  # through the solver, and what it returns checked
+        return solve_case(scene, text, limit, clock)
     if code != 0 or not solve:
         return Outcome(code, "input", time.perf_counter() - clock, message)
     out = work / "out"
     code, message = run_cli(["solve", str(scene), "--out", str(out), "--quiet", "--elements", "4"], limit)
     return Outcome(code, "full", time.perf_counter() - clock, message)
+
+
+#: Solve every accepted scene case (matid.rod.solve, in this process) and check what it returns:
+#: benchmarks/fuzz.py --scenes-solved sets it; the suite solves its few accepted cases too.
+SOLVE_ALL = os.environ.get("MATID_FUZZ_SOLVE_ALL", "1") == "1"
+#: Element counts a solved case uses (None: refined to the scene's tolerance), picked by the case's text.
+ELEMENT_CHOICES = (1, 3, 4, 6, 8, 8, 12, 16, None)
+#: Seconds an [aim] case may search (a hard aim stops there with exit 1; the CLI's bound is AIM_SECONDS, 15 s).
+AIM_SECONDS = float(os.environ.get("MATID_FUZZ_AIM_SECONDS", "3"))
+#: A load smaller than this times the scene's largest (in scaled units) is below what a solve resolves.
+NEGLIGIBLE = 1e-12
+#: A returned number beyond this is absurd (issue 30).
+ABSURD = 1e100
+
+
+def solve_case(scene_path: Path, text: str | bytes, limit: float, clock: float) -> Outcome:
+    """``matid.rod.solve`` of an accepted scene: exit 0 with a sane solution, 1 (no equilibrium) or 2;
+    code "absurd" when it returns a value above ABSURD (or not finite) or a load of the scene is not
+    in the energy."""
+    from matid.errors import DataError, MatidError
+    from matid.rod.api import solve
+    from matid.rod.scenes import load_scene
+
+    data = text.encode("utf-8") if isinstance(text, str) else text
+    elements = ELEMENT_CHOICES[zlib.crc32(data) % len(ELEMENT_CHOICES)]
+    code: int | str = 0
+    message = ""
+    try:
+        with time_limit(limit):
+            try:
+                sol = solve(load_scene(scene_path), elements=elements, aim_seconds=AIM_SECONDS)
+                wrong = absurdity(sol)
+                if wrong:
+                    code, message = "absurd", wrong
+            except DataError as exc:
+                code, message = 2, str(exc)
+            except MatidError as exc:
+                code, message = 1, str(exc)
+            except Exception as exc:  # noqa: BLE001
+                code, message = 3, f"{type(exc).__name__}: {exc}"
+    except Hang as exc:
+        code, message = "hang", str(exc)
+    return Outcome(code, "solved", time.perf_counter() - clock, f"elements={elements}: {message}")
+
+
+def _numbers(doc: object):
+    if isinstance(doc, bool):
+        return
+    if isinstance(doc, (int, float)):
+        yield float(doc)
+    elif isinstance(doc, dict):
+        for v in doc.values():
+            yield from _numbers(v)
+    elif isinstance(doc, (list, tuple)):
+        for v in doc:
+            yield from _numbers(v)
+
+
+def absurdity(sol) -> str | None:
+    """What is absurd about a returned solution (None: nothing): a number of its JSON document above
+    ABSURD or not finite, or a load of its scene that the solver's built terms leave out."""
+    from matid.rod.output import solution_json
+
+    doc = solution_json(sol)
+    bad = [x for x in _numbers(doc) if not abs(x) <= ABSURD]
+    if bad:
+        return f"returned value {bad[0]!r} (|x| > {ABSURD:g} or not finite)"
+    return missing_load(sol.scene) if sol.scene.kind == "cantilever" else None
+
+
+def missing_load(scene) -> str | None:
+    """A load the scene has (a nonzero input) that the solver's terms (matid.rod.terms.loads_of, built
+    as the solve builds them) leave out, or carry as zero or not finite; None when all are there."""
+    from matid.rod import terms
+    from matid.rod.api import resolve_model
+    from matid.rod.cantilever import _prepare
+
+    loads, L, Eb = scene.loads, scene.rod.length, scene.rod.E_b
+    B = max(abs(c) for c in loads.B)
+    size = {  # each load in scaled units (matid.rod.models)
+        terms.DistributedForce: max(map(abs, loads.distributed_force)) * L**3 / Eb,
+        terms.Tip: max(max(map(abs, loads.tip_force)) * L**2, max(map(abs, loads.tip_moment)) * L) / Eb,
+        terms.PointLoads: max([max(max(map(abs, F)) * L**2, max(map(abs, M)) * L) / Eb
+                               for _, F, M in loads.point_loads] + [0.0]),  # fmt: skip
+        terms.Magnets: max([abs(m) * B * L / Eb for _, m in loads.magnets] + [0.0]),
+        terms.Magnetisation: max([abs(m) * B * L**2 / Eb for *_, m in loads.magnetization] + [0.0]),
+    }
+    largest = max(list(size.values()) + [abs(k) * L for k in scene.rod.precurvature])
+    built = {type(t): t for t in _prepare(scene, resolve_model(scene))[3]}
+    for kind, scaled_size in size.items():
+        if not scaled_size > NEGLIGIBLE * largest:  # below what the solve resolves (plane_of's tol)
+            continue
+        term = built.get(kind)
+        numbers = list(_numbers(term.__dict__)) if term is not None else []
+        if term is None or not all(np.isfinite(numbers)) or not any(numbers):
+            return f"{kind.__name__}: in the scene, {'absent from' if term is None else 'zero or not finite in'} the energy"
+    return None
 
 
 #: A writer publishing version A or B of four ~1 MB files, forever; the test kills it.
@@ -757,6 +924,8 @@ def allowed(outcome: Outcome) -> str | None:
     """None when the outcome is allowed, else what is wrong."""
     if outcome.code == "hang":
         return f"hang: {outcome.message}"
+    if outcome.code == "absurd":
+        return f"silent absurdity: {outcome.message}"
     if outcome.code not in (0, 1, 2):
         return f"exit {outcome.code}: {outcome.message.strip()[-2000:]}"
     if outcome.code in (1, 2) and not outcome.message.strip():

@@ -50,6 +50,22 @@ def test_fuzzed_study_ends_in_an_allowed_outcome(case):
         assert problem is None, f"{case[0]} {case[3]}: {problem}"
 
 
+#: Scenes solved end to end by the suite (a seeded sample); benchmarks/fuzz.py --scenes-solved runs thousands.
+SOLVED = int(os.environ.get("MATID_FUZZ_SOLVED", "12"))
+
+
+@settings(max_examples=SOLVED, derandomize=not COLLECT)  # the suite: a seeded sample; the benchmark: random
+@given(fuzzkit.solver_cases())
+def test_fuzzed_scene_solved_ends_in_an_allowed_outcome_and_no_absurdity(case):
+    """Issue 30: mutated scenes go through the solver: exit 0 (a solution with no value above 1e100
+    and every load of the scene in the energy), 1 or 2; never 3, a hang or a silent absurdity."""
+    outcome = fuzzkit.run_scene_case(case, WORK / "solver-case")
+    fuzzkit.log(outcome, case[3], f"solved/{case[0]}")
+    problem = fuzzkit.allowed(outcome)
+    if not COLLECT:
+        assert problem is None, f"{case[0]} {case[3]}: {problem}"
+
+
 @given(fuzzkit.scene_cases())
 def test_fuzzed_scene_ends_in_an_allowed_outcome(case):
     outcome = fuzzkit.run_scene_case(case, WORK / "scene-case")

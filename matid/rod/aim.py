@@ -40,6 +40,13 @@ MAX_TURN = 0.35
 #: A target is reached when the tip is within this angle of it (rad); the contract asks 1e-4.
 AIM_TOL = 1e-8
 DEFAULT_ELEMENTS = 16
+#: Wall-clock seconds an aim may search (docs/limits.md): then the closest direction reached so far is
+#: the answer (a ConvergenceError naming it when it misses). Checked before each forward solve.
+AIM_SECONDS = 15.0
+
+
+class OutOfTime(Exception):
+    """The aim's time is up (raised before a forward solve; caught by :func:`aim`)."""
 
 
 @dataclass(frozen=True)
@@ -78,16 +85,26 @@ def _basis(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class Forward:
     """Forward solves of a scene at fields |B| b on one mesh, each warm-started from the last."""
 
-    def __init__(self, scene: Scene, elements: int):
-        self.scene, self.elements, self.solves = scene, elements, 0
+    def __init__(self, scene: Scene, elements: int, deadline: float = np.inf):
+        self.scene, self.elements, self.solves, self.deadline = scene, elements, 0, deadline
         self.last: Equilibrium | None = None
+        self.target = np.asarray(scene.aim.tip_direction) if scene.aim else None
+        #: (error, field direction, tip d3) of the forward solve closest to the target so far
+        self.best: tuple = (np.inf, np.full(3, np.nan), np.full(3, np.nan))
 
     def at(self, B: np.ndarray) -> Equilibrium:
+        if time.perf_counter() > self.deadline:
+            raise OutOfTime
         scene = dataclasses.replace(
             self.scene, loads=dataclasses.replace(self.scene.loads, B=tuple(B)), aim=None
         )
         self.last = equilibrium(scene, elements=self.elements, model=FULL, start=self.last)
         self.solves += 1
+        if self.target is not None:
+            d3 = self.last.tip()[3:]
+            error = angle(d3, self.target)
+            if error < self.best[0]:
+                self.best = (error, _unit(B), d3)
         return self.last
 
     def sensitivity(self, eq: Equilibrium) -> np.ndarray:
@@ -111,34 +128,50 @@ class Forward:
         return dd3_dq @ np.array([dx[dofs] for dx in dX]).T
 
 
-def aim(scene: Scene, *, elements: int | None = None) -> AimResult:
+def aim(scene: Scene, *, elements: int | None = None, seconds: float = AIM_SECONDS) -> AimResult:
     """The field of magnitude scene.aim.field_magnitude turning the tip's d3 closest to the target.
 
     The continuation starts from the field along the target; when that misses, from the
     START_TRIES fields among the CANDIDATES (26 directions of a cube's faces, edges and
     corners) that put the tip nearest to the target. Raises ConvergenceError when the closest
-    direction reached misses the target by more than AIM_TOL (naming it and the field).
+    direction reached misses the target by more than AIM_TOL (naming it and the field), also when
+    the search stops after ``seconds`` (checked before each forward solve) with the closest
+    direction any forward solve reached.
     """
     t0 = time.perf_counter()
     target, magnitude = np.asarray(scene.aim.tip_direction), scene.aim.field_magnitude
     n = elements or scene.elements or DEFAULT_ELEMENTS
-    forward = Forward(scene, n)
+    forward = Forward(scene, n, deadline=t0 + seconds)
+    stopped = ""
+    try:
+        best = _search(forward, target, magnitude)
+    except OutOfTime:
+        best = forward.best
+        stopped = f"; stopped after {time.perf_counter() - t0:.0f} s (matid.rod.aim.AIM_SECONDS)"
+    error, b, d3 = best
+    result = AimResult(magnitude * b, d3, error, forward.solves, time.perf_counter() - t0, n)
+    if not error <= AIM_TOL:
+        reached = (
+            f"the closest direction reached is d3 = {_fmt(d3)}, {np.degrees(error):.4g} deg off, with B = "
+            f"{_fmt(result.B)} T" if np.isfinite(error) else "no forward solve converged"
+        )
+        raise ConvergenceError(
+            f"[aim]: no field of {magnitude:.6g} T found turning the tip to {_fmt(target)}: {reached} "
+            f"({forward.solves} forward solves{stopped})",
+            closest=result,
+        )
+    return result
+
+
+def _search(forward: Forward, target: np.ndarray, magnitude: float) -> tuple:
+    """(error, field direction, tip d3): from the field along the target, then from the nearest starts."""
     best = _continue(forward, target, magnitude, target)
     if best[0] > AIM_TOL:
         for b in _nearest_starts(forward, target, magnitude)[:START_TRIES]:
             best = min(best, _continue(forward, b, magnitude, target), key=lambda r: r[0])
             if best[0] <= AIM_TOL:
                 break
-    error, b, d3 = best
-    result = AimResult(magnitude * b, d3, error, forward.solves, time.perf_counter() - t0, n)
-    if error > AIM_TOL:
-        raise ConvergenceError(
-            f"[aim]: no field of {magnitude:.6g} T turns the tip to {_fmt(target)}: the closest "
-            f"direction reached is d3 = {_fmt(d3)}, {np.degrees(error):.4g} deg off, with B = "
-            f"{_fmt(result.B)} T ({forward.solves} forward solves)",
-            closest=result,
-        )
-    return result
+    return best
 
 
 #: Field directions tried when the field along the target is no start: a cube's 26 directions.
@@ -212,6 +245,13 @@ def _stage(
     )
     bu = direction(fit.x)[0]
     return bu, state(fit.x).tip()[3:]
+
+
+def _unit(v) -> np.ndarray:
+    """``v`` normalised without overflow or underflow (a field of 1e-300 T has a direction too)."""
+    v = np.asarray(v, float)
+    v = v / np.abs(v).max()
+    return v / np.linalg.norm(v)
 
 
 def _fmt(v: np.ndarray) -> str:

@@ -22,7 +22,7 @@ from matid.errors import DataError
 from matid.physics import kinematics as kin
 from matid.rod.accuracy import refine
 from matid.rod.advance import solve_steps, step_entry
-from matid.rod.aim import AIM_TOL, aim, angle
+from matid.rod.aim import AIM_SECONDS, AIM_TOL, aim, angle
 from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.cantilever import Equilibrium, Solution, equilibrium, scene_plane
@@ -61,6 +61,7 @@ def solve(
     model: str = "auto",
     variant: str = kin.NORMALISED,
     element: str = "P2",
+    aim_seconds: float = AIM_SECONDS,
 ) -> Solution:
     """Static equilibrium of a scene, SI, lab frame. Raises ConvergenceError (SlipOffError) on failure.
 
@@ -68,7 +69,8 @@ def solve(
     :func:`~matid.rod.scenes.load_scene`); anything else is a TypeError. ``elements`` overrides
     the scene's; for the three-point bend it counts the elements of the half model. ``variant``
     ("normalised" or "raw") and ``element`` ("P2", "P1" or "Hermite", the paper's cubic) apply to the
-    cantilever models.
+    cantilever models. ``aim_seconds``: how long a scene's ``[aim]`` may search (then a
+    ConvergenceError naming the closest direction reached).
     """
     if isinstance(scene, (str, os.PathLike)):
         scene = load_scene(scene)
@@ -89,7 +91,8 @@ def solve(
     if scene.advance is not None:  # quasi-static insertion (contract section 12)
         return _solve_advanced(scene, elements=elements, model=model, variant=variant, element=element)
     if scene.aim is not None:  # the inverse problem (contract section 9): the field is solved for
-        return _solve_aimed(scene, elements=elements, model=model, variant=variant, element=element)
+        options = {"elements": elements, "model": model, "variant": variant, "element": element}
+        return _solve_aimed(scene, aim_seconds, **options)
     return _solve_forward(scene, elements=elements, model=model, variant=variant, element=element)[0]
 
 
@@ -150,17 +153,18 @@ def bend_force_scale(scene: Scene) -> float:
     return d / (S**3 / (48 * rod.E_b) + S / (4 * rod.E_s))
 
 
-def _solve_aimed(scene: Scene, **options):
+def _solve_aimed(scene: Scene, seconds: float, **options):
     """:func:`solve` of a scene with ``[aim]``: the field found by :func:`aim`, then the
     forward solve of the scene in it (its mesh and error estimate as any scene's); the aim is
     repeated on that mesh when its tip misses the target by more than AIM_TOL."""
-    found = aim(scene, elements=options.get("elements"))
+    found = aim(scene, elements=options.get("elements"), seconds=seconds)
     forward = replace(scene, aim=None, loads=replace(scene.loads, B=tuple(found.B)))
     sol = solve(forward, **options)
     target = np.asarray(scene.aim.tip_direction)
     solves, runtime = found.forward_solves, found.runtime_s
-    if angle(sol.tip["d3"], target) > AIM_TOL and sol.elements != found.elements:
-        again = aim(replace(scene, elements=sol.elements))
+    left = seconds - found.runtime_s  # one budget for the whole aim (docs/limits.md)
+    if angle(sol.tip["d3"], target) > AIM_TOL and sol.elements != found.elements and left > 0:
+        again = aim(replace(scene, elements=sol.elements), seconds=left)
         forward = replace(forward, loads=replace(scene.loads, B=tuple(again.B)))
         sol = solve(forward, **{**options, "elements": sol.elements})
         solves, runtime = solves + again.forward_solves, runtime + again.runtime_s

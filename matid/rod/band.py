@@ -54,7 +54,8 @@ class Banded:
     def tocsr(self) -> sp.csr_matrix:
         """The matrix in free-dof numbering, in O(n u) (the stability test of dead moments, tests)."""
         n, u = self.shape[0], self.u
-        offsets = list(range(-u, u + 1))
+        w = min(u, n - 1)  # a mesh of few elements is narrower than the band: no diagonal past n
+        offsets = list(range(-w, w + 1))
         diagonals = [self.ab[u + k, max(0, -k) : min(n, n - k)] for k in offsets]
         band = sp.diags(diagonals, [-k for k in offsets], shape=(n, n), format="coo")
         out = sp.csr_matrix((band.data, (self.order[band.row], self.order[band.col])), shape=(n, n))

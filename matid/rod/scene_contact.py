@@ -8,13 +8,13 @@ holding the clamp) are :func:`check_contact`. The tube's outer radius at arc len
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from matid.errors import DataError
 from matid.physics.boundaries import Centreline, lumen_gap, wall_gap
+from matid.rod import schema
 from matid.rod.scene_values import Vector, array_of_tables, direction, one_table, quantity, si
 from matid.units import to_si, vector_to_si
 
@@ -42,10 +42,12 @@ class Lumen:
 
 def contact_keys(raw: dict) -> dict:
     """{"walls", "lumen", "advance"} of a parsed scene (empty, None, None when absent)."""
-    walls = tuple(
-        Wall(si(vector_to_si, t, "point", "length", where), direction(t.get("normal"), f"{where}.normal"))
-        for where, t in array_of_tables(raw, "wall")
-    )
+    walls = []
+    for where, t in array_of_tables(raw, "wall"):
+        point = si(vector_to_si, t, "point", "length", where)
+        schema.check("wall", "point", point, where)
+        walls.append(Wall(point, direction(t.get("normal"), f"{where}.normal")))
+    walls = tuple(walls)
     lumen = None
     if "lumen" in raw:
         t = one_table(raw, "lumen")
@@ -55,8 +57,8 @@ def contact_keys(raw: dict) -> dict:
         line = tuple(_point(p, f"[lumen].centreline #{i + 1}") for i, p in enumerate(points))
         radius = quantity(t, "radius", "length", "[lumen]")
         corner = quantity(t, "corner_radius", "length", "[lumen]", CORNER_RADII * radius)
-        if not (radius > 0 and corner > 0 and math.isfinite(radius) and math.isfinite(corner)):
-            raise DataError("[lumen]: radius and corner_radius must be positive and finite")
+        schema.check("lumen", "radius", radius, "[lumen]")
+        schema.check("lumen", "corner_radius", corner, "[lumen]")
         lumen = Lumen(line, radius, corner)
         try:
             lumen.line()
@@ -69,6 +71,8 @@ def contact_keys(raw: dict) -> dict:
         if not isinstance(lengths, list) or not lengths or len(lengths) > MAX_STEPS:
             raise DataError(f"[advance].free_lengths: need a list of 1 to {MAX_STEPS} lengths")
         advance = tuple(_length(v, "[advance].free_lengths") for v in lengths)
+        for free in advance:
+            schema.check("advance", "free_lengths", free, "[advance]")
     return {"walls": walls, "lumen": lumen, "advance": advance}
 
 
@@ -130,3 +134,13 @@ def check_contact(scene) -> None:
         g, _, _ = lumen_gap(origin, scene.lumen.line(), scene.lumen.radius, R0)
         if g.min() < -tol:
             raise DataError("[lumen]: the clamp is outside the lumen (its wall cuts the tube at the clamp)")
+
+
+def contact_directions(scene) -> list[np.ndarray]:
+    """Unit transverse directions a planar solve must keep in its plane: of each wall's normal and
+    each lumen centreline point (a wall or lumen off the plane makes the scene 3D)."""
+    vectors = [np.asarray(w.normal, float) for w in scene.walls]
+    if scene.lumen is not None:
+        size = max(float(np.abs(np.asarray(scene.lumen.centreline)).max()), scene.lumen.radius)
+        vectors += [np.asarray(p, float) / size for p in scene.lumen.centreline]
+    return [v[:2] / np.linalg.norm(v[:2]) for v in vectors if np.linalg.norm(v[:2]) > 1e-12]

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from matid.errors import DataError
+from matid.rod import schema
 from matid.units import UnitError, to_si, vector_to_si
 
 Vector = tuple[float, float, float]
@@ -64,6 +65,9 @@ def array_of_tables(raw: dict, key: str) -> list[tuple[str, dict]]:
     items = raw.get(key, [])
     if not isinstance(items, list):
         raise DataError(f"[[{key}]]: expected an array of tables, got {type(items).__name__} {short(items)}")
+    most = schema.BY_NAME[key].max_entries
+    if len(items) > most:
+        raise DataError(f"[[{key}]]: at most {most} entries (matid.rod.schema.MAX_SCENE_ENTRIES), got {len(items)}")
     out = []
     for i, item in enumerate(items):
         where = f"[[{key}]] #{i + 1}"
@@ -81,23 +85,8 @@ def short(value: object) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-#: Keys of each scene table (docs/contract.md section 6); any other is a typo to report, not to ignore.
-TABLE_KEYS = {
-    "rod": {"length", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "precurvature", "stiffness"},
-    "segment": {"from", "to", "E_b", "E_t", "E_s", "E_e", "outer_diameter", "rigid", "precurvature"},
-    "load": {"distributed_force"},
-    "magnet": {"at", "moment", "direction"},
-    "magnetization": {"from", "to", "per_length", "direction"},
-    "point_load": {"at", "force", "moment"},
-    "aim": {"tip_direction", "field_magnitude"},
-    "field": {"B"},
-    "tip": {"force", "moment"},
-    "three_point_bend": {"span", "support_radius", "nose_radius", "deflection"},
-    # contract section 12, read by matid.rod.scene_contact
-    "wall": {"point", "normal"},
-    "lumen": {"centreline", "radius", "corner_radius"},
-    "advance": {"free_lengths"},
-}
+#: Keys of each scene table (matid.rod.schema, docs/scenes.md); any other is a typo to report, not to ignore.
+TABLE_KEYS = schema.TABLE_KEYS
 
 
 def known(table: dict, name: str, where: str) -> dict:
@@ -114,6 +103,23 @@ def quantity(table: dict, key: str, kind: str, where: str, default: object = Non
             raise DataError(f"{where}: missing '{key}'")
         return float(default)
     return si(to_si, table, key, kind, where)
+
+
+def read(table: dict, name: str, key: str, where: str):
+    """The SI value of ``key`` of the scene table ``name`` (a quantity or a vector), its kind, default
+    and bounds taken from :mod:`matid.rod.schema`: None when it is absent and has no default (a
+    vector: zero); a DataError naming ``where.key`` when it is missing, not a quantity, or out of
+    bounds."""
+    spec = schema.key(name, key)
+    if key not in table:
+        if spec.default is None:
+            raise DataError(f"{where}: missing '{key}'")
+        if spec.type == "vector":
+            return ZERO
+        return None if spec.default == schema.ABSENT else spec.default
+    value = si(vector_to_si if spec.type == "vector" else to_si, table, key, spec.kind, where)
+    schema.check(name, key, value, where)
+    return value
 
 
 def vector(table: dict, key: str, kind: str, where: str) -> Vector:
@@ -137,12 +143,14 @@ def stiffness_from_json(ref: dict, root: Path | None) -> dict:
     for key in ("from", "specimen"):
         if not isinstance(ref.get(key), str) or not ref[key]:
             raise DataError(f"rod.stiffness.{key}: expected a non-empty string, got {short(ref.get(key))}")
-    extra = sorted(set(ref) - {"from", "specimen"})
+    fields = schema.key("rod", "stiffness").fields
+    extra = sorted(set(ref) - set(fields))
     if extra:
-        raise DataError(f"rod.stiffness: unknown key '{extra[0]}' (known: from, specimen)")
-    file = Path(ref["from"])
-    if root is not None and not file.is_absolute():
-        file = root / file
+        raise DataError(f"rod.stiffness: unknown key '{extra[0]}' (known: {', '.join(sorted(fields))})")
+    outside = ref.get("allow_outside", False)
+    if not isinstance(outside, bool):
+        raise DataError(f"rod.stiffness.allow_outside: expected true or false, got {short(outside)}")
+    file = inside(Path(ref["from"]), root, outside)
     try:
         doc = json.loads(read_small_file(file, "stiffness file"))
     except ValueError as exc:  # JSONDecodeError, or a number too large for Python's int parser
@@ -170,6 +178,23 @@ def stiffness_from_json(ref: dict, root: Path | None) -> dict:
     return out
 
 
+def inside(file: Path, root: Path | None, outside: bool) -> Path:
+    """``file`` (relative to the scene's folder ``root``), links resolved; a DataError when it lies
+    outside that folder (``../x``, an absolute path, a link leading out) unless ``outside``: a scene
+    handed over must not read the reader's files (as a study's data files, docs/limits.md)."""
+    base = Path.cwd() if root is None else root
+    try:
+        resolved, folder = (base / file).resolve(), base.resolve()
+    except (OSError, RuntimeError) as exc:
+        raise DataError(f"rod.stiffness.from: {short(str(file))} cannot be resolved ({exc})") from exc
+    if not (outside or resolved.is_relative_to(folder)):
+        raise DataError(
+            f"rod.stiffness.from: {short(str(file))} is {resolved}, outside the scene's folder {folder}; "
+            "move it in, or set allow_outside = true in the stiffness table"
+        )
+    return resolved
+
+
 def direction(value: object, where: str) -> Vector:
     """A direction: three plain numbers, not all zero, normalised."""
     if not isinstance(value, list) or len(value) != 3:
@@ -179,6 +204,9 @@ def direction(value: object, where: str) -> Vector:
     if any(abs(c) > sys.float_info.max for c in value):
         raise DataError(f"{where}: a direction must be finite and not zero, got {short(value)}")
     a = np.asarray(value, float)
+    big = float(np.abs(a).max())
+    if np.isfinite(a).all() and big > 0 and not 1e-150 < big < 1e150:
+        a = a / np.abs(a).max()  # no overflow (or underflow) in the norm of [1e300, 1e300, 0]
     norm = float(np.linalg.norm(a))
     if not (np.isfinite(a).all() and np.isfinite(norm) and norm > 0):
         raise DataError(f"{where}: a direction must be finite and not zero, got {short(value)}")

@@ -1,4 +1,5 @@
-"""Scenes: a rod, its loads and supports, as data (docs/contract.md section 6).
+"""Scenes: a rod, its loads and supports, as data (docs/contract.md section 6; every key: docs/scenes.md,
+made from :mod:`matid.rod.schema`).
 
 ``load_scene`` reads a scene TOML into a frozen :class:`Scene` in SI; the
 solver (:mod:`matid.rod.cantilever`) turns it into a :class:`Solution`. A cantilever
@@ -18,30 +19,26 @@ import numpy as np
 
 from matid.errors import DataError
 from matid.rod.accuracy import MAX_ELEMENTS
-from matid.rod.scene_contact import Lumen, Wall, check_contact, contact_keys
+from matid.rod.scene_contact import Lumen, Wall, check_contact, contact_directions, contact_keys
 from matid.rod.scene_values import (
-    TABLE_KEYS,
     ZERO,
     Vector,
     array_of_tables,
     as_table,
     direction,
     one_table,
-    quantity,
+    read,
     read_small_file,
     short,
     stiffness_from_json,
-    vector,
 )
+from matid.rod.schema import MAX_DEFLECTIONS, MIN_TOLERANCE, SCENE_KEYS
 from matid.toml import parse_toml
 from matid.units import UnitError, to_si
 
 #: Most elements a scene may ask for: the automatic meshing stops there too.
 MAX_SCENE_ELEMENTS = MAX_ELEMENTS
-#: Most nose displacements a three-point-bend scene may list (each is a continuation solve).
-MAX_DEFLECTIONS = 1000
-#: Smallest tolerance: the error estimate never claims better than round-off (accuracy.ROUNDOFF).
-MIN_TOLERANCE = 1e-12
+__all__ = ["MAX_DEFLECTIONS", "MAX_SCENE_ELEMENTS", "MIN_TOLERANCE"]  # also kept here (matid.rod.schema)
 
 
 @dataclass(frozen=True)
@@ -92,6 +89,13 @@ class Rod:
                 raise DataError(
                     f"segment [{seg.start}, {seg.end}] m is not inside the rod [0, {self.length}] m"
                 )
+        pieces = sorted(self.segments, key=lambda seg: seg.start)
+        for a, b in zip(pieces, pieces[1:], strict=False):
+            if b.start < a.end:
+                raise DataError(
+                    f"segments [{a.start:g}, {a.end:g}] m and [{b.start:g}, {b.end:g}] m overlap: "
+                    "each point of the rod belongs to one piece at most"
+                )
 
 
 @dataclass(frozen=True)
@@ -103,7 +107,7 @@ class Loads:
     magnets: tuple[tuple[float, float], ...] = ()  # (at, moment)
     magnetization: tuple[tuple[float, float, float], ...] = ()  # (from, to, per_length)
     #: unit magnetisation directions in the director frame, one per magnet / magnetised piece
-    #: (contract section 9); empty: every one along d3
+    #: (docs/scenes.md, ``direction``); empty: every one along d3
     magnet_directions: tuple[Vector, ...] = ()
     magnetization_directions: tuple[Vector, ...] = ()
     point_loads: tuple[tuple[float, Vector, Vector], ...] = ()  # (at, dead force, dead moment)
@@ -141,11 +145,21 @@ class BendSetup:
             raise DataError("three_point_bend needs span > 0 and radii >= 0")
         if not self.deflections or any(d < 0 or not math.isfinite(d) for d in self.deflections):
             raise DataError("three_point_bend needs deflections >= 0")
+        for name in ("support_radius", "nose_radius"):
+            if not getattr(self, name) < self.span / 2:
+                raise DataError(
+                    f"three_point_bend.{name}: must be less than half the span ({self.span / 2:.6g} m), "
+                    f"got {getattr(self, name):.6g} m"
+                )
+        if max(self.deflections) > self.span:
+            raise DataError(
+                f"three_point_bend.deflection: at most the span ({self.span:.6g} m), got {max(self.deflections):.6g} m"
+            )
 
 
 @dataclass(frozen=True)
 class Aim:
-    """Contract section 9: the tip's d3 wanted (lab frame, unit) and the field magnitude held (T)."""
+    """``[aim]`` (docs/scenes.md): the tip's d3 wanted (lab frame, unit) and the field magnitude held (T)."""
 
     tip_direction: Vector
     field_magnitude: float
@@ -180,6 +194,9 @@ class Scene:
             raise DataError("three_point_bend: rod length must exceed the span")
         if self.kind == "three_point_bend" and not self.rod.outer_diameter > 0:
             raise DataError("three_point_bend: rod outer_diameter is needed for contact")
+        if self.kind == "three_point_bend" and not self.rod.outer_diameter < self.bend.span:
+            raise DataError("three_point_bend: the tube's outer_diameter must be less than the span")
+        self._check_ranges()
         if self.elements is not None and not 1 <= self.elements <= MAX_SCENE_ELEMENTS:
             raise DataError(f"elements must be between 1 and {MAX_SCENE_ELEMENTS}, got {self.elements}")
         if not MIN_TOLERANCE <= self.tolerance < 1:
@@ -189,6 +206,22 @@ class Scene:
         if self.aim is not None and not (self.loads.magnets or self.loads.magnetization):
             raise DataError("[aim] needs a magnet or a magnetisation: a field turns nothing else")
         check_contact(self)
+
+
+    def _check_ranges(self) -> None:
+        """Every magnet, point load and magnetised piece lies on the rod: nothing is dropped or cut."""
+        L = self.rod.length * (1 + 1e-12)
+        for i, (start, end, _) in enumerate(self.loads.magnetization):
+            if not 0.0 <= start < end <= L:
+                raise DataError(
+                    f"[[magnetization]] #{i + 1}: from {start:.6g} m to {end:.6g} m is not a range inside "
+                    f"the rod [0, {self.rod.length:.6g}] m (from < to <= length)"
+                )
+        for name, ats in (("magnet", [m[0] for m in self.loads.magnets]),
+                          ("point_load", [p[0] for p in self.loads.point_loads])):  # fmt: skip
+            for i, at in enumerate(ats):
+                if not 0.0 < at <= L:
+                    raise DataError(f"[[{name}]] #{i + 1}: at {at:.6g} m is not on the rod (0, {self.rod.length:.6g}] m")
 
 
 def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
@@ -202,14 +235,18 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     directions = loads.directions("magnet") + loads.directions("magnetization")
     if any(a[0] != 0.0 or a[1] != 0.0 for a in directions):
         return None  # a magnetisation off +-d3 twists the rod (contract section 9): the full model runs
-    forces = [np.asarray(v, float) for v in (loads.B, loads.distributed_force, loads.tip_force)]
-    forces += [np.asarray(f, float) for _, f, _ in loads.point_loads]
-    moments = [np.asarray(v, float) for v in (loads.tip_moment, rod.precurvature)]
-    moments += [np.asarray(m, float) for _, _, m in loads.point_loads]
-    moments += [np.asarray(seg.precurvature, float) for seg in rod.segments if seg.precurvature]
+    # compared in scaled units (matid.rod.models), so that a load negligible at 1e-12 is so for the rod
+    L, Eb = rod.length, rod.E_b
+    field = max([abs(m) * L / Eb for _, m in loads.magnets] + [abs(mu) * L**2 / Eb for *_, mu in loads.magnetization] + [0.0])  # fmt: skip
+    forces = [np.asarray(v, float) * f for v, f in ((loads.B, field), (loads.distributed_force, L**3 / Eb),
+                                                      (loads.tip_force, L**2 / Eb))]  # fmt: skip
+    forces += [np.asarray(f, float) * L**2 / Eb for _, f, _ in loads.point_loads]
+    moments = [np.asarray(loads.tip_moment, float) * L / Eb, np.asarray(rod.precurvature, float) * L]
+    moments += [np.asarray(m, float) * L / Eb for _, _, m in loads.point_loads]
+    moments += [np.asarray(seg.precurvature, float) * L for seg in rod.segments if seg.precurvature]
     scale = max([np.abs(v).max() for v in forces + moments] + [1e-300])
     candidates = [v[:2] for v in forces] + [np.array([m[1], -m[0]]) for m in moments]  # n x e3
-    candidates += [c * scale for c in _contact_directions(scene)]  # walls and lumen: unit
+    candidates += [c * scale for c in contact_directions(scene)]  # walls and lumen: unit
     unit = (c / np.linalg.norm(c) for c in candidates if np.linalg.norm(c) > tol * scale)
     direction = next(unit, np.array([1.0, 0.0]))
     if any(abs(m[2]) > tol * scale for m in moments):
@@ -218,16 +255,6 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
         if abs(c[0] * direction[1] - c[1] * direction[0]) > tol * scale:
             return None
     return (float(direction[0]), float(direction[1]), 0.0)
-
-
-def _contact_directions(scene: Scene) -> list[np.ndarray]:
-    """Unit transverse directions a planar solve must keep in its plane: of each wall's normal and
-    each lumen centreline point (a wall or lumen off the plane makes the scene 3D)."""
-    vectors = [np.asarray(w.normal, float) for w in scene.walls]
-    if scene.lumen is not None:
-        size = max(float(np.abs(np.asarray(scene.lumen.centreline)).max()), scene.lumen.radius)
-        vectors += [np.asarray(p, float) / size for p in scene.lumen.centreline]
-    return [v[:2] / np.linalg.norm(v[:2]) for v in vectors if np.linalg.norm(v[:2]) > 1e-12]
 
 
 # -- loading -----------------------------------------------------------------
@@ -243,15 +270,8 @@ def load_scene(path: str | Path) -> Scene:
         raise exc if exc.file else DataError(exc.detail, file=path) from exc
 
 
-#: Unit kind of each size and stiffness key of [rod]; all but the length are [[segment]] overrides.
-KINDS = {
-    "length": "length",
-    "E_b": "bending_stiffness",
-    "E_t": "bending_stiffness",
-    "E_s": "force",
-    "E_e": "force",
-    "outer_diameter": "length",
-}
+#: The size and stiffness keys of [rod]; all but the length are [[segment]] overrides.
+SIZES = ("length", "E_b", "E_t", "E_s", "E_e", "outer_diameter")
 
 
 def _rod(raw: dict, root: Path | None) -> Rod:
@@ -259,49 +279,41 @@ def _rod(raw: dict, root: Path | None) -> Rod:
     if not table:
         raise DataError("missing [rod] table")
     if "stiffness" in table:
-        table.update(stiffness_from_json(as_table(table.pop("stiffness"), "rod.stiffness"), root))
+        fitted = stiffness_from_json(as_table(table.pop("stiffness"), "rod.stiffness"), root)
+        clash = sorted(set(fitted) & set(table))
+        if clash:
+            raise DataError(
+                f"rod.{clash[0]}: given both here and by rod.stiffness (from a fit); keep one of them"
+            )
+        table.update(fitted)
     segments = []
     for where, seg in array_of_tables(raw, "segment"):
-        overrides = {
-            k: quantity(seg, k, kind, where) for k, kind in KINDS.items() if k != "length" and k in seg
-        }
-        start, end = quantity(seg, "from", "length", where), quantity(seg, "to", "length", where)
+        overrides = {k: read(seg, "segment", k, where) for k in SIZES[1:] if k in seg}
+        start, end = read(seg, "segment", "from", where), read(seg, "segment", "to", where)
         rigid = seg.get("rigid", False)
         if not isinstance(rigid, bool):
             raise DataError(f"{where}.rigid: expected true or false, got {short(rigid)}")
-        kappa = vector(seg, "precurvature", "curvature", where) if "precurvature" in seg else None
+        kappa = read(seg, "segment", "precurvature", where) if "precurvature" in seg else None
         segments.append(SegmentSpec(start, end, overrides, rigid, kappa))
-    sizes = {
-        k: quantity(table, k, kind, "rod", 0.0 if k == "outer_diameter" else None)
-        for k, kind in KINDS.items()
-    }
-    return Rod(
-        **sizes, precurvature=vector(table, "precurvature", "curvature", "rod"), segments=tuple(segments)
-    )
-
-
-#: Top-level keys of a scene file (docs/contract.md section 6); anything else is a typo to report.
-SCENE_KEYS = {"scene", "elements", "tolerance", *TABLE_KEYS}
+    sizes = {k: read(table, "rod", k, "rod") for k in SIZES}
+    sizes["outer_diameter"] = sizes["outer_diameter"] or 0.0
+    return Rod(**sizes, precurvature=read(table, "rod", "precurvature", "rod"), segments=tuple(segments))
 
 
 def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
     """Build a Scene from the parsed TOML mapping (quantities as strings or SI numbers)."""
-    unknown = sorted(set(raw) - SCENE_KEYS)
+    unknown = sorted(set(raw) - SCENE_KEYS) or (["sweep (a family: matid solve or matid.rod.sweep)"]
+                                                  if "sweep" in raw else [])
     if unknown:
         raise DataError(f"unknown key or table '{unknown[0]}' (known: {', '.join(sorted(SCENE_KEYS))})")
     kind = raw.get("scene", "cantilever")
     rod = _rod(raw, root)
     load, field_, tip = (one_table(raw, k, {}) for k in ("load", "field", "tip"))
     magnets = tuple(
-        (quantity(m, "at", "length", w), quantity(m, "moment", "moment", w))
-        for w, m in array_of_tables(raw, "magnet")
+        (read(m, "magnet", "at", w), read(m, "magnet", "moment", w)) for w, m in array_of_tables(raw, "magnet")
     )
     magnetization = tuple(
-        (
-            quantity(m, "from", "length", w),
-            quantity(m, "to", "length", w),
-            quantity(m, "per_length", "moment_per_length", w),
-        )
+        tuple(read(m, "magnetization", k, w) for k in ("from", "to", "per_length"))
         for w, m in array_of_tables(raw, "magnetization")
     )
     for at, _ in magnets:
@@ -309,10 +321,10 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
             raise DataError(f"[[magnet]] at {at} m is not on the rod (0, {rod.length}] m")
     point_loads = _point_loads(raw, rod.length)
     loads = Loads(
-        B=vector(field_, "B", "field", "field"),
-        distributed_force=vector(load, "distributed_force", "force_per_length", "load"),
-        tip_force=vector(tip, "force", "force", "tip"),
-        tip_moment=vector(tip, "moment", "torque", "tip"),
+        B=read(field_, "field", "B", "field"),
+        distributed_force=read(load, "load", "distributed_force", "load"),
+        tip_force=read(tip, "tip", "force", "tip"),
+        tip_moment=read(tip, "tip", "moment", "tip"),
         magnets=magnets,
         magnetization=magnetization,
         magnet_directions=_directions(raw, "magnet"),
@@ -327,9 +339,7 @@ def scene_from_dict(raw: dict, *, root: Path | None = None) -> Scene:
             raise DataError("three_point_bend.deflection: need a list of nose displacements")
         if len(deflections) > MAX_DEFLECTIONS:
             raise DataError(f"three_point_bend.deflection: at most {MAX_DEFLECTIONS} nose displacements")
-        sizes = {
-            k: quantity(t, k, "length", "three_point_bend") for k in ("span", "support_radius", "nose_radius")
-        }
+        sizes = {k: read(t, "three_point_bend", k, "three_point_bend") for k in ("span", "support_radius", "nose_radius")}
         bend = BendSetup(**sizes, deflections=tuple(_length(d) for d in deflections))
     elements = raw.get("elements")
     if elements is not None and (not isinstance(elements, int) or isinstance(elements, bool)):
@@ -371,12 +381,12 @@ def _point_loads(raw: dict, length: float) -> tuple[tuple[float, Vector, Vector]
     """[[point_load]]: a dead force and moment at a point of the rod (0, L]."""
     out = []
     for where, t in array_of_tables(raw, "point_load"):
-        at = quantity(t, "at", "length", where)
+        at = read(t, "point_load", "at", where)
         if not 0 < at <= length * (1 + 1e-12):
             raise DataError(f"{where}: at {at} m is not on the rod (0, {length}] m")
         if "force" not in t and "moment" not in t:
             raise DataError(f"{where}: give a force, a moment or both")
-        out.append((at, vector(t, "force", "force", where), vector(t, "moment", "torque", where)))
+        out.append((at, read(t, "point_load", "force", where), read(t, "point_load", "moment", where)))
     return tuple(out)
 
 
@@ -386,6 +396,4 @@ def _aim(raw: dict) -> Aim | None:
     t = one_table(raw, "aim")
     if "tip_direction" not in t:
         raise DataError("[aim]: missing 'tip_direction'")
-    return Aim(
-        direction(t["tip_direction"], "aim.tip_direction"), quantity(t, "field_magnitude", "field", "aim")
-    )
+    return Aim(direction(t["tip_direction"], "aim.tip_direction"), read(t, "aim", "field_magnitude", "aim"))

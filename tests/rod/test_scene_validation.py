@@ -52,7 +52,7 @@ def test_stiffness_from_a_matid_table_is_read(tmp_path):
         ('{ from = "nope.json", specimen = "T1" }', None, "stiffness file not found", "nope.json"),
         ('{ from = "nope.json" }', None, "rod.stiffness.specimen: expected a non-empty string", "scene.toml"),
         ('{ from = "sub", specimen = "T1" }', None, "is a folder, not a file", "sub"),
-        ('{ from = "/dev/zero", specimen = "T1" }', None, "not a regular file", "/dev/zero"),
+        ('{ from = "/dev/zero", specimen = "T1", allow_outside = true }', None, "not a regular file", "/dev/zero"),
         ('{ from = "s.json", specimen = "T1" }', "{", "not valid JSON", "s.json"),
         ('{ from = "s.json", specimen = "T1" }', "[]", "no 'specimens' table", "s.json"),
         ('{ from = "s.json", specimen = "T1" }', "\xff\xfe", "not UTF-8 text", "s.json"),

@@ -66,7 +66,7 @@ def write(tmp_path: Path, text: str) -> Path:
             + BEND.replace('deflection = ["0.1 mm", "0.5 mm", "1 mm"]', ""),
             r"three_point_bend\.deflection",
         ),
-        (ROD.replace('"6.5e-5 N m^2"', '"-6.5e-5 N m^2"'), r"rod E_b must be positive"),
+        (ROD.replace('"6.5e-5 N m^2"', '"-6.5e-5 N m^2"'), r"rod.E_b: must be in \[1e-15"),
         ('scene = "three_point_bend"\n' + ROD, r"needs a \[three_point_bend\] table"),
         ("[rod\nlength = 1", "not valid TOML"),
     ],
