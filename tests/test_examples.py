@@ -16,6 +16,8 @@ A new example scene fails test_every_example_has_a_reference until it gets a lin
 from __future__ import annotations
 
 import dataclasses
+import importlib
+import inspect
 import json
 import math
 
@@ -51,8 +53,23 @@ CASES = {
 }
 
 
+#: Contact examples, each checked against tests/rod/contact_reference.py (the independent shooting
+#: solver of walls and contact points) by the test named here.
+CONTACT = {
+    "wall_tip": "tests.rod.test_contact:test_example_wall_tip_against_the_reference",
+    "advance_channel": "tests.rod.test_advance:test_example_advance_channel_against_the_reference",
+}
+
+
 def test_every_example_has_a_reference():
-    assert sorted(p.stem for p in EXAMPLES.glob("*.toml")) == sorted(CASES)
+    assert sorted(p.stem for p in EXAMPLES.glob("*.toml")) == sorted({**CASES, **CONTACT})
+
+
+@pytest.mark.parametrize("name", sorted(CONTACT))
+def test_each_contact_example_is_checked_against_the_contact_reference(name):
+    module, function = CONTACT[name].split(":")
+    check = getattr(importlib.import_module(module), function)
+    assert f"{name}.toml" in inspect.getsource(check)  # that test reads this very example
 
 
 def _tip_errors(sol, ref, L: float) -> tuple[float, float]:

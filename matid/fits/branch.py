@@ -162,20 +162,27 @@ def record(name: str, x: np.ndarray, y: np.ndarray, window: np.ndarray) -> Recor
 def past_peak(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Mask of the loading rows beyond the peak of y, when y then falls (yield, a tube that
     buckles or slips): no line through the origin's side of a peak describes them, and the
-    smooth departures of :mod:`matid.fits.onset` cannot follow a fall. The peak is the row
-    farthest in y from the first row; the fall must exceed PEAK_FALL second-difference noise
-    deviations of y, so a plateau (softening) stays for the linear-range search."""
+    smooth departures of :mod:`matid.fits.onset` cannot follow a fall. The peak is the largest y
+    in the way y goes over the first quarter of the reach; beyond it y must fall as a trend: the line through the rows
+    beyond drops by more than PEAK_FALL second-difference noise deviations of y, with its slope
+    PEAK_FALL standard errors below zero. So a plateau (softening) stays for the linear-range
+    search, and so does noise: the largest reading of a noisy record is not a peak."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     none = np.zeros(x.size, dtype=bool)
     if x.size < 3:
         return none
     reach = np.abs(x - x[0])
-    sign = np.sign(y[np.argmax(np.abs(y - y[0]))] - y[0])
+    start = np.argsort(reach, kind="stable")[: max(4, x.size // 4)]  # the way y goes at first
+    sign = np.sign(np.polyfit(reach[start], y[start], 1)[0]) if np.ptp(reach[start]) > 0 else 1.0
     z = sign * (y - y[0])
     peak = int(np.argmax(z))
     beyond = reach > reach[peak]
-    fall = z[peak] - np.min(z[beyond], initial=z[peak])
-    return beyond if fall > PEAK_FALL * stats.difference_noise(y) else none
+    if beyond.sum() < 4 or np.ptp(reach[beyond]) <= 0:
+        return none
+    (slope, offset), cov = np.polyfit(reach[beyond], z[beyond], 1, cov=True)
+    drop = -slope * np.ptp(reach[beyond])
+    falls = slope < -PEAK_FALL * np.sqrt(cov[0, 0]) and drop > PEAK_FALL * stats.difference_noise(y)
+    return beyond if falls else none
 
 
 def automatic(rec: Record) -> Record:

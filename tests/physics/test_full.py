@@ -54,7 +54,7 @@ def test_the_strain_for_the_mixed_tangent_is_the_stiffness_times_the_strain():
     lam, kappa_ref = 0.7, np.array([0.3, -0.2, 0.1])
 
     def strain(z):
-        args = (lam, props, kappa_ref, None, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), True)
+        args = (lam, props, kappa_ref, None, (0.0, 0.0, 0.0), True)  # mu, B, tangent
         return full.derivatives(z, *args, stress=None, want_strain=True)[2]
 
     Ce, Cde = strain(z)
