@@ -71,6 +71,8 @@ CB = ("calebbristol/ASEN3112", "94b9e3fb3acabd2278192ea4cf11f64522ae5d43")
 OD = ("odykak/Flexural-stress-strain", "b52eb0608383f8f95b46ce15fa93aab565830ea6")  # branch Data
 PZ = ("e-dub/pyZiagn", "c831eb6ca7faa8a4c979b7cd5d445d4d80ad4f47")
 ES = ("ernestsb/statictesting", "4398b17d8d3aebf78c70cd121d95c7d9dd9d3026")
+GJ = ("gerlachjan/eval_TensileTest", "b5b0dde966a3834810a867e72abaa0d36081a0b0")
+MU = ("pedrodamas0803/mechtest_ufmg", "44731d4696a10535f4d5074063d8670ff364ee2d")  # commit "starting things"
 
 VHB_SRC = "README.md l.13-14, 25-26: L0 = 8 cm (lambda = 1 + Delta/L0)"
 VHB_COLS = {"time": "时间", "elongation": "位移", "force": "力"}
@@ -171,6 +173,85 @@ def asen_torsion(rid, src, path, *, slit, channel) -> Record:
             p, skip=skip, delim=delim, angle_col=cols[channel], torque_col=3 if jk else 3, length_m=L
         ),
         hand_text=f"loading rows, torque 10-80 % of its excursion, line T({col}), x L",
+    )
+
+
+def bluehill(name: str, steel: str, *, delim: str, skip: int, header: str) -> Record:
+    """UFMG tensile coupons (steel 1016 / 1055), Instron Bluehill CSV export: 'Results Table 1', the
+    column row Time, Displacement, Force, Tensile strain (Strain 2), Tensile stress, then units (s),
+    (mm), (kN), (mm/mm), (MPa). The strain is the extensometer's, so no gauge length enters E_e."""
+    return Record(
+        id=f"mu-bluehill-{name}",
+        repo=MU[0],
+        commit=MU[1],
+        path=f"data/{name}.csv",
+        kind="extension",
+        machine=f"Instron Bluehill CSV export ('Results Table 1', 'Tensile strain (Strain 2)'), {header}",
+        dims="none needed: extensometer strain column; A0 23.76 mm^2 (Force/Tensile stress, row 1)",
+        source=f"data/{name}.csv l.7: force 0.0{'0508' if name == 'am1' else '0661'} kN / stress "
+        f"{'0.21382' if name == 'am1' else '0.27843'} MPa = 23.76 mm^2 (the section Bluehill was given)",
+        specimen={"outer_diameter": "5.5 mm"},
+        test={
+            "gauge_length": "25 mm",  # required by the study schema; unused with a strain column
+            "columns": {"time": "Time", "strain": "Tensile strain (Strain 2)", "force": "Force"},
+            "encoding": "latin-1",
+            "window": {"strain": [0.0002, 0.001]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=skip,
+            delim=delim,
+            decimal=".",
+            elong_col=3,
+            force_col=2,
+            gauge_m=1.0,
+            window_m=(2e-4, 1e-3),
+            elong_si=1.0,
+            strain_col=True,
+            encoding="latin-1",
+        ),
+        hand_text="extensometer strain 0.0002-0.001 (window also given to matid): line F(strain)",
+        note=f"steel {steel}; diameter 5.5 mm only labels the section (pi 5.5^2/4 = 23.76 mm^2, as the file)",
+    )
+
+
+def catman(name: str, window_mm: tuple[float, float]) -> Record:
+    """Hot tensile test (about 340 C at the end, 'Pyrometer' column) of HSM700 sheet steel, recorded by
+    HBM catmanEasy 5.3 on a QuantumX MX840B (the run's .TSX: 'CATMAN TEST FILE', 'catmanEasy/AP
+    version=5.3.1.27', 'Firmware MX840B'); tab-separated ASCII, one header row with [unit]s. The
+    elongation is the 'Maytec' high-temperature extensometer. The window is where the force rises
+    from about 10 % to 70 % of its peak (before that the grips take up slack at about 100 N)."""
+    lo, hi = window_mm
+    return Record(
+        id=f"gj-catman-{name}",
+        repo=GJ[0],
+        commit=GJ[1],
+        path=f"experminent_data/{name}.ASC",
+        kind="extension",
+        machine="HBM catmanEasy 5.3 ASCII export (QuantumX MX840B), tab, 'Zeit  1 - Standardmessrate [s]'",
+        dims="L0 20 mm, width 9.9 mm, thickness 2 mm",
+        source="main.m l.6-9 (l0 = 20, wd = 9.9, t = 2, cs_A = wd*t); main.m l.62: column 2 displacement",
+        specimen={"width": "9.9 mm", "height": "2 mm"},
+        test={
+            "gauge_length": "20 mm",
+            "columns": {"time": "Zeit  1 - Standardmessrate", "elongation": "Maytec", "force": "Kraft"},
+            "encoding": "latin-1",
+            "window": {"elongation": [f"{lo:g} mm", f"{hi:g} mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=1,
+            delim="\t",
+            decimal=".",
+            elong_col=1,
+            force_col=2,
+            gauge_m=0.02,
+            window_m=(lo * 1e-3, hi * 1e-3),
+            force_si=1.0,
+            encoding="latin-1",
+        ),
+        hand_text=f"Maytec {lo:g}-{hi:g} mm (window also given to matid): line F(strain)",
+        note="hot test (about 340 C): E_e is the hot stiffness; no room-temperature reference",
     )
 
 
@@ -302,6 +383,10 @@ RECORDS: list[Record] = [
         hand_text="strain 1000-3000 microstrain: line F(strain)",
         note="the file has no header row: a user cannot name its columns without editing it",
     ),
+    bluehill("am1", "1016", delim=";", skip=6, header="re-saved: ';', empty first column (Latin-1)"),
+    bluehill("am2", "1055", delim=",", skip=5, header="as exported: ',' with the results row above the data"),
+    catman("HSM700_7_1", (0.13, 0.175)),
+    catman("HSM700_7_2", (0.12, 0.165)),
 ]
 
 
