@@ -82,12 +82,15 @@ def test_matid_solve_sweep_writes_every_row_and_exits_1(tmp_path):
     assert (out / "workspace.png").read_bytes()[:4] == b"\x89PNG"
 
 
-def test_solve_without_sweep_does_not_import_pandas(tmp_path):
+def test_solve_without_sweep_imports_no_table_fit_or_report_stack(tmp_path):
+    """Issue 32 item 5: `matid solve` of a scene without a sweep loads neither pandas nor the
+    fit (lmfit) or report (reportlab, jinja2) stacks."""
     scene = ROOT / "examples" / "scenes" / "tip_force.toml"
     code = (
         "import sys; from matid.app.cli import main; "
         f"code = main(['solve', r'{scene}', '--out', r'{tmp_path / 'o'}']); "
-        "assert 'pandas' not in sys.modules, 'pandas imported'; sys.exit(code)"
+        "loaded = [m for m in ('pandas', 'lmfit', 'reportlab', 'jinja2') if m in sys.modules]; "
+        "assert not loaded, f'imported: {loaded}'; sys.exit(code)"
     )
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=False)
     assert run.returncode == 0, run.stderr
