@@ -25,7 +25,7 @@ the load point of the classic Timoshenko formula.
 
 Each contact sits on a mesh vertex, where the corner belongs: the nose on
 vertex 0, the support on a vertex whose position is a Newton unknown with the
-equation h = 0 (:class:`matid.rod.bend_system.BendSystem`). This module gives, at a
+equation h = 0 (:class:`matid.rod.terms.supports.Support`). This module gives, at a
 vertex, the gap g with its gradient and Hessian in (x, z, theta) and the
 section function h with its gradient; n = (r - c)/|r - c| is the contact normal
 and the nose force of the whole tube is F = 2 lam_nose (-n_x).

@@ -1,9 +1,10 @@
 """Residual and bordered tangent of the three-point bend's half model (see :mod:`matid.rod.bend`).
 
-The contact terms live on two vertices, so they are computed in plain floats and put into
-the rod's banded tangent at positions found once per system; the derivatives the E_s fit
-needs at a converged point (dX/dE_s, dX/dE_e and dX/dd) are one back-substitution with
-three right-hand sides.
+The rig's support and nose are terms (:mod:`matid.rod.terms.supports`) held by multipliers on
+two vertices: the system sums their gap rows, normal columns and Hessian entries, computed in
+plain floats and put into the rod's banded tangent at positions found once per system; the
+derivatives the E_s fit needs at a converged point (dX/dE_s, dX/dE_e and dX/dd) are one
+back-substitution with three right-hand sides.
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ from matid.physics.contact import Circle
 from matid.rod.band import Banded
 from matid.rod.newton import NewtonFailure
 from matid.rod.system import RodSystem
+from matid.rod.terms import Term
+from matid.rod.terms.supports import Nose, Support
 
 
 class BendSystem:
@@ -26,18 +29,12 @@ class BendSystem:
         self.base = rod.disc
         self.k = model.support_vertex
         self.nu = int(rod.disc.free.sum())
-        index = rod.index
+        #: the rig's terms (matid.rod.terms.supports), in the order of their multipliers in X,
+        #: each with what it prepared for the rod system: the free dofs of its vertex
+        rig = (Support(support, self.k), Nose(model.nose_rho, d_max))
+        self.held = [(term, term.prepare(rod)) for term in rig]
         #: free-dof index of (x, z, theta) at the support vertex and at the nose vertex (0)
-        self.dofs = (index[3 * self.k : 3 * self.k + 3], index[0:3])
-        #: (contact, component) of the free (x, z) dofs of each contact vertex: where the normals
-        #: go, and the free entries of the contact Hessians -lam_c (I - n n^T)/|r - c|
-        self._normal = [(c, a) for c in (0, 1) for a in (0, 1) if self.dofs[c][a] >= 0]
-        entries = [(c, a, b) for c, a in self._normal for d, b in self._normal if d == c]
-        self._hess = (
-            np.array([self.dofs[c][a] for c, a, _ in entries]),
-            np.array([self.dofs[c][b] for c, _, b in entries]),
-            entries,
-        )
+        self.dofs = tuple(prep for _, prep in self.held)
         self._z0 = float(rod.reference()[1])
         # unit stiffness fields: dR/dE of one energy term (the energy is linear in each stiffness)
         props = rod.props
@@ -54,9 +51,13 @@ class BendSystem:
             self.rod.disc = self.base.moved(self.model.vertices(sigma))
             self._sigma = sigma
 
+    @property
+    def loads(self) -> tuple[Term, ...]:
+        """Every term of the bend: the rod's loads and the rig's support and nose."""
+        return tuple(self.rod.loads) + tuple(term for term, _ in self.held)
+
     def nose(self, lam: float) -> Circle:
-        rho = self.model.nose_rho
-        return Circle((rho - lam * self.d_max, 0.0), rho)
+        return self.held[1][0].circle(lam)
 
     @property
     def roundoff(self) -> float:
@@ -72,25 +73,26 @@ class BendSystem:
         self.at(sigma)
         U = self.rod.expand(u)
         R, K = self.rod.evaluate(u, 0.0, tangent=tangent, U=U)
-        k = 3 * self.k  # (g, n_x, n_z, |r - c|) of the support (at vertex k) and the nose (at vertex 0)
-        gaps = [self.support.gap(float(U[k]), float(U[k + 1])), self.nose(lam).gap(float(U[0]), float(U[1]))]
+        # (g, n_x, n_z, |r - c|) of the support (at vertex k) and the nose (at vertex 0)
+        gaps = [term.gap(U, lam) for term, _ in self.held]
         G = np.zeros((2, n))
-        for c, a in self._normal:
-            G[c, self.dofs[c][a]] = gaps[c][1 + a]
-        h, dh = self.support.section(U.reshape(-1, 3), self.k)  # the support's contact section
+        for c, (term, prep) in enumerate(self.held):
+            for a in term.normal_dofs(prep):
+                G[c, prep[a]] = gaps[c][1 + a]
+        support = self.held[0][0]
+        h, dh = support.section(U)  # the support's contact section
         R_all = np.empty(n + 3)
         R_all[:n] = R - G.T @ mult
         R_all[n], R_all[n + 1], R_all[n + 2] = -gaps[0][0], -gaps[1][0], h
         if not tangent:
             return R_all, None
-        rows, cols, entries = self._hess
-        vals = np.array(
-            [
-                -float(mult[c]) * ((a == b) - gaps[c][1 + a] * gaps[c][1 + b]) / gaps[c][3]
-                for c, a, b in entries
-            ]
-        )
-        K.add_blocks(rows, cols, vals)
+        rows, cols, vals = [], [], []
+        for c, (term, prep) in enumerate(self.held):
+            r, q, v = term.hessian(prep, gaps[c], mult[c])
+            rows += r
+            cols += q
+            vals += v
+        K.add_blocks(np.array(rows), np.array(cols), np.array(vals))
         B = np.empty((n, 3))
         B[:, :2] = -G.T
         B[:, 2] = self._mesh_derivative(U)
@@ -121,19 +123,12 @@ class BendSystem:
         return disc.residual(dg * dh)[disc.free]
 
     def lam_derivative(self, X: np.ndarray, lam: float) -> np.ndarray:
-        """dR/dlam in closed form: lam moves only the nose centre, c = (rho - lam d_max, 0).
-
-        With n = (r - c)/|r - c|: dg/dlam = n_x d_max and dn/dlam = (I - n n^T)(d_max, 0)/|r - c|,
-        which enters the residual through -G^T lam (zero when the nose vertex stays on the
-        axis, z = 0, as symmetry holds it).
-        """
+        """dR/dlam in closed form: lam moves only the nose (:meth:`Nose.lam_derivative`)."""
         out = np.zeros(X.size)
-        x0, z0 = self.rod.expand(X[: self.nu])[:2]
-        _, nx, nz, dist = self.nose(lam).gap(float(x0), float(z0))
-        dn = ((1.0 - nx * nx) * self.d_max / dist, -nz * nx * self.d_max / dist)
-        free = self.dofs[1][:2] >= 0
-        out[self.dofs[1][:2][free]] = -X[self.nu + 1] * np.array(dn)[free]
-        out[self.nu + 1] = -nx * self.d_max  # the nose gap row holds -g
+        nose, prep = self.held[1]
+        dofs, values, row = nose.lam_derivative(prep, self.rod.expand(X[: self.nu]), lam, X[self.nu + 1])
+        out[dofs] = values
+        out[self.nu + 1] = row  # the nose gap row holds -g
         return out
 
     def stiffness_derivative(self, X: np.ndarray, name: str) -> np.ndarray:

@@ -8,11 +8,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from matid.rod.bend import BendGeometry, BendModel
 from matid.rod.cantilever import _prepare, mesh
 from matid.rod.models import PLANAR
 from matid.rod.scenes import load_scene, scene_from_dict
 from matid.rod.system import RodSystem
-from matid.rod.terms import LOADS, Contact, DistributedForce, Magnetisation, Magnets, PointLoads, Tip, UnityGauge
+from matid.rod.terms import (
+    LOADS,
+    Contact,
+    DistributedForce,
+    Magnetisation,
+    Magnets,
+    Nose,
+    PointLoads,
+    Support,
+    Tip,
+    UnityGauge,
+)
 
 SCENES = Path(__file__).resolve().parents[2] / "examples" / "scenes"
 ROD = {"length": "30 mm", "E_b": 1e-4, "E_t": 1e-4, "E_s": 10, "E_e": 10}
@@ -84,3 +96,28 @@ def test_the_residual_is_the_sum_of_the_terms(name: str) -> None:
         shares.append(alone.evaluate(X, 0.8, tangent=False)[0] - R0)
         assert np.max(np.abs(shares[-1])) > 0, type(term).__name__  # each term does something
     assert np.allclose(R, R0 + sum(shares), rtol=0, atol=1e-9 * max(1.0, np.max(np.abs(R))))
+
+
+def _bend_system(scene):
+    """The bend system of a three-point-bend scene, as matid.rod.api.solve_bend builds its model."""
+    rod, bend = scene.rod, scene.bend
+    geometry = BendGeometry(bend.span, rod.length, bend.support_radius, bend.nose_radius, rod.outer_diameter)
+    return BendModel(geometry, elements=8).system(rod.E_b, rod.E_s, rod.E_e, max(bend.deflections))
+
+
+def test_a_bend_scene_has_the_rigs_support_and_nose_terms_and_a_cantilever_has_not() -> None:
+    system = _bend_system(load_scene(SCENES / "three_point_bend.toml"))
+    assert [type(term) for term in system.loads] == [Support, Nose]
+    assert all(term.kind == "multiplier" for term in system.loads)
+    # the bend system sums them: each gap row of its residual is its term's -g at that state
+    X = system.initial()
+    U = system.rod.expand(X[: system.nu])
+    R = system.evaluate(X, 0.5, tangent=False)[0]
+    gaps = [term.gap(U, 0.5)[0] for term in system.loads]
+    assert R[system.nu : system.nu + 2].tolist() == [-g for g in gaps]
+    support, nose = system.loads  # the nose moves with the load factor, the support does not
+    assert nose.gap(U, 0.0)[0] != gaps[1] and support.gap(U, 0.0)[0] == gaps[0]
+    for name in ("tip_force", "magnetic_cantilever", "point_load"):
+        cantilever = _system(load_scene(SCENES / f"{name}.toml"))
+        assert not {Support, Nose} & {type(term) for term in cantilever.loads}
+        assert not {Support, Nose} & set(_types(cantilever))

@@ -2,7 +2,8 @@
 
 :data:`LOADS` lists the scene's loads in the order the system sums them; :func:`loads_of` builds
 those a scene has. A new load is one module here, one entry in LOADS and its keys in
-:mod:`matid.rod.scenes`.
+:mod:`matid.rod.scenes`. The three-point bend's support and nose (:mod:`matid.rod.terms.supports`)
+are terms held by multipliers, which the bend system (:mod:`matid.rod.bend_system`) binds and sums.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from matid.rod.terms.gauge import UnityGauge
 from matid.rod.terms.magnetisation import Magnetisation
 from matid.rod.terms.magnets import Magnets
 from matid.rod.terms.point_loads import PointLoads
+from matid.rod.terms.supports import Nose, Support
 from matid.rod.terms.tip import Tip
 
 #: Every load a cantilever scene may have, in the order their residuals are summed.
@@ -32,8 +34,10 @@ __all__ = [
     "DistributedForce",
     "Magnetisation",
     "Magnets",
+    "Nose",
     "PointLoads",
     "Scale",
+    "Support",
     "Term",
     "Tip",
     "UnityGauge",
