@@ -138,17 +138,21 @@ def equilibrium(
     element: str = "P2",
     intorder: int | None = None,
     start: tuple[np.ndarray, np.ndarray] | None = None,
+    contact_at: tuple[float, ...] = (),
 ) -> Equilibrium:
     """The converged scaled state of a cantilever (raises ConvergenceError, never returns a failed state).
 
     ``start``: a state of the same scene on another mesh (P2, :meth:`Equilibrium.state`).
     Newton runs at the full load from its interpolant (measured: 3-6 iterations from the
     half mesh); the load continuation from the straight rod is the fallback when that fails.
+    ``contact_at``: scaled arc lengths of interior contact points, mesh vertices too (issue 31).
     """
     t0 = time.perf_counter()
     chosen, e_a, rod, loads, at = _prepare(scene, model)
     ne = elements or scene.elements or DEFAULT_ELEMENTS
     order = intorder or INTORDER[element]
+    if contact_at:
+        at = tuple(sorted(set(at) | {float(s) for s in contact_at}))
     disc = mesh(ne, at, 3 if chosen == PLANAR else 7, element, order)
     system = RodSystem(
         disc,
@@ -178,7 +182,11 @@ def equilibrium(
         contact = None
     else:
         term, state = bound[0], system.expand(X)
-        contact = (term.contacts(system, *bound[1:], state), term.quantities(system, *bound[1:], state))
+        contact = (
+            term.contacts(system, *bound[1:], state),
+            term.quantities(system, *bound[1:], state),
+            term.touch_points(system, *bound[1:], state),
+        )
     return Equilibrium(
         scene, chosen, disc, U, e_a, info, runtime, tuple(system.terms), system.converged_stress(), contact
     )
@@ -216,7 +224,7 @@ class Equilibrium:
     runtime_s: float
     terms: tuple[str, ...]
     stress: np.ndarray | None = None  # C e(u) at the quadrature points (ne, nq, ns), mixed Newton
-    contact: tuple | None = None  # (contacts, quantities) scaled, of terms.contact; None: no walls
+    contact: tuple | None = None  # (contacts, quantities, touch points) scaled, of terms.contact; None: no walls
 
     def stress_at(self, disc: Discretisation) -> np.ndarray | None:
         """The point stresses recovered at another mesh's quadrature points: linear through the
@@ -258,12 +266,14 @@ class Equilibrium:
 
     def quantities(self) -> np.ndarray:
         """What the error estimate follows: the tip, and with contact each boundary's resultant
-        (relative to the largest) and its force-weighted s."""
+        (relative to the largest component), its force-weighted s and the log of that largest
+        component (its relative change: the ratios alone hid the forces' size, issue 31)."""
         if self.contact is None:
             return self.tip()
         q = self.contact[1].reshape(-1, 4).copy()
-        q[:, :3] /= max(float(np.abs(q[:, :3]).max()), 1e-300)
-        return np.concatenate([self.tip(), q.ravel()])
+        largest = max(float(np.abs(q[:, :3]).max()), 1e-300)
+        q[:, :3] /= largest
+        return np.concatenate([self.tip(), q.ravel(), [math.log(largest)]])
 
     def tip(self) -> np.ndarray:
         """(tip position / L, tip d3): the Solution's last row (to round-off), without building it."""

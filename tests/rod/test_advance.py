@@ -2,11 +2,12 @@
 channel, step by step, against the independent shooting reference's ``advance`` (each step's active
 set found from the last one's, tests/rod/contact_reference.py, no matid code).
 
-Targets: steps whose only contact is at the tip meet the contact targets (tip 1e-6 L, force 1e-4
-relative, L the step's free length). Interior contacts land on a mesh node (no vertex at the contact
-point yet, see test_contact.NODE_AT_CONTACT): there only the contact sets are checked (measured at
-60 / 80 / 100 mm: tip 3.4e-5 / 1.5e-4 / 3.3e-5 L, force 5.4e-2 / 3.2e-2 / 1.2e-2, contact s
-1.4e-2 / 1.4e-2 / 3.3e-3 L, estimate blind ~1e-8); the targets there are a strict xfail.
+Targets: every step meets the contact targets (tip 1e-6 L, force 1e-4 relative, interior contact
+positions 1e-4 L, L the step's free length). Interior contacts used to land on a mesh node (issue 31,
+measured at 60 / 80 / 100 mm: tip 3.4e-5 / 1.5e-4 / 3.3e-5 L, force 5.4e-2 / 3.2e-2 / 1.2e-2, contact
+s 1.4e-2 / 1.4e-2 / 3.3e-3 L, estimate blind ~1e-8); a mesh vertex now sits at each
+(matid.rod.api.contact_rounds: 2.2e-10 / 1.9e-10 / 9.1e-10 L, 2.2e-7 / 1.3e-7 / 1.4e-7, 1.7e-8 /
+2.1e-8 / 4.5e-9 L, estimate 2.8e-7 / 9.5e-8 / 1.3e-7).
 """
 
 from __future__ import annotations
@@ -93,7 +94,6 @@ def test_channel_advance_finds_the_interior_contact_in_order():
     assert all(e_tip < 1e-6 for _, e_tip, _, _ in rows[:2])  # the free steps meet the tip target
 
 
-@pytest.mark.xfail(strict=True, reason="no mesh vertex at interior contact points yet")
 def test_channel_advance_interior_contacts_meet_the_targets():
     _, rows = compare(channel_advance())
     assert all(e_tip < 1e-6 and e_force < 1e-4 and e_s < 1e-4 for _, e_tip, e_force, e_s in rows)

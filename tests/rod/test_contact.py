@@ -81,19 +81,18 @@ def case(name):
     return raw, ref
 
 
-#: Interior point contacts (the channel at 75 and 100 mm) miss the targets: a contact lands on a
-#: node, and on the nested meshes of the error estimate on the same vertex, so the estimate does
-#: not see the O(h) distance to the true contact point (measured at 64 elements: 75 mm: tip 2.4e-6 L,
-#: force 2.0e-3, contact s 7.6e-4 L, estimate 1.5e-9; 100 mm: 3.3e-5 L, 1.2e-2, 3.3e-3 L, 6.7e-9).
-#: The cure is a mesh vertex at each contact point (issue 31); strict xfail until then.
-NODE_AT_CONTACT = pytest.mark.xfail(strict=True, reason="no mesh vertex at interior contact points yet")
+#: Interior point contacts (the channel at 75 and 100 mm) missed the targets while a contact landed
+#: on a node, the same vertex in every nested mesh of the error estimate, blind to its O(h) distance
+#: to the true contact point (measured at 64 elements: 75 mm: tip 2.4e-6 L, force 2.0e-3, contact s
+#: 7.6e-4 L, estimate 1.5e-9; 100 mm: 3.3e-5 L, 1.2e-2, 3.3e-3 L, 6.7e-9). Now a mesh vertex sits
+#: at each interior contact point (matid.rod.api.contact_rounds, issue 31).
 CASES = [
     "tip force on a wall",
     "tip magnet on a wall",
     "propped cantilever 30 deg",
     "channel 40 mm free",
-    pytest.param("channel 75 mm free", marks=NODE_AT_CONTACT),
-    pytest.param("channel 100 mm free", marks=NODE_AT_CONTACT),
+    "channel 75 mm free",
+    "channel 100 mm free",
 ]
 
 
@@ -190,3 +189,34 @@ def test_example_wall_tip_against_the_reference():
     assert np.abs(tip - ref["tip"]).max() < 1e-6 * scene.rod.length
     force = np.asarray(sol.extra["contacts"][0]["force"])[[0, 2]]
     assert np.linalg.norm(force - ref["contacts"][0]["force_vector"]) < 1e-4 * abs(ref["contacts"][0]["force"])
+
+
+def _rounds_with(slope, monkeypatch):
+    """api.contact_rounds on a stand-in solver: a contact on the node at 0.6 L touching at 0.58 L
+    first, then on whichever vertex it is given, with the gap's slope ``slope(vertex)`` there."""
+    from matid.rod import api
+
+    given = []
+
+    def meshes_at(points):
+        given.append(points)
+        return points, object()
+
+    def touches(result):
+        return [(0.58, 0.6, slope(0.6))] if result == () else [(0.0, p, slope(p)) for p in result]
+
+    monkeypatch.setattr(api, "interior_contacts", touches)
+    return api.contact_rounds(meshes_at, 1e-6), given
+
+
+def test_contact_rounds_step_the_vertex_to_where_the_rod_is_tangent(monkeypatch):
+    (points, _, rounds, step), given = _rounds_with(lambda s: 3.0 * (s - 0.55) + (s - 0.55) ** 2, monkeypatch)
+    assert abs(points[0] - 0.55) < 1e-6 and step < 1e-6 and len(rounds) == len(given) <= 5
+
+
+def test_contact_rounds_that_do_not_settle_are_a_convergence_error(monkeypatch):
+    from matid.errors import ConvergenceError
+
+    with pytest.raises(ConvergenceError, match="after round 6") as err:  # secant steps on a cube root grow
+        _rounds_with(lambda s: np.cbrt(s - 0.55), monkeypatch)
+    assert err.value.info["round"] == 6

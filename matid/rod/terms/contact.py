@@ -48,6 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from matid.errors import ConvergenceError
+from matid.physics import kinematics as kin
 from matid.physics.boundaries import Centreline, lumen_gap, wall_gap
 from matid.rod.models import PLANAR
 from matid.rod.newton import NewtonFailure
@@ -203,6 +204,34 @@ class Contact(Term):
                 })  # fmt: skip
         return out
 
+    def touch_points(self, system, prep, U: np.ndarray) -> list[tuple[float, float, float]]:
+        """Per point contact (a run of at most three loaded nodes, as :meth:`contacts`), in order:
+        (s where the P2 interpolant of its boundary's gap is smallest on the elements holding the
+        loaded nodes, s of its most loaded node, the gap's slope dg/ds = grad g . d3 there), scaled.
+        A contact on a node away from the true touching point leaves the rod crossing the wall
+        beside it (where the gap is smallest) and not tangent to it (slope != 0): what
+        matid.rod.api.contact_rounds moves a mesh vertex by (issue 31)."""
+        f, gaps = self.forces(prep, U)
+        s, nf = prep["s"], system.disc.nf
+        order = np.argsort(s)
+        ss, out = s[order], []
+        for b, (g, grad, _) in enumerate(gaps):
+            fb, gb = f[b][order], g[order]
+            loaded = np.flatnonzero(fb > 0)
+            for run in np.split(loaded, np.flatnonzero(np.diff(loaded) > 1) + 1):
+                if run.size == 0 or run.size > 3:
+                    continue
+                firsts = {2 * (i // 2) for i in run} | {2 * ((i - 1) // 2) for i in run if i % 2 == 0 and i > 0}
+                best = min(_smallest(ss[e : e + 3], gb[e : e + 3]) for e in firsts if e + 2 < ss.size)
+                node = int(order[run[np.argmax(fb[run])]])
+                if prep["planar"]:
+                    theta = U[node * nf + 2]
+                    d3 = np.array([np.sin(theta), 0.0, np.cos(theta)])
+                else:
+                    d3 = np.array(kin.d3(U[node * nf + 3 : node * nf + 7]))
+                out.append((best[1], float(s[node]), float(grad[node] @ d3)))
+        return out
+
     def quantities(self, system, prep, U: np.ndarray) -> np.ndarray:
         """Per boundary: the resultant force (3) and the force-weighted s: what the error estimate
         follows beyond the tip."""
@@ -214,6 +243,15 @@ class Contact(Term):
             total = f[b].sum()
             out += list(F) + [float(f[b] @ s / total) if total > 0 else 0.0]
         return np.array(out)
+
+
+def _smallest(s: np.ndarray, g: np.ndarray) -> tuple[float, float]:
+    """(smallest value, its s) of the quadratic through three (s, g) on [s0, s2]."""
+    a, b, c = np.polyfit(s - s[0], g, 2)
+    candidates = [0.0, float(s[2] - s[0])]
+    if a > 0 and 0.0 < -b / (2 * a) < candidates[1]:
+        candidates.append(-b / (2 * a))
+    return min((float(a * x * x + b * x + c), float(s[0] + x)) for x in candidates)
 
 
 def contact_of(system) -> tuple[Contact, dict] | None:
