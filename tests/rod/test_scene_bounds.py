@@ -14,16 +14,7 @@ import pytest
 from matid.app.cli import main
 from matid.errors import DataError
 from matid.rod.scenes import load_scene
-
-ROD = """
-[rod]
-length = "30 mm"
-E_b = "6.5e-5 N m^2"
-E_t = "4.4e-5 N m^2"
-E_s = "21 N"
-E_e = "120 N"
-outer_diameter = "2.4 mm"
-"""
+from tests.rod.test_scenes import ROD  # the same uniform tube
 
 BEND = """
 [three_point_bend]
