@@ -1,4 +1,4 @@
-"""Aim: the field direction that turns the tip's d3 to a target (contract section 9, physics.md 8).
+"""Aim: the field direction that turns the tip's d3 to a target (contract section 9, physics.md section 8).
 
 Given the target t (unit, lab frame) and |B|, the unknown is the field direction b on the
 unit sphere, charted around a centre c with p1, p2 orthonormal to it:
