@@ -241,12 +241,21 @@ def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layou
         return None
     header = header_names(lines, h, units_at, delimiter, n)
     # Trailing columns may be empty in the data (a remark column): the header may be wider.
-    if header is None or not n <= len(header) <= 2 * n or any(is_number(c, delimiter != ",") for c in header):
+    if header is None or not n <= len(header) <= 2 * n or not _names(header, delimiter != ","):
         return None
     n = len(header)
     if units_at is not None and not _units_like(names(lines[units_at], delimiter, n), n):
         return None
     return Layout(encoding, delimiter, h, units_at, after[0], n)
+
+
+def _names(header: list[str], decimal_comma: bool) -> bool:
+    """A row of column names: no cell a number, but the first may be a whole number over names
+    (Instron Bluehill writes the specimen number before its column row, ``1,Time,Force,...``)."""
+    first, rest = header[0].strip(), header[1:]
+    if any(is_number(c, decimal_comma) for c in rest):
+        return False
+    return not is_number(first, decimal_comma) or (first.isdigit() and sum(bool(c) for c in rest) >= 2)
 
 
 def _units_like(cells: list[str] | None, n: int) -> bool:

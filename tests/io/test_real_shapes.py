@@ -1,0 +1,62 @@
+"""Readers on layouts public lab records have (issue 28, benchmarks/real_records.md).
+
+- An Instron Bluehill CSV export as written: a results table above the data, and the column
+  row starts with the specimen number (``1,Time,Displacement,...``) over a units row whose
+  first cell is empty. The column row is the header, not the units row under it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from matid.errors import DataError
+from matid.io.ingest.read import read_table
+
+#: strain and force of a linear coupon: force = 4.0e6 N x strain + 0.005 kN preload
+STRAIN = np.linspace(0.0, 2e-3, 30)
+FORCE_KN = 4.0e3 * STRAIN + 0.005
+
+
+def _bluehill(path: Path) -> Path:
+    """The shape of an Instron Bluehill export (results row, then a column row led by the
+    specimen number, a units row, quoted cells with an empty first one), made up here."""
+    lines = [
+        "Results Table 1",
+        ",Sample,E-modulus,Maximum Tensile stress",
+        ",,(GPa),(MPa)",
+        '1,"AM-go 1055","110.351","939.877"',
+        "1,Time,Displacement,Force,Tensile strain (Strain 2),Tensile stress",
+        ",(s),(mm),(kN),(mm/mm),(MPa)",
+    ]
+    lines += [
+        f'"","{0.1 * i:.4f}","{0.05 * i:.5f}","{f:.5f}","{e:.6f}","{f / 23.76e-3:.5f}"'
+        for i, (e, f) in enumerate(zip(STRAIN, FORCE_KN, strict=True))
+    ]
+    path.write_bytes(("\r\n".join(lines) + "\r\n").encode("latin-1"))
+    return path
+
+
+def test_a_bluehill_column_row_led_by_the_specimen_number_is_the_header(tmp_path):
+    path = _bluehill(tmp_path / "am.csv")
+    table = read_table(
+        path,
+        "extension",
+        columns={"time": "Time", "strain": "Tensile strain (Strain 2)", "force": "Force"},
+    )
+    assert table.header_row == 5
+    assert table.n_rows == len(STRAIN)
+    np.testing.assert_allclose(table["force"], np.round(FORCE_KN, 5) * 1e3)
+    np.testing.assert_allclose(table["strain"], np.round(STRAIN, 6))
+    np.testing.assert_allclose(table["time"][-1], 0.1 * (len(STRAIN) - 1))
+
+
+def test_a_number_alone_is_not_a_header_cell_where_the_rest_are_numbers_too(tmp_path):
+    """The specimen number is allowed at the start of a row of names only: a row of numbers above
+    the header is still refused as data the preamble would swallow."""
+    path = tmp_path / "pasted.csv"
+    path.write_text("1,2,3\ntime [s],force [N],strain [1]\n0,0,0\n1,1,0.1\n2,2,0.2\n", encoding="utf-8")
+    with pytest.raises(DataError, match="row of numbers above the header"):
+        read_table(path, "extension")
