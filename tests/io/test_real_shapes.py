@@ -1,8 +1,10 @@
-"""Readers on layouts public lab records have (issue 28, benchmarks/real_records.md).
+"""Readers on two layouts public lab records have (issue 28, benchmarks/real_records.md).
 
 - An Instron Bluehill CSV export as written: a results table above the data, and the column
   row starts with the specimen number (``1,Time,Displacement,...``) over a units row whose
   first cell is empty. The column row is the header, not the units row under it.
+- A DAQ file with no header row at all: the study names its columns by position
+  (``columns = { force = 3 }``, 1 = the first column) and gives their units.
 """
 
 from __future__ import annotations
@@ -60,3 +62,58 @@ def test_a_number_alone_is_not_a_header_cell_where_the_rest_are_numbers_too(tmp_
     path.write_text("1,2,3\ntime [s],force [N],strain [1]\n0,0,0\n1,1,0.1\n2,2,0.2\n", encoding="utf-8")
     with pytest.raises(DataError, match="row of numbers above the header"):
         read_table(path, "extension")
+
+
+def _headerless(path: Path) -> Path:
+    """A DAQ file with no header row: time [s], displacement [mm], force [kN], strain [µε]."""
+    rows = [
+        f"{0.1 * i:.4f}\t{0.02 * i:.5f}\t{f:.6f}\t{1e6 * e:.3f}"
+        for i, (e, f) in enumerate(zip(STRAIN, FORCE_KN, strict=True))
+    ]
+    path.write_text("\r\n".join(rows) + "\r\n", encoding="utf-8")
+    return path
+
+
+POSITIONS = {"time": 1, "force": 3, "strain": 4}
+POSITION_UNITS = {"time": "s", "force": "kN", "strain": "µm/m"}
+
+
+def test_a_file_without_a_header_row_is_read_with_columns_named_by_position(tmp_path):
+    table = read_table(
+        _headerless(tmp_path / "daq.dat"), "extension", columns=POSITIONS, units=POSITION_UNITS
+    )
+    assert table.n_rows == len(STRAIN)
+    assert table.header_row == 0
+    np.testing.assert_allclose(table["force"], np.round(FORCE_KN, 6) * 1e3)
+    np.testing.assert_allclose(table["strain"], np.round(1e6 * STRAIN, 3) * 1e-6)
+    np.testing.assert_allclose(table["time"], 0.1 * np.arange(len(STRAIN)))
+
+
+def test_a_file_without_a_header_row_needs_the_units_of_the_columns_it_names(tmp_path):
+    with pytest.raises(DataError, match="column has no unit"):
+        read_table(_headerless(tmp_path / "daq.dat"), "extension", columns=POSITIONS)
+
+
+def test_a_file_without_a_header_row_and_no_positions_says_how_to_name_them(tmp_path):
+    with pytest.raises(DataError, match=r"no header row found.*columns = \{ force = 3 \}"):
+        read_table(_headerless(tmp_path / "daq.dat"), "extension")
+
+
+def test_a_position_beyond_the_last_column_is_refused_with_the_count(tmp_path):
+    with pytest.raises(DataError, match="columns.force = 7: the file has 4 columns"):
+        read_table(
+            _headerless(tmp_path / "daq.dat"),
+            "extension",
+            columns={**POSITIONS, "force": 7},
+            units=POSITION_UNITS,
+        )
+
+
+def test_a_position_names_a_column_of_a_file_with_a_header_too(tmp_path):
+    """Two columns of one name (a force channel twice) cannot be told apart by text: by position."""
+    path = tmp_path / "twice.csv"
+    pairs = enumerate(zip(STRAIN, FORCE_KN, strict=True))
+    rows = "".join(f"{0.1 * i},{f * 1e3},{2 * f * 1e3},{e}\n" for i, (e, f) in pairs)
+    path.write_text("time [s],Force [N],Force [N],strain [1]\n" + rows, encoding="utf-8")
+    table = read_table(path, "extension", columns={"force": 3})
+    np.testing.assert_allclose(table["force"], 2 * FORCE_KN * 1e3)

@@ -57,7 +57,7 @@ class Layout:
 
     encoding: str
     delimiter: str
-    header_at: int
+    header_at: int | None  # None: no header row (columns named by position)
     units_at: int | None
     data_at: int
     n_cells: int
@@ -69,10 +69,12 @@ class Layout:
     def describe(self) -> str:
         """What was seen, for messages: encoding, delimiter, header row."""
         units = "" if self.units_at is None else f", units row {self.units_at + 1}"
-        return (
-            f"read as {self.encoding}, {DELIMITER_NAMES[self.delimiter]}-delimited, "
-            f"header row {self.header_at + 1}{units}"
+        header = (
+            f"no header row, data from row {self.data_at + 1}"
+            if self.header_at is None
+            else f"header row {self.header_at + 1}"
         )
+        return f"read as {self.encoding}, {DELIMITER_NAMES[self.delimiter]}-delimited, {header}{units}"
 
 
 def decode(raw: bytes, path: Path, encoding: str | None = None) -> tuple[str, str]:
@@ -266,8 +268,10 @@ def _units_like(cells: list[str] | None, n: int) -> bool:
     return any(c != c.strip("()[] ") or c in ("%", "-", "1") or kinds_of(c) - {"strain"} for c in cells)
 
 
-def detect(lines: list[str], path: Path, encoding: str) -> Layout:
-    """The first line that is a header for some delimiter; the delimiter giving most columns."""
+def detect(lines: list[str], path: Path, encoding: str, *, positions: bool = False) -> Layout:
+    """The first line that is a header for some delimiter; the delimiter giving most columns.
+    With ``positions`` (the test names its columns by number), a file without a header row is
+    read from its first block of number rows."""
     for h in range(min(len(lines), MAX_PREAMBLE)):
         if not lines[h].strip() or lines[h].lstrip().startswith("#"):
             continue
@@ -279,12 +283,34 @@ def detect(lines: list[str], path: Path, encoding: str) -> Layout:
             layout = max(found, key=lambda c: c.n_cells)
             _no_data_above(lines, layout, path)
             return layout
+    if positions and (layout := _headerless(lines, encoding)) is not None:
+        return layout
     raise DataError(
         f"no header row found (read as {encoding}): expected a row of column names followed, "
         "after an optional units row, by rows of numbers with as many cells, separated by ',', "
-        f"';', tab or spaces; looked at the first {min(len(lines), MAX_PREAMBLE)} lines",
+        f"';', tab or spaces; looked at the first {min(len(lines), MAX_PREAMBLE)} lines. A file "
+        "without a header row is read when the [[test]] names its columns by number (1 = the first) "
+        'with their units: columns = { force = 3 }, units = { force = "kN" }',
         file=path,
     )
+
+
+def _headerless(lines: list[str], encoding: str) -> Layout | None:
+    """The layout of a file without a header row: the first line that starts three number rows
+    of one width (the delimiter giving most columns); the lines above it are its preamble."""
+    for d in range(min(len(lines), MAX_PREAMBLE)):
+        rows = [i for i in range(d, min(len(lines), d + 8)) if lines[i].strip()][:3]
+        if len(rows) < 3 or rows[0] != d:
+            continue
+        found = []
+        for delimiter in DELIMITERS:
+            widths = {_is_data(lines[i], delimiter) for i in rows}
+            if len(widths) == 1 and 0 not in widths:
+                found.append((widths.pop(), delimiter))
+        if found:
+            n, delimiter = max(found, key=lambda f: f[0])
+            return Layout(encoding, delimiter, None, None, d, n)
+    return None
 
 
 def _no_data_above(lines: list[str], layout: Layout, path: Path) -> None:
@@ -306,7 +332,7 @@ def preamble(lines: list[str], layout: Layout) -> tuple[dict[str, str], tuple[st
     """Metadata and free text of the lines above the header, both bounded."""
     metadata: dict[str, str] = {}
     text: list[str] = []
-    for line in lines[: layout.header_at]:
+    for line in lines[: layout.data_at if layout.header_at is None else layout.header_at]:
         if not line.strip():
             continue
         if len(metadata) + len(text) >= MAX_LINES:
