@@ -5,6 +5,7 @@
   first cell is empty. The column row is the header, not the units row under it.
 - A DAQ file with no header row at all: the study names its columns by position
   (``columns = { force = 3 }``, 1 = the first column) and gives their units.
+- Thousands grouped with the other decimal mark (Bluehill's ``"1,006.28992"``) read as one number.
 """
 
 from __future__ import annotations
@@ -117,3 +118,43 @@ def test_a_position_names_a_column_of_a_file_with_a_header_too(tmp_path):
     path.write_text("time [s],Force [N],Force [N],strain [1]\n" + rows, encoding="utf-8")
     table = read_table(path, "extension", columns={"force": 3})
     np.testing.assert_allclose(table["force"], 2 * FORCE_KN * 1e3)
+
+
+def _grouped(path: Path, delimiter: str, cell) -> Path:
+    """Bluehill-style rows whose force passes 1000 N, written with its thousands grouped."""
+    force = np.linspace(500.0, 2600.0, 25)
+    rows = [
+        delimiter.join(f'"{v}"' for v in (f"{0.1 * i:.5f}", cell(f), cell(1e-5 * f)))
+        for i, f in enumerate(force)
+    ]
+    head = delimiter.join(["Time", "Load", "Tensile strain (Strain 1)"])
+    units = delimiter.join(["(s)", "(N)", "(mm/mm)"])
+    path.write_text("\n".join([head, units, *rows]) + "\n", encoding="utf-8")
+    return path, force
+
+
+COLUMNS = {"time": "Time", "force": "Load", "strain": "Tensile strain (Strain 1)"}
+
+
+def test_thousands_grouped_with_a_dot_decimal_are_read(tmp_path):
+    """Instron Bluehill writes '1,006.28992' (quoted, in a ','-delimited file): one reading only."""
+    path, force = _grouped(tmp_path / "bluehill.csv", ",", lambda v: f"{v:,.5f}")
+    table = read_table(path, "extension", columns=COLUMNS)
+    np.testing.assert_allclose(table["force"], force)
+    np.testing.assert_allclose(table["strain"], [float(f"{1e-5 * f:.5f}") for f in force])
+
+
+def test_thousands_grouped_with_a_decimal_comma_are_read(tmp_path):
+    path, force = _grouped(
+        tmp_path / "de.csv", ";", lambda v: f"{v:,.5f}".replace(",", " ").replace(".", ",").replace(" ", ".")
+    )
+    table = read_table(path, "extension", columns=COLUMNS)
+    np.testing.assert_allclose(table["force"], force)
+
+
+def test_a_grouped_cell_that_reads_two_ways_is_still_refused(tmp_path):
+    """'1,012' alone in a column of decimal commas and dots: a thousands separator or a decimal mark."""
+    path = tmp_path / "mixed.csv"
+    path.write_text("time [s];force [N];strain [1]\n0;1,5;0\n1;2.5;0,1\n2;1,012;0,2\n", encoding="utf-8")
+    with pytest.raises(DataError, match="reads as 1.012"):
+        read_table(path, "extension")

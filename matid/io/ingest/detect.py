@@ -164,8 +164,19 @@ def _cells(line: str, delimiter: str) -> list[str] | None:
         return None
 
 
+#: A number with its thousands grouped and a decimal mark of the other kind, which reads one way
+#: only: "1,006.28992" (Instron Bluehill), and "1.006,28992" where a comma may be decimal.
+THOUSANDS_DOT = re.compile(r"^[+-]?\d{1,3}(,\d{3})+\.\d*$")
+THOUSANDS_COMMA = re.compile(r"^[+-]?\d{1,3}(\.\d{3})+,\d*$")
+
+
 def number(text: str, decimal_comma: bool) -> float:
-    """A float from a cell; ValueError if it is not a plain number."""
+    """A float from a cell; ValueError if it is not a plain number (thousands may be grouped,
+    :data:`THOUSANDS_DOT`, :data:`THOUSANDS_COMMA`)."""
+    if THOUSANDS_DOT.match(text):
+        text = text.replace(",", "")
+    elif decimal_comma and THOUSANDS_COMMA.match(text):
+        text = text.replace(".", "")
     if decimal_comma and text.count(",") == 1 and "." not in text:
         text = text.replace(",", ".")
     if not text or "_" in text or len(text) > 64:
