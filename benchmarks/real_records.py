@@ -72,12 +72,21 @@ OD = ("odykak/Flexural-stress-strain", "b52eb0608383f8f95b46ce15fa93aab565830ea6
 PZ = ("e-dub/pyZiagn", "c831eb6ca7faa8a4c979b7cd5d445d4d80ad4f47")
 ES = ("ernestsb/statictesting", "4398b17d8d3aebf78c70cd121d95c7d9dd9d3026")
 GJ = ("gerlachjan/eval_TensileTest", "b5b0dde966a3834810a867e72abaa0d36081a0b0")
+MC = ("macphersoncole/ASEN-3112-Lab1", "0af3a520129a46f5d84efa2b52e05b5902ec884b")
+MC_OTW = "Data/DAQ-G1G2-OTW.txt"
 MU = ("pedrodamas0803/mechtest_ufmg", "44731d4696a10535f4d5074063d8670ff364ee2d")  # commit "starting things"
+# the fatigue files were removed later (d14d21b): each is read at the commit that added it
+PM = "FollowTheProcess/pymechtest"
+PM_COMMIT = {
+    "Test2": "4b1908e24ede601db1f278861fa0a4243a35c1a9",  # Merge pull request #23 (fatigue)
+    "Test5": "cf1b204bdf49413905887fda3edd265765f4d1a9",  # Add fatigue test data ...
+}
 
 VHB_SRC = "README.md l.13-14, 25-26: L0 = 8 cm (lambda = 1 + Delta/L0)"
 VHB_COLS = {"time": "时间", "elongation": "位移", "force": "力"}
 ASEN_TUBE = {"outer_diameter": "0.75 in", "inner_diameter": "0.625 in"}
 ASEN_SRC_JK = "main.m l.4-6 (Re = 3/8 in, t = 1/16 in, extensometer L = 1 in)"
+ASEN_SRC_MC = "m/TorsionTesting.m l.10-14 (L = 10 in, t = 1/16 in, D_e = 3/4 in, R_e = 3/8 in)"
 ASEN_SRC_CB = (
     "Lab 1/TorqueStrain.m l.31-37 (D_e = 0.75 in, t = 1/16 in, L = 10 in); file line 5 'Length: 10 inches'"
 )
@@ -124,7 +133,7 @@ def vhb_cycle(name: str) -> Record:
     )
 
 
-def asen_torsion(rid, src, path, *, slit, channel) -> Record:
+def asen_torsion(rid, src, path, *, slit, channel, negate=False, source=None) -> Record:
     """ASEN 3112 Lab 1 (University of Colorado): thin-walled 0.75 in x 1/16 in tube, closed or slit.
 
     channel 'ext': the extensometer reads the surface shear strain gamma (deg) over 1 in; twist per
@@ -164,11 +173,15 @@ def asen_torsion(rid, src, path, *, slit, channel) -> Record:
         kind="torsion",
         machine=machine,
         dims=dims,
-        source=(ASEN_SRC_JK + ("; L = 10 in: " + ASEN_SRC_CB if channel == "angle" else ""))
-        if jk
-        else ASEN_SRC_CB,
+        source=source
+        or (
+            (ASEN_SRC_JK + ("; L = 10 in: " + ASEN_SRC_CB if channel == "angle" else ""))
+            if jk
+            else ASEN_SRC_CB
+        ),
         specimen=spec,
-        test={"length": length, "columns": {"twist_angle": col, "torque": torque}},
+        test={"length": length, "columns": {"twist_angle": col, "torque": torque}}
+        | ({"negate": ["twist_angle"]} if negate else {}),
         hand=lambda p: hand.torsion(
             p, skip=skip, delim=delim, angle_col=cols[channel], torque_col=3 if jk else 3, length_m=L
         ),
@@ -255,6 +268,38 @@ def catman(name: str, window_mm: tuple[float, float]) -> Record:
     )
 
 
+def wavematrix(name: str, cycles: str) -> Record:
+    """Composite coupon cycled from rest between about 0.3 and 4.5 kN on an Instron 8801 (frame
+    8801MTB15319), Instron WaveMatrix 'steps.tracking' CSV export: UTF-8 with BOM, every line ending
+    in ',', columns like 'Load(8801MTB15319:SH-19-Load) (kN)' and the unused
+    'Total Cycle Count(8801MTB15319 Waveform)'. The strain is the extensometer's ('Strain 1', %), so
+    no gauge length enters E_e; the section (45.31 mm^2) is Load / Stress of the file's own columns."""
+    return Record(
+        id=f"pm-wavematrix-{name}",
+        repo=PM,
+        commit=PM_COMMIT[name],
+        path=f"tests/data/Fatigue/{name}.steps.tracking.csv",
+        kind="extension",
+        machine="Instron WaveMatrix 'steps.tracking' CSV (Instron 8801), BOM, trailing ','",
+        dims=f"none needed: extensometer strain column; A0 45.31 mm^2; {cycles}",
+        source="the file's Load (kN) / Stress (MPa) columns: 45.31 mm^2 on every row above 0.5 kN",
+        specimen={"width": "10 mm", "height": "4.531 mm"},
+        test={
+            "gauge_length": "25 mm",  # required by the study schema; unused with a strain column
+            "columns": {
+                "time": "Total Time",
+                "force": "Load(8801MTB15319:SH-19-Load)",
+                "strain": "Strain(8801MTB15319:Strain 1)",
+            },
+        },
+        hand=lambda p: hand.load_fraction_line(
+            p, skip=1, delim=",", force_col=7, strain_col=8, force_si=1e3, strain_si=1e-2
+        ),
+        hand_text="every row with force 10-90 % of the peak (loading, holds, unloading): line F(strain)",
+        note="width x height only stand for A0 = 45.31 mm^2",
+    )
+
+
 # thickness / width of the odykak coupons, in load order (Stress-strain.py l.28-29)
 OD_T = [
     2.93666288,
@@ -322,6 +367,12 @@ RECORDS: list[Record] = [
     asen_torsion("jk-slit-angle", JK, "data/20inlb-slotted.csv", slit=True, channel="angle"),
     asen_torsion("cb-slit-angle", CB, "Lab 1/Torsion20inlbf_146.txt", slit=True, channel="angle"),
     asen_torsion("cb-slit-ext", CB, "Lab 1/Torsion20inlbf_146.txt", slit=True, channel="ext"),
+    # the same course's slit tube a group later (Spring 2020, test run 122, 'ASEN3112_20in-lb-return'):
+    # the machine's angle falls as the torque rises, so the study negates it
+    *(
+        asen_torsion(f"mc-slit-{ch}", MC, MC_OTW, slit=True, channel=ch, negate=True, source=ASEN_SRC_MC)
+        for ch in ("angle", "ext")
+    ),
     od_bend(1, "1_3D850_s1"),
     od_bend(4, "4_3Devo_s1"),
     od_bend(7, "7_CR10_s1"),
@@ -365,8 +416,9 @@ RECORDS: list[Record] = [
         specimen={"width": "10 mm", "height": "1 mm"},
         test={
             "gauge_length": "50 mm",
-            "columns": {"time": "Time", "strain": "Strain", "force": "Force"},
-            "units": {"time": "s", "strain": "1", "force": "kN"},
+            "columns": {"time": 1, "force": 3, "strain": 4},  # by position: the file has no header
+            "units": {"time": "s", "force": "kN", "strain": "µm/m"},
+            "window": {"strain": [0.001, 0.003]},
         },
         hand=lambda p: hand.extension_window(
             p,
@@ -380,13 +432,15 @@ RECORDS: list[Record] = [
             elong_si=1e-6,
             strain_col=True,
         ),
-        hand_text="strain 1000-3000 microstrain: line F(strain)",
-        note="the file has no header row: a user cannot name its columns without editing it",
+        hand_text="strain 1000-3000 microstrain (window also given to matid): line F(strain)",
+        note="the file has no header row: columns named by position (README's order), units from the README",
     ),
     bluehill("am1", "1016", delim=";", skip=6, header="re-saved: ';', empty first column (Latin-1)"),
     bluehill("am2", "1055", delim=",", skip=5, header="as exported: ',' with the results row above the data"),
     catman("HSM700_7_1", (0.13, 0.175)),
     catman("HSM700_7_2", (0.12, 0.165)),
+    wavematrix("Test2", "5 load-unload cycles, 400 s, holds at the peaks"),
+    wavematrix("Test5", "load-unload cycles, 33 s"),
 ]
 
 

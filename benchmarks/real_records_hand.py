@@ -118,6 +118,16 @@ def extension_window(
     return k, se, n
 
 
+def load_fraction_line(path, *, skip, delim, force_col, strain_col, force_si, strain_si, lo=0.1, hi=0.9):
+    """E_e of load-unload cycles from rest: a least-squares line F(strain) over every row (loading,
+    holds and unloading alike) whose force lies between ``lo`` and ``hi`` of the record's peak force.
+    An elastic specimen (no hysteresis) gives the same slope on every branch."""
+    a = read_table(path, skip, delim)
+    F, eps = a[:, force_col] * force_si, a[:, strain_col] * strain_si
+    keep = (F >= lo * F.max()) & (F <= hi * F.max())
+    return line_fit(eps[keep], F[keep])
+
+
 def relaxation(path, *, gauge_m, tail_s=60.0, encoding="gbk"):
     """E_e of a ramp-hold: the force at the end of the hold over the strain of the hold (the
     equilibrium spring k1 of the standard linear solid, reached when the relaxation is over; a

@@ -93,12 +93,20 @@ def window(
     return window
 
 
-def columns(source: Path, where: str, entry: dict, kind: str) -> dict[str, str]:
-    columns = {}
+def columns(source: Path, where: str, entry: dict, kind: str) -> dict[str, str | int]:
+    """matid name -> the file's header text, or its column number (1 = the first column; a file
+    without a header row is read with its columns named this way)."""
+    columns: dict[str, str | int] = {}
     for name, header in _table(source, where, entry, "columns").items():
         column = _column_key(source, where, "columns", name, kind)
-        if not isinstance(header, str) or not header.strip() or len(header) > 200:
-            raise DataError(f"{where}: columns.{column} must be the file's header text", file=source)
+        text = isinstance(header, str) and header.strip() and len(header) <= 200
+        number = isinstance(header, int) and not isinstance(header, bool) and header >= 1
+        if not (text or number):
+            raise DataError(
+                f"{where}: columns.{column} must be the file's header text or a column number "
+                f"(1 = the first column), got '{shown(header)}'",
+                file=source,
+            )
         columns[column] = header
     return columns
 

@@ -97,8 +97,9 @@ class Test(PicklesViews):
     window: Mapping[str, tuple[float, float]] = field(default_factory=dict, hash=False)
     #: three_point_bend: where deflection is measured, "nose" (crosshead) or "centreline".
     deflection_at: str = "nose"
-    #: matid column name -> the file's header text (section 7 ``columns``).
-    columns: Mapping[str, str] = field(default_factory=dict, hash=False)
+    #: matid column name -> the file's header text, or its column number, 1 = the first
+    #: (section 7 ``columns``).
+    columns: Mapping[str, str | int] = field(default_factory=dict, hash=False)
     #: matid column name -> unit text overriding the file's (section 7 ``units``).
     units: Mapping[str, str] = field(default_factory=dict, hash=False)
     #: matid columns whose sign is flipped on reading (section 7 ``negate``).

@@ -421,3 +421,17 @@ def test_bad_sections_name_the_specimen_and_the_key(tmp_path, text, message):
     path = write_study(tmp_path, HEAD.replace('id = "T2"\nouter_diameter = 0.003', text) + TESTS)
     with expect(path, "specimen T2: .*" + message):
         load_study(path)
+
+
+def test_columns_named_by_position(tmp_path):
+    """columns = { force = 3 }: the file's third column (1 = the first), for a file without a header."""
+    path = write_study(tmp_path, with_test_keys("columns = { deflection = 1, force = 3 }"))
+    test = load_study(path).tests[0]
+    assert dict(test.columns) == {"deflection": 1, "force": 3}
+
+
+@pytest.mark.parametrize("value", ["0", "-2", "true", "1.5", "[3]"])
+def test_a_column_position_that_is_no_column_number_is_refused(tmp_path, value):
+    path = write_study(tmp_path, with_test_keys(f"columns = {{ force = {value} }}"))
+    with expect(path, "columns.force must be the file's header text or a column number"):
+        load_study(path)

@@ -30,14 +30,14 @@ class Column:
     """One header column: name as written, matid name, unit ('' if none).
 
     ``unit_row`` is the 1-based line the unit was read from (header, units row),
-    0 when it came from the test's ``units``.
+    0 when it came from the test's ``units``, None when the file has no header row.
     """
 
     index: int
     written: str
     name: str
     unit: str
-    unit_row: int
+    unit_row: int | None
 
 
 def canonical(name: str) -> str:
@@ -49,13 +49,17 @@ def header(
     lines: list[str],
     layout: Layout,
     kind: str,
-    mapping: dict[str, str],
+    mapping: dict[str, str | int],
     overrides: dict[str, str],
     path: Path,
 ) -> list[Column]:
-    """Columns from the header row (and units row), the test's ``columns`` and ``units`` applied."""
-    header_row = layout.header_at + 1
-    cells = header_names(lines, layout.header_at, layout.units_at, layout.delimiter, layout.n_cells) or []
+    """Columns from the header row (and units row), the test's ``columns`` and ``units`` applied;
+    a file without a header row has nameless columns, named by position in ``columns``."""
+    if layout.header_at is None:
+        header_row, cells = None, [""] * layout.n_cells
+    else:
+        header_row = layout.header_at + 1
+        cells = header_names(lines, layout.header_at, layout.units_at, layout.delimiter, layout.n_cells) or []
     written = [
         (m["name"].strip(), m["unit"].strip()) if (m := _NAME_UNIT.match(c)) else (c, "") for c in cells
     ]
@@ -68,7 +72,8 @@ def header(
     for i, ((shown, _), (unit, row), name) in enumerate(zip(written, units, names_, strict=True)):
         if name in overrides:
             unit, row = overrides[name], 0
-        columns.append(_column(i, cells[i] if name in mapping else shown, name, unit, row, kind, path))
+        shown = cells[i] if name in mapping and isinstance(mapping[name], str) else shown or f"column {i + 1}"
+        columns.append(_column(i, shown, name, unit, row, kind, path))
     # columns no test uses may share a name ('Total Cycle Count(Linear Waveform)' and '...(Rotary
     # Waveform)', the brackets read as units): each keeps its own under its position
     names_ = [c.name for c in columns]
@@ -83,17 +88,31 @@ def header(
 
 
 def _matid_names(
-    cells: list[str], written: list[tuple[str, str]], mapping: dict[str, str], path: Path, row: int
+    cells: list[str],
+    written: list[tuple[str, str]],
+    mapping: dict[str, str | int],
+    path: Path,
+    row: int | None,
 ) -> list[str]:
-    """matid name of each cell: the mapped one, else its canonical name (renamed on collision)."""
+    """matid name of each cell: the mapped one (by header text or column number), else its
+    canonical name (renamed on collision)."""
     result = [canonical(name) or f"column_{i + 1}" for i, (name, _) in enumerate(written)]
     for name, header in mapping.items():
-        want = header.strip().casefold()
-        hits = [
-            i
-            for i, (cell, (shown, _)) in enumerate(zip(cells, written, strict=True))
-            if want in (cell.strip().casefold(), shown.strip().casefold())
-        ]
+        if isinstance(header, int):  # a column number, 1 = the first
+            if header > len(cells):
+                raise DataError(
+                    f"columns.{name} = {header}: the file has {len(cells)} columns",
+                    file=path,
+                    row=row,
+                )
+            hits = [header - 1]
+        else:
+            want = header.strip().casefold()
+            hits = [
+                i
+                for i, (cell, (shown, _)) in enumerate(zip(cells, written, strict=True))
+                if want in (cell.strip().casefold(), shown.strip().casefold())
+            ]
         if not hits:
             close = difflib.get_close_matches(header.strip(), cells, n=1, cutoff=0.5)
             hint = f"; did you mean '{close[0]}'?" if close else ""
@@ -118,7 +137,7 @@ def _units_row(line: str, layout: Layout) -> list[str]:
     return [(m["unit"] if (m := _WRAPPED_UNIT.match(c)) else c).strip() for c in cells]
 
 
-def _column(index: int, written: str, name: str, unit: str, row: int, kind: str, path: Path) -> Column:
+def _column(index: int, written: str, name: str, unit: str, row: int | None, kind: str, path: Path) -> Column:
     written = bounded_text(written, 200)
     if name in BY_NAME[kind].columns and not unit:
         raise DataError(
@@ -131,7 +150,7 @@ def _column(index: int, written: str, name: str, unit: str, row: int, kind: str,
     return Column(index=index, written=written, name=name, unit=unit, unit_row=row)
 
 
-def _check_duplicates(columns: list[Column], path: Path, row: int) -> None:
+def _check_duplicates(columns: list[Column], path: Path, row: int | None) -> None:
     seen: set[str] = set()
     for column in columns:
         if column.name in seen:
@@ -144,7 +163,7 @@ def _check_duplicates(columns: list[Column], path: Path, row: int) -> None:
         seen.add(column.name)
 
 
-def check_required(columns: list[Column], kind: str, path: Path, row: int) -> None:
+def check_required(columns: list[Column], kind: str, path: Path, row: int | None) -> None:
     found = [c.name for c in columns]
     for group in BY_NAME[kind].required:
         if not any(name in found for name in group):

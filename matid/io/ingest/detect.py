@@ -57,7 +57,7 @@ class Layout:
 
     encoding: str
     delimiter: str
-    header_at: int
+    header_at: int | None  # None: no header row (columns named by position)
     units_at: int | None
     data_at: int
     n_cells: int
@@ -69,10 +69,12 @@ class Layout:
     def describe(self) -> str:
         """What was seen, for messages: encoding, delimiter, header row."""
         units = "" if self.units_at is None else f", units row {self.units_at + 1}"
-        return (
-            f"read as {self.encoding}, {DELIMITER_NAMES[self.delimiter]}-delimited, "
-            f"header row {self.header_at + 1}{units}"
+        header = (
+            f"no header row, data from row {self.data_at + 1}"
+            if self.header_at is None
+            else f"header row {self.header_at + 1}"
         )
+        return f"read as {self.encoding}, {DELIMITER_NAMES[self.delimiter]}-delimited, {header}{units}"
 
 
 def decode(raw: bytes, path: Path, encoding: str | None = None) -> tuple[str, str]:
@@ -162,8 +164,19 @@ def _cells(line: str, delimiter: str) -> list[str] | None:
         return None
 
 
+#: A number with its thousands grouped and a decimal mark of the other kind, which reads one way
+#: only: "1,006.28992" (Instron Bluehill), and "1.006,28992" where a comma may be decimal.
+THOUSANDS_DOT = re.compile(r"^[+-]?\d{1,3}(,\d{3})+\.\d*$")
+THOUSANDS_COMMA = re.compile(r"^[+-]?\d{1,3}(\.\d{3})+,\d*$")
+
+
 def number(text: str, decimal_comma: bool) -> float:
-    """A float from a cell; ValueError if it is not a plain number."""
+    """A float from a cell; ValueError if it is not a plain number (thousands may be grouped,
+    :data:`THOUSANDS_DOT`, :data:`THOUSANDS_COMMA`)."""
+    if THOUSANDS_DOT.match(text):
+        text = text.replace(",", "")
+    elif decimal_comma and THOUSANDS_COMMA.match(text):
+        text = text.replace(".", "")
     if decimal_comma and text.count(",") == 1 and "." not in text:
         text = text.replace(",", ".")
     if not text or "_" in text or len(text) > 64:
@@ -241,12 +254,21 @@ def _candidate(lines: list[str], h: int, delimiter: str, encoding: str) -> Layou
         return None
     header = header_names(lines, h, units_at, delimiter, n)
     # Trailing columns may be empty in the data (a remark column): the header may be wider.
-    if header is None or not n <= len(header) <= 2 * n or any(is_number(c, delimiter != ",") for c in header):
+    if header is None or not n <= len(header) <= 2 * n or not _names(header, delimiter != ","):
         return None
     n = len(header)
     if units_at is not None and not _units_like(names(lines[units_at], delimiter, n), n):
         return None
     return Layout(encoding, delimiter, h, units_at, after[0], n)
+
+
+def _names(header: list[str], decimal_comma: bool) -> bool:
+    """A row of column names: no cell a number, but the first may be a whole number over names
+    (Instron Bluehill writes the specimen number before its column row, ``1,Time,Force,...``)."""
+    first, rest = header[0].strip(), header[1:]
+    if any(is_number(c, decimal_comma) for c in rest):
+        return False
+    return not is_number(first, decimal_comma) or (first.isdigit() and sum(bool(c) for c in rest) >= 2)
 
 
 def _units_like(cells: list[str] | None, n: int) -> bool:
@@ -257,8 +279,10 @@ def _units_like(cells: list[str] | None, n: int) -> bool:
     return any(c != c.strip("()[] ") or c in ("%", "-", "1") or kinds_of(c) - {"strain"} for c in cells)
 
 
-def detect(lines: list[str], path: Path, encoding: str) -> Layout:
-    """The first line that is a header for some delimiter; the delimiter giving most columns."""
+def detect(lines: list[str], path: Path, encoding: str, *, positions: bool = False) -> Layout:
+    """The first line that is a header for some delimiter; the delimiter giving most columns.
+    With ``positions`` (the test names its columns by number), a file without a header row is
+    read from its first block of number rows."""
     for h in range(min(len(lines), MAX_PREAMBLE)):
         if not lines[h].strip() or lines[h].lstrip().startswith("#"):
             continue
@@ -270,12 +294,34 @@ def detect(lines: list[str], path: Path, encoding: str) -> Layout:
             layout = max(found, key=lambda c: c.n_cells)
             _no_data_above(lines, layout, path)
             return layout
+    if positions and (layout := _headerless(lines, encoding)) is not None:
+        return layout
     raise DataError(
         f"no header row found (read as {encoding}): expected a row of column names followed, "
         "after an optional units row, by rows of numbers with as many cells, separated by ',', "
-        f"';', tab or spaces; looked at the first {min(len(lines), MAX_PREAMBLE)} lines",
+        f"';', tab or spaces; looked at the first {min(len(lines), MAX_PREAMBLE)} lines. A file "
+        "without a header row is read when the [[test]] names its columns by number (1 = the first) "
+        'with their units: columns = { force = 3 }, units = { force = "kN" }',
         file=path,
     )
+
+
+def _headerless(lines: list[str], encoding: str) -> Layout | None:
+    """The layout of a file without a header row: the first line that starts three number rows
+    of one width (the delimiter giving most columns); the lines above it are its preamble."""
+    for d in range(min(len(lines), MAX_PREAMBLE)):
+        rows = [i for i in range(d, min(len(lines), d + 8)) if lines[i].strip()][:3]
+        if len(rows) < 3 or rows[0] != d:
+            continue
+        found = []
+        for delimiter in DELIMITERS:
+            widths = {_is_data(lines[i], delimiter) for i in rows}
+            if len(widths) == 1 and 0 not in widths:
+                found.append((widths.pop(), delimiter))
+        if found:
+            n, delimiter = max(found, key=lambda f: f[0])
+            return Layout(encoding, delimiter, None, None, d, n)
+    return None
 
 
 def _no_data_above(lines: list[str], layout: Layout, path: Path) -> None:
@@ -297,7 +343,7 @@ def preamble(lines: list[str], layout: Layout) -> tuple[dict[str, str], tuple[st
     """Metadata and free text of the lines above the header, both bounded."""
     metadata: dict[str, str] = {}
     text: list[str] = []
-    for line in lines[: layout.header_at]:
+    for line in lines[: layout.data_at if layout.header_at is None else layout.header_at]:
         if not line.strip():
             continue
         if len(metadata) + len(text) >= MAX_LINES:

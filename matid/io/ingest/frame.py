@@ -27,7 +27,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from matid.errors import DataError
-from matid.io.ingest.detect import BOMS, LINE_BREAK, Layout, nth_break, number, split
+from matid.io.ingest.detect import (
+    BOMS,
+    LINE_BREAK,
+    THOUSANDS_COMMA,
+    THOUSANDS_DOT,
+    Layout,
+    nth_break,
+    number,
+    split,
+)
 from matid.io.study_keys import bounded_text
 
 if TYPE_CHECKING:  # pandas is imported when a record is read, so `import matid` stays light
@@ -148,7 +157,7 @@ def column(rows: Rows, index: int, name: str, *, required: bool) -> np.ndarray |
     frame = rows.frame
     series = frame[index] if index in frame.columns else pd.Series(np.nan, index=frame.index)
     if not pd.api.types.is_numeric_dtype(series):
-        text = series.astype("string").str.strip()
+        text = _ungrouped(series.astype("string").str.strip(), rows.layout.decimal_comma)
         if rows.layout.decimal_comma:  # "1,5" is 1.5 where a comma may be decimal (detect.number)
             comma = text.str.count(",").eq(1) & ~text.str.contains(".", regex=False)
             _grouped(rows, text, comma.fillna(False).to_numpy(), index, name)
@@ -161,6 +170,17 @@ def column(rows: Rows, index: int, name: str, *, required: bool) -> np.ndarray |
     if required:
         _cell_error(rows, int(bad[0]), index, name)
     return None
+
+
+def _ungrouped(text: pd.Series, decimal_comma: bool) -> pd.Series:
+    """Cells with their thousands grouped (``THOUSANDS_DOT``, ``THOUSANDS_COMMA`` of
+    :mod:`matid.io.ingest.detect`) without the grouping marks, as :func:`number` reads them."""
+    dot = text.str.match(THOUSANDS_DOT.pattern).fillna(False)
+    text = text.where(~dot, text.str.replace(",", "", regex=False))
+    if decimal_comma:
+        comma = text.str.match(THOUSANDS_COMMA.pattern).fillna(False)
+        text = text.where(~comma, text.str.replace(".", "", regex=False))
+    return text
 
 
 #: A cell that reads two ways where a column mixes decimal marks: "1,012" (1.012 or 1012).

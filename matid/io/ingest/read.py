@@ -44,7 +44,7 @@ def read_table(
     path: str | Path,
     kind: str,
     *,
-    columns: Mapping[str, str] | None = None,
+    columns: Mapping[str, str | int] | None = None,
     units: Mapping[str, str] | None = None,
     negate: tuple[str, ...] | list[str] = (),
     encoding: str | None = None,
@@ -52,7 +52,8 @@ def read_table(
     """Read one export of a test of ``kind`` into a :class:`Table` in SI.
 
     ``columns``, ``units``, ``negate`` and ``encoding`` are the test's keys of
-    docs/contract.md section 7.
+    docs/contract.md section 7; a column named by number (``columns = { force = 3 }``) lets a
+    file without a header row be read.
     """
     if kind not in BY_NAME:
         raise ValueError(f"unknown test kind {kind!r} (one of {', '.join(BY_NAME)})")
@@ -64,7 +65,8 @@ def read_table(
         raise DataError("empty file", file=path)
     if all(not ln.strip() or ln.lstrip().startswith("#") for ln in lines):
         raise DataError("no header row (only '#' metadata lines)", file=path)
-    layout = detect(lines, path, used)
+    positions = any(isinstance(v, int) for v in (columns or {}).values())
+    layout = detect(lines, path, used, positions=positions)
     start = locate(raw, text, layout)
     del text  # a long record's numbers are parsed from raw; its text is not kept
     try:
@@ -84,7 +86,7 @@ def _table(
     lines: list[str],
     layout: Layout,
     kind: str,
-    mapping: dict[str, str],
+    mapping: dict[str, str | int],
     overrides: dict[str, str],
     negate: tuple[str, ...],
 ) -> Table:
@@ -92,7 +94,8 @@ def _table(
     if text:
         metadata.setdefault("preamble", bounded_text(" / ".join(text)))
     cols = header(lines, layout, kind, mapping, overrides, path)
-    check_required(cols, kind, path, row=layout.header_at + 1)
+    header_row = None if layout.header_at is None else layout.header_at + 1
+    check_required(cols, kind, path, row=header_row)
     used = BY_NAME[kind].columns
     rows = read_rows(raw, start, layout, path)
     if len(rows.lines) < MIN_ROWS:
@@ -113,7 +116,7 @@ def _table(
         sha256=hashlib.sha256(raw).hexdigest(),
         encoding=layout.encoding,
         delimiter=layout.delimiter,
-        header_row=layout.header_at + 1,
+        header_row=header_row or 0,
         preamble=text,
         written=written,
     )
