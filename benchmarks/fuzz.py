@@ -40,7 +40,8 @@ def main() -> int:
     parser.add_argument("--scenes-solved", type=int, default=0,
                         help="only the solver fuzz (issue 30): this many mutated scenes, each solved end to end")  # fmt: skip
     parser.add_argument("--studies", type=int, default=0,
-                        help="only the fit fuzz (issue 30): this many mutated studies, each fitted end to end")  # fmt: skip
+                        help="only the fit fuzz (issue 30): this many mutated studies, "
+                        "each fitted end to end")  # fmt: skip
     parser.add_argument("--log", type=Path, default=Path(tempfile.gettempdir()) / "matid-fuzz.jsonl")
     parser.add_argument("--full-one-in", default=os.environ.get("MATID_FUZZ_FULL_ONE_IN", "100"))
     args = parser.parse_args()
@@ -67,7 +68,8 @@ def main() -> int:
         env.update(MATID_FUZZ_FITTED=str(args.studies))
         env.pop("MATID_FUZZ_SOLVED", None)
         k = cmd.index("-k") + 1
-        cmd[k] = "fuzzed_study_fitted" if not args.scenes_solved else "fuzzed_scene_solved or fuzzed_study_fitted"
+        both = "fuzzed_scene_solved or fuzzed_study_fitted"
+        cmd[k] = both if args.scenes_solved else "fuzzed_study_fitted"
         args.kills = 0
         if args.scenes_solved:
             env["MATID_FUZZ_SOLVED"] = str(args.scenes_solved)
@@ -151,7 +153,9 @@ def summarise(log: Path, seconds: float, returncode: int) -> str:
         f"ended; temp folders a SIGKILL left (removed by the next run): "
         f"{sum(r['folder'].startswith('temp') for r in signals)}",
         *[f"  {name}: {len(found)}" for name, found in counts(records).items()],
-        f"  slowest case: {slowest['seconds']:.1f} s ({slowest['target']} {slowest['labels']})" if records else "",
+        f"  slowest case: {slowest['seconds']:.1f} s ({slowest['target']} {slowest['labels']})"
+        if records
+        else "",
         f"  cases not allowed: {sum(problem(r) is not None for r in records)}",
     ]
     for r in [r for r in records if problem(r) is not None][:10]:

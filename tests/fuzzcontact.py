@@ -36,9 +36,12 @@ CENTRELINES = [
     [["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "200 mm"]],
     [["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "20 mm"], ["10 mm", "0 mm", "40 mm"]],  # bent in x-z
     [["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "20 mm"], ["10 mm", "0 mm", "40 mm"]],
-    [["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "10 mm"], ["-8 mm", "0 mm", "25 mm"], ["-8 mm", "0 mm", "80 mm"]],
-    [["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "15 mm"], ["5 mm", "5 mm", "30 mm"], ["5 mm", "5 mm", "90 mm"]],
-    [["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "20 mm"], ["0 mm", "0 mm", "20 mm"], ["0 mm", "0 mm", "50 mm"]],
+    [["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "10 mm"], ["-8 mm", "0 mm", "25 mm"],
+     ["-8 mm", "0 mm", "80 mm"]],
+    [["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "15 mm"], ["5 mm", "5 mm", "30 mm"],
+     ["5 mm", "5 mm", "90 mm"]],  # 3D
+    [["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "20 mm"], ["0 mm", "0 mm", "20 mm"],
+     ["0 mm", "0 mm", "50 mm"]],  # two corners coincide
     [["0 mm", "0 mm", "0 mm"], ["0 mm", "0 mm", "0 mm"]],  # a point
     [["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "20 mm"], ["0 mm", "0 mm", "-30 mm"]],  # turns back
     [["1 mm", "0 mm", "-10 mm"], ["1 mm", "0 mm", "60 mm"]],  # off the clamp's axis
@@ -57,7 +60,8 @@ SWEEPS = [
     {"key": "rod.E_b", "values": ["0 N m^2", "1e-300 N m^2", "1e300 N m^2"]},
     {"key": "rod.length", "values": ["10 mm", "30 mm", "1e-6 mm"]},
     {"key": "rod.outer_diameter", "values": ["0.1 mm", "1 mm", "5 mm"]},
-    {"key": "field.B", "values": [["20 mT", "0 mT", "0 mT"], ["0 mT", "0 mT", "-20 mT"], ["1e300 mT", "0 mT", "0 mT"]]},
+    {"key": "field.B",
+     "values": [["20 mT", "0 mT", "0 mT"], ["0 mT", "0 mT", "-20 mT"], ["1e300 mT", "0 mT", "0 mT"]]},
     {"key": "field.B", "values": [["0 mT", "20 mT", "0 mT"], ["10 mT", "10 mT", "10 mT"]]},
     {"key": "tip.force", "values": [["1e-3 N", "0 N", "0 N"], ["0 N", "0 N", "-1 N"], ["0 N", "0 N", "0 N"]]},
     {"key": "tip.moment", "values": [["0 N m", "1e-4 N m", "0 N m"], ["0 N m", "0 N m", "1e-3 N m"]]},
@@ -65,7 +69,8 @@ SWEEPS = [
     {"key": "magnet.1.at", "values": ["1 mm", "25 mm", "50 mm", "100 mm"]},
     {"key": "magnetization.1.per_length", "from": "-20 A", "to": "1e8 A", "count": 2},
     {"key": "point_load.1.force", "values": [["1e-3 N", "0 N", "0 N"]]},
-    {"key": "load.distributed_force", "values": [["0.1 N/m", "0 N/m", "0 N/m"], ["0 N/m", "0 N/m", "-1 N/m"]]},
+    {"key": "load.distributed_force",
+     "values": [["0.1 N/m", "0 N/m", "0 N/m"], ["0 N/m", "0 N/m", "-1 N/m"]]},
     {"key": "rod.precurvature", "values": [["10 1/m", "0 1/m", "0 1/m"], ["0 1/m", "5 1/m", "1e300 1/m"]]},
     {"key": "rod.E_s", "values": ["1 N", "1e6 N"], "count": 2},
     {"key": "magnet.2.moment", "values": ["0.01 A m^2"]},
@@ -122,8 +127,10 @@ def contact_mutation(draw, doc: dict) -> str:
     if what == "advance":  # mostly fractions of the tube's length, a few absolute lengths
         n = draw(st.integers(1, 6))
         length = _length_mm(doc)
-        fractions = st.sampled_from([0.1, 0.25, 0.33, 0.5, 0.7, 0.9, 0.999, 1.0]).map(lambda f: f"{f * length:.9g} mm")
-        free = [draw(fractions if length and draw(st.integers(0, 3)) else st.sampled_from(FREE)) for _ in range(n)]
+        fraction = st.sampled_from([0.1, 0.25, 0.33, 0.5, 0.7, 0.9, 0.999, 1.0])
+        fractions = fraction.map(lambda f: f"{f * length:.9g} mm")
+        free = [draw(fractions if length and draw(st.integers(0, 3)) else st.sampled_from(FREE))
+                for _ in range(n)]  # fmt: skip
         order = draw(st.sampled_from(["drawn", "sorted", "reversed"]))
         if order != "drawn":
             free.sort(key=lambda q: float(q.split()[0]), reverse=order == "reversed")

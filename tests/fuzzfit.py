@@ -37,7 +37,8 @@ COLUMNS = {
     "three_point_bend": ["deflection", "force"],
 }
 #: Units a reading key may name (right kind, wrong kind, unknown).
-READ_UNITS = ["N", "mN", "kN", "gf", "mm", "um", "m", "deg", "rad", "s", "ms", "mT", "T", "N m", "mN mm", "foo", ""]
+READ_UNITS = ["N", "mN", "kN", "gf", "mm", "um", "m", "deg", "rad", "s", "ms", "mT", "T", "N m", "mN mm",
+              "foo", ""]  # fmt: skip
 #: Bounds of an added window, in the units of the column named.
 WINDOW_ENDS = ["0", "0.05", "0.5", "1", "10", "45", "90", "180", "1e300", "-1e300", "-1", "nan"]
 #: A fit taking longer than this counts as a hang (issue 30: 120 s).
@@ -206,7 +207,8 @@ def absurd_stiffness(doc: dict) -> str | None:
                 continue
             numbers = [item.get("value"), item.get("stderr"), *(item.get("ci95") or [])]
             for x in numbers:
-                if x is not None and not (isinstance(x, (int, float)) and math.isfinite(x) and abs(x) <= fuzzkit.ABSURD):
+                sane = isinstance(x, (int, float)) and math.isfinite(x) and abs(x) <= fuzzkit.ABSURD
+                if x is not None and not sane:
                     return f"{sid} {name}: {x!r} with status ok"
             if item.get("value") is None:
                 return f"{sid} {name}: no value with status ok"
