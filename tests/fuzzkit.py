@@ -48,6 +48,8 @@ from tests import ROOT
 
 DEMO = ROOT / "matid" / "example"
 SCENES = sorted((ROOT / "examples" / "scenes").glob("*.toml"))
+#: The solver fuzz's scenes: the example scenes and the example sweeps (solved as ``matid solve`` does).
+SOLVER_SCENES = SCENES + sorted((ROOT / "examples" / "sweeps").glob("*.toml"))
 #: One in this many cases whose input is accepted runs the whole command (fits, report, publish);
 #: a run costs seconds (the report), the input stage milliseconds.
 FULL_ONE_IN = int(os.environ.get("MATID_FUZZ_FULL_ONE_IN", "50"))
@@ -599,11 +601,17 @@ def solver_cases(draw):
     drawn places: most are accepted and reach the solver (:func:`solve_case`)."""
     import tomllib
 
-    path = draw(st.sampled_from(SCENES))
+    from tests.fuzzcontact import CONTACT_KEYS, contact_mutation
+
+    path = draw(st.sampled_from(SOLVER_SCENES))
     doc = tomllib.loads(path.read_text(encoding="utf-8"))
     labels = []
     for _ in range(draw(st.integers(1, 3))):
-        if draw(st.integers(0, 3)) == 3 and doc.get("scene", "cantilever") == "cantilever":
+        way = draw(st.integers(0, 4))
+        if way in (2, 4) and doc.get("scene", "cantilever") == "cantilever":  # walls, lumen, advance, sweep
+            labels.append(draw(contact_mutation(doc)))
+            continue
+        if way == 3 and doc.get("scene", "cantilever") == "cantilever":
             kind = draw(st.sampled_from(["point_load", "magnetization", "segment", "magnet"]))
             a, b = sorted(draw(st.sampled_from(PLACES[:5] * 3 + PLACES)) for _ in "ab")[::-1 if draw(st.booleans()) and draw(st.booleans()) else 1]
             entry = {
@@ -625,7 +633,8 @@ def solver_cases(draw):
         if key in table:
             table[key] = scaled(table[key], factor)
         labels.append(f"{name}.{key}: x {factor:g}")
-    return path.stem, toml_dumps(doc), {}, labels, False
+    contact = [k for k in CONTACT_KEYS if k in doc]
+    return path.stem, toml_dumps(doc), {}, ([f"keys: {'+'.join(contact)}"] if contact else []) + labels, False
 
 
 # -- running a case --------------------------------------------------------------
@@ -753,6 +762,7 @@ def run_scene_case(case, work: Path, *, limit: float = LIMIT) -> Outcome:
     """Write the case's scene into ``work`` and load it (and, when drawn, solve it with few elements)."""
     from matid.errors import DataError, MatidError
     from matid.rod.scenes import load_scene
+    from matid.rod.sweeps import load_sweep
 
     name, text, extra, labels, solve = case
     shutil.rmtree(work, ignore_errors=True)
@@ -767,7 +777,7 @@ def run_scene_case(case, work: Path, *, limit: float = LIMIT) -> Outcome:
     try:
         with time_limit(limit):
             try:
-                load_scene(scene)
+                load_sweep(scene) if SOLVE_ALL and _is_sweep(text) else load_scene(scene)
             except DataError as exc:
                 code, message = 2, str(exc)
             except MatidError as exc:
@@ -805,6 +815,7 @@ def solve_case(scene_path: Path, text: str | bytes, limit: float, clock: float) 
     from matid.errors import DataError, MatidError
     from matid.rod.api import solve
     from matid.rod.scenes import load_scene
+    from tests.fuzzcontact import solve_sweep
 
     data = text.encode("utf-8") if isinstance(text, str) else text
     elements = ELEMENT_CHOICES[zlib.crc32(data) % len(ELEMENT_CHOICES)]
@@ -813,10 +824,13 @@ def solve_case(scene_path: Path, text: str | bytes, limit: float, clock: float) 
     try:
         with time_limit(limit):
             try:
-                sol = solve(load_scene(scene_path), elements=elements, aim_seconds=AIM_SECONDS)
-                wrong = absurdity(sol)
-                if wrong:
-                    code, message = "absurd", wrong
+                if _is_sweep(text):  # a family of scenes: as matid solve does, every state checked
+                    code, message = solve_sweep(scene_path, elements)
+                else:
+                    sol = solve(load_scene(scene_path), elements=elements, aim_seconds=AIM_SECONDS)
+                    wrong = absurdity(sol)
+                    if wrong:
+                        code, message = "absurd", wrong
             except DataError as exc:
                 code, message = 2, str(exc)
             except MatidError as exc:
@@ -825,7 +839,21 @@ def solve_case(scene_path: Path, text: str | bytes, limit: float, clock: float) 
                 code, message = 3, f"{type(exc).__name__}: {exc}"
     except Hang as exc:
         code, message = "hang", str(exc)
-    return Outcome(code, "solved", time.perf_counter() - clock, f"elements={elements}: {message}")
+    seconds = time.perf_counter() - clock
+    if seconds > limit and code != "hang":  # an answer past the limit (a C loop the alarm waited for)
+        code, message = "hang", f"answered after {seconds:.0f} s (> {limit} s): {message}"
+    return Outcome(code, "solved", seconds, f"elements={elements}: {message}")
+
+
+def _is_sweep(text: str | bytes) -> bool:
+    """Whether a scene text parses and has ``[[sweep]]`` (solved as a family, not by load_scene)."""
+    import tomllib
+
+    try:
+        doc = tomllib.loads(text if isinstance(text, str) else text.decode("utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError, RecursionError):  # hostile nesting: load_scene's
+        return False
+    return "sweep" in doc
 
 
 def _numbers(doc: object):
@@ -872,6 +900,8 @@ def missing_load(scene) -> str | None:
     }
     largest = max(list(size.values()) + [abs(k) * L for k in scene.rod.precurvature])
     built = {type(t): t for t in _prepare(scene, resolve_model(scene))[3]}
+    if (scene.walls or scene.lumen is not None) and terms.Contact not in built:
+        return "Contact: walls or a lumen in the scene, absent from the energy"
     for kind, scaled_size in size.items():
         if not scaled_size > NEGLIGIBLE * largest:  # below what the solve resolves (plane_of's tol)
             continue

@@ -5,6 +5,11 @@
   fix them); every case must end in exit 0, 1 or 2 with a message, never an
   uncaught exception (exit 3), never a hang, never a mixed output folder.
   ``pytest --hypothesis-profile=long`` (or benchmarks/fuzz.py) runs thousands.
+- Issue 30: mutated scenes (walls, lumens, [advance] and [[sweep]] included: tests/fuzzcontact.py)
+  are solved end to end and mutated studies fitted through ``matid fit`` (tests/fuzzfit.py): never
+  exit 3, a hang, or a silent absurdity (a value above 1e100, a load absent from the energy, a
+  stiffness.json value reported ok that is not finite). benchmarks/fuzz.py --scenes-solved N /
+  --studies N run thousands.
 - A writer killed by SIGKILL at random moments leaves the old folder whole or the new one.
 - A full disk (a small tmpfs; root only) gives a clear error and leaves the old report whole.
 - The same input gives the same bytes of stiffness.csv and stiffness.json.
@@ -34,7 +39,7 @@ from matid.app.pipeline import run_study
 from matid.io.publish import claim_output
 from matid.io.results import stiffness_csv, stiffness_json
 from matid.io.study import load_study
-from tests import fuzzhostile, fuzzkit
+from tests import fuzzfit, fuzzhostile, fuzzkit
 
 WORK = Path(tempfile.mkdtemp(prefix="matid-fuzz-"))
 #: benchmarks/fuzz.py sets this to count every outcome of a long run instead of stopping at the first bad one.
@@ -62,6 +67,22 @@ def test_fuzzed_scene_solved_ends_in_an_allowed_outcome_and_no_absurdity(case):
     outcome = fuzzkit.run_scene_case(case, WORK / "solver-case")
     fuzzkit.log(outcome, case[3], f"solved/{case[0]}")
     problem = fuzzkit.allowed(outcome)
+    if not COLLECT:
+        assert problem is None, f"{case[0]} {case[3]}: {problem}"
+
+
+#: Studies fitted end to end by the suite (a seeded sample); benchmarks/fuzz.py --studies runs thousands.
+FITTED = int(os.environ.get("MATID_FUZZ_FITTED", "6"))
+
+
+@settings(max_examples=FITTED, derandomize=not COLLECT, deadline=None)
+@given(fuzzfit.fit_cases())
+def test_fuzzed_study_fitted_ends_in_an_allowed_outcome_and_no_absurdity(case):
+    """Issue 30: mutated studies go through ``matid fit``: exit 0, 1, 2 or 4, never 3, a hang or a
+    stiffness.json with a value above 1e100 or not finite reported as ok."""
+    outcome = fuzzfit.run_fit_case(case, WORK / "fit-case")
+    fuzzkit.log(outcome, case[3], f"fitted/{case[0]}")
+    problem = fuzzfit.allowed(outcome)
     if not COLLECT:
         assert problem is None, f"{case[0]} {case[3]}: {problem}"
 

@@ -8,7 +8,8 @@ proximal end, so they shift by ``length - free`` towards the clamp; what lies in
 dropped, a piece across the exit is cut there). The warm start of a longer step is the last state
 pushed out of the sheath (:func:`pushed`): a straight piece of the new length at the clamp and the
 last centreline translated along the sheath's axis behind it, so a contact stays on the side of the
-wall where the path put it.
+wall where the path put it; a step whose plane is not the last one's (a load come out of the sheath
+leaves it: planar to full) starts from the straight tube instead.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 
 from matid.errors import ConvergenceError
 from matid.rod.models import PLANAR
-from matid.rod.scenes import Scene, SegmentSpec
+from matid.rod.scenes import Scene, SegmentSpec, plane_of
 
 
 def step_scene(scene: Scene, free: float) -> Scene:
@@ -86,12 +87,15 @@ def solve_steps(scene: Scene, solve_one):
     """[(free length, Solution, Equilibrium)] of every step of ``scene.advance`` in order;
     ``solve_one(step scene, start)`` -> (Solution, Equilibrium) solves one from a warm start or None.
     A step that cannot be reached raises ConvergenceError naming it."""
-    steps, last = [], None
+    steps, last, plane = [], None, None
     for k, free in enumerate(scene.advance):
-        warm = last is not None and last[2] is not None
+        step = step_scene(scene, free)
+        here = plane_of(step)  # a load coming out of the sheath may leave the plane (or turn it):
+        warm = last is not None and last[2] is not None and _same_plane(here, plane)  # no warm start then
         start = pushed(last[2].state(), last[2].model, last[0], free) if warm else None
+        plane = here
         try:
-            sol, eq = solve_one(step_scene(scene, free), start)
+            sol, eq = solve_one(step, start)
         except ConvergenceError as exc:
             raise ConvergenceError(
                 f"[advance] step {k + 1} (free length {free * 1e3:.6g} mm): {exc}",
@@ -102,6 +106,13 @@ def solve_steps(scene: Scene, solve_one):
         steps.append((free, sol, eq))
         last = (free, sol, eq)
     return steps
+
+
+def _same_plane(a, b) -> bool:
+    """Whether two steps' planes (plane_of: a direction, or None for 3D) are the same."""
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.allclose(a, b, rtol=0.0, atol=1e-12))
 
 
 def step_entry(free: float, sol) -> dict:

@@ -16,6 +16,7 @@ import re
 from dataclasses import dataclass, replace
 
 from matid.errors import DataError
+from matid.rod import schema
 from matid.rod.scene_values import read_small_file
 from matid.rod.scenes import Scene, scene_from_dict
 from matid.toml import parse_toml
@@ -116,8 +117,10 @@ def _values(entry: dict, kind: str, vector: bool, where: str) -> list:
 
 
 def with_value(scene: Scene, key: str, value) -> Scene:
-    """The scene with ``key`` set to ``value`` (SI); its checks run again (DataError)."""
+    """The scene with ``key`` set to ``value`` (SI); the bounds a scene file's value has
+    (:mod:`matid.rod.schema`) and the scene's checks run again (DataError)."""
     parts = key.split(".")
+    schema.check(parts[0], parts[-1], value, key.rpartition(".")[0])
     rod, loads = scene.rod, scene.loads
     if parts[0] == "rod":
         return replace(scene, rod=replace(rod, **{parts[1]: value}))

@@ -133,3 +133,19 @@ def test_the_warm_start_is_the_last_shape_pushed_out():
     assert np.allclose(U[:2], [[0, 0, 0], [0, 0.25, 0]])
     assert np.allclose(U[-1], [0.02, 1.0, 0.4]) and math.isclose(U[2, 1], 0.5)
     assert A.pushed((vertices, values), "planar", 0.04, 0.04) is None
+
+
+def test_a_step_whose_model_changes_starts_from_the_straight_tube():
+    """Fuzz (issue 30): a point load whose moment leaves the plane is in the sheath at the first step
+    (a planar step) and out at the second (a full step). The planar state is no warm start for the
+    full model (an IndexError, exit 3, before): the second step solves from the straight tube and
+    equals the solve of its scene alone."""
+    raw = {"rod": {**rod(0.03), "outer_diameter": 2.4e-3},
+           "point_load": [{"at": 0.012, "force": [0, 0, -1e-3], "moment": [8e-4, 0, 4e-4]}],
+           "magnet": [{"at": 0.03, "moment": 0.0125}], "field": {"B": [5e-3, 0, 0]},
+           "advance": {"free_lengths": [0.01, 0.03]}}  # fmt: skip
+    scene = scene_from_dict(raw)
+    sol = solve(scene, elements=4)
+    assert [s["free_length"] for s in sol.extra["steps"]] == [0.01, 0.03] and sol.model == "full"
+    alone = solve(A.step_scene(scene, 0.03), elements=4)
+    assert np.allclose(sol.tip["position"], alone.tip["position"], rtol=0, atol=1e-9 * 0.03)

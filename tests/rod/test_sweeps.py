@@ -94,3 +94,17 @@ def test_solve_without_sweep_imports_no_table_fit_or_report_stack(tmp_path):
     )
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=False)
     assert run.returncode == 0, run.stderr
+
+
+def test_a_swept_value_outside_the_scene_files_bounds_is_a_failed_state():
+    """Fuzz (issue 30): a swept value is held to the bounds a scene file's value is (docs/scenes.md):
+    B = 1e300 mT in a sweep was solved and returned 1e297 T where the scene file refuses it."""
+    scene = S.magnetic(2.0, 90.0)
+    axes = parse_sweep({"field.B": [[1e297, 0.0, 0.0], [0.02, 0.0, 0.0]], "rod.length": [1e-9, 0.03]})
+    made = states(scene, axes)
+    refused = [(c, str(s)) for c, s in made if isinstance(s, DataError)]
+    big, small = (1e297, 0.0, 0.0), (0.02, 0.0, 0.0)
+    assert [c for c, _ in refused] == [(big, 1e-9), (big, 0.03), (small, 1e-9)]
+    assert "field.B: each component must be at most 100 T" in refused[1][1]
+    assert "rod.length: must be in (1e-06, 100] m" in refused[2][1]
+    assert made[3][1].loads.B == (0.02, 0.0, 0.0) and made[3][1].rod.length == 0.03
