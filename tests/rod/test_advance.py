@@ -133,3 +133,31 @@ def test_the_warm_start_is_the_last_shape_pushed_out():
     assert np.allclose(U[:2], [[0, 0, 0], [0, 0.25, 0]])
     assert np.allclose(U[-1], [0.02, 1.0, 0.4]) and math.isclose(U[2, 1], 0.5)
     assert A.pushed((vertices, values), "planar", 0.04, 0.04) is None
+
+
+def test_example_advance_lumen_against_the_reference():
+    """examples/scenes/advance_lumen.toml (a 90 degree vessel bend at the sheath's exit): free at 5 mm,
+    then the tip on the bend's outer wall, sliding along it (10-20 mm), against the reference's
+    tip in a bent lumen (cr.advance_in_bend: shooting, the reaction along the wall's normal).
+    Measured: tip <= 3.8e-9 L, force <= 3.5e-7 (estimates 2.7e-11 to 4.4e-7)."""
+    path = EXAMPLE.parent / "advance_lumen.toml"
+    scene = load_scene(path)
+    (a, b, c), lu = scene.lumen.centreline, scene.lumen
+    assert a[:2] == b[:2] == (0, 0) and a[2] < 0 and c[2] == b[2]  # the bend of the reference
+    lumen = cr.BendLumen(lu.radius, lu.corner_radius, math.pi / 2)
+    assert b[2] == pytest.approx(lu.corner_radius)  # the arc starts at the clamp
+    (at, m), B = scene.loads.magnets[0], scene.loads.B
+    refs = cr.advance_in_bend(list(scene.advance), scene.rod.E_b, scene.rod.outer_diameter / 2, lumen,
+                              B=(B[0], B[2]), m=m)  # fmt: skip
+    doc = json.loads(json.dumps(solution_json(solve(path))))
+    assert [len(r["contacts"]) for r in refs] == [0, 1, 1, 1, 1] and all(r["admissible"] for r in refs)
+    for step, ref in zip(doc["steps"], refs, strict=True):
+        free = step["free_length"]
+        tip = np.asarray(step["tip"]["position"])[[0, 2]]
+        assert step["converged"] and np.abs(tip - ref["tip"]).max() < 1e-6 * free
+        assert [c["boundary"] for c in step["contacts"]] == ["lumen"] * len(ref["contacts"])
+        for mine, theirs in zip(step["contacts"], ref["contacts"], strict=True):
+            e_force = np.linalg.norm(np.asarray(mine["force"])[[0, 2]] - theirs["force_vector"]) / theirs["force"]
+            assert e_force < 1e-4
+            assert mine["s"][0] > free * (1 - 1e-3) and mine["gap_min"] >= -doc["contact_tolerance"]
+        print(f"| {free * 1e3:g} mm | {np.abs(tip - ref['tip']).max() / free:.2e} | {step['discretization_error']:.2e} |")
