@@ -215,9 +215,26 @@ def _contacts(ax, sol: Solution, component: int) -> None:
         ax.plot(zs, vs, "-", color="0.4", lw=3, alpha=0.5, label="wall" if k == 0 else None, **fixed)
     if scene.lumen is not None:
         for k, (c, walls) in enumerate(_lumen_view(scene.lumen, component, L)):
-            ax.plot(c[:, 0], c[:, 1], ":", color="0.4", lw=1, label="lumen centreline" if k == 0 else None, **fixed)
+            ax.plot(
+                c[:, 0],
+                c[:, 1],
+                ":",
+                color="0.4",
+                lw=1,
+                label="lumen centreline" if k == 0 else None,
+                **fixed,
+            )
             for w in walls:
-                ax.plot(w[:, 0], w[:, 1], "-", color="0.4", lw=2, alpha=0.5, label="lumen" if k == 0 and w is walls[0] else None, **fixed)
+                ax.plot(
+                    w[:, 0],
+                    w[:, 1],
+                    "-",
+                    color="0.4",
+                    lw=2,
+                    alpha=0.5,
+                    label="lumen" if k == 0 and w is walls[0] else None,
+                    **fixed,
+                )
     earlier = [(c, 0.4) for step in sol.extra.get("steps", [])[:-1] for c in step["contacts"]]
     contacts = sol.extra.get("contacts", [])
     drawn = earlier + [(c, 1.0) for c in contacts]

@@ -290,7 +290,8 @@ TABLES: tuple[Table, ...] = (
     Table(
         "lumen",
         "a rigid vessel the tube stays inside: a polyline centreline whose corners are rounded with "
-        "corner_radius, and its inner radius (at most one; a vessel bend: examples/scenes/advance_lumen.toml)",
+        "corner_radius, and its inner radius (at most one; a vessel bend: "
+        "examples/scenes/advance_lumen.toml)",
         (
             Key("centreline", "points", "the centreline's corners [x, y, z] (lab frame), at least two",
                 '[["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "40 mm"]]', "length"),

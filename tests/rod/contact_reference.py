@@ -738,7 +738,9 @@ def solve_tip_in_bend(L, EI, R_o, lumen: BendLumen, B=(0.0, 0.0), m=0.0, guess=N
     out = root(_bend_residual, x0, args=(rod, lumen), method="hybr", options={"xtol": 1e-13})
     resid = float(np.max(np.abs(out.fun)))
     f = out.x[1:3] * rod.fs
-    res = solve_planar_contact(L, EI, R_o, (), tip_force=f, B=B, m=m, samples=samples, guess=[out.x[0] * rod.ms])
+    res = solve_planar_contact(
+        L, EI, R_o, (), tip_force=f, B=B, m=m, samples=samples, guess=[out.x[0] * rod.ms]
+    )
     shape = np.column_stack([res["shape"]["x"], res["shape"]["z"]])
     g = lumen.gap(shape, R_o)
     inward = lumen.inward(res["tip"])
@@ -747,8 +749,17 @@ def solve_tip_in_bend(L, EI, R_o, lumen: BendLumen, B=(0.0, 0.0), m=0.0, guess=N
     if lam < 0:
         violations.append(f"the tip contact pulls: {lam:.3e}")
     if g.min() < -tol:
-        violations.append(f"the rod crosses the lumen: gap {g.min():.3e} at s = {res['shape']['s'][np.argmin(g)]:.6g}")
-    contact = {"kind": "tip", "wall": "lumen", "s": L, "force": lam, "force_vector": f, "position": res["tip"]}
+        violations.append(
+            f"the rod crosses the lumen: gap {g.min():.3e} at s = {res['shape']['s'][np.argmin(g)]:.6g}"
+        )
+    contact = {
+        "kind": "tip",
+        "wall": "lumen",
+        "s": L,
+        "force": lam,
+        "force_vector": f,
+        "position": res["tip"],
+    }
     return dict(res, contacts=[contact], admissible=not violations, violations=violations,
                 gap_min=(float(g.min()), float(res["shape"]["s"][np.argmin(g)])),
                 unknowns=np.array([res["m0"], *f]))  # fmt: skip
