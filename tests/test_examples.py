@@ -58,6 +58,7 @@ CASES = {
 CONTACT = {
     "wall_tip": "tests.rod.test_contact:test_example_wall_tip_against_the_reference",
     "advance_channel": "tests.rod.test_advance:test_example_advance_channel_against_the_reference",
+    "advance_lumen": "tests.rod.test_advance:test_example_advance_lumen_against_the_reference",
 }
 
 

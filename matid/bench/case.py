@@ -14,16 +14,17 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-OK, RAISED, INACCURATE, WRONG, TIMED_OUT, CRASHED, UNVERIFIED = (
+OK, RAISED, REFUSED, INACCURATE, WRONG, TIMED_OUT, CRASHED, UNVERIFIED = (
     "ok",
     "raised ConvergenceError",
+    "refused before solving (DataError, exit 2)",
     "inaccurate (penalty error ~1/c_u)",
     "wrong",
     "timed out",
     "crashed",
     "unverified (the reference failed)",
 )
-ACCEPTABLE = (OK, RAISED, INACCURATE)
+ACCEPTABLE = (OK, RAISED, REFUSED, INACCURATE)
 Q_CRIT = math.pi**2 / 4  # buckling q of a cantilever with magnetisation against the field
 PENALTY_C = 10.0  # raw variant: error <= PENALTY_C / c_u is the penalty's own (measured C ~ 1.4)
 TOL = 1e-5
@@ -37,10 +38,11 @@ AT_TOL = 1e-4
 class Expect:
     """The outcome a case must give.
 
-    ``outcome``: "ok", "flagged" (the row's outcome is :data:`INACCURATE`) or "raises";
+    ``outcome``: "ok", "flagged" (the row's outcome is :data:`INACCURATE`), "raises" or
+    "refused" (an impossible scene: a DataError before any solve, ``matid solve`` exits 2);
     for "raises": ``error`` the exact ConvergenceError subclass name, ``at`` the last
     converged load factor it reports (None: the error names none), ``says`` words its
-    message must contain.
+    message must contain (for "refused" too).
     """
 
     outcome: str = "ok"
@@ -49,10 +51,14 @@ class Expect:
     says: str | None = None
 
     def __post_init__(self) -> None:
-        if self.outcome not in ("ok", "flagged", "raises") or (self.outcome == "raises") != bool(self.error):
-            raise ValueError(f"bad expectation {self!r}: ok, flagged or raises (with an error name)")
+        if self.outcome not in ("ok", "flagged", "raises", "refused") or (
+            self.outcome in ("raises", "refused")
+        ) != bool(self.error):
+            raise ValueError(f"bad expectation {self!r}: ok, flagged, raises or refused (with an error name)")
 
     def __str__(self) -> str:
+        if self.outcome == "refused":
+            return f"refused ({self.error}) saying {self.says!r}"
         if self.outcome != "raises":
             return self.outcome
         at = "" if self.at is None else f" at load factor {self.at:.6g}"
@@ -62,6 +68,9 @@ class Expect:
     def mismatch(self, row: dict) -> str | None:
         """Why ``row`` (a stability row) is not this outcome; None when it is."""
         got = f"{row['outcome']} ({row.get('raised') or row.get('message') or 'error ' + str(row['error'])})"
+        if self.outcome == "refused":
+            ok = row["outcome"] == REFUSED and self.says in row.get("message", "")
+            return None if ok else f"expected {self}, got {got}: {row.get('message')}"
         if self.outcome != "raises":
             want = OK if self.outcome == "ok" else INACCURATE
             return None if row["outcome"] == want else f"expected {self}, got {got}"
@@ -77,6 +86,11 @@ class Expect:
 
 def raises(error: str = "ConvergenceError", *, at: float | None = None, says: str | None = None) -> Expect:
     return Expect("raises", error, at, says)
+
+
+def refused(*, says: str) -> Expect:
+    """An impossible scene: the scene reader's DataError (exit 2) before any solve."""
+    return Expect("refused", "DataError", None, says)
 
 
 SOLVES, FLAGGED = Expect("ok"), Expect("flagged")

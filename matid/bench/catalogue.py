@@ -4,6 +4,8 @@ The references and error measures are in :mod:`matid.bench.measures`. Every case
 outcome it must give (:class:`matid.bench.case.Expect`); the ones that must raise say where
 and why: a planar magnetic cantilever pushed past buckling stops at q = q_c (load factor
 q_c / q), a dead end moment in 3D at half a turn, the raw penalty at c_u >= 1e10 at round-off.
+The contact cases (walls, a lumen, an advance; the impossible scenes the reader refuses) are
+:func:`matid.bench.contact.cases`.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import math
 
 import numpy as np
 
+from matid.bench import contact
 from matid.bench import scenes as S
 from matid.bench.case import FLAGGED, PENALTY_C, Q_CRIT, SOLVES, Case, raises
 from matid.bench.common import tip_xz
@@ -47,6 +50,7 @@ def cases(quick: bool = False) -> list[Case]:
         + _bend_cases(quick)
         + _mesh_cases()
         + _rigid_cases()
+        + contact.cases()
     )
     return [c for c in every if c.quick] if quick else every
 

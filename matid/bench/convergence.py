@@ -17,7 +17,12 @@ Scenes and references (all computed at run time):
   round-off on any mesh;
 - three-point bend, span 10 mm, d = 1 mm: relative nose-force error against the
   Richardson extrapolation of BendModel on N and 2N elements. The bend half
-  model is built on P2 with two-point Gauss only.
+  model is built on P2 with two-point Gauss only;
+- tip on a wall (contact, issue 31): the magnetic cantilever held by a wall at
+  x = 0.75 L, the larger of the tip error / L and the reaction's relative
+  error against the elastica shot with the wall's reaction at the tip
+  (:mod:`matid.bench.contact`); P2 with two-point Gauss (the contact acts at
+  the nodes of any element, the default is measured).
 
 Observed order: least-squares slope of log(error) against log(h) over the
 finest ``FIT_LEVELS`` levels with error above ``FLOOR`` (below it the
@@ -32,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from matid.bench import contact
 from matid.bench import scenes as S
 from matid.bench.common import best_of, tip_angle, tip_xz
 from matid.bench.references import Elastica, circle_shape, follow_elastica, richardson
@@ -74,6 +80,8 @@ def run(quick: bool = False) -> dict:
     rows = [_level(case, el, order, n) for case in cases for el, order in CHOICES for n in levels]
     bend_rows, checks["three-point bend"] = _bend_rows(quick)
     rows += bend_rows
+    contact_rows, checks[contact.CONVERGENCE_SCENE] = contact.convergence_rows(levels, best_of)
+    rows += contact_rows
     return {
         "rows": rows,
         "orders": observed_orders(rows),
@@ -85,7 +93,8 @@ def run(quick: bool = False) -> dict:
             "(error ~1 until h^2 E_e L^2/E_b << 1); P2 with 2-point Gauss does not.",
             "The cubic Hermite (the paper's element, 3-point Gauss) converges at order 4 where nothing "
             "is stiff (the circle) and locks like P1 on the E = 1e8 scenes.",
-            "The three-point bend runs P2 with 2-point Gauss only (the half model is built on it).",
+            "The three-point bend runs P2 with 2-point Gauss only (the half model is built on it); so does "
+            "the tip on a wall (contact).",
             "Circle: error is the largest nodal position error; the tip closes to round-off on any "
             "uniform mesh (a Gauss rule on equal elements integrates a full period of sin, cos exactly).",
             f"Observed order: slope of log error against log h over the finest {FIT_LEVELS} levels with "

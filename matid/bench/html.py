@@ -48,7 +48,13 @@ def _numeric(value) -> bool:
 
 def _outcome_class(row: dict) -> str:
     outcome = row.get("outcome", "")
-    return "ok" if outcome == "ok" else "warn" if outcome.startswith(("raised", "inaccurate")) else "bad"
+    return (
+        "ok"
+        if outcome == "ok"
+        else "warn"
+        if outcome.startswith(("raised", "refused", "inaccurate"))
+        else "bad"
+    )
 
 
 def _with_state(rows: list[dict]) -> list[dict]:

@@ -33,8 +33,9 @@ def _series(rows: list[dict]) -> dict[str, dict[tuple[str, str], list[dict]]]:
 def convergence_figure(rows: list[dict], x: str) -> bytes:
     """Error against ``x`` ("runtime_s" or "elements"): a panel per scene, a line per element/quadrature."""
     scenes = _series(rows)
-    fig = Figure(figsize=(10, 7.5), layout="constrained")
-    axes = fig.subplots(2, 2, squeeze=False).ravel()
+    rows_of_panels = max(1, -(-len(scenes) // 2))
+    fig = Figure(figsize=(10, 3.75 * rows_of_panels), layout="constrained")
+    axes = fig.subplots(rows_of_panels, 2, squeeze=False).ravel()
     for ax, (scene, series) in zip(axes, scenes.items(), strict=False):
         for (element, quad), pts in series.items():
             colour, style = STYLE.get((element, quad), ("C3", "x-"))

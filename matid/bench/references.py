@@ -8,7 +8,9 @@ internal force is n = F everywhere and (Reissner's planar rod, physics.md s. 3)
 
     theta' = m,   m' = -[(r' x F)_y + q (d3 x b)_y] = -[z' F_x - x' F_z + q (cos t b_x - sin t b_z)]
     r' = nu1 d1 + nu3 d3,   nu1 = F.d1 / E_s,   nu3 = 1 + F.d3 / E_e
-    theta(0) = 0, r(0) = 0, m(1) = M.
+    theta(0) = 0, r(0) = 0, m(1) = M + m_tip sin(psi - theta(1)) + a (d3 x F)_y
+
+(m_tip = m B L/E_b of a tip magnet along d3; a the arm of a rigid tip body, scaled, see Elastica.arm).
 
 With E_s, E_e -> infinity this is Kirchhoff's elastica. It is solved twice,
 with :func:`scipy.integrate.solve_bvp` (collocation) and by shooting on m(0)
@@ -39,6 +41,15 @@ class Elastica:
     field_angle: float = 0.0  # radians from e3 towards e_x
     E_s: float = math.inf
     E_e: float = math.inf
+    tip_magnet: float = 0.0  # m B L/E_b of a magnet along d3 at the tip, in the same field
+    arm: float = 0.0  # a rigid body of this length (scaled) continues the rod along d3; F acts at its end
+
+    def end_moment(self, theta: float) -> float:
+        """m(1): the tip moment, the tip magnet's couple (d3 x b)_y m B = m B sin(psi - theta) and the
+        moment of the force at the end of the rigid arm, a (d3 x F)_y = a (cos t F_x - sin t F_z)."""
+        Fx, Fz = self.force
+        arm = self.arm * (math.cos(theta) * Fx - math.sin(theta) * Fz)
+        return self.moment + self.tip_magnet * math.sin(self.field_angle - theta) + arm
 
     def rhs(self, s: np.ndarray, y: np.ndarray) -> np.ndarray:
         t, m = y[0], y[1]
@@ -65,7 +76,7 @@ def solve_elastica(rod: Elastica, *, guess: tuple[np.ndarray, np.ndarray] | None
         s, y = guess
 
     def bc(ya, yb):
-        return np.array([ya[0], ya[2], ya[3], yb[1] - rod.moment])
+        return np.array([ya[0], ya[2], ya[3], yb[1] - rod.end_moment(yb[0])])
 
     sol = solve_bvp(rod.rhs, bc, s, y, tol=BVP_TOL, max_nodes=100000)
     if sol.status != 0:
@@ -88,7 +99,8 @@ def _integrate(rod: Elastica, m0: float, **options):
 
 def _moment_miss(rod: Elastica, m0: float) -> float:
     """m(1) - M of the initial-value problem: the shooting function."""
-    return _integrate(rod, m0).y[1, -1] - rod.moment
+    y = _integrate(rod, m0).y[:, -1]
+    return y[1] - rod.end_moment(y[0])
 
 
 def _shoot(rod: Elastica, m0: float) -> np.ndarray:
@@ -97,13 +109,32 @@ def _shoot(rod: Elastica, m0: float) -> np.ndarray:
     return np.array([y[2], y[3], y[0]])
 
 
+def shooting(rod: Elastica, m0: float, samples: int = 2001) -> tuple[float, np.ndarray]:
+    """(m(0), y = (theta, m, x, z) at ``samples`` even s in [0, 1]) of the shooting solution, Newton on
+    m(0) from ``m0`` (a nearby solution's: the branch)."""
+    m0 = newton(lambda a: _moment_miss(rod, a), m0, tol=1e-14, maxiter=50)
+    return float(m0), _integrate(rod, m0, t_eval=np.linspace(0.0, 1.0, samples)).y
+
+
+def end_state(rod: Elastica, m0: float) -> np.ndarray:
+    """(theta, m, x, z) at s = 1 of the initial-value problem with m(0) = m0."""
+    return _integrate(rod, m0).y[:, -1]
+
+
 def follow_elastica(rod: Elastica, steps: int = 8) -> dict:
     """Solve by continuation in the load (q, F, M scaled together from 0), to stay on the natural branch."""
     guess = None
     for k in range(1, steps + 1):
         f = k / steps
         part = Elastica(
-            (rod.force[0] * f, rod.force[1] * f), rod.moment * f, rod.q * f, rod.field_angle, rod.E_s, rod.E_e
+            (rod.force[0] * f, rod.force[1] * f),
+            rod.moment * f,
+            rod.q * f,
+            rod.field_angle,
+            rod.E_s,
+            rod.E_e,
+            rod.tip_magnet * f,
+            rod.arm,
         )
         out = solve_elastica(part, guess=guess)
         guess = out["solution"]

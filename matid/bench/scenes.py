@@ -25,9 +25,9 @@ SPAN = 0.01  # three-point bend span, m
 BEND_E = (6.5e-5, 21.0, 120.0)  # E_b [N m^2], E_s [N], E_e [N] of the bend (demo tube)
 
 
-def _rod(E_s: float = STIFF, E_e: float = STIFF, **extra) -> dict:
+def _rod(E_s: float = STIFF, E_e: float = STIFF, length: float = L, **extra) -> dict:
     scale = E_B / L**2
-    return {"length": L, "E_b": E_B, "E_t": E_B, "E_s": E_s * scale, "E_e": E_e * scale, **extra}
+    return {"length": length, "E_b": E_B, "E_t": E_B, "E_s": E_s * scale, "E_e": E_e * scale, **extra}
 
 
 def field(psi_deg: float, strength: float = B) -> list[float]:
@@ -100,3 +100,60 @@ def bend_geometry(specimen_length: float = 0.03) -> BendGeometry:
         nose_radius=0.002,
         outer_diameter=0.0024,
     )
+
+
+# -- contact (issue 31): walls and a lumen; the tube is 1 mm across -------------------------------
+
+R_O = 0.0005  # outer radius of the contact scenes' tube, m (L/60)
+
+
+def wall(point_xz: tuple[float, float], normal_xz: tuple[float, float]) -> dict:
+    """A [[wall]] entry in the x-z plane: ``point_xz`` in units of L, the normal towards the tube."""
+    n = math.hypot(*normal_xz)
+    return {
+        "point": [point_xz[0] * L, 0.0, point_xz[1] * L],
+        "normal": [normal_xz[0] / n, 0.0, normal_xz[1] / n],
+    }
+
+
+def touching(angle_deg: float) -> dict:
+    """A wall at ``angle_deg`` from the rod's axis (towards +x) that touches the tube's surface at the
+    clamp: its point is R_O from the clamp along -normal, so the gap there is exactly zero."""
+    a = math.radians(angle_deg)
+    n = (-math.cos(a), math.sin(a))
+    return wall((-R_O * n[0] / L, -R_O * n[1] / L), n)
+
+
+def with_contact(raw: dict, *, walls: tuple[dict, ...] = (), lumen: dict | None = None,
+                 advance: list[float] | None = None) -> Scene:  # fmt: skip
+    """A scene dictionary of this module (``raw``) with the tube's diameter, walls, a lumen and steps."""
+    out = {**raw, "rod": {**raw["rod"], "outer_diameter": 2 * R_O}}
+    if walls:
+        out["wall"] = list(walls)
+    if lumen is not None:
+        out["lumen"] = lumen
+    if advance is not None:
+        out["advance"] = {"free_lengths": advance}
+    return scene_from_dict(out)
+
+
+def magnetic_raw(q: float = 6.4, psi_deg: float = 120.0, *, length: float = L) -> dict:
+    """:func:`magnetic` as a dictionary (magnetisation over ``length``, q scaled by L)."""
+    mu = q * E_B / (B * L**2)
+    return {"rod": _rod(length=length), "field": {"B": field(psi_deg)},
+            "magnetization": [{"from": 0.0, "to": length, "per_length": mu}]}  # fmt: skip
+
+
+def tip_magnet_raw(moment: float, psi_deg: float, *, length: float = L, rigid: float = 0.0) -> dict:
+    """A tip magnet of m B L/E_b = ``moment`` (L = 30 mm) at ``length``, in a rigid body over the last
+    ``rigid`` L when given."""
+    raw = {"rod": _rod(length=length), "field": {"B": field(psi_deg)},
+           "magnet": [{"at": length, "moment": moment * E_B / (B * L)}]}  # fmt: skip
+    if rigid:
+        raw["segment"] = [{"from": length - rigid * L, "to": length, "rigid": True}]
+    return raw
+
+
+def tip_force_raw(alpha: float) -> dict:
+    """:func:`tip_force` as a dictionary."""
+    return {"rod": _rod(), "tip": {"force": [alpha * E_B / L**2, 0.0, 0.0]}}

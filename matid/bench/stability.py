@@ -7,6 +7,8 @@ Every case runs one solve (timed best of 3) and gets one outcome:
 - ``raised ConvergenceError``: matid said it could not solve (the subclass is
   named: ``SlipOffError`` is the expected answer of the slip-off case). An
   honest failure, never a wrong number;
+- ``refused before solving (DataError, exit 2)``: the scene is impossible (a wall
+  cutting the clamp, a lumen narrower than the tube) and the scene reader said so;
 - ``inaccurate (penalty error ~1/c_u)``: the paper's raw-quaternion variant
   converged, its error exceeds the tolerance, but stays within the error its
   penalty allows by construction (``PENALTY_C / c_u``): flagged, not hidden;
@@ -41,6 +43,7 @@ from matid.bench.case import (
     OK,
     PENALTY_C,
     RAISED,
+    REFUSED,
     TIMED_OUT,
     UNVERIFIED,
     WRONG,
@@ -48,7 +51,7 @@ from matid.bench.case import (
 )
 from matid.bench.catalogue import cases
 from matid.bench.common import REPEATS, best_of
-from matid.errors import ConvergenceError
+from matid.errors import ConvergenceError, DataError
 
 #: Seconds the parent waits beyond a case's limit (the child's start-up and its own stop).
 GRACE_S = 60.0
@@ -94,6 +97,13 @@ def _attempt(case: Case, repeats: int = REPEATS) -> dict:
         return _judge(case, result, runtime, runs)
     except ConvergenceError as exc:
         return _raised(case, exc, time.perf_counter() - t0)
+    except DataError as exc:  # an impossible scene, refused by the scene reader
+        return {
+            "runtime_s": time.perf_counter() - t0,
+            "outcome": REFUSED,
+            "raised": "DataError",
+            "message": str(exc),
+        }
     except Exception as exc:  # noqa: BLE001 - see the docstring
         return {"outcome": CRASHED, "message": f"{type(exc).__name__}: {exc}"}
 
@@ -119,7 +129,7 @@ def _judge(case: Case, result, runtime: float, runs: int) -> dict:
         "newton_iterations": result.newton_iterations,
         "load_steps": result.load_steps,
     }
-    if case.expect.outcome == "raises":
+    if case.expect.outcome in ("raises", "refused"):
         return {**out, "outcome": WRONG, "message": f"converged, but {case.expect.error} was expected"}
     try:
         out["error"] = error = case.error(result)

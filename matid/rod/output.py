@@ -202,7 +202,8 @@ def _contacts(ax, sol: Solution, component: int) -> None:
     scene, L = sol.scene, sol.scene.rod.length
     if not scene.walls and scene.lumen is None:
         return
-    z0, z1 = ax.get_xlim()
+    fixed = {"scalex": False, "scaley": False}
+    view = ax.dataLim.frozen()  # the rod's steps set the view (with a margin), not the boundaries
     for k, wall in enumerate(scene.walls):
         p, n = np.asarray(wall.point) * MM, np.asarray(wall.normal)
         t = np.array([-n[component], n[2]])  # along the wall in the (z, component) view
@@ -211,18 +212,29 @@ def _contacts(ax, sol: Solution, component: int) -> None:
         t = t / np.hypot(*t)
         span = 2.0 * L * MM
         zs, vs = p[2] + span * np.array([-t[0], t[0]]), p[component] + span * np.array([-t[1], t[1]])
-        ax.plot(zs, vs, "-", color="0.4", lw=3, alpha=0.5, label="wall" if k == 0 else None)
+        ax.plot(zs, vs, "-", color="0.4", lw=3, alpha=0.5, label="wall" if k == 0 else None, **fixed)
     if scene.lumen is not None:
-        line = scene.lumen.line()
-        pts = np.concatenate([np.linspace(a, b, 20) for a, b in line.lines]) if line.lines else None
-        if pts is not None:
-            order = np.argsort(pts[:, 2])
-            c, _ = line.closest(np.column_stack([np.zeros(200), np.zeros(200), np.linspace(-L, 2 * L, 200)]))
-            ax.plot(c[:, 2] * MM, c[:, component] * MM, ":", color="0.4", lw=1, label="lumen centreline")
-            del order
-            w = scene.lumen.radius * MM
-            ax.plot(c[:, 2] * MM, c[:, component] * MM + w, "-", color="0.4", lw=2, alpha=0.5)
-            ax.plot(c[:, 2] * MM, c[:, component] * MM - w, "-", color="0.4", lw=2, alpha=0.5)
+        for k, (c, walls) in enumerate(_lumen_view(scene.lumen, component, L)):
+            ax.plot(
+                c[:, 0],
+                c[:, 1],
+                ":",
+                color="0.4",
+                lw=1,
+                label="lumen centreline" if k == 0 else None,
+                **fixed,
+            )
+            for w in walls:
+                ax.plot(
+                    w[:, 0],
+                    w[:, 1],
+                    "-",
+                    color="0.4",
+                    lw=2,
+                    alpha=0.5,
+                    label="lumen" if k == 0 and w is walls[0] else None,
+                    **fixed,
+                )
     earlier = [(c, 0.4) for step in sol.extra.get("steps", [])[:-1] for c in step["contacts"]]
     contacts = sol.extra.get("contacts", [])
     drawn = earlier + [(c, 1.0) for c in contacts]
@@ -234,8 +246,39 @@ def _contacts(ax, sol: Solution, component: int) -> None:
                     arrowprops={"arrowstyle": "->", "color": "C3", "lw": 2, "alpha": alpha})  # fmt: skip
     if drawn:
         ax.plot([], [], "-", color="C3", label="contact force")
-    ax.set_xlim(z0, z1)
+    pad = 0.15 * max(view.width, view.height)
+    ax.dataLim.set(view)
+    ax.update_datalim([(view.x0 - pad, view.y0 - pad), (view.x1 + pad, view.y1 + pad)])
+    ax.autoscale_view()
     ax.legend(loc="best", fontsize=8)
+
+
+def _lumen_view(lumen, component: int, L: float) -> list[tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]]:
+    """Per piece of the lumen's centreline (its straight pieces, the first and last continued by L as
+    the vessel is open, and its arcs), the (z, component) view in mm of the centreline and of its two
+    walls: offset by the radius across the piece's direction in the view (a tube's outline)."""
+    line = lumen.line()
+    pieces = []
+    last = len(line.lines) - 1
+    for k, (a, b) in enumerate(line.lines):
+        t = (b - a) / np.linalg.norm(b - a)
+        pieces.append(np.linspace(a - (L * t if k == 0 else 0.0), b + (L * t if k == last else 0.0), 40))
+    for centre, Rc, A, B, axis in line.arcs:
+        u0 = (A - centre) / Rc
+        w0 = np.cross(axis, u0)
+        span = np.arctan2(np.cross(u0, B - centre) @ axis, u0 @ (B - centre))
+        phi = np.linspace(0.0, span, 60)
+        pieces.append(centre + Rc * (np.outer(np.cos(phi), u0) + np.outer(np.sin(phi), w0)))
+    out = []
+    for P in pieces:
+        c = P[:, [2, component]] * MM
+        t = np.gradient(c, axis=0)
+        norm = np.hypot(t[:, 0], t[:, 1])
+        if norm.min() < 1e-12 * max(1.0, float(np.abs(c).max())):  # seen end-on: its outline is a circle
+            continue
+        n = np.column_stack([-t[:, 1], t[:, 0]]) / norm[:, None] * lumen.radius * MM
+        out.append((c, (c + n, c - n)))
+    return out
 
 
 def _bend_setup(ax, sol: Solution) -> None:

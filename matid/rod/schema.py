@@ -290,7 +290,8 @@ TABLES: tuple[Table, ...] = (
     Table(
         "lumen",
         "a rigid vessel the tube stays inside: a polyline centreline whose corners are rounded with "
-        "corner_radius, and its inner radius (at most one)",
+        "corner_radius, and its inner radius (at most one; a vessel bend: "
+        "examples/scenes/advance_lumen.toml)",
         (
             Key("centreline", "points", "the centreline's corners [x, y, z] (lab frame), at least two",
                 '[["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "40 mm"]]', "length"),
@@ -304,7 +305,8 @@ TABLES: tuple[Table, ...] = (
     Table(
         "advance",
         "quasi-static insertion out of a sheath at the clamp: [rod] length is the whole tube, each step "
-        "models its distal free length, solved in order, each from the last",
+        "models its distal free length, solved in order, each from the last (examples/scenes/"
+        "advance_channel.toml, advance_lumen.toml)",
         (
             Key("free_lengths", "lengths", "free lengths, each in (0, length], in the order pushed",
                 '["10 mm", "20 mm", "30 mm"]', "length", LENGTH),

@@ -662,3 +662,117 @@ def propped_cantilever_reaction(P: float, a: float, L: float) -> float:
     """Small-deflection reaction of a frictionless tip support under a point load P at a from the
     clamp (Euler-Bernoulli): R = P a^2 (3L - a) / (2 L^3)."""
     return P * a**2 * (3 * L - a) / (2 * L**3)
+
+
+# -- a vessel bend: a lumen whose centreline turns on a circular arc ---------------------------------
+
+
+class BendLumen:
+    """A lumen of radius ``rho`` in the x-z plane whose centreline runs along +z up to the origin (the
+    clamp), turns towards +x on an arc of radius ``Rc`` (centre (Rc, 0)) by ``turn`` rad, then runs
+    straight on: the gap of a centreline point at outer radius R_o is rho - R_o - d, d its distance
+    to the centreline (the nearest of the three pieces), and the lumen's reaction on it points along
+    the unit vector from it to its nearest centreline point."""
+
+    def __init__(self, rho: float, Rc: float, turn: float):
+        self.rho, self.Rc, self.turn = float(rho), float(Rc), float(turn)
+        self.centre = np.array([self.Rc, 0.0])
+        self.end = self.centre + self.Rc * np.array([-math.cos(turn), math.sin(turn)])
+        self.t_end = np.array([math.sin(turn), math.cos(turn)])
+
+    def nearest(self, xz) -> np.ndarray:
+        """Nearest centreline points (n, 2) of points xz (n, 2)."""
+        P = np.atleast_2d(np.asarray(xz, float))
+        before = np.column_stack([0.0 * P[:, 0], np.minimum(P[:, 1], 0.0)])
+        w = P - self.centre
+        phi = np.arctan2(w[:, 1], -w[:, 0])  # 0 at the clamp, growing along the arc
+        phi = np.clip(phi, 0.0, self.turn)
+        arc = self.centre + self.Rc * np.column_stack([-np.cos(phi), np.sin(phi)])
+        u = np.maximum((P - self.end) @ self.t_end, 0.0)
+        after = self.end + u[:, None] * self.t_end
+        pieces = np.stack([before, arc, after])
+        d = np.linalg.norm(pieces - P[None], axis=2)
+        return pieces[np.argmin(d, axis=0), np.arange(P.shape[0])]
+
+    def gap(self, xz, R_o: float) -> np.ndarray:
+        P = np.atleast_2d(np.asarray(xz, float))
+        return self.rho - R_o - np.linalg.norm(P - self.nearest(P), axis=1)
+
+    def inward(self, xz) -> np.ndarray:
+        """Unit vector from a point (2,) to its nearest centreline point: the lumen's push on it."""
+        P = np.asarray(xz, float)
+        v = self.nearest(P[None])[0] - P
+        return v / np.linalg.norm(v)
+
+
+def _bend_residual(x, rod: PlanarRod, lumen: BendLumen):
+    """Unknowns m0 and the tip reaction (fx, fz), scaled: the tip couple, the tip on the lumen's wall,
+    the reaction along the lumen's normal there."""
+    tip = copy.copy(rod)
+    tip.F_tip = rod.F_tip + x[1:3]
+    y, _, _, M_L = tip.shoot(x[0], [])
+    inward = lumen.inward(y[:2] * rod.L)
+    return np.array([
+        y[3] - tip.tip_couple(y[2]) - M_L,
+        lumen.gap(y[:2] * rod.L, rod.R_o * rod.L)[0] / rod.L,
+        x[1] * inward[1] - x[2] * inward[0],
+    ])  # fmt: skip
+
+
+def solve_tip_in_bend(L, EI, R_o, lumen: BendLumen, B=(0.0, 0.0), m=0.0, guess=None, samples=2000) -> dict:
+    """A clamped planar elastica with a tip magnet in a bent lumen: free, or touching the lumen's wall
+    at its tip only (the reaction along the wall's normal there, unknown in size and direction). The
+    free rod is tried first; when it crosses the wall the tip contact is solved from ``guess``
+    (a previous result's "unknowns": m0, fx, fz in SI) or from the free state. Returns tip (x, z),
+    theta_L, m0, contacts [{kind "tip", s, force (lambda), force_vector, position}], admissible,
+    violations, gap_min (value, s) along the rod, shape and unknowns. Interior contacts on the curved
+    wall are not modelled: such a state is returned not admissible (the rod crosses the wall)."""
+    free = solve_planar_contact(L, EI, R_o, (), B=B, m=m, samples=samples)
+    tol = 1e-8 * L
+    g = lumen.gap(np.column_stack([free["shape"]["x"], free["shape"]["z"]]), R_o)
+    if free["converged"] and g.min() >= -tol:
+        return dict(free, gap_min=(float(g.min()), float(free["shape"]["s"][np.argmin(g)])))
+    rod = PlanarRod(L, EI, R_o, (), (0.0, 0.0), 0.0, B, m)
+    x0 = (np.array([free["m0"] / rod.ms, 0.0, 0.0]) if guess is None
+          else np.asarray(guess, float) / [rod.ms, rod.fs, rod.fs])  # fmt: skip
+    out = root(_bend_residual, x0, args=(rod, lumen), method="hybr", options={"xtol": 1e-13})
+    resid = float(np.max(np.abs(out.fun)))
+    f = out.x[1:3] * rod.fs
+    res = solve_planar_contact(
+        L, EI, R_o, (), tip_force=f, B=B, m=m, samples=samples, guess=[out.x[0] * rod.ms]
+    )
+    shape = np.column_stack([res["shape"]["x"], res["shape"]["z"]])
+    g = lumen.gap(shape, R_o)
+    inward = lumen.inward(res["tip"])
+    lam = float(f @ inward)
+    violations = [] if resid < RESIDUAL_TOL and res["converged"] else [f"not converged: residual {resid:.2e}"]
+    if lam < 0:
+        violations.append(f"the tip contact pulls: {lam:.3e}")
+    if g.min() < -tol:
+        violations.append(
+            f"the rod crosses the lumen: gap {g.min():.3e} at s = {res['shape']['s'][np.argmin(g)]:.6g}"
+        )
+    contact = {
+        "kind": "tip",
+        "wall": "lumen",
+        "s": L,
+        "force": lam,
+        "force_vector": f,
+        "position": res["tip"],
+    }
+    return dict(res, contacts=[contact], admissible=not violations, violations=violations,
+                gap_min=(float(g.min()), float(res["shape"]["s"][np.argmin(g)])),
+                unknowns=np.array([res["m0"], *f]))  # fmt: skip
+
+
+def advance_in_bend(free_lengths, EI, R_o, lumen: BendLumen, B=(0.0, 0.0), m=0.0) -> list[dict]:
+    """:func:`solve_tip_in_bend` for each free length in order (a tip magnet at the tip), each tip
+    contact started from the last step's."""
+    steps, prev = [], None
+    for ell in free_lengths:
+        guess = prev["unknowns"] if prev is not None and prev["contacts"] else None
+        res = solve_tip_in_bend(ell, EI, R_o, lumen, B=B, m=m, guess=guess)
+        res["free_length"] = ell
+        steps.append(res)
+        prev = res
+    return steps

@@ -319,3 +319,45 @@ def test_lumen_tip_is_the_planar_wall_solution_rotated_and_agrees_with_3d_shooti
     # the same tube turned to another azimuth: the same planar answer, rotated
     turned = cr.solve_lumen_tip(L, EB, R_O, rho, B3 * [-1, -1, 1], m)
     assert np.max(np.abs(turned["tip3"] - cr.rotate_about_axis(out["tip"], azimuth + math.pi))) < 1e-10 * L
+
+
+# -- a vessel bend: the tip sliding along the outer wall of a curved lumen -------------------------
+
+BEND = dict(EI=1e-5, R_o=0.5e-3, B=(30e-3, 0.0), m=0.01)  # examples/scenes/advance_lumen.toml
+
+
+@pytest.fixture(scope="module")
+def bend_steps():
+    lumen = cr.BendLumen(1e-3, 20e-3, math.pi / 2)
+    return lumen, cr.advance_in_bend([5e-3, 10e-3, 15e-3, 20e-3], BEND["EI"], BEND["R_o"], lumen,
+                                     B=BEND["B"], m=BEND["m"])  # fmt: skip
+
+
+def test_bend_steps_are_free_then_on_the_outer_wall_of_the_arc(bend_steps):
+    """Geometry the shooting does not use: on the arc's outer wall the tip is Rc + rho - R_o from the
+    arc's centre and the reaction points at that centre."""
+    lumen, steps = bend_steps
+    assert all(s["admissible"] for s in steps)
+    assert [len(s["contacts"]) for s in steps] == [0, 1, 1, 1]
+    for s in steps[1:]:
+        tip, f = s["tip"], s["contacts"][0]["force_vector"]
+        to_centre = lumen.centre - tip
+        assert np.linalg.norm(to_centre) == pytest.approx(lumen.Rc + lumen.rho - BEND["R_o"], abs=1e-12)
+        assert abs(f[0] * to_centre[1] - f[1] * to_centre[0]) < 1e-12 * np.linalg.norm(f) * lumen.Rc
+        assert f @ to_centre > 0 and s["contacts"][0]["force"] > 0
+
+
+def test_bend_tip_contact_is_the_elastica_closed_form(bend_steps):
+    """The tip force and couple of each contact step put into the elliptic-integral closed form
+    (which knows nothing of the wall): the rod it gives has the step's length and tip."""
+    _, steps = bend_steps
+    (Bx, Bz), m = BEND["B"], BEND["m"]
+    for s in steps[1:]:
+        f = s["contacts"][0]["force_vector"]
+        P = float(np.linalg.norm(f))
+        gamma = math.atan2(-f[0], -f[1])  # the force is -P (sin gamma, cos gamma)
+        theta_L = s["theta_L"]
+        M_L = m * (Bx * math.cos(theta_L) - Bz * math.sin(theta_L))
+        cf = cr.elastica_tip_on_wall(BEND["EI"], P, gamma, theta_L, M_L, inflections=0)
+        assert cf["L"] == pytest.approx(s["free_length"], rel=1e-9)
+        assert np.abs(cf["tip"] - s["tip"]).max() < 1e-9 * s["free_length"]
