@@ -43,10 +43,11 @@ def stackable(loads) -> bool:
 class Stack:
     """Residual and tangent of N planar cantilevers on one mesh (see the module docstring).
 
-    ``parts``: (scaled rod, its load terms) per scene, as :func:`matid.rod.cantilever.scaled` gives.
+    ``parts``: (scaled rod, its load terms) per scene, as :func:`matid.rod.cantilever.scaled` gives;
+    ``probe``: their :func:`matid.rod.cantilever.probe_start` when known (it is the same on every mesh).
     """
 
-    def __init__(self, disc: Discretisation, parts: list[tuple]):
+    def __init__(self, disc: Discretisation, parts: list[tuple], probe: np.ndarray | None = None):
         self.disc, nf = disc, 3
         self.work: dict = {}  # scratch arrays, shared with the stacks taken from this one
         free = np.ones(disc.n, dtype=bool)
@@ -66,19 +67,26 @@ class Stack:
         self.f = np.zeros((self.N, 2))
         self.dead = np.zeros((self.N, disc.n))  # dead nodal loads at lam = 1 (tip, point loads)
         self.magnet = np.zeros((self.N, disc.nscalar))  # lumped moment at each scalar dof
-        tip = disc.vertex_dof(disc.vertices.size - 1)
+        tip, pieces = disc.vertex_dof(disc.vertices.size - 1), []
         for i, (_, loads) in enumerate(parts):
             for t in loads:
-                self._add(i, t, tip)
+                self._add(i, t, tip, pieces)
+        if pieces:  # Magnetisation.mu_at of every scene, piece by piece in each scene's order
+            i, a, b, m = (np.array(c) for c in zip(*pieces))
+            inside = (s >= a[:, None, None]) & (s <= b[:, None, None])
+            np.add.at(self.mu, i, np.where(inside, m[:, None, None], 0.0))
         #: whose first load step is halved until the straight rod's tangent is definite there
-        self.probe = np.array([probe_start(rod, loads, PLANAR) for rod, loads in parts], bool)
+        if probe is None:
+            probe = np.array([probe_start(rod, loads, PLANAR) for rod, loads in parts], bool)
+        self.probe = probe
         stiffest = np.max([v.reshape(self.N, -1).max(1) for v in self.props.values()], 0)
         self.roundoff = 1e-15 * np.maximum(1.0, stiffest)
         self._layout()
 
-    def _add(self, i: int, t, tip: int) -> None:
+    def _add(self, i: int, t, tip: int, pieces: list) -> None:
         if isinstance(t, Magnetisation):
-            self.mu[i], self.B[i] = t.mu_at(self.disc.s_quad), t.B
+            pieces.extend((i, *piece) for piece in t.along_d3)
+            self.B[i] = t.B
         elif isinstance(t, DistributedForce):
             self.f[i] = t.f[0], t.f[2]
         elif isinstance(t, Tip):
@@ -226,8 +234,9 @@ def _tables(disc: Discretisation, local: np.ndarray) -> np.ndarray:
 def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray):
     """:func:`matid.rod.newton.newton` for every scene of ``stack`` at once, each at its own load
     factor; ``stress0``: first mixed tangent's point stresses (NaN: consistent). Returns
-    (X, iterations, positive definite, converged stress, failure reason or None) per scene;
-    a scene leaves the stack as soon as it converges or fails."""
+    (X, iterations, positive definite, converged stress, failure reason or None) per scene, and
+    the last factorised tangents: (tangent, its rows, their scenes) per iteration where some
+    converged; a scene leaves the stack as soon as it converges or fails."""
     N = stack.N
     X, its = X0.copy(), np.zeros(N, int)
     pd, reason = np.zeros(N, bool), [None] * N
@@ -235,6 +244,7 @@ def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray):
     floor = np.minimum(np.maximum(nw.XTOL, stack.roundoff), nw.FLOOR_CAP)
     sizes = np.full((N, nw.MAX_ITER + 1), np.nan)
     live, sub, x, S = np.arange(N), stack, X0.copy(), stress0.copy()
+    factors: list = []
     for it in range(1, nw.MAX_ITER + 1):
         R, T, strain = sub.evaluate(x, lam[live], stress=S, want_strain=True)
         dx = sub.solve(T, R)
@@ -248,6 +258,7 @@ def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray):
         its[live] = it
         leave = bad | done | diverge | (it == nw.MAX_ITER)
         if done.any():
+            factors.append((T, np.flatnonzero(done), live[done]))
             X[live[done]] = x[done] + dx[done]
             pd[live[done]] = T.positive_definite(np.flatnonzero(done))
             out_stress[live[done]] = strain[0][done]
@@ -271,7 +282,7 @@ def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray):
         if leave.any():
             live = live[stay]
             sub = stack.take(live)
-    return X, its, pd, out_stress, reason
+    return X, its, pd, out_stress, reason, factors
 
 
 def admissible(stack: Stack, X, lam, pd) -> np.ndarray:
@@ -317,7 +328,7 @@ def follow(stack: Stack, X0: np.ndarray, stress0: np.ndarray | None = None):
         sub = stack.take(live)
         lam_try = np.where(np.abs(1.0 - lam[live]) <= step[live], 1.0, lam[live] + step[live])
         guess = X[live] + slope[live] * (lam_try - lam[live])[:, None]
-        Xn, k, pd, sn, why = newton(sub, guess, lam_try, stress[live])
+        Xn, k, pd, sn, why, factors = newton(sub, guess, lam_try, stress[live])
         ok = np.array([w is None for w in why])
         ok[ok] = admissible(sub.take(np.flatnonzero(ok)), Xn[ok], lam_try[ok], pd[ok])
         for j, i in enumerate(live):
@@ -335,12 +346,17 @@ def follow(stack: Stack, X0: np.ndarray, stress0: np.ndarray | None = None):
             elif k[j] <= 2 * nw.FAST:
                 step[i] = min((2.0 if k[j] <= nw.FAST else 1.5) * step[i], nw.MAX_LOAD_STEP)
         moving = ok & (lam[live] < 1.0)
-        if moving.any():  # the tangent predictor dx/dlam = -K^-1 (R(x, 1) - R(x, 0))
+        if moving.any():  # the tangent predictor dx/dlam = -K^-1 (R(x, 1) - R(x, 0)), K Newton's last
             ids = live[moving]
             part = stack.take(ids)
-            K = part.evaluate(X[ids], lam[ids])[1]
             one = part.evaluate(X[ids], np.ones(ids.size), tangent=False)[0]
-            zero = part.evaluate(X[ids], np.zeros(ids.size), tangent=False)[0]
-            slope[ids] = part.solve(K, one - zero)
+            dR = one - part.evaluate(X[ids], np.zeros(ids.size), tangent=False)[0]
+            where = np.cumsum(moving) - 1  # row of dR of each scene of live
+            for T, rows, members in factors:
+                take = moving[members]
+                if take.any():
+                    r = np.zeros((T.N, dR.shape[1]))
+                    r[rows[take]] = dR[where[members[take]]]
+                    slope[live[members[take]]] = stack.solve(T, r)[rows[take]]
         live = np.array([i for i in live if lam[i] < 1.0 and reason[i] is None], int)
     return X, np.stack([its, steps, rejected], 1), stress, reason

@@ -76,6 +76,7 @@ class Chain:
     def __init__(self, K: np.ndarray, layout: ChainLayout, vertex_diagonal: np.ndarray | None = None):
         self.layout = lay = layout
         ne, N, m = lay.ne, K.shape[5], lay.m
+        self.N = N
         self.Gm, definite = inverse3(K[2, 2])
         self.Pl, self.Pr = mm(self.Gm, K[2, 0]), mm(self.Gm, K[2, 1])  # x_m = Gm r_m - Pl x_l - Pr x_r
         self.Kl, self.Kr = K[0, 2].copy(), K[1, 2].copy()  # K itself may be a work array

@@ -21,8 +21,17 @@ from matid.errors import MatidError
 from matid.rod import accuracy
 from matid.rod import batch as B
 from matid.rod.api import solve
-from matid.rod.cantilever import INTORDER, Equilibrium, Solution, _prepare, _recovery, interpolate_p2, mesh
-from matid.rod.checks import strain_warnings
+from matid.rod.cantilever import (
+    INTORDER,
+    Equilibrium,
+    Solution,
+    _prepare,
+    _recovery,
+    interpolate_p2,
+    mesh,
+    probe_start,
+)
+from matid.rod.checks import planar_point_strains, strain_warnings
 from matid.rod.models import PLANAR
 from matid.rod.newton import NewtonInfo
 from matid.rod.scenes import Scene
@@ -92,12 +101,13 @@ def _solve_group(scenes: list[Scene], prepared: list, at: tuple, fixed: int | No
     n = levels[0] if levels else accuracy.START // 2
     live, last = np.arange(N), None
     plane = np.array([p[1][:2] for p in prepared])  # (a0, a1) of each scene's plane
+    probe = np.array([probe_start(p[2], p[3], PLANAR) for p in prepared], bool)
     while live.size:
         t0 = time.perf_counter()
-        level = _level([prepared[i] for i in live], n, at, last)
+        level = _level([prepared[i] for i in live], n, at, last, probe[live])
         share = (time.perf_counter() - t0) / live.size
         tip = _tips(level, plane[live])
-        keep = []
+        keep, finished = [], []
         for j, i in enumerate(live):
             if level.reasons[j] is not None:
                 results[i] = Failure(scenes[i], level.reasons[j])
@@ -108,7 +118,15 @@ def _solve_group(scenes: list[Scene], prepared: list, at: tuple, fixed: int | No
             if done is None:
                 keep.append(j)
             else:
-                results[i] = _present(level.equilibrium(j, scenes[i], prepared[i]), prepared[i][2], done, history[i], fixed)
+                finished.append((j, done))
+        ids = np.array([j for j, _ in finished], int)
+        ref = np.stack([_precurvature(prepared[live[j]][2], level.disc) for j in ids]) if ids.size else None
+        shear, bend = planar_point_strains(level.disc, level.U[ids], ref) if ids.size else (None, None)
+        for k, (j, done) in enumerate(finished):
+            i = live[j]
+            eq = level.equilibrium(j, scenes[i], prepared[i])
+            strains = (level.disc.s_quad, shear[k], bend[k])
+            results[i] = _present(eq, prepared[i][2], done, history[i], fixed, strains)
         live, last = live[keep], level.take(np.array(keep, int))
         n = levels[1] if levels else 2 * n
     return results
@@ -126,7 +144,13 @@ def _finished(scene: Scene, tips: list, n: int, levels) -> tuple | None:
     return None
 
 
-def _present(eq: Equilibrium, rod, done: tuple, history: list, fixed) -> Solution:
+def _precurvature(rod, disc) -> np.ndarray:
+    """The rod's precurvature about the plane normal at the mesh's points (ne, nq)."""
+    ref = rod.kappa_ref_at(disc.s_quad)
+    return np.full(disc.s_quad.shape, float(rod.kappa_ref[1])) if ref is None else ref[..., 1]
+
+
+def _present(eq: Equilibrium, rod, done: tuple, history: list, fixed, strains) -> Solution:
     """The Solution of api.solve: the estimate, the strain warnings."""
     error, order = done
     estimate = {
@@ -136,7 +160,7 @@ def _present(eq: Equilibrium, rod, done: tuple, history: list, fixed) -> Solutio
         "total_runtime_s": sum(t for _, t in history),
         "tolerance": None if fixed else eq.scene.tolerance,
     }
-    extra = {"error_estimate": estimate, "warnings": strain_warnings(eq, rod)}
+    extra = {"error_estimate": estimate, "warnings": strain_warnings(eq, rod, strains)}
     return eq.solution(discretization_error=error, extra=extra)
 
 
@@ -173,12 +197,12 @@ def _tips(level: Level, plane: np.ndarray) -> np.ndarray:
     return np.stack([x * a0, x * a1, z, a0 * s, a1 * s, np.cos(th)], axis=1)
 
 
-def _level(prepared, n: int, at: tuple, coarse: Level | None) -> Level:
+def _level(prepared, n: int, at: tuple, coarse: Level | None, probe: np.ndarray) -> Level:
     """The scenes on the mesh of n elements, one stack: from the coarser mesh's states (Newton at
     the full load; the continuation from the straight rod where that fails) or from the straight rod."""
     t0 = time.perf_counter()
     disc = mesh(n, at, 3, "P2", INTORDER["P2"])
-    stack = B.Stack(disc, [(p[2], p[3]) for p in prepared])
+    stack = B.Stack(disc, [(p[2], p[3]) for p in prepared], probe)
     N = len(prepared)
     X, info, stress = np.zeros((N, stack.n)), np.zeros((N, 3), int), None
     todo = np.arange(N)
@@ -188,7 +212,7 @@ def _level(prepared, n: int, at: tuple, coarse: Level | None) -> Level:
         m = vals.shape[1]
         U0 = interpolate_p2(cd.vertices, vals.transpose(1, 0, 2).reshape(m, -1), disc.s_dof)
         X0 = U0.reshape(disc.nscalar, N, 3).transpose(1, 0, 2).reshape(N, -1)[:, disc.free]
-        Xw, k, pd, sw, why = B.newton(stack, X0, np.ones(N), _stresses(coarse, disc))
+        Xw, k, pd, sw, why, _ = B.newton(stack, X0, np.ones(N), _stresses(coarse, disc))
         ok = np.array([w is None for w in why])
         ok[ok] = B.admissible(stack.take(np.flatnonzero(ok)), Xw[ok], np.ones(int(ok.sum())), pd[ok])
         X[ok], info[ok, 0], info[ok, 1] = Xw[ok], k[ok], 1
