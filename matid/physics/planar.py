@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import numpy as np
 
-
 #: The entries of H that can be non-zero, (row, column) in z = (x, z, t, x', z', t') (one of each
 #: symmetric pair): the layout of ``compact=True``.
 COMPACT = ((2, 2), (2, 3), (2, 4), (3, 3), (3, 4), (4, 4), (5, 5))

@@ -72,7 +72,7 @@ class Stack:
             for t in loads:
                 self._add(i, t, tip, pieces)
         if pieces:  # Magnetisation.mu_at of every scene, piece by piece in each scene's order
-            i, a, b, m = (np.array(c) for c in zip(*pieces))
+            i, a, b, m = (np.array(c) for c in zip(*pieces, strict=True))
             inside = (s >= a[:, None, None]) & (s <= b[:, None, None])
             np.add.at(self.mu, i, np.where(inside, m[:, None, None], 0.0))
         #: whose first load step is halved until the straight rod's tangent is definite there

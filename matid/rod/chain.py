@@ -9,9 +9,11 @@ product or an inverse of all the blocks of a level is a few numpy calls on conti
 3 x 3 inverses are closed-form (cofactors), since np.linalg.inv costs ~0.4 us per 3 x 3 matrix
 (measured: 43 us for 100, 820 us for 1600; the cofactors 13 us and 65 us).
 
-Block Gaussian elimination without pivoting across blocks: a symmetric tangent is positive definite
-iff every pivot block (the 3 x 3 blocks inverted on the way) is, which Sylvester's criterion reads
-from the cofactors (:attr:`Chain.definite`, the stability test of :mod:`matid.rod.batch`).
+The tangents are symmetric (every stacked term's is), so only the blocks on and above the
+diagonal are formed. Block Gaussian elimination without pivoting across blocks: a symmetric
+tangent is positive definite iff every pivot block (the 3 x 3 blocks inverted on the way) is,
+which Sylvester's criterion reads from the cofactors (:attr:`Chain.definite`, the stability test
+of :mod:`matid.rod.batch`).
 """
 
 from __future__ import annotations
@@ -34,14 +36,14 @@ def mv(A: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def inverse3(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(inverses, positive definite) of the 3 x 3 blocks A (3, 3, ...): the cofactors
-    C_ji = A_(j+1)(i+1) A_(j+2)(i+2) - A_(j+1)(i+2) A_(j+2)(i+1) (indices mod 3), A^-1 = C^T / det;
-    a singular block gives inf or NaN. Definite: the leading minors A_00, C_22, det all > 0."""
-    cof = A[_A11] * A[_A22] - A[_A12] * A[_A21]
-    det = np.einsum("i...,i...->...", A[0], cof[0])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = np.ascontiguousarray((cof / det).swapaxes(0, 1))
-    return inv, (A[0, 0] > 0) & (cof[2, 2] > 0) & (det > 0)
+    """(inverses, positive definite) of the 3 x 3 blocks A (3, 3, ...): the adjugate
+    adj_ij = A_(j+1)(i+1) A_(j+2)(i+2) - A_(j+1)(i+2) A_(j+2)(i+1) (indices mod 3, read from the
+    transposed view) over det; a singular block gives inf or NaN (call under np.errstate).
+    Definite: the leading minors A_00, adj_22, det all > 0."""
+    At = A.swapaxes(0, 1)
+    adj = At[_A11] * At[_A22] - At[_A21] * At[_A12]
+    det = np.einsum("i...,i...->...", A[0], adj[:, 0])
+    return adj / det, (A[0, 0] > 0) & (adj[2, 2] > 0) & (det > 0)
 
 
 class ChainLayout:
@@ -74,12 +76,17 @@ class Chain:
     """
 
     def __init__(self, K: np.ndarray, layout: ChainLayout, vertex_diagonal: np.ndarray | None = None):
+        with np.errstate(divide="ignore", invalid="ignore"):  # a singular pivot: its scene's NaN
+            self._factor(K, layout, vertex_diagonal)
+
+    def _factor(self, K, layout, vertex_diagonal) -> None:
         self.layout = lay = layout
         ne, N, m = lay.ne, K.shape[5], lay.m
         self.N = N
         self.Gm, definite = inverse3(K[2, 2])
-        self.Pl, self.Pr = mm(self.Gm, K[2, 0]), mm(self.Gm, K[2, 1])  # x_m = Gm r_m - Pl x_l - Pr x_r
         self.Kl, self.Kr = K[0, 2].copy(), K[1, 2].copy()  # K itself may be a work array
+        # x_m = Gm r_m - Pl x_l - Pr x_r (K symmetric: K_ml = K_lm^T)
+        self.Pl, self.Pr = mm(self.Gm, self.Kl.swapaxes(0, 1)), mm(self.Gm, self.Kr.swapaxes(0, 1))
         D = np.zeros((3, 3, m, N))
         D[0, 0, ne:] = D[1, 1, ne:] = D[2, 2, ne:] = 1.0  # padding: decoupled identities
         D[:, :, :ne] = K[1, 1] - mm(self.Kr, self.Pr)
@@ -88,18 +95,16 @@ class Chain:
             for f in range(3):
                 D[f, f, :ne] += vertex_diagonal[f, 1:]
         U = np.zeros((3, 3, m - 1, N))  # vertex j -> j + 1 (chain numbering: vertex j + 1 of the mesh)
-        Lo = np.zeros((3, 3, m - 1, N))  # vertex j + 1 -> j
         U[:, :, : ne - 1] = K[0, 1, :, :, 1:] - mm(self.Kl[:, :, 1:], self.Pr[:, :, 1:])
-        Lo[:, :, : ne - 1] = K[1, 0, :, :, 1:] - mm(self.Kr[:, :, 1:], self.Pl[:, :, 1:])
         definite = definite.all(0)
         self.levels = []
         while m > 1:  # eliminate the odd vertices j: they couple to j - 1 and j + 1 only
             G, ok = inverse3(D[:, :, 1::2])
-            Ue, Lodd = U[:, :, 0::2], Lo[:, :, 1::2]
-            GL, GU = mm(G, Lo[:, :, 0::2]), mm(G[:, :, :-1], U[:, :, 1::2])
+            Ue, Lodd = U[:, :, 0::2], U[:, :, 1::2].swapaxes(0, 1)  # j - 1 -> j; j + 1 -> j: U^T
+            GL, GU = mm(G, Ue.swapaxes(0, 1)), mm(G[:, :, :-1], U[:, :, 1::2])
             Dk = D[:, :, 0::2] - mm(Ue, GL)
             Dk[:, :, 1:] -= mm(Lodd, GU)
-            U, Lo, D = -mm(Ue[:, :, :-1], GU), -mm(Lodd, GL[:, :, :-1]), Dk
+            U, D = -mm(Ue[:, :, :-1], GU), Dk
             self.levels.append((G, GL, GU, Ue, Lodd))
             definite &= ok.all(0)
             m //= 2

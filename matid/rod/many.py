@@ -177,7 +177,8 @@ class Level:
     runtime: float
 
     def take(self, ids: np.ndarray) -> Level:
-        return Level(self.disc, self.U[ids], self.info[ids], self.stress[ids], [self.reasons[i] for i in ids], 0.0)
+        reasons = [self.reasons[i] for i in ids]
+        return Level(self.disc, self.U[ids], self.info[ids], self.stress[ids], reasons, 0.0)
 
     def equilibrium(self, j: int, scene: Scene, p: tuple) -> Equilibrium:
         disc = self.disc

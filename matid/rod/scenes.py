@@ -247,7 +247,8 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     moments += [[float(c) * L for c in seg.precurvature] for seg in rod.segments if seg.precurvature]
     scale = max([max(abs(c) for c in v) for v in forces + moments] + [1e-300])
     candidates = [v[:2] for v in forces] + [[m[1], -m[0]] for m in moments]  # n x e3
-    candidates += [[float(c[0]) * scale, float(c[1]) * scale] for c in contact_directions(scene)]  # walls, lumen: unit
+    walls = contact_directions(scene)  # walls and lumen: unit
+    candidates += [[float(c[0]) * scale, float(c[1]) * scale] for c in walls]
     first = next((c for c in candidates if math.hypot(*c) > tol * scale), None)
     direction = [1.0, 0.0] if first is None else (np.asarray(first) / np.linalg.norm(first)).tolist()
     if any(abs(m[2]) > tol * scale for m in moments):
