@@ -79,6 +79,7 @@ class Stack:
         if probe is None:
             probe = np.array([probe_start(rod, loads, PLANAR) for rod, loads in parts], bool)
         self.probe = probe
+        self.loaded = {name: bool(getattr(self, name).any()) for name in ("mu", "f", "magnet")}
         stiffest = np.max([v.reshape(self.N, -1).max(1) for v in self.props.values()], 0)
         self.roundoff = 1e-15 * np.maximum(1.0, stiffest)
         self._layout()
@@ -131,6 +132,7 @@ class Stack:
         new.props = {k: v[ids] for k, v in self.props.items()}
         for name in ("k2", "mu", "B", "f", "dead", "magnet", "roundoff", "probe"):
             setattr(new, name, getattr(self, name)[ids])
+        new.loaded = {name: bool(getattr(new, name).any()) for name in ("mu", "f", "magnet")}
         return new
 
     def expand(self, X: np.ndarray) -> np.ndarray:
@@ -156,16 +158,20 @@ class Stack:
         kappa[..., 1] = lam3 * self.k2
         opts = {"stress": stress, "want_strain": want_strain, "compact": True}
         g, H, strain = planar.derivatives(z, 1.0, self.props, kappa, tangent, **opts)
-        if self.mu.any():
-            pts = np.broadcast_to(self.B[:, None, None, :], z.shape[:-1] + (3,)).reshape(-1, 3)
-            planar.magnetic(g, H, z, lam3 * self.mu, (pts[:, 0], 0.0, pts[:, 2]), compact=True)
-        if self.f.any():
+        if self.loaded["mu"]:
+            B = np.broadcast_to(self.B[:, None, None, :], z.shape[:-1] + (3,))
+            planar.magnetic(
+                g, H, z, lam3 * self.mu, (B[..., 0].ravel(), 0.0, B[..., 2].ravel()), compact=True
+            )
+        if self.loaded["f"]:
             g[..., 0] -= lam3 * self.f[:, None, None, 0]
             g[..., 1] -= lam3 * self.f[:, None, None, 1]
         ne, nq = d.ne, g.shape[2]
         Wt = d.weighted.transpose(2, 1, 0, 3).reshape(ne, -1, 2 * nq)
         Re = np.matmul(Wt, g.reshape(N, ne, nq, 2, 3).transpose(0, 1, 3, 2, 4).reshape(N, ne, 2 * nq, 3))
-        index = (d.gdofs.ravel()[None, :] + d.n * np.arange(N)[:, None]).ravel()
+        index = self.work.get(("index", N))
+        if index is None:
+            index = self.work[("index", N)] = (d.gdofs.ravel()[None, :] + d.n * np.arange(N)[:, None]).ravel()
         R = np.bincount(index, weights=Re.ravel(), minlength=N * d.n).reshape(N, d.n)
         R += lam[:, None] * self.dead
         T = K = None
@@ -176,7 +182,7 @@ class Stack:
                 np.matmul(self.tables, hs[..., j : j + PRODUCT_SCENES], out=K[..., j : j + PRODUCT_SCENES])
             K = K.reshape(ne, 3, 3, 3, 3, N).transpose(1, 2, 3, 4, 0, 5)
         diagonal = None
-        if self.magnet.any():
+        if self.loaded["magnet"]:
             th, m = U.reshape(N, -1, 3)[:, :, 2], lam[:, None] * self.magnet
             Bx, Bz = self.B[:, None, 0], self.B[:, None, 2]
             R.reshape(N, -1, 3)[:, :, 2] -= m * (np.cos(th) * Bx - np.sin(th) * Bz)
@@ -231,12 +237,13 @@ def _tables(disc: Discretisation, local: np.ndarray) -> np.ndarray:
     return t.reshape(ne, 81, nq * 7)
 
 
-def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray):
+def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray, first: tuple | None = None):
     """:func:`matid.rod.newton.newton` for every scene of ``stack`` at once, each at its own load
     factor; ``stress0``: first mixed tangent's point stresses (NaN: consistent). Returns
     (X, iterations, positive definite, converged stress, failure reason or None) per scene, and
     the last factorised tangents: (tangent, its rows, their scenes) per iteration where some
-    converged; a scene leaves the stack as soon as it converges or fails."""
+    converged; a scene leaves the stack as soon as it converges or fails. ``first``: (R, tangent,
+    strain) at (X0, lam) already evaluated, with consistent stresses (a probe of definite_steps)."""
     N = stack.N
     X, its = X0.copy(), np.zeros(N, int)
     pd, reason = np.zeros(N, bool), [None] * N
@@ -246,7 +253,10 @@ def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray):
     live, sub, x, S = np.arange(N), stack, X0.copy(), stress0.copy()
     factors: list = []
     for it in range(1, nw.MAX_ITER + 1):
-        R, T, strain = sub.evaluate(x, lam[live], stress=S, want_strain=True)
+        if first is not None and it == 1:
+            R, T, strain = first
+        else:
+            R, T, strain = sub.evaluate(x, lam[live], stress=S, want_strain=True)
         dx = sub.solve(T, R)
         size = np.abs(dx).max(1) if dx.shape[1] else np.zeros(len(live))
         h = sizes[live]
@@ -296,17 +306,24 @@ def admissible(stack: Stack, X, lam, pd) -> np.ndarray:
     return pd
 
 
-def definite_steps(stack: Stack, X0: np.ndarray, step: np.ndarray) -> None:
+def definite_steps(stack: Stack, X0: np.ndarray, step: np.ndarray) -> tuple | None:
     """:func:`matid.rod.newton.definite_step` for the scenes that probe (``stack.probe``): their first
-    step halved, in place, while the tangent at the start is not positive definite at its load."""
+    step halved, in place, while the tangent at the start is not positive definite at its load.
+    Returns the last probe's (R, tangent, strain) when it was of every scene and all were definite:
+    the first Newton iteration of the first step (as newton.follow's ``first``), else None."""
     ids = np.flatnonzero(stack.probe)
     for _ in range(nw.MAX_DEFINITE_HALVINGS):
         ids = ids[step[ids] >= 2.0 * nw.MIN_STEP]
         if not ids.size:
-            return
-        T = stack.take(ids).evaluate(X0[ids], np.minimum(step[ids], 1.0))[1]
-        ids = ids[~T.positive_definite(np.arange(ids.size))]
+            return None
+        part = stack.take(ids)
+        R, T, strain = part.evaluate(X0[ids], np.minimum(step[ids], 1.0), want_strain=True)
+        bad = ~T.positive_definite(np.arange(ids.size))
+        if not bad.any():
+            return (R, T, strain) if ids.size == stack.N else None
+        ids = ids[bad]
         step[ids] *= 0.5
+    return None
 
 
 def follow(stack: Stack, X0: np.ndarray, stress0: np.ndarray | None = None):
@@ -322,13 +339,14 @@ def follow(stack: Stack, X0: np.ndarray, stress0: np.ndarray | None = None):
     stress = np.full((N,) + nq + (2,), np.nan) if stress0 is None else stress0.copy()
     reason: list = [None] * N
     budget = max(nw.MIN_ITERATIONS, int(nw.WORK_BUDGET / max(X0.shape[1], 1)))
-    definite_steps(stack, X0, step)
+    first = definite_steps(stack, X0, step)
     live = np.arange(N)
     while live.size:
         sub = stack.take(live)
         lam_try = np.where(np.abs(1.0 - lam[live]) <= step[live], 1.0, lam[live] + step[live])
         guess = X[live] + slope[live] * (lam_try - lam[live])[:, None]
-        Xn, k, pd, sn, why, factors = newton(sub, guess, lam_try, stress[live])
+        Xn, k, pd, sn, why, factors = newton(sub, guess, lam_try, stress[live], first)
+        first = None
         ok = np.array([w is None for w in why])
         ok[ok] = admissible(sub.take(np.flatnonzero(ok)), Xn[ok], lam_try[ok], pd[ok])
         for j, i in enumerate(live):
