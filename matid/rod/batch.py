@@ -280,18 +280,18 @@ def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray, f
                 if diverge[j]
                 else f"no convergence in {nw.MAX_ITER} iterations (correction {size[j]:.3g})"
             )
-        stay = ~leave
-        if not stay.any():
-            break
-        alpha = np.minimum(1.0, nw.MAX_STEP / size[stay])
-        mixed = size[stay] > nw.MIXED_ABOVE
-        strain_s = (strain[0][stay], strain[1][stay])
-        S = stack.stress_step(strain_s, dx[stay], alpha, S[stay])
-        S[~mixed] = np.nan
-        x = x[stay] + dx[stay] * alpha[:, None]
-        if leave.any():
+        if leave.any():  # the scenes that stay (all of them: no copies)
+            stay = ~leave
+            if not stay.any():
+                break
+            size, dx, x, S = size[stay], dx[stay], x[stay], S[stay]
+            strain = (strain[0][stay], strain[1][stay])
             live = live[stay]
             sub = stack.take(live)
+        alpha = np.minimum(1.0, nw.MAX_STEP / size)
+        S = stack.stress_step(strain, dx, alpha, S)
+        S[size <= nw.MIXED_ABOVE] = np.nan
+        x = x + dx * alpha[:, None]
     return X, its, pd, out_stress, reason, factors
 
 
