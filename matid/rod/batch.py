@@ -102,17 +102,19 @@ class Stack:
                 self.magnet[i, self.disc.vertex_dof(int(np.argmin(np.abs(self.disc.vertices - s))))] += m
 
     def _layout(self) -> None:
-        """The chain of the mesh, the element tables in its node order, the reference state."""
+        """The chain of the mesh, the element tables in its node order, the reference state: built
+        once per mesh (the cached meshes of cantilever.mesh keep them)."""
         d = self.disc
         self.n = int(d.free.sum())
-        self.chain = ChainLayout(d)
-        self.tables = _tables(d, self.chain.local)
-        on_mids = self.magnet[:, self.chain.mids]
-        if on_mids.any():  # lumped magnets sit on vertices (vertex_dof)
+        built = d.__dict__.get("_stack_layout")
+        if built is None or built[0] is not d.s_dof:  # a moved mesh shares the dict, not s_dof
+            chain = ChainLayout(d)
+            U = np.zeros((d.nscalar, 3))
+            U[:, 1] = d.affine(0.0, 1.0)
+            built = d.__dict__["_stack_layout"] = (d.s_dof, chain, _tables(d, chain.local), U.ravel())
+        self.chain, self.tables, self.ref = built[1:]
+        if self.magnet[:, self.chain.mids].any():  # lumped magnets sit on vertices (vertex_dof)
             raise ValueError("a lumped magnet off the mesh vertices")
-        U = np.zeros((d.nscalar, 3))
-        U[:, 1] = d.affine(0.0, 1.0)
-        self.ref = U.ravel()
 
     def scratch(self, name: str, shape: tuple) -> np.ndarray:
         """A work array of ``shape``, the same memory at every call (for the stack and the stacks it
