@@ -235,8 +235,7 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     directions = loads.directions("magnet") + loads.directions("magnetization")
     if any(a[0] != 0.0 or a[1] != 0.0 for a in directions):
         return None  # a magnetisation off +-d3 twists the rod (contract section 9): the full model runs
-    # compared in scaled units (matid.rod.models), so that a load negligible at 1e-12 is so for the rod;
-    # in floats (numpy costs ~1 us per call on these 3-vectors; the products are the same)
+    # in scaled units (matid.rod.models: a load negligible at 1e-12 is so for the rod), in floats
     L, Eb = rod.length, rod.E_b
     field = max([abs(m) * L / Eb for _, m in loads.magnets] + [abs(mu) * L**2 / Eb for *_, mu in loads.magnetization] + [0.0])  # fmt: skip
     forces = [[float(c) * f for c in v] for v, f in ((loads.B, field), (loads.distributed_force, L**3 / Eb),
@@ -247,8 +246,7 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     moments += [[float(c) * L for c in seg.precurvature] for seg in rod.segments if seg.precurvature]
     scale = max([max(abs(c) for c in v) for v in forces + moments] + [1e-300])
     candidates = [v[:2] for v in forces] + [[m[1], -m[0]] for m in moments]  # n x e3
-    walls = contact_directions(scene)  # walls and lumen: unit
-    candidates += [[float(c[0]) * scale, float(c[1]) * scale] for c in walls]
+    candidates += [[float(c[0]) * scale, float(c[1]) * scale] for c in contact_directions(scene)]
     first = next((c for c in candidates if math.hypot(*c) > tol * scale), None)
     direction = [1.0, 0.0] if first is None else (np.asarray(first) / np.linalg.norm(first)).tolist()
     if any(abs(m[2]) > tol * scale for m in moments):
