@@ -28,8 +28,8 @@ from matid.rod.terms import DistributedForce, Magnetisation, Magnets, PointLoads
 
 #: The terms a stack evaluates (planar model); a scene with any other runs alone.
 STACKED = (Magnetisation, DistributedForce, Tip, Magnets, PointLoads)
-#: Scenes per BLAS product of the element matrices: OpenBLAS runs a product of 81 x 7 nq x more
-#: than ~230 columns on its threads, and on a loaded machine their start-up cost dominates
+#: Scenes per BLAS product of the element matrices: OpenBLAS ran the product of 81 x 7 nq by 1000
+#: columns on its threads (300 columns: not), and on a loaded machine their start-up cost dominates
 #: (measured at load 11 on 2 cores, N = 1000 in one product: 260 ms against 0.8 ms in 5 products).
 PRODUCT_SCENES = 200
 UNSTABLE = "unstable equilibrium (the tangent stiffness is not positive definite: buckling or snap)"
