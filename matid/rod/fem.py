@@ -131,7 +131,8 @@ class Discretisation:
         new.s_dof[self.edofs] = vertices[:-1] + self.local * h_new
         new.weighted = self.weighted * scale[:2, None]  # (2, 1, ne, 1)
         per_element = scale.transpose(1, 0, 2)[:, None]  # (ne, 1, 4, 1)
-        new.element_tables = (self.element_tables.reshape(ne, nq, 4, -1) * per_element).reshape(ne, nq * 4, -1)
+        T = self.element_tables.reshape(ne, nq, 4, -1) * per_element
+        new.element_tables = T.reshape(ne, nq * 4, -1)
         P = self.point_table.reshape(ne, nq, 2, -1) * per_element[:, :, 2:]
         new.point_table = P.reshape(ne, nq * 2, -1)
         return new

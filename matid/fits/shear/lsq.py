@@ -52,15 +52,16 @@ def converged(r: np.ndarray, J: np.ndarray, segments) -> bool:
     return bool(np.all(np.isfinite(step)) and np.all(np.abs(step) <= CONVERGED_STEP * se))
 
 
-def least_squares(problem: Problem, x0: np.ndarray) -> np.ndarray:
-    """The log stiffnesses minimising the residuals, by ``scipy.optimize.least_squares``
+def least_squares(problem, x0: np.ndarray) -> np.ndarray:
+    """The log stiffnesses minimising the residuals of ``problem`` (a
+    :class:`matid.fits.shear.problem.Problem`), by ``scipy.optimize.least_squares``
     (trust-region reflective, bounds LOG_BOUND about x0); returns x with the problem's paths at x.
 
     Why not lmfit, as the other fits: each residual evaluation here is a finite-element path
     solve, and the Jacobian comes with it from the solver's own sensitivities (one
     back-substitution per knot, :mod:`matid.rod.bend`); lmfit's least-squares wrapper would
     difference the residuals instead (a path solve per parameter per step) and holds no solver
-    state between evaluations, while the paths kept by :class:`~matid.fits.shear.problem.Problem` warm-start the next
+    state between evaluations, while the paths kept by the problem warm-start the next
     solve and serve the Jacobian at the same x for free. The residuals are scaled by the
     largest force (scipy's gtol is absolute); the minimum does not move. Gauss-Newton converges
     in 3-5 evaluations: the residual is nearly linear in log E_s. It stops at the first x whose
