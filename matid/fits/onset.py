@@ -28,7 +28,7 @@ the noise); the range is found in x, with no start at zero or direction assumed:
 from __future__ import annotations
 
 import numpy as np
-import scipy.stats
+import scipy.special
 
 from matid.fits import stats
 
@@ -58,16 +58,37 @@ def _noise_factor(u: np.ndarray, y: np.ndarray, order: np.ndarray) -> tuple[floa
     alternative misses would otherwise be read as correlated noise, and hide itself."""
     degree = int(min(NOISE_DEGREE, max(6, u.size // 10)))
     scaled = (u - u.min()) / max(float(np.ptp(u)), 1e-300) * 2.0 - 1.0
-    resid, rank = _fit(np.polynomial.legendre.legvander(scaled, degree), y)  # orthogonal on [-1, 1]
+    resid, rank = _legendre_fit(scaled, y, degree)  # orthogonal on [-1, 1]
     return stats.variance_factor(resid[np.argsort(order)], n_params=rank)
+
+
+def _legendre_fit(x: np.ndarray, y: np.ndarray, degree: int) -> tuple[np.ndarray, int]:
+    """:func:`_fit` of the Legendre series of ``degree`` in x (in [-1, 1]) to y. On a record of more
+    than SCAN_BLOCK values of its Vandermonde matrix, the normal equations and the residuals are
+    built a block of rows at a time: the whole matrix of a 7.4e6-row record is 770 MB."""
+    rows = max(1, SCAN_BLOCK // (degree + 1))
+    if x.size <= rows:
+        return _fit(np.polynomial.legendre.legvander(x, degree), y)
+    blocks = [slice(a, a + rows) for a in range(0, x.size, rows)]
+    normal, right = np.zeros((degree + 1, degree + 1)), np.zeros(degree + 1)
+    for b in blocks:
+        design = np.polynomial.legendre.legvander(x[b], degree)
+        normal += design.T @ design
+        right += design.T @ y[b]
+    coef, _, rank, _ = np.linalg.lstsq(normal, right, rcond=None)
+    resid = np.empty(x.size)
+    for b in blocks:
+        resid[b] = y[b] - np.polynomial.legendre.legvander(x[b], degree) @ coef
+    return resid, int(rank)
 
 
 def _extra_p(null: np.ndarray, alt: np.ndarray, y: np.ndarray, noise: tuple[float, float]) -> float:
     """p-value of the F-test of nested designs, divided by the AR(1) variance factor
-    ``noise = (f, n_eff)`` of the noise, on n_eff denominator dof."""
-    rss0 = _rss(null, y)
+    ``noise = (f, n_eff)`` of the noise, on n_eff denominator dof (``scipy.special.fdtrc``: the
+    survival function of ``scipy.stats.f``, the same value without its per-call cost)."""
+    resid0, rank0 = _fit(null, y)
+    rss0 = float(np.sum(resid0**2))
     resid, rank = _fit(alt, y)
-    rank0 = np.linalg.matrix_rank(null.T @ null)
     rss1 = float(np.sum(resid**2))
     q, dof = rank - rank0, y.size - rank
     if q < 1 or dof < 1:
@@ -76,7 +97,7 @@ def _extra_p(null: np.ndarray, alt: np.ndarray, y: np.ndarray, noise: tuple[floa
         return 0.0 if rss0 > 1e-24 * max(float(np.sum(y**2)), 1e-300) else 1.0
     factor, n_eff = noise
     f = max(rss0 - rss1, 0.0) / q / (rss1 / dof) / factor
-    return float(scipy.stats.f.sf(f, q, max(n_eff - rank, 1.0)))
+    return float(scipy.special.fdtrc(q, max(n_eff - rank, 1.0), f))
 
 
 def _hinges(u: np.ndarray, lo: float, hi: float) -> np.ndarray:
@@ -178,7 +199,7 @@ def _distinct(u, y, full: np.ndarray, near: int, onset: int, noise, *, far: int)
         return True
     factor, n_eff = noise
     f = max(rss_near - rss_far, 0.0) / (rss_far / dof) / factor
-    return float(scipy.stats.f.sf(f, 1, max(n_eff - full.shape[1], 1.0))) < LINEAR_RANGE_ALPHA
+    return float(scipy.special.fdtrc(1, max(n_eff - full.shape[1], 1.0), f)) < LINEAR_RANGE_ALPHA
 
 
 def _p(u, y, order, lo: int, hi: int) -> float:
@@ -198,9 +219,16 @@ def _trim(u: np.ndarray, y: np.ndarray, order: np.ndarray, lo: int, hi: int):
     from the first recorded row goes: the stiffness is the one at the start of loading.
     """
     first = int(np.argmin(order))  # the first recorded row, in the sorted order
-    while hi - lo + 1 > LINEAR_RANGE_MIN_POINTS and _p(u, y, order, lo, hi) < LINEAR_RANGE_ALPHA:
+    known: dict[tuple[int, int], float] = {}  # the stretch kept is one of the two just tested
+
+    def p(a: int, b: int) -> float:
+        if (a, b) not in known:
+            known[a, b] = _p(u, y, order, a, b)
+        return known[a, b]
+
+    while hi - lo + 1 > LINEAR_RANGE_MIN_POINTS and p(lo, hi) < LINEAR_RANGE_ALPHA:
         step = min(max(1, (hi - lo + 1) // 50), hi - lo + 1 - LINEAR_RANGE_MIN_POINTS)
-        left, right = _p(u, y, order, lo + step, hi), _p(u, y, order, lo, hi - step)
+        left, right = p(lo + step, hi), p(lo, hi - step)
         if abs(first - lo) <= abs(first - hi):  # the start is at the low end: keep it
             trim_left = left > TRIM_PREFERENCE * right
         else:

@@ -28,6 +28,8 @@ from matid.rod.band import Banded, BlockPattern
 
 #: The rod's elements: scikit-fem's; "Hermite" is the paper's cubic (values and slopes at vertices).
 ELEMENTS = {"P2": ElementLineP2, "P1": ElementLineP1, "Hermite": ElementLineHermite}
+#: Tables of a moved mesh (:meth:`Discretisation.moved`) scaled at first use: no evaluation reads them.
+_MOVED_LATER = ("dphi", "dx", "s_quad", "both")
 
 
 @dataclass(frozen=True)
@@ -106,30 +108,52 @@ class Discretisation:
 
         With r = h_new/h_old per element: phi is unchanged, phi' scales by 1/r and dx by r,
         so the assembly tables [phi, phi'] dx (x) [phi, phi'] scale by (r, 1, 1, 1/r): cheap
-        enough to move the mesh at every Newton iteration (the bend's contact section).
+        enough to move the mesh at every Newton iteration (the bend's contact section). Only
+        what an evaluation reads is scaled here (the assembly tables and the dof positions);
+        the rest (:data:`_MOVED_LATER`) on first use.
         """
         if self.slope.any():  # a global element (Hermite): its shape functions do not just rescale
             raise ValueError(f"moved: only affine-mapped elements, not {self.element}")
         new = object.__new__(Discretisation)
         new.__dict__.update(self.__dict__)
+        for name in _MOVED_LATER:
+            new.__dict__.pop(name, None)
         vertices = np.asarray(vertices, float)
-        h_new = np.diff(vertices)
-        r = (h_new / np.diff(self.vertices))[:, None]
+        h_new = vertices[1:] - vertices[:-1]
+        ne, nq = self.ne, self.element_tables.shape[1] // 4
+        scale = np.ones((4, ne, 1))  # (r, 1, 1, 1/r) per element, r = h_new / h_old
+        r = scale[0]
+        np.divide(h_new[:, None], (self.vertices[1:] - self.vertices[:-1])[:, None], out=r)
+        np.divide(1.0, r, out=scale[3])
+        new._moved_from = (self, r)
         new.vertices = vertices
-        new.dphi = self.dphi / r[None]
-        new.dx = self.dx * r
-        new.s_quad = vertices[:-1, None] + (self.s_quad - self.vertices[:-1, None]) * r
         new.s_dof = np.empty(self.nscalar)  # each dof keeps its place in its element
         new.s_dof[self.edofs] = vertices[:-1] + self.local * h_new
-        one = np.ones_like(r)
-        new.weighted = self.weighted * np.stack([r, one])[:, None]  # (2, 1, ne, 1)
-        new.both = self.both * np.stack([one, 1.0 / r])[:, None]
-        ne, nq = self.dx.shape
-        kl = np.stack([r, one, one, 1.0 / r], axis=1)[:, None, :, :]  # (ne, 1, 4, 1)
-        new.element_tables = (self.element_tables.reshape(ne, nq, 4, -1) * kl).reshape(ne, nq * 4, -1)
-        P = self.point_table.reshape(ne, nq, 2, -1) * np.stack([one, 1.0 / r], axis=1)[:, None, :, :]
+        new.weighted = self.weighted * scale[:2, None]  # (2, 1, ne, 1)
+        per_element = scale.transpose(1, 0, 2)[:, None]  # (ne, 1, 4, 1)
+        T = self.element_tables.reshape(ne, nq, 4, -1) * per_element
+        new.element_tables = T.reshape(ne, nq * 4, -1)
+        P = self.point_table.reshape(ne, nq, 2, -1) * per_element[:, :, 2:]
         new.point_table = P.reshape(ne, nq * 2, -1)
         return new
+
+    def __getattr__(self, name: str):
+        """The tables of a moved mesh that :meth:`moved` leaves for first use, scaled then."""
+        source = self.__dict__.get("_moved_from") if name in _MOVED_LATER else None
+        if source is None:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        old, r = source
+        if name == "dphi":
+            value = old.dphi / r[None]
+        elif name == "dx":
+            value = old.dx * r
+        elif name == "s_quad":
+            value = self.vertices[:-1, None] + (old.s_quad - old.vertices[:-1, None]) * r
+        else:  # both
+            one = np.ones_like(r)
+            value = old.both * np.stack([one, 1.0 / r])[:, None]
+        self.__dict__[name] = value
+        return value
 
     @functools.cached_property
     def local(self) -> np.ndarray:

@@ -8,8 +8,8 @@ minimised over log E_s (and log E_b with ``fit_E_b``), E_b and E_e taken from
 the specimen's own fits or [[fixed]] entries (physics.md section 6). F_rod is
 the nose force of :class:`matid.rod.bend.BendModel`, solved along a few knots and
 interpolated to every row, with dF/dE_s from the linearised equilibrium, not from
-differences of solver output (:mod:`matid.fits.shear.problem`, also why scipy's
-least_squares and not lmfit; centreline data: :mod:`matid.fits.shear.centreline`).
+differences of solver output (:mod:`matid.fits.shear.problem`; why scipy's least_squares and
+not lmfit: :mod:`matid.fits.shear.lsq`; centreline data: :mod:`matid.fits.shear.centreline`).
 A fit costs the knots, not the rows (17-33 knots for 3000 rows).
 
 The start is the classic Timoshenko estimate from the small-deflection
@@ -44,7 +44,8 @@ from matid.errors import FitError
 from matid.fits.bending import KIND as BENDING
 from matid.fits.shear.checks import MIN_SHEAR_SHARE, assess, consistency, model_form_variance, shear_share
 from matid.fits.shear.data import BendData, bend_data, timoshenko_force, timoshenko_start
-from matid.fits.shear.problem import Problem, fe_error, least_squares, span_fits, statistics
+from matid.fits.shear.lsq import least_squares, statistics
+from matid.fits.shear.problem import Problem, fe_error, span_fits
 from matid.fits.shear.torsion import agreement
 from matid.fits.stats import Covariance, lack_of_fit, t95
 from matid.model.kind import Kind
