@@ -44,7 +44,9 @@ def make(out: Path) -> None:
     """Run every case into ``out`` (emptied first); record each exit code."""
     shutil.rmtree(out, ignore_errors=True)
     out.mkdir(parents=True)
-    env = dict(os.environ, RL_invariant="1", MPLBACKEND="Agg")
+    # this checkout's matid, never an installed copy (the runs start in a temporary folder)
+    path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
+    env = dict(os.environ, RL_invariant="1", MPLBACKEND="Agg", PYTHONPATH=path)
     codes = {}
     for name, args in _runs(out):
         run = subprocess.run([sys.executable, "-m", "matid", *args, "--quiet"] if args[0] == "fit"
