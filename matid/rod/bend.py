@@ -79,6 +79,21 @@ class BendPath:
     runtime_s: float = 0.0
 
 
+#: Meshes of n and 2n elements nest from 2 BASE elements up (:func:`support_vertex`).
+BASE = 4
+
+
+def support_vertex(elements: int, fraction: float) -> int:
+    """The vertex of the support's contact section on ``elements`` elements of the half model, near
+    ``fraction`` of them, chosen so that meshes of n and 2n elements nest (2n puts it at twice the
+    vertex of n, so every element halves, as Richardson's estimate assumes): ``elements`` = m 2^p
+    with BASE <= m < 2 BASE (or m odd) has it at 2^p times its place on m elements."""
+    m, p = elements, 0
+    while m % 2 == 0 and m // 2 >= BASE:
+        m, p = m // 2, p + 1
+    return 2**p * min(max(1, round(m * fraction)), m - 1)
+
+
 class BendModel:
     """A three-point bend on a fixed number of elements, solved for any stiffnesses and deflections."""
 
@@ -91,7 +106,7 @@ class BendModel:
         R_o = 0.5 * geometry.outer_diameter
         self.support_rho = (geometry.support_radius + R_o) / S
         self.nose_rho = (geometry.nose_radius + R_o) / S
-        k = self.support_vertex = min(max(1, round(elements * 0.5 / self.half)), elements - 1)
+        k = self.support_vertex = support_vertex(elements, 0.5 / self.half)
         self._fractions = (np.linspace(0.0, 1.0, k + 1), np.linspace(0.0, 1.0, elements - k + 1)[1:])
 
     def vertices(self, s_contact: float) -> np.ndarray:
