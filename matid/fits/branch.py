@@ -8,10 +8,13 @@ such a line describes; they are found in two steps, each row left out with its r
 1. **Branch** (:func:`branch`). x is followed in recording order with a hysteresis
    ``tol = max(4 s_x, q)`` (s_x the second-difference noise of x, q its smallest step): a
    reversal is a move back by more than tol from the last extreme. A row moving x away
-   from its start value x_0 is loading; a row moving back towards x_0 is unloading
-   (the turning rows belong to the loading they start or end). A run of rows over which
-   x stays within tol, at least ``HOLD_ROWS`` long and ``HOLD_RATIO`` times the median
-   run, is a hold; a run of y likewise (with y's own tol) is a held load, x creeping.
+   from its start value x_0, on the side where x goes furthest, is loading; a row moving
+   back towards x_0, or on past it, is unloading (the turning rows belong to the loading
+   they start or end): a record that starts under a preload and is unloaded to rest
+   returns past its start on a branch of its own (hysteresis), not a second loading. A run
+   of rows over which x stays within tol, at least ``HOLD_ROWS`` long and ``HOLD_RATIO``
+   times the median run, is a hold; a run of y likewise (with y's own tol) is a held load,
+   x creeping.
    No start at zero and no direction is assumed.
 2. **Linear range** (:func:`matid.fits.onset.linear_range`): among the loading rows, the
    stretch of x that a line plus offset describes within the noise.
@@ -96,10 +99,10 @@ def branch(x: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
         return {UNLOADING: none, HOLD: none, HELD_LOAD: none}
     tol = _tolerance(x)
     moving = _directions(x, tol)
-    first = moving[np.flatnonzero(moving)[0]] if moving.any() else 0
-    reach = moving * (x - x[0])  # > 0: moving away from the start value
-    # within tol of the start, only the first direction loads (not noise on the way back)
-    away = (moving == 0) | (reach > tol) | ((moving == first) & (reach >= 0))
+    # the way the record goes furthest from its start loads; a move the other way, past the start
+    # too, is a return (a preload taken off, a nudge before the test), not a second loading
+    main = np.sign(x[np.argmax(np.abs(x - x[0]))] - x[0])
+    away = (moving == 0) | ((moving == main) & (main * (x - x[0]) >= 0))
     loading = away | np.r_[away[1:], False]  # a turning row starts the loading after it
     hold = _holds(x, tol)
     held = (_holds(y, _tolerance(y)) if np.ptp(y) > 0 else none) & ~hold
@@ -163,10 +166,10 @@ def past_peak(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Mask of the loading rows beyond the peak of y, when y then falls (yield, a tube that
     buckles or slips): no line through the origin's side of a peak describes them, and the
     smooth departures of :mod:`matid.fits.onset` cannot follow a fall. The peak is the largest y
-    in the way y goes over the first quarter of the reach; beyond it y must fall as a trend: the line through the rows
-    beyond drops by more than PEAK_FALL second-difference noise deviations of y, with its slope
-    PEAK_FALL standard errors below zero. So a plateau (softening) stays for the linear-range
-    search, and so does noise: the largest reading of a noisy record is not a peak."""
+    in the way y goes over the first quarter of the reach; beyond it y must fall as a trend: the
+    line through the rows beyond drops by more than PEAK_FALL second-difference noise deviations
+    of y, with its slope PEAK_FALL standard errors below zero. So a plateau (softening) stays for
+    the linear-range search, and so does noise: the largest reading of a noisy record is not a peak."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     none = np.zeros(x.size, dtype=bool)
     if x.size < 3:

@@ -268,26 +268,41 @@ def check_sign(fit: LineFit, parameter: str, quantity: str, against: str) -> lis
 MIN_LINEAR_SHARE = 0.5
 
 
+def _share(r: Record) -> tuple[int, int, bool]:
+    """(rows in the linear range, loading rows, whether that is under MIN_LINEAR_SHARE) of a record."""
+    used = int(r.used.sum())
+    loading = used + sum(int(r.excluded[k].sum()) for k in (branch.BEFORE, branch.BEYOND) if k in r.excluded)
+    return used, loading, loading > used and used < MIN_LINEAR_SHARE * loading
+
+
 def share_warnings(records: Sequence[Record]) -> list[Warning]:
     """A warning for each file whose linear range holds under MIN_LINEAR_SHARE of its loading rows."""
-    out = []
-    for r in records:
-        beyond = sum(int(r.excluded[k].sum()) for k in (branch.BEFORE, branch.BEYOND) if k in r.excluded)
-        used = int(r.used.sum())
-        if beyond and used < MIN_LINEAR_SHARE * (used + beyond):
-            text = f"{r.name}: only {used} of {used + beyond} loading points are in the linear range"
-            out.append(Warning("little_linear", text))
-    return out
+    shares = [(r.name, *_share(r)) for r in records]
+    text = "{}: only {} of {} loading points are in the linear range"
+    return [Warning("little_linear", text.format(*s[:3])) for s in shares if s[3]]
 
 
 #: After these warnings the line is not the data's one slope: its interval carries the range's choice.
 RANGE_KINDS = ("misfit", "little_linear")
 
 
+def _extended(r: Record) -> list[np.ndarray]:
+    """The fitted rows extended over the loading rows left out before them, after them, and both:
+    the ranges a reader takes who does not share the onset test's choice. For a record whose linear
+    range holds few of its loading rows (:func:`_share`) only; else none."""
+    if not _share(r)[2]:
+        return []
+    none = np.zeros(r.x.size, dtype=bool)
+    before, beyond = (r.excluded.get(k, none) for k in (branch.BEFORE, branch.BEYOND))
+    return [r.used | before, r.used | beyond, r.used | before | beyond]
+
+
 def range_slopes(records: Sequence[Record]) -> list[float]:
     """Slopes of ``y = c + b x`` over each half (in x) of each record's fitted rows and of the rows
-    its onset test accepts as one line (``Record.accepted``): the slopes a reader could have
-    taken as "the" slope of a curve that has none. Halves with under 3 distinct rows give none."""
+    its onset test accepts as one line (``Record.accepted``), and, where the linear range holds few
+    of the loading rows, over the fitted rows extended to either end of the loading (:func:`_extended`;
+    whole, not halved): the slopes a reader could have taken as "the" slope of a curve that has none.
+    Halves or ranges with under 3 distinct rows give none."""
     out = []
     for r in records:
         for mask in (r.used, r.accepted):
@@ -298,6 +313,10 @@ def range_slopes(records: Sequence[Record]) -> list[float]:
                 slope, se = _line(x[half], y[half])
                 if math.isfinite(se):
                     out.append(slope)
+        for mask in _extended(r):
+            slope, se = _line(r.x[mask], r.y[mask])
+            if math.isfinite(se):
+                out.append(slope)
     return out
 
 
@@ -315,11 +334,12 @@ def range_spread(
     if fit.ci95[0] <= low and high <= fit.ci95[1]:
         return fit, []
     ci = (min(fit.ci95[0], low), max(fit.ci95[1], high))
+    extended = ", and over them extended to either end of the loading" if any(map(_extended, records)) else ""
     text = (
         f"{parameter} depends on the range fitted: over the halves of the rows fitted and of the rows "
-        f"the onset test accepts as one line, the slope runs from {low:.4g} to {high:.4g}; the 95 % "
-        f"interval ({ci[0]:.4g} to {ci[1]:.4g}) includes this spread. Set a window to the range you "
-        f"mean, or record more points in the small-strain range. {advice}"
+        f"the onset test accepts as one line{extended}, the slope runs from {low:.4g} to {high:.4g}; the "
+        f"95 % interval ({ci[0]:.4g} to {ci[1]:.4g}) includes this spread. Set a window to the range "
+        f"you mean, or record more points in the small-strain range. {advice}"
     ).rstrip()
     return replace(fit, ci95=ci), [Warning("range_spread", text)]
 
