@@ -1,0 +1,33 @@
+"""The extension fit's summary against hand-made records, for what the mutation sample
+(benchmarks/mutation.sh, seed 29) showed no other test sees."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from matid.fits.extension.fit import fit_extension
+from tests.fits.extension.test_viscoelastic import ETA, K1, K2, TAU, measurement, ode_force, piecewise, ramps
+
+
+def test_the_time_window_is_the_finest_sampling_step_and_the_longest_run() -> None:
+    """Three ramps of 400 evenly spaced samples over 10 tau, tau and tau/10: the window the data
+    resolve runs from the fastest ramp's step (tau/10/399) to the slowest ramp's length (10 tau)."""
+    fit = fit_extension(ramps([10 * TAU, TAU, 0.1 * TAU], np.random.default_rng(11)), specimen="T1")
+    assert np.allclose(fit.info["time_window_s"], [0.1 * TAU / 399, 10 * TAU], rtol=1e-9, atol=0)
+
+
+def test_two_rates_part_relaxation_from_an_elastic_curve() -> None:
+    """Two ramps of a linear solid at rates 4:3 apart (force from the ODE of the SLS, not from
+    matid): each bends as it relaxes, but a second rate tells relaxation from an elastic curve, so
+    E_e keeps its own narrow interval around K1 and no nonlinearity is reported."""
+    rng = np.random.default_rng(5)
+    runs = []
+    for i, duration in enumerate([3 * TAU, 4 * TAU]):
+        knots_t, knots_eps = np.array([0.0, duration]), np.array([0.0, 0.05])
+        t, eps = piecewise(knots_t, knots_eps, 400)
+        force = ode_force(knots_t, knots_eps, t, K1, K2, ETA)
+        runs.append(measurement(f"r{i}.csv", t, eps, force + rng.normal(0, 0.002 * force.max(), t.size)))
+    e_e = fit_extension(runs, specimen="T1").estimate("E_e")
+    assert not any("not linear in strain" in w for w in e_e.warnings), e_e.warnings
+    low, high = e_e.ci95
+    assert low < K1 < high and high - low < 0.02 * K1, e_e.ci95
