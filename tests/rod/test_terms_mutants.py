@@ -4,19 +4,21 @@ from the scene (a straight rod along z, a wall parallel to it), not read off the
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from matid.physics.kinematics import NORMALISED, RAW
-from matid.rod.cantilever import INTORDER, _prepare, mesh
+from matid.rod.cantilever import INTORDER, _prepare, equilibrium, mesh
 from matid.rod.fem import Discretisation
 from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
-from matid.rod.scenes import scene_from_dict
+from matid.rod.scenes import load_scene, scene_from_dict
 from matid.rod.system import RodSystem
 from matid.rod.terms import Contact, Magnets
 from matid.rod.terms.base import q_dofs
 
-MM = 1e-3
+SCENES = Path(__file__).resolve().parents[2] / "examples" / "scenes"
 #: a scaled rod for the terms built by hand (its stiffness plays no part in a term's derivatives)
 SCALED = ScaledRod(E_t=0.7, E_s=3e3, E_e=2e4, segments=(Segment(0.6, 0.8, 5.0, 4.0, 1e5, 2e5),))
 ROD = {"length": "30 mm", "E_b": 1e-4, "E_t": 1e-4, "E_s": 10, "E_e": 10, "outer_diameter": "1 mm"}
@@ -143,3 +145,19 @@ def test_the_tangent_of_a_rod_pressed_into_a_wall_is_the_derivative_of_its_resid
     K = K.toarray() if hasattr(K, "toarray") else K.tocsr().toarray()
     fd = _fd(lambda x: system.evaluate(x, 0.6, tangent=False)[0], X, 1e-7)
     assert np.allclose(K, fd, rtol=0, atol=1e-6 * np.abs(fd).max())
+
+
+def test_the_converged_point_stresses_are_the_tip_force_on_the_directors() -> None:
+    """Statics of a cantilever under a dead tip force F and nothing else: the internal force is F
+    everywhere, so the shear and axial forces at every point are F.d1 and F.d3 of the deformed
+    section there, d1 = (cos t, -sin t), d3 = (sin t, cos t) in the plane (alpha = F L^2/E_b = 1.385:
+    large rotations)."""
+    scene = load_scene(SCENES / "tip_force.toml")
+    eq = equilibrium(scene, elements=16)
+    assert eq.model == PLANAR and eq.stress is not None
+    F = np.asarray(scene.loads.tip_force) * scene.rod.length**2 / scene.rod.E_b  # scaled, (x, -, z)
+    theta = eq.disc.interpolate(eq.U.ravel())[0][2]
+    c, s = np.cos(theta), np.sin(theta)
+    expected = np.stack([F[0] * c - F[2] * s, F[0] * s + F[2] * c], axis=-1)
+    assert np.abs(theta).max() > 0.5  # a large deflection
+    assert np.allclose(eq.stress, expected, rtol=0, atol=1e-6 * np.abs(F).max())

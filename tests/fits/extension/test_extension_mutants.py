@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from matid.fits.extension.fit import fit_extension
 from tests.fits.extension.test_viscoelastic import ETA, K1, K2, TAU, measurement, ode_force, piecewise, ramps
@@ -31,3 +32,19 @@ def test_two_rates_part_relaxation_from_an_elastic_curve() -> None:
     assert not any("not linear in strain" in w for w in e_e.warnings), e_e.warnings
     low, high = e_e.ci95
     assert low < K1 < high and high - low < 0.02 * K1, e_e.ci95
+
+
+def test_each_runs_noise_is_its_residual_deviation_with_its_share_of_the_dof() -> None:
+    """Two short ramps (20 rows each, 3 parameters fitted jointly on 40 rows): each run's noise is
+    sqrt(RSS_run / (m_run (1 - 3/40))), its residuals against the fitted model read off the fit's
+    plot data (the unbiased variance, the 3 parameters shared pro rata; 7.5 % above RSS/m here)."""
+    runs = ramps([10 * TAU, 0.3 * TAU], np.random.default_rng(4), n=20, noise=0.01)
+    fit = fit_extension(runs, specimen="T1")
+    curves = fit.info["plot_data"]["force_time"]
+    used = [np.asarray(c["used"], bool) for c in curves.values()]
+    total = sum(int(u.sum()) for u in used)
+    assert total == 40
+    for (name, c), u in zip(curves.items(), used, strict=True):
+        r = (np.asarray(c["force_N"]) - np.asarray(c["model_N"]))[u]
+        expected = np.sqrt(r @ r / (r.size * (1.0 - 3 / total)))
+        assert fit.info["noise_N"][name] == pytest.approx(expected, rel=1e-4)
