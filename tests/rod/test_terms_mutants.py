@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from matid.physics.kinematics import NORMALISED, RAW
+from matid.rod import solve
 from matid.rod.cantilever import INTORDER, _prepare, equilibrium, mesh
 from matid.rod.fem import Discretisation
 from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
@@ -161,3 +162,19 @@ def test_the_converged_point_stresses_are_the_tip_force_on_the_directors() -> No
     expected = np.stack([F[0] * c - F[2] * s, F[0] * s + F[2] * c], axis=-1)
     assert np.abs(theta).max() > 0.5  # a large deflection
     assert np.allclose(eq.stress, expected, rtol=0, atol=1e-6 * np.abs(F).max())
+
+
+@pytest.mark.parametrize("phi_deg", [30.0, 90.0])
+def test_an_end_moment_about_any_horizontal_axis_bends_a_circle_about_it(phi_deg: float) -> None:
+    """A pure end moment M = theta E_b/L about the horizontal axis a = (cos phi, sin phi, 0): the
+    planar model in the plane normal to a bends the rod into a circle of angle theta, the tip at
+    L ((1 - cos theta)/theta (a x e3) + sin theta/theta e3) (shear and extension carry nothing)."""
+    theta, phi, L, E_b = 1.0, np.radians(phi_deg), 0.03, 6.5e-5
+    a = np.array([np.cos(phi), np.sin(phi), 0.0])
+    rod = {"length": L, "E_b": E_b, "E_t": 4.4e-5, "E_s": 1e8 * E_b / L**2, "E_e": 1e8 * E_b / L**2}
+    sol = solve(scene_from_dict({"rod": rod, "tip": {"moment": list(theta * E_b / L * a)}}), elements=16)
+    assert sol.model == PLANAR
+    exact = (1 - np.cos(theta)) / theta * np.cross(a, [0.0, 0.0, 1.0]) + np.sin(theta) / theta * np.array(
+        [0, 0, 1.0]
+    )
+    assert np.allclose(sol.position[-1] / L, exact, rtol=0, atol=1e-8)

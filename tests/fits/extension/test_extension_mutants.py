@@ -48,3 +48,17 @@ def test_each_runs_noise_is_its_residual_deviation_with_its_share_of_the_dof() -
         r = (np.asarray(c["force_N"]) - np.asarray(c["model_N"]))[u]
         expected = np.sqrt(r @ r / (r.size * (1.0 - 3 / total)))
         assert fit.info["noise_N"][name] == pytest.approx(expected, rel=1e-4)
+
+
+def test_a_slow_unloading_that_never_pushes_keeps_all_its_rows() -> None:
+    """Loading and unloading over 100 tau each (force from the SLS ODE, not from matid): at zero
+    strain the relaxing part is only -k2 tau rate = -0.015 N, within the noise, so the strip never
+    pushes; the rows near zero force at the end (first taken for slack) are all fitted again."""
+    rng = np.random.default_rng(8)
+    knots_t, knots_eps = np.array([0.0, 100 * TAU, 200 * TAU]), np.array([0.0, 0.05, 0.0])
+    t, eps = piecewise(knots_t, knots_eps, 200)
+    force = ode_force(knots_t, knots_eps, t, K1, K2, ETA)
+    slow = measurement("slow.csv", t, eps, force + rng.normal(0, 0.003 * force.max(), t.size))
+    fit = fit_extension([slow, *ramps([10 * TAU, TAU, 0.1 * TAU], rng)], specimen="T1")
+    assert fit.series[0].used.all()
+    assert "slow.csv" not in fit.info["left_out"]
