@@ -7,6 +7,8 @@
 # SEED    the sample's seed (default 29); the same seed and source give the same mutants.
 # FILE    files (globs, relative to the repository) to mutate instead of FILES below.
 # MAX_CHILDREN (environment, default 1): mutants run in parallel.
+# OUT, TMPDIR (environment): where the results go (default benchmarks/results/mutation) and where the
+# copy is made; give two runs at once different ones.
 #
 # Not in CI: 30 mutants of each of the 9 physics/newton/linear files take ~20 min on one core.
 # The tests that may kill a mutant are pyproject's [tool.mutmut] pytest_add_cli_args_test_selection;
@@ -36,7 +38,7 @@ if (( $# )); then FILES=("$@"); fi
 MAX_CHILDREN=${MAX_CHILDREN:-1}
 
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
-OUT=$ROOT/benchmarks/results/mutation
+OUT=${OUT:-$ROOT/benchmarks/results/mutation}
 WORK=${TMPDIR:-/tmp}/matid-mutation  # outside the repository: mutmut asks git about its folder
 rm -rf "$OUT" "$WORK"
 mkdir -p "$OUT" "$WORK"

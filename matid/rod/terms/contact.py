@@ -119,8 +119,9 @@ class Contact(Term):
         disc = system.disc
         s = disc.s_dof
         R = np.full(s.shape, self.R_o)
-        for a, b, r in self.radii:
-            R = np.where((s >= a) & (s < b), r, R)
+        tip = s.max()
+        for a, b, r in self.radii:  # [a, b), and the tip node on a segment that reaches the tip
+            R = np.where((s >= a) & ((s < b) | ((s == tip) & (b >= tip - 1e-9))), r, R)
         cols = [0, 1] if system.model == PLANAR else [0, 1, 2]
         nodes = np.arange(disc.nscalar)
         dofs = nodes[:, None] * disc.nf + np.asarray(cols)

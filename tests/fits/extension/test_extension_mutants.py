@@ -1,0 +1,64 @@
+"""The extension fit's summary against hand-made records, for what the mutation sample
+(benchmarks/mutation.sh, seed 29) showed no other test sees."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from matid.fits.extension.fit import fit_extension
+from tests.fits.extension.test_viscoelastic import ETA, K1, K2, TAU, measurement, ode_force, piecewise, ramps
+
+
+def test_the_time_window_is_the_finest_sampling_step_and_the_longest_run() -> None:
+    """Three ramps of 400 evenly spaced samples over 10 tau, tau and tau/10: the window the data
+    resolve runs from the fastest ramp's step (tau/10/399) to the slowest ramp's length (10 tau)."""
+    fit = fit_extension(ramps([10 * TAU, TAU, 0.1 * TAU], np.random.default_rng(11)), specimen="T1")
+    assert np.allclose(fit.info["time_window_s"], [0.1 * TAU / 399, 10 * TAU], rtol=1e-9, atol=0)
+
+
+def test_two_rates_part_relaxation_from_an_elastic_curve() -> None:
+    """Two ramps of a linear solid at rates 4:3 apart (force from the ODE of the SLS, not from
+    matid): each bends as it relaxes, but a second rate tells relaxation from an elastic curve, so
+    E_e keeps its own narrow interval around K1 and no nonlinearity is reported."""
+    rng = np.random.default_rng(5)
+    runs = []
+    for i, duration in enumerate([3 * TAU, 4 * TAU]):
+        knots_t, knots_eps = np.array([0.0, duration]), np.array([0.0, 0.05])
+        t, eps = piecewise(knots_t, knots_eps, 400)
+        force = ode_force(knots_t, knots_eps, t, K1, K2, ETA)
+        runs.append(measurement(f"r{i}.csv", t, eps, force + rng.normal(0, 0.002 * force.max(), t.size)))
+    e_e = fit_extension(runs, specimen="T1").estimate("E_e")
+    assert not any("not linear in strain" in w for w in e_e.warnings), e_e.warnings
+    low, high = e_e.ci95
+    assert low < K1 < high and high - low < 0.02 * K1, e_e.ci95
+
+
+def test_each_runs_noise_is_its_residual_deviation_with_its_share_of_the_dof() -> None:
+    """Two short ramps (20 rows each, 3 parameters fitted jointly on 40 rows): each run's noise is
+    sqrt(RSS_run / (m_run (1 - 3/40))), its residuals against the fitted model read off the fit's
+    plot data (the unbiased variance, the 3 parameters shared pro rata; 7.5 % above RSS/m here)."""
+    runs = ramps([10 * TAU, 0.3 * TAU], np.random.default_rng(4), n=20, noise=0.01)
+    fit = fit_extension(runs, specimen="T1")
+    curves = fit.info["plot_data"]["force_time"]
+    used = [np.asarray(c["used"], bool) for c in curves.values()]
+    total = sum(int(u.sum()) for u in used)
+    assert total == 40
+    for (name, c), u in zip(curves.items(), used, strict=True):
+        r = (np.asarray(c["force_N"]) - np.asarray(c["model_N"]))[u]
+        expected = np.sqrt(r @ r / (r.size * (1.0 - 3 / total)))
+        assert fit.info["noise_N"][name] == pytest.approx(expected, rel=1e-4)
+
+
+def test_a_slow_unloading_that_never_pushes_keeps_all_its_rows() -> None:
+    """Loading and unloading over 100 tau each (force from the SLS ODE, not from matid): at zero
+    strain the relaxing part is only -k2 tau rate = -0.015 N, within the noise, so the strip never
+    pushes; the rows near zero force at the end (first taken for slack) are all fitted again."""
+    rng = np.random.default_rng(8)
+    knots_t, knots_eps = np.array([0.0, 100 * TAU, 200 * TAU]), np.array([0.0, 0.05, 0.0])
+    t, eps = piecewise(knots_t, knots_eps, 200)
+    force = ode_force(knots_t, knots_eps, t, K1, K2, ETA)
+    slow = measurement("slow.csv", t, eps, force + rng.normal(0, 0.003 * force.max(), t.size))
+    fit = fit_extension([slow, *ramps([10 * TAU, TAU, 0.1 * TAU], rng)], specimen="T1")
+    assert fit.series[0].used.all()
+    assert "slow.csv" not in fit.info["left_out"]
