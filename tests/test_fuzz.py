@@ -213,3 +213,16 @@ def test_a_full_disk_leaves_the_old_report_whole(tmp_path, capsys):
         assert fuzzkit.folder_state(out, old) == "old"
     finally:
         subprocess.run(["umount", "-l", str(disk)], check=False)
+
+
+@pytest.mark.parametrize("path", fuzzkit.SOLVER_SCENES, ids=lambda p: p.name)
+def test_the_solver_fuzz_harness_solves_its_unmutated_seed_scenes(path):
+    """The fuzz above accepts exit 1 for any mutated scene, so it would pass on a dead solver
+    (benchmarks/dead_solver.py found both fuzz tests passing with Newton raising). Its own seeds,
+    unmutated, through the same harness (solve_case: its element choice, the absurdity check) must
+    solve: exit 0; the workspace sweep has exactly its 3 states with the field reversed failing."""
+    outcome = fuzzkit.solve_case(path, path.read_text(encoding="utf-8"), fuzzkit.LIMIT, time.perf_counter())
+    if path.parent.name == "sweeps":
+        assert outcome.code == 1 and "3 of 36 states failed" in outcome.message, outcome
+    else:
+        assert outcome.code == 0, outcome
