@@ -23,8 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 
+#: The entries of H that can be non-zero, (row, column) in z = (x, z, t, x', z', t') (one of each
+#: symmetric pair): the layout of ``compact=True``.
+COMPACT = ((2, 2), (2, 3), (2, 4), (3, 3), (3, 4), (4, 4), (5, 5))
 
-def derivatives(z, lam, props, kappa_ref, tangent, *, stress, want_strain):
+
+def derivatives(z, lam, props, kappa_ref, tangent, *, stress, want_strain, compact=False):
     """(g, H, strain) of the planar density at every point: shapes P + (6,), P + (6, 6).
 
     z: P + (6,) point values (x, z, t, x', z', t'); props: stiffness arrays (P);
@@ -33,6 +37,7 @@ def derivatives(z, lam, props, kappa_ref, tangent, *, stress, want_strain):
     ``stress`` (P + (2,)): (n1, n3) for the geometric part of H (the mixed tangent; NaN at a
     point: that of the displacements, as without it); strain:
     ((n1, n3) of the displacements, C J) for that update with ``want_strain`` and ``tangent``, else None.
+    ``compact``: H as (7,) + P, the entries of :data:`COMPACT` (the rest are zero).
     """
     shape = z.shape[:-1]
     z = z.reshape(-1, 6)
@@ -63,24 +68,31 @@ def derivatives(z, lam, props, kappa_ref, tangent, *, stress, want_strain):
         stress = stress.reshape(n, 2)
         n1 = np.where(np.isnan(stress[:, 0]), n1, stress[:, 0])
         n3 = np.where(np.isnan(stress[:, 1]), n3, stress[:, 1])
+    tt = b * nu1 - a * nu3 - n1 * nu1 - n3 * nu3
+    tx, tz = a * c + b * s - n1 * s + n3 * c, b * c - a * s - n1 * c - n3 * s
+    xx, xz, zz = Esc * c + Ees * s, Ees * c - Ess * c, Ess * s + Eec * c
+    if compact:  # the entries that can be non-zero, in the order of COMPACT
+        H = np.stack([tt, tx, tz, xx, xz, zz, Eb])
+        return g.reshape(shape + (6,)), H.reshape((7,) + shape), strain
     H = np.zeros((n, 6, 6))
-    H[:, 2, 2] = b * nu1 - a * nu3 - n1 * nu1 - n3 * nu3
-    H[:, 2, 3] = H[:, 3, 2] = a * c + b * s - n1 * s + n3 * c
-    H[:, 2, 4] = H[:, 4, 2] = b * c - a * s - n1 * c - n3 * s
-    H[:, 3, 3] = Esc * c + Ees * s
-    H[:, 3, 4] = H[:, 4, 3] = Ees * c - Ess * c
-    H[:, 4, 4] = Ess * s + Eec * c
+    H[:, 2, 2] = tt
+    H[:, 2, 3] = H[:, 3, 2] = tx
+    H[:, 2, 4] = H[:, 4, 2] = tz
+    H[:, 3, 3] = xx
+    H[:, 3, 4] = H[:, 4, 3] = xz
+    H[:, 4, 4] = zz
     H[:, 5, 5] = Eb
     return g.reshape(shape + (6,)), H.reshape(shape + (6, 6)), strain
 
 
-def magnetic(g: np.ndarray, H: np.ndarray | None, z: np.ndarray, mu: np.ndarray, B) -> None:
+def magnetic(g: np.ndarray, H: np.ndarray | None, z: np.ndarray, mu: np.ndarray, B, *, compact=False) -> None:
     """Add the field's energy -mu (sin t Bx + cos t Bz) per length to (g, H) of :func:`derivatives`
     in place: its first and second derivative in t. mu: the moment per length times the load
-    factor (P); B: (x, -, z) in the plane."""
+    factor (P); B: (x, -, z) in the plane; ``compact``: H in the layout of :data:`COMPACT`."""
     t = z.reshape(-1, 6)[:, 2]
     c, s = np.cos(t), np.sin(t)
     mu = mu.ravel()
     g.reshape(-1, 6)[:, 2] -= mu * (c * B[0] - s * B[2])
     if H is not None:
-        H.reshape(-1, 6, 6)[:, 2, 2] += mu * (s * B[0] + c * B[2])
+        tt = H.reshape(7, -1)[0] if compact else H.reshape(-1, 6, 6)[:, 2, 2]
+        tt += mu * (s * B[0] + c * B[2])

@@ -18,7 +18,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from matid.errors import ConvergenceError, DataError
+from matid.errors import DataError
 from matid.physics import kinematics as kin
 from matid.rod.accuracy import refine
 from matid.rod.advance import solve_steps, step_entry
@@ -27,6 +27,7 @@ from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.cantilever import Equilibrium, Solution, equilibrium, scene_plane
 from matid.rod.checks import penalty_error, strain_warnings
+from matid.rod.contact_rounds import contact_rounds, stretch_order
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
 from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene, load_scene
@@ -35,10 +36,6 @@ from matid.rod.terms.contact import CONTACT_FRACTION, to_lab
 MODELS = ("auto", PLANAR, FULL)
 #: Energy terms of the bend half model (no field, no twist: planar by construction).
 BEND_TERMS = ("bending", "shear", "extension", "contact")
-#: Interior contact points are mesh vertices once the next step would move them less than this
-#: (x L) and less than the scene's tolerance, within at most CONTACT_ROUNDS rounds (issue 31).
-CONTACT_MOVE = 1e-4
-CONTACT_ROUNDS = 6
 
 
 def resolve_model(scene: Scene, model: str = "auto") -> str:
@@ -117,10 +114,10 @@ def _solve_forward(scene: Scene, *, elements, model, variant, element, start=Non
         force = np.asarray(sol.three_point_bend["force"])
         return sol, force / bend_force_scale(scene), sol.runtime_s
 
-    def meshes_at(points: tuple[float, ...]):
+    def meshes_at(points: tuple[float, ...], enough=None):
         nonlocal contact_at
         contact_at = points
-        return refine(at, tolerance=scene.tolerance, fixed=fixed)
+        return refine(at, tolerance=scene.tolerance, fixed=fixed, enough=enough, cap=stretch_order)
 
     fixed = elements or scene.elements
     result, est, rounds, moved = contact_rounds(meshes_at, scene.tolerance)
@@ -144,55 +141,6 @@ def _solve_forward(scene: Scene, *, elements, model, variant, element, start=Non
         return result.solution(discretization_error=error, extra=extra), result
     extra = {**result.extra, "error_estimate": estimate}
     return replace(result, discretization_error=est.error, extra=extra), None
-
-
-def contact_rounds(meshes_at, tolerance: float):
-    """(answer, its Estimate, the Estimates of every round) of ``meshes_at(points)`` (refine on
-    meshes with a vertex at each scaled s in points): first without points, then with a vertex at
-    each interior contact point until the points move less than CONTACT_MOVE (issue 31: a contact
-    on a vertex of every nested mesh left the estimate blind to its O(h) position error). The
-    first points are where the gap is smallest, then secant steps on the gap's slope at the
-    vertex (zero where the rod touches the wall tangentially). Raises ConvergenceError naming the
-    round when they still move after CONTACT_ROUNDS."""
-    result, est = meshes_at(())
-    rounds, touches = [est], interior_contacts(result)
-    points, last = tuple(t[0] for t in touches), [(t[1], t[2]) for t in touches]
-    for k in range(1, CONTACT_ROUNDS + 1):
-        if not points:
-            return result, est, rounds, 0.0
-        result, est = meshes_at(points)
-        rounds.append(est)
-        touches = interior_contacts(result)
-        if len(touches) != len(points):  # the contact set changed: start again where they touch
-            points, last = tuple(t[0] for t in touches), [(t[1], t[2]) for t in touches]
-            continue
-        slopes = [t[2] for t in touches]
-        moved = tuple(  # where it touches when the last vertex was the same (no secant)
-            t[0] if p == pg[0] else _secant(p, g, *pg) for p, g, t, pg in zip(points, slopes, touches, last)
-        )
-        step = max(abs(a - b) for a, b in zip(moved, points))
-        if step < min(CONTACT_MOVE, tolerance):
-            return result, est, rounds, step
-        points, last = moved, list(zip(points, slopes))
-    raise ConvergenceError(
-        f"interior contact points still moved after round {CONTACT_ROUNDS} of meshing at them: "
-        f"{', '.join(f'{s:.6g} L' for s in points)}",
-        round=CONTACT_ROUNDS,
-    )
-
-
-def _secant(s: float, slope: float, s0: float, slope0: float) -> float:
-    """The zero of the line through (s0, slope0), (s, slope) (s0 != s); s itself when level."""
-    return s if slope == slope0 else s - slope * (s - s0) / (slope - slope0)
-
-
-def interior_contacts(result) -> list[tuple[float, float, float]]:
-    """:meth:`Contact.touch_points` of the point contacts of a converged cantilever away from its
-    tip (a contact on its last element is a tip contact), sorted by s."""
-    if not isinstance(result, Equilibrium) or result.contact is None:
-        return []
-    tip = 1.0 - float(result.disc.vertices[-1] - result.disc.vertices[-2])
-    return sorted(t for t in result.contact[2] if t[1] < tip and t[0] < tip)
 
 
 def _solve_advanced(scene: Scene, **options):

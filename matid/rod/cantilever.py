@@ -17,13 +17,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from matid.physics import kinematics as kin
+from matid.rod.contact_rounds import carry, report, reset, settle
 from matid.rod.fem import Discretisation, graded_vertices
 from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
 from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follow, newton
 from matid.rod.scenes import Scene, plane_of
 from matid.rod.system import RodSystem
 from matid.rod.terms import Scale, Term, loads_of
-from matid.rod.terms.contact import contact_of, settle
 
 #: A rigid segment: bending and twist RIGID_FACTOR times the rod's, shear and
 #: extension at least RIGID_FACTOR (scaled by E_b/L^2). Its share of the rod's
@@ -166,27 +166,20 @@ def equilibrium(
     )
     if isinstance(start, Equilibrium):
         system.stress_start = start.stress_at(disc)
+        carry(system, start)  # the contact multipliers (contact_rounds)
         start = start.state()
     X = _warm(system, start) if start is not None and element == "P2" else None
     if X is None:
         system.stress_start = None  # the continuation starts from the straight rod
+        reset(system)
         x0, probe = system.reduce(system.reference()), probe_start(rod, loads, chosen)
         X, info = follow(system, x0, [1.0], definite_start=probe)
     else:
         X, info = X
-    X = settle(system, X, info, newton, _check_admissible)  # walls and lumen (terms.contact)
+    X = settle(system, X, info)  # walls and lumen (contact_rounds)
     U = system.expand(X).reshape(disc.nscalar, disc.nf)
     runtime = time.perf_counter() - t0
-    bound = contact_of(system)
-    if bound is None:
-        contact = None
-    else:
-        term, state = bound[0], system.expand(X)
-        contact = (
-            term.contacts(system, *bound[1:], state),
-            term.quantities(system, *bound[1:], state),
-            term.touch_points(system, *bound[1:], state),
-        )
+    contact = report(system, X)
     return Equilibrium(
         scene, chosen, disc, U, e_a, info, runtime, tuple(system.terms), system.converged_stress(), contact
     )
@@ -224,7 +217,7 @@ class Equilibrium:
     runtime_s: float
     terms: tuple[str, ...]
     stress: np.ndarray | None = None  # C e(u) at the quadrature points (ne, nq, ns), mixed Newton
-    contact: tuple | None = None  # (contacts, quantities, touch points) scaled, of terms.contact; None: no walls
+    contact: tuple | None = None  # contact_rounds.report (scaled); None: no walls
 
     def stress_at(self, disc: Discretisation) -> np.ndarray | None:
         """The point stresses recovered at another mesh's quadrature points: linear through the

@@ -40,11 +40,21 @@ def point_strains(eq, rod=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return disc.s_quad, shear, bend
 
 
-def strain_warnings(eq, rod=None) -> list[str]:
-    """Warnings for strains outside the linear law's range in a converged cantilever state."""
+def planar_point_strains(disc, U: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(|nu - e3|, |kappa - kappa_ref|) of :func:`point_strains` for N planar states U (N, nscalar 3)
+    on one mesh at once; ``ref`` the precurvatures about the plane normal (N, ne, nq)."""
+    Ue = U.reshape(U.shape[0], disc.nscalar, 3)[:, disc.edofs.T]  # (N, ne, nloc, 3)
+    z = np.matmul(disc.point_table, Ue).reshape(U.shape[0], disc.ne, -1, 2, 3)
+    k2, nu1, nu3 = kin.planar_strains(z[..., 1, 0], z[..., 1, 1], z[..., 0, 2], z[..., 1, 2])
+    return np.hypot(nu1, nu3 - 1.0), np.abs(k2 - ref)
+
+
+def strain_warnings(eq, rod=None, strains=None) -> list[str]:
+    """Warnings for strains outside the linear law's range in a converged cantilever state;
+    ``strains``: its (s, shear, bend) of :func:`point_strains` when already computed."""
     scene = eq.scene
     L, radius = scene.rod.length, 0.5 * _outer_diameter(scene, eq)
-    s, shear, bend = point_strains(eq, rod)
+    s, shear, bend = point_strains(eq, rod) if strains is None else strains
     out = []
     i = int(np.argmax(shear))
     if shear.flat[i] > LINEAR_RANGE:

@@ -21,8 +21,17 @@ from matid.errors import MatidError
 from matid.rod import accuracy
 from matid.rod import batch as B
 from matid.rod.api import solve
-from matid.rod.cantilever import INTORDER, Equilibrium, Solution, _prepare, interpolate_p2, mesh
-from matid.rod.checks import strain_warnings
+from matid.rod.cantilever import (
+    INTORDER,
+    Equilibrium,
+    Solution,
+    _prepare,
+    _recovery,
+    interpolate_p2,
+    mesh,
+    probe_start,
+)
+from matid.rod.checks import planar_point_strains, strain_warnings
 from matid.rod.models import PLANAR
 from matid.rod.newton import NewtonInfo
 from matid.rod.scenes import Scene
@@ -82,32 +91,43 @@ def _stack_key(scene: Scene, elements: int | None) -> tuple:
 
 
 def _solve_group(scenes: list[Scene], prepared: list, at: tuple, fixed: int | None) -> list:
-    """The scenes of one mesh family through the doubling meshes (accuracy.refine, per scene)."""
+    """The scenes of one mesh family through the doubling meshes (accuracy.refine, per scene); the
+    state of the scenes still refining stays stacked from one mesh to the next."""
     N = len(scenes)
     results: list = [None] * N
     tips: list[list] = [[] for _ in range(N)]
     history: list[list] = [[] for _ in range(N)]
     levels = ([max(fixed // 2, 1), fixed] if fixed > 1 else [1, 2]) if fixed else None
     n = levels[0] if levels else accuracy.START // 2
-    live, last = list(range(N)), None
-    while live:
+    live, last = np.arange(N), None
+    plane = np.array([p[1][:2] for p in prepared])  # (a0, a1) of each scene's plane
+    probe = np.array([probe_start(p[2], p[3], PLANAR) for p in prepared], bool)
+    while live.size:
         t0 = time.perf_counter()
-        eqs = _level([scenes[i] for i in live], [prepared[i] for i in live], n, at, last)
-        share = (time.perf_counter() - t0) / len(live)
-        keep = []
-        for i, eq in zip(live, eqs, strict=True):
-            if isinstance(eq, Failure):
-                results[i] = eq
+        level = _level([prepared[i] for i in live], n, at, last, probe[live])
+        share = (time.perf_counter() - t0) / live.size
+        tip = _tips(level, plane[live])
+        keep, finished = [], []
+        for j, i in enumerate(live):
+            if level.reasons[j] is not None:
+                results[i] = Failure(scenes[i], level.reasons[j])
                 continue
-            tips[i].append(eq.tip())
+            tips[i].append(tip[j])
             history[i].append((n, share))
             done = _finished(scenes[i], tips[i], n, levels)
             if done is None:
-                keep.append((i, eq))
+                keep.append(j)
             else:
-                results[i] = _present(eq, prepared[i][2], done, history[i], fixed)
-        live = [i for i, _ in keep]
-        last = [eq for _, eq in keep]
+                finished.append((j, done))
+        ids = np.array([j for j, _ in finished], int)
+        ref = np.stack([_precurvature(prepared[live[j]][2], level.disc) for j in ids]) if ids.size else None
+        shear, bend = planar_point_strains(level.disc, level.U[ids], ref) if ids.size else (None, None)
+        for k, (j, done) in enumerate(finished):
+            i = live[j]
+            eq = level.equilibrium(j, scenes[i], prepared[i])
+            strains = (level.disc.s_quad, shear[k], bend[k])
+            results[i] = _present(eq, prepared[i][2], done, history[i], fixed, strains)
+        live, last = live[keep], level.take(np.array(keep, int))
         n = levels[1] if levels else 2 * n
     return results
 
@@ -124,7 +144,13 @@ def _finished(scene: Scene, tips: list, n: int, levels) -> tuple | None:
     return None
 
 
-def _present(eq: Equilibrium, rod, done: tuple, history: list, fixed) -> Solution:
+def _precurvature(rod, disc) -> np.ndarray:
+    """The rod's precurvature about the plane normal at the mesh's points (ne, nq)."""
+    ref = rod.kappa_ref_at(disc.s_quad)
+    return np.full(disc.s_quad.shape, float(rod.kappa_ref[1])) if ref is None else ref[..., 1]
+
+
+def _present(eq: Equilibrium, rod, done: tuple, history: list, fixed, strains) -> Solution:
     """The Solution of api.solve: the estimate, the strain warnings."""
     error, order = done
     estimate = {
@@ -134,26 +160,60 @@ def _present(eq: Equilibrium, rod, done: tuple, history: list, fixed) -> Solutio
         "total_runtime_s": sum(t for _, t in history),
         "tolerance": None if fixed else eq.scene.tolerance,
     }
-    extra = {"error_estimate": estimate, "warnings": strain_warnings(eq, rod)}
+    extra = {"error_estimate": estimate, "warnings": strain_warnings(eq, rod, strains)}
     return eq.solution(discretization_error=error, extra=extra)
 
 
-def _level(scenes, prepared, n: int, at: tuple, coarse: list | None) -> list:
-    """Equilibria (or Failures) of the scenes on the mesh of n elements, one stack."""
+@dataclass
+class Level:
+    """The stacked answers of one mesh: states U (N, nscalar 3), Newton (iterations, steps,
+    rejected) per scene, converged point stresses, failure reasons (None: converged)."""
+
+    disc: object
+    U: np.ndarray
+    info: np.ndarray
+    stress: np.ndarray
+    reasons: list
+    runtime: float
+
+    def take(self, ids: np.ndarray) -> Level:
+        reasons = [self.reasons[i] for i in ids]
+        return Level(self.disc, self.U[ids], self.info[ids], self.stress[ids], reasons, 0.0)
+
+    def equilibrium(self, j: int, scene: Scene, p: tuple) -> Equilibrium:
+        disc = self.disc
+        terms = tuple(term_labels(PLANAR, p[2], p[3], p[2].kappa_ref_at(disc.s_quad)))
+        its, steps, rejected = (int(v) for v in self.info[j])
+        nfo = NewtonInfo(iterations=its, steps=steps, rejected=rejected)
+        U = self.U[j].reshape(disc.nscalar, 3)
+        return Equilibrium(scene, PLANAR, disc, U, p[1], nfo, self.runtime, terms, self.stress[j])
+
+
+def _tips(level: Level, plane: np.ndarray) -> np.ndarray:
+    """Equilibrium.tip of every scene: (tip position / L, tip d3), (N, 6)."""
+    d = level.disc
+    k = d.vertex_dof(d.vertices.size - 1) * 3
+    x, z, th = (level.U[:, k + i] for i in range(3))
+    a0, a1, s = plane[:, 0], plane[:, 1], np.sin(th)
+    return np.stack([x * a0, x * a1, z, a0 * s, a1 * s, np.cos(th)], axis=1)
+
+
+def _level(prepared, n: int, at: tuple, coarse: Level | None, probe: np.ndarray) -> Level:
+    """The scenes on the mesh of n elements, one stack: from the coarser mesh's states (Newton at
+    the full load; the continuation from the straight rod where that fails) or from the straight rod."""
     t0 = time.perf_counter()
     disc = mesh(n, at, 3, "P2", INTORDER["P2"])
-    stack = B.Stack(disc, [(p[2], p[3]) for p in prepared])
-    N = len(scenes)
+    stack = B.Stack(disc, [(p[2], p[3]) for p in prepared], probe)
+    N = len(prepared)
     X, info, stress = np.zeros((N, stack.n)), np.zeros((N, 3), int), None
     todo = np.arange(N)
     if coarse is not None:  # Newton at the full load from the coarser state
-        X0 = stack.reference()
-        vals = np.stack([eq.U[eq.disc.value_dofs] for eq in coarse])  # (N, m, 3)
+        cd = coarse.disc
+        vals = coarse.U.reshape(N, cd.nscalar, 3)[:, cd.value_dofs]  # (N, m, 3)
         m = vals.shape[1]
-        U0 = interpolate_p2(coarse[0].disc.vertices, vals.transpose(1, 0, 2).reshape(m, -1), disc.s_dof)
+        U0 = interpolate_p2(cd.vertices, vals.transpose(1, 0, 2).reshape(m, -1), disc.s_dof)
         X0 = U0.reshape(disc.nscalar, N, 3).transpose(1, 0, 2).reshape(N, -1)[:, disc.free]
-        S0 = np.stack([_stress(eq, disc) for eq in coarse])
-        Xw, k, pd, sw, why = B.newton(stack, X0, np.ones(N), S0)
+        Xw, k, pd, sw, why, _ = B.newton(stack, X0, np.ones(N), _stresses(coarse, disc))
         ok = np.array([w is None for w in why])
         ok[ok] = B.admissible(stack.take(np.flatnonzero(ok)), Xw[ok], np.ones(int(ok.sum())), pd[ok])
         X[ok], info[ok, 0], info[ok, 1] = Xw[ok], k[ok], 1
@@ -170,21 +230,13 @@ def _level(scenes, prepared, n: int, at: tuple, coarse: list | None) -> list:
         stress[todo] = sf
         for j, i in enumerate(todo):
             reasons[i] = why[j]
-    runtime = (time.perf_counter() - t0) / N
-    U = stack.expand(X)
-    out = []
-    for i, (scene, p) in enumerate(zip(scenes, prepared, strict=True)):
-        if reasons[i] is not None:
-            out.append(Failure(scene, reasons[i]))
-            continue
-        its, steps, rejected = (int(v) for v in info[i])
-        terms = tuple(term_labels(PLANAR, p[2], p[3], p[2].kappa_ref_at(disc.s_quad)))
-        nfo = NewtonInfo(iterations=its, steps=steps, rejected=rejected)
-        U_i = U[i].reshape(disc.nscalar, 3)
-        out.append(Equilibrium(scene, PLANAR, disc, U_i, p[1], nfo, runtime, terms, stress[i]))
-    return out
+    return Level(disc, stack.expand(X), info, stress, reasons, (time.perf_counter() - t0) / N)
 
 
-def _stress(eq: Equilibrium, disc) -> np.ndarray:
-    got = eq.stress_at(disc)
-    return np.full(disc.s_quad.shape + (2,), np.nan) if got is None else got
+def _stresses(coarse: Level, disc) -> np.ndarray:
+    """Equilibrium.stress_at of every scene: the coarse point stresses recovered at disc's points."""
+    cd = coarse.disc
+    R = _recovery(cd.vertices.tobytes(), cd.s_quad.tobytes(), disc.s_quad.tobytes())
+    N, ns = coarse.stress.shape[0], coarse.stress.shape[-1]
+    flat = coarse.stress.reshape(N, -1, ns).transpose(1, 0, 2).reshape(-1, N * ns)
+    return (R @ flat).reshape(-1, N, ns).transpose(1, 0, 2).reshape((N,) + disc.s_quad.shape + (ns,))

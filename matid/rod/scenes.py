@@ -235,20 +235,20 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     directions = loads.directions("magnet") + loads.directions("magnetization")
     if any(a[0] != 0.0 or a[1] != 0.0 for a in directions):
         return None  # a magnetisation off +-d3 twists the rod (contract section 9): the full model runs
-    # compared in scaled units (matid.rod.models), so that a load negligible at 1e-12 is so for the rod
+    # in scaled units (matid.rod.models: a load negligible at 1e-12 is so for the rod), in floats
     L, Eb = rod.length, rod.E_b
     field = max([abs(m) * L / Eb for _, m in loads.magnets] + [abs(mu) * L**2 / Eb for *_, mu in loads.magnetization] + [0.0])  # fmt: skip
-    forces = [np.asarray(v, float) * f for v, f in ((loads.B, field), (loads.distributed_force, L**3 / Eb),
+    forces = [[float(c) * f for c in v] for v, f in ((loads.B, field), (loads.distributed_force, L**3 / Eb),
                                                       (loads.tip_force, L**2 / Eb))]  # fmt: skip
-    forces += [np.asarray(f, float) * L**2 / Eb for _, f, _ in loads.point_loads]
-    moments = [np.asarray(loads.tip_moment, float) * L / Eb, np.asarray(rod.precurvature, float) * L]
-    moments += [np.asarray(m, float) * L / Eb for _, _, m in loads.point_loads]
-    moments += [np.asarray(seg.precurvature, float) * L for seg in rod.segments if seg.precurvature]
-    scale = max([np.abs(v).max() for v in forces + moments] + [1e-300])
-    candidates = [v[:2] for v in forces] + [np.array([m[1], -m[0]]) for m in moments]  # n x e3
-    candidates += [c * scale for c in contact_directions(scene)]  # walls and lumen: unit
-    unit = (c / np.linalg.norm(c) for c in candidates if np.linalg.norm(c) > tol * scale)
-    direction = next(unit, np.array([1.0, 0.0]))
+    forces += [[float(c) * L**2 / Eb for c in f] for _, f, _ in loads.point_loads]
+    moments = [[float(c) * L / Eb for c in loads.tip_moment], [float(c) * L for c in rod.precurvature]]
+    moments += [[float(c) * L / Eb for c in m] for _, _, m in loads.point_loads]
+    moments += [[float(c) * L for c in seg.precurvature] for seg in rod.segments if seg.precurvature]
+    scale = max([max(abs(c) for c in v) for v in forces + moments] + [1e-300])
+    candidates = [v[:2] for v in forces] + [[m[1], -m[0]] for m in moments]  # n x e3
+    candidates += [[float(c[0]) * scale, float(c[1]) * scale] for c in contact_directions(scene)]
+    first = next((c for c in candidates if math.hypot(*c) > tol * scale), None)
+    direction = [1.0, 0.0] if first is None else (np.asarray(first) / np.linalg.norm(first)).tolist()
     if any(abs(m[2]) > tol * scale for m in moments):
         return None  # twist moment or twist precurvature
     for c in candidates:

@@ -198,8 +198,17 @@ class RodSystem:
         return 1e-15 * max(stiff, 1.0)
 
     # -- residual and tangent on the free dofs ---------------------------------
-    def evaluate(self, X: np.ndarray, lam: float, *, tangent: bool = True, U: np.ndarray | None = None):
-        """Residual on the free dofs and, with ``tangent``, its Jacobian (banded or CSR)."""
+    def evaluate(
+        self,
+        X: np.ndarray,
+        lam: float,
+        *,
+        tangent: bool = True,
+        U: np.ndarray | None = None,
+        full: bool = False,
+    ):
+        """Residual on the free dofs (``full``: on every dof; at the fixed ones it is the supports'
+        reaction) and, with ``tangent``, its Jacobian (banded or CSR)."""
         U = self.expand(X) if U is None else U
         g, H = self.energy_derivatives(U, lam, tangent)
         self.last_points = (U, g, H)  # pointwise derivatives of this evaluation (bend: dR/dsigma)
@@ -221,7 +230,7 @@ class RodSystem:
             else:
                 entries = (values.reshape(-1)[pattern.keep], (pattern.rows, pattern.cols))
                 K = K + sp.csr_matrix(entries, shape=K.shape)
-        return R[self.disc.free], K
+        return (R if full else R[self.disc.free]), K
 
     @property
     def symmetric(self) -> bool:

@@ -658,6 +658,34 @@ def elastica_tip_on_wall(
     return {"L": L, "tip": np.array([x, z]), "m0": E_b * dphi0, "k": k, "inflections": inflections}
 
 
+def lying_on_a_wall(L, EI, q, P) -> dict:
+    """A cantilever lying along a wall through its clamp (the wall x = 0, the tube on x <= 0, the
+    rod along +z), pressed onto it by a uniform dead load q per length (+x) and pulled off near the
+    tip by a dead tip force P (-x), q L > P > 0: the rod lies straight on the wall over [0, a] and
+    leaves it at a, where its moment vanishes (the curvature is continuous and zero on the wall);
+    over [a, L] it is a cantilever clamped along the wall with n(s) = (q (L - s) - P, 0). The one
+    unknown ell = L - a solves m(L) = 0 (brentq on the shooting of that free piece; small
+    deflection: ell = 2 P / q). The wall carries q a spread over [0, a] and a point reaction
+    q ell - P at a, q L - P in all (the clamp nothing). Returns a, tip (x, z), reaction."""
+    from scipy.optimize import brentq
+
+    def shoot(ell, dense=False):
+        a = L - ell
+
+        def rhs(s, y):
+            nx = q * (L - s) - P
+            return [math.sin(y[2]), math.cos(y[2]), y[3] / EI, -nx * math.cos(y[2])]
+
+        y0 = [0.0, a, 0.0, 0.0]
+        return solve_ivp(rhs, (a, L), y0, method="DOP853", rtol=RTOL, atol=ATOL * EI / L, dense_output=dense)
+
+    guess = 2 * P / q
+    lo, hi = 0.5 * guess, min(1.5 * guess, L)
+    ell = brentq(lambda e: shoot(e).y[3, -1], lo, hi, xtol=1e-15 * L, rtol=1e-14)
+    end = shoot(ell).y[:, -1]
+    return {"a": L - ell, "tip": np.array([end[0], end[1]]), "reaction": q * L - P, "point_reaction": q * ell - P}
+
+
 def propped_cantilever_reaction(P: float, a: float, L: float) -> float:
     """Small-deflection reaction of a frictionless tip support under a point load P at a from the
     clamp (Euler-Bernoulli): R = P a^2 (3L - a) / (2 L^3)."""

@@ -6,7 +6,7 @@ Targets: every step meets the contact targets (tip 1e-6 L, force 1e-4 relative, 
 positions 1e-4 L, L the step's free length). Interior contacts used to land on a mesh node (issue 31,
 measured at 60 / 80 / 100 mm: tip 3.4e-5 / 1.5e-4 / 3.3e-5 L, force 5.4e-2 / 3.2e-2 / 1.2e-2, contact
 s 1.4e-2 / 1.4e-2 / 3.3e-3 L, estimate blind ~1e-8); a mesh vertex now sits at each
-(matid.rod.api.contact_rounds: 2.2e-10 / 1.9e-10 / 9.1e-10 L, 2.2e-7 / 1.3e-7 / 1.4e-7, 1.7e-8 /
+(matid.rod.contact_rounds: 2.2e-10 / 1.9e-10 / 9.1e-10 L, 2.2e-7 / 1.3e-7 / 1.4e-7, 1.7e-8 /
 2.1e-8 / 4.5e-9 L, estimate 2.8e-7 / 9.5e-8 / 1.3e-7).
 """
 

@@ -6,9 +6,13 @@ gap g of :mod:`matid.physics.boundaries` at the outer radius R_o(s) there. The r
 is f = max(0, mu - k g) along grad g: the gradient of the augmented-Lagrangian energy
 (1/2k) max(0, mu - k g)^2, with the multiplier estimate mu held during a Newton solve. Newton
 on it is a semismooth Newton (its tangent k grad g grad g^T - f H_g on the nodes where f > 0);
-between Newton solves :func:`settle` updates mu <- f (Uzawa) until every gap is >= -tol and the
-reactions no longer change. ``method = "penalty"`` keeps mu = 0 and multiplies k by 10 instead
-(a penalty with continuation), until the penetration f/k is below tol.
+between Newton solves :func:`matid.rod.contact_rounds.settle` updates mu, until every gap is
+>= -tol and the loaded nodes meet their walls: by the linear complementarity problem of the loaded
+nodes (their multipliers >= 0 that close their gaps to first order, released where they would
+pull), Uzawa's mu <- f where it cannot be solved (issue 31: Uzawa alone crawled when loaded nodes
+sit close together, a contact between two nodes or a stretch). ``method = "penalty"`` keeps
+mu = 0 and multiplies k by 10 instead (a penalty with continuation), until the penetration f/k is
+below tol.
 
 The choice, measured (tests/rod/test_contact.py::test_method_comparison, P2, 16 elements,
 E L^2/E_b = 1e9, against the shooting reference of tests/rod/contact_reference.py; Newton
@@ -16,27 +20,29 @@ iterations of the continuation and the settling, the smallest gap (scaled by L),
 contact force relative error):
 
     case                       method       Newton   gap min    tip      force
-    tip force on a wall        augmented      19     -9e-15    3.2e-9   3.1e-9
+    tip force on a wall        augmented      16     1.5e-11   3.2e-9   3.1e-9
                                penalty        33     -2.4e-10  3.2e-9   1.2e-8
-    tip magnet on a wall       augmented      14     -2e-17    5.1e-8   3.4e-7
+    tip magnet on a wall       augmented       9     2.2e-11   5.1e-8   3.4e-7
                                penalty        30     -2.3e-10  5.1e-8   3.8e-7
-    propped cantilever 30 deg  augmented      10     -1e-16    1.5e-12  1.3e-9
+    propped cantilever 30 deg  augmented       7     2.2e-14   1.5e-12  1.3e-9
                                penalty        19     -1.8e-10  2.1e-10  5.3e-8
 
-The augmented Lagrangian is kept: half the Newton iterations (its k = 1e4 stays moderate, two or
-three multiplier updates meet the walls to round-off), while the penalty must climb to k ~ 1e10 to
-bring f/k below the tolerance and stops just inside it (a residual penetration of 2e-10 L, which
-costs it an order of magnitude in the force). One case went the other way: a wall the whole
-straight rod touches (x = R_o) with a point load at L/2 pressing the rod along it (a contact
-stretch, E L^2/E_b = 1e9, 16 elements): the augmented run stopped on Newton's round-off
-stagnation, the penalty converged in 25 iterations. Stiff rods lying along a wall are the weak case.
-The active set with a semismooth Newton on min(lambda, c g) (multipliers as unknowns) was not
-built: the terms' interface has no extra unknowns, and the augmented Lagrangian's inner Newton is
-already a semismooth Newton on the same active set.
+The augmented Lagrangian is kept: half the Newton iterations or fewer (its k = 1e4 stays
+moderate, one or two multiplier updates meet the walls within 1e-10 L), while the penalty must
+climb to k ~ 1e10 to bring f/k below the tolerance and stops just inside it (a residual
+penetration of 2e-10 L, which costs it an order of magnitude in the force). (With Uzawa's updates
+alone, before the complementarity step: 19, 14 and 10 iterations.) One case went the other way
+then: a wall the whole straight rod touches (x = R_o) with a point load at L/2 pressing the rod
+along it (a contact stretch, E L^2/E_b = 1e9, 16 elements): the augmented run stopped on Newton's
+round-off stagnation, the penalty converged in 25 iterations; stretches now settle
+(tests/rod/test_contact_stretch.py). The active set with a semismooth Newton on min(lambda, c g)
+(multipliers as unknowns) was not built: the terms' interface has no extra unknowns, and the
+complementarity step on the multipliers between Newton solves does its work.
 
-Every state :func:`settle` returns satisfies gap >= -tol at every node, has no reaction where the
-gap is open (complementarity: f = 0 where g > tol) and no pulling one (f >= 0 by construction),
-and is stable with its contacts: the stability test of :meth:`RodSystem.reject` factorises the
+Every state :func:`matid.rod.contact_rounds.settle` returns is checked
+(:func:`matid.rod.contact_rounds.check`, ContactStateError otherwise): gap >= -tol at every node,
+no reaction where the gap is open (complementarity: f = 0 where g > tol), no pulling one (f >= 0),
+and stable with its contacts: the stability test of :meth:`RodSystem.reject` factorises the
 tangent including the contact stiffness k grad g grad g^T of the active nodes (stability on the
 tangent space of the active constraints, as k grows).
 """
@@ -47,11 +53,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from matid.errors import ConvergenceError
 from matid.physics import kinematics as kin
 from matid.physics.boundaries import Centreline, lumen_gap, wall_gap
 from matid.rod.models import PLANAR
-from matid.rod.newton import NewtonFailure
 from matid.rod.terms.base import Scale, Term
 
 #: Multiplier of the augmented Lagrangian (scaled E_b/L^3) and the penalty's first k.
@@ -123,8 +127,9 @@ class Contact(Term):
         line = None if self.lumen is None else Centreline.rounded(self.lumen[0], self.lumen[2])
         k = K_AUGMENTED if self.method == "augmented" else K_PENALTY
         state = ContactState(k, np.zeros((len(self.names), nodes.size)))
+        held = ~np.any(system.disc.free[dofs], axis=1)  # the clamp: its node carries no contact force
         return {"s": s, "R": R, "dofs": dofs, "pattern": disc.block_pattern(dofs), "line": line,
-                "planar": system.model == PLANAR, "state": state}  # fmt: skip
+                "planar": system.model == PLANAR, "state": state, "held": held}  # fmt: skip
 
     def positions(self, prep, U: np.ndarray) -> np.ndarray:
         """(n, 3) centreline points at the nodes in the term's frame (planar: (x, 0, z))."""
@@ -143,6 +148,7 @@ class Contact(Term):
         """(f (boundaries, nodes) >= 0, gaps) at U."""
         state, gaps = prep["state"], self.gaps(prep, U)
         f = np.array([np.maximum(0.0, state.mu[b] - state.k * g) for b, (g, _, _) in enumerate(gaps)])
+        f[:, prep["held"]] = 0.0
         return f, gaps
 
     # -- what the system sums --------------------------------------------------
@@ -177,65 +183,138 @@ class Contact(Term):
         return None
 
     # -- what a solution reports -------------------------------------------------
-    def contacts(self, system, prep, U: np.ndarray) -> list[dict]:
-        """One entry per run of consecutive loaded nodes per boundary (scaled): boundary, s range
-        (a point: the force-weighted s twice when the run spans at most two nodes' intervals),
-        force-weighted position, resultant force (3D frame), smallest gap of the boundary."""
-        f, gaps = self.forces(prep, U)
-        r, s = self.positions(prep, U), prep["s"]
+    def runs(self, f: np.ndarray, gaps: list, s: np.ndarray) -> list[tuple[int, np.ndarray]]:
+        """(boundary, node indices of one contact) per contact, in order of s: runs of consecutive
+        loaded nodes, merged across unloaded nodes that stay within the scene's tolerance of the
+        wall (at the round-off of the complementarity a node of a stretch can carry nothing), and
+        across at most two unloaded nodes next to a stretch (more than three loaded nodes): a coarse
+        mesh lifts a few nodes by up to 1e-5 L where the rod leaves a wall and loads the node
+        beyond, which is no point contact of its own."""
         order = np.argsort(s)
+        near = self.tolerance / CONTACT_FRACTION
         out = []
-        for b, (g, grad, _) in enumerate(gaps):
-            fb = f[b][order]
+        for b, (g, _, _) in enumerate(gaps):
+            fb, gb = f[b][order], g[order]
             loaded = np.flatnonzero(fb > 0)
             if loaded.size == 0:
                 continue
-            runs = np.split(loaded, np.flatnonzero(np.diff(loaded) > 1) + 1)
-            for run in runs:
-                idx = order[run]
-                w = f[b][idx]
-                F = (w[:, None] * grad[idx]).sum(axis=0)  # the reaction on the tube: f grad g
-                sc = float(w @ s[idx] / w.sum())
-                span = (sc, sc) if run.size <= 3 else (float(s[idx].min()), float(s[idx].max()))
-                out.append({
-                    "boundary": self.names[b], "s": span,
-                    "position": (w @ r[idx]) / w.sum(), "force": F,
-                    "gap_min": float(g.min()),
-                })  # fmt: skip
-        return out
-
-    def touch_points(self, system, prep, U: np.ndarray) -> list[tuple[float, float, float]]:
-        """Per point contact (a run of at most three loaded nodes, as :meth:`contacts`), in order:
-        (s where the P2 interpolant of its boundary's gap is smallest on the elements holding the
-        loaded nodes, s of its most loaded node, the gap's slope dg/ds = grad g . d3 there), scaled.
-        A contact on a node away from the true touching point leaves the rod crossing the wall
-        beside it (where the gap is smallest) and not tangent to it (slope != 0): what
-        matid.rod.api.contact_rounds moves a mesh vertex by (issue 31)."""
-        f, gaps = self.forces(prep, U)
-        s, nf = prep["s"], system.disc.nf
-        order = np.argsort(s)
-        ss, out = s[order], []
-        for b, (g, grad, _) in enumerate(gaps):
-            fb, gb = f[b][order], g[order]
-            loaded = np.flatnonzero(fb > 0)
-            for run in np.split(loaded, np.flatnonzero(np.diff(loaded) > 1) + 1):
-                if run.size == 0 or run.size > 3:
-                    continue
-                firsts = {2 * (i // 2) for i in run} | {2 * ((i - 1) // 2) for i in run if i % 2 == 0 and i > 0}
-                best = min(_smallest(ss[e : e + 3], gb[e : e + 3]) for e in firsts if e + 2 < ss.size)
-                node = int(order[run[np.argmax(fb[run])]])
-                if prep["planar"]:
-                    theta = U[node * nf + 2]
-                    d3 = np.array([np.sin(theta), 0.0, np.cos(theta)])
+            pairs = zip(loaded[:-1], loaded[1:], strict=True)
+            cuts = [k + 1 for k, (i, j) in enumerate(pairs) if np.any(gb[i + 1 : j] > near)]
+            runs = np.split(loaded, cuts)
+            k = 0
+            while k + 1 < len(runs):  # a stretch takes in a run at most two unloaded nodes away
+                a, c = runs[k], runs[k + 1]
+                if c[0] - a[-1] <= 3 and max(a.size, c.size) > 3:
+                    runs[k : k + 2] = [np.concatenate([a, c])]
+                    k = max(k - 1, 0)
                 else:
-                    d3 = np.array(kin.d3(U[node * nf + 3 : node * nf + 7]))
-                out.append((best[1], float(s[node]), float(grad[node] @ d3)))
+                    k += 1
+            out += [(b, order[run]) for run in runs]
+        return sorted(out, key=lambda run: (float(s[run[1]].min()), run[0]))
+
+    def contacts(self, system, prep, U: np.ndarray, f: np.ndarray | None = None) -> list[dict]:
+        """One entry per contact (:meth:`runs`) (scaled): boundary, s range (a point: the
+        force-weighted s twice when the run spans at most three nodes), force-weighted position,
+        resultant force (3D frame), smallest gap of the boundary. ``f``: the reactions (default
+        :meth:`forces`; :func:`matid.rod.contact_rounds.report` adds the clamp's on a wall it touches)."""
+        f0, gaps = self.forces(prep, U)
+        f = f0 if f is None else f
+        r, s = self.positions(prep, U), prep["s"]
+        out = []
+        for b, idx in self.runs(f, gaps, s):
+            g, grad = gaps[b][0], gaps[b][1]
+            w = f[b][idx]
+            F = (w[:, None] * grad[idx]).sum(axis=0)  # the reaction on the tube: f grad g
+            sc = float(w @ s[idx] / w.sum())
+            span = (sc, sc) if idx.size <= 3 else self._span(system, prep, U, gaps[b], idx)
+            out.append({
+                "boundary": self.names[b], "s": span,
+                "position": (w @ r[idx]) / w.sum(), "force": F,
+                "gap_min": float(g.min()),
+            })  # fmt: skip
         return out
 
-    def quantities(self, system, prep, U: np.ndarray) -> np.ndarray:
+    def directors(self, system, prep, U: np.ndarray, nodes) -> np.ndarray:
+        """d3 (n, 3) at the given nodes, in the term's frame."""
+        nf, nodes = system.disc.nf, np.asarray(nodes)
+        if prep["planar"]:
+            theta = U[nodes * nf + 2]
+            return np.stack([np.sin(theta), np.zeros(theta.size), np.cos(theta)], axis=1)
+        q = U[nodes[:, None] * nf + np.arange(3, 7)]
+        return np.array(kin.d3(q.T)).T
+
+    def touch_points(self, system, prep, U: np.ndarray, f: np.ndarray | None = None) -> list[tuple]:
+        """Per point contact (a run of at most three nodes, :meth:`runs`), in order: (s where the
+        P2 interpolant of its boundary's gap is smallest on the elements holding the loaded nodes,
+        s of its most loaded node, the gap's slope dg/ds = grad g . d3 there), scaled. A contact on
+        a node away from the true touching point leaves the rod crossing the wall beside it and not
+        tangent to it (slope != 0): what matid.rod.contact_rounds.contact_rounds moves a mesh
+        vertex by (issue 31). A stretch gets no vertex: where it leaves the wall is estimated on
+        one element (:meth:`_leaves`), 3e-3 L off on the coarse meshes that settle the tip, and
+        rounds on it did not settle in 6 (measured: a cantilever pressed on a wall by a load and
+        pulled off by a tip force, q L^3/E_b = 10, P L^2/E_b = 2); the estimate covers its O(h)
+        end on nested meshes (tests/rod/test_contact_stretch.py)."""
+        f0, gaps = self.forces(prep, U)
+        f = f0 if f is None else f
+        s = prep["s"]
+        order = np.argsort(s)
+        ss, rank = s[order], np.argsort(order)
+        out = []
+        for b, idx in self.runs(f, gaps, s):
+            g, grad, H = gaps[b]
+            sorted_idx = np.sort(rank[idx])
+            if idx.size > 3:  # a stretch
+                continue
+            gb = g[order]
+            firsts = {2 * (i // 2) for i in sorted_idx}
+            firsts |= {2 * ((i - 1) // 2) for i in sorted_idx if i % 2 == 0 and i > 0}
+            best = min(_smallest(ss[e : e + 3], gb[e : e + 3]) for e in firsts if e + 2 < ss.size)
+            node = int(idx[np.argmax(f[b][idx])])
+            d3 = self.directors(system, prep, U, [node])[0]
+            out.append((best[1], float(s[node]), float(grad[node] @ d3)))
+        return out
+
+    def _span(self, system, prep, U, gap, idx) -> tuple[float, float]:
+        """(from, to) of a stretch: each end where the rod leaves the wall (:meth:`_leaves`) when
+        that lies within an element of its last loaded node, else that node (the clamp, the tip)."""
+        s = prep["s"]
+        order = np.argsort(s)
+        ss, rank = s[order], np.argsort(order)
+        ranks = np.sort(rank[idx])
+        ends = []
+        for end, side in ((ranks[0], -1), (ranks[-1], 1)):
+            point = self._leaves(system, prep, U, gap, order, ss, end, side)
+            near = ss[np.clip(end - 2 * side, 0, ss.size - 1)], ss[np.clip(end + 2 * side, 0, ss.size - 1)]
+            ok = point is not None and min(near) <= point <= max(near)
+            ends.append(float(point) if ok else float(ss[end]))
+        return ends[0], ends[1]
+
+    def _leaves(self, system, prep, U, gap, order, ss, end: int, side: int) -> float | None:
+        """Where the rod leaves the wall beyond the stretch node ``end`` (sorted index) on ``side``
+        (+1 towards the tip, -1 towards the clamp), or None at the clamp's or the tip's element."""
+        v = end + (end % 2) if side > 0 else end - (end % 2)  # the vertex closing the loaded nodes
+        lo = v if side > 0 else v - 2
+        if lo < 2 or lo + 2 > ss.size - 3:  # the clamp's element, or the tip's: no vertex wanted
+            return None
+        nodes = order[lo : lo + 3]
+        se = ss[lo : lo + 3]
+        d3 = self.directors(system, prep, U, nodes)
+        dd3 = np.array([np.polyval(np.polyder(np.polyfit(se, d3[:, c], 2)), se) for c in range(3)]).T
+        _, grad, H = gap
+        psi = np.einsum("ij,ij->i", grad[nodes], dd3)
+        if H is not None:
+            psi += np.einsum("ij,ijk,ik->i", d3, H[nodes], d3)
+        slope, value = np.polyfit(se, psi, 1)
+        if slope == 0.0:
+            return None
+        h = se[2] - se[0]
+        return float(np.clip(-value / slope, se[0] - h, se[2] + h))
+
+    def quantities(self, system, prep, U: np.ndarray, f: np.ndarray | None = None) -> np.ndarray:
         """Per boundary: the resultant force (3) and the force-weighted s: what the error estimate
         follows beyond the tip."""
-        f, gaps = self.forces(prep, U)
+        f0, gaps = self.forces(prep, U)
+        f = f0 if f is None else f
         s = prep["s"]
         out = []
         for b, (_, grad, _) in enumerate(gaps):
@@ -256,53 +335,6 @@ def _smallest(s: np.ndarray, g: np.ndarray) -> tuple[float, float]:
 
 def contact_of(system) -> tuple[Contact, dict] | None:
     return next(((t, p) for t, p in system.nodal if isinstance(t, Contact)), None)
-
-
-def settle(system, X: np.ndarray, info, newton, admissible) -> np.ndarray:
-    """The converged state X (at load 1) of a system with contact brought to the walls: multiplier
-    updates (augmented) or penalty increases, each followed by Newton, until the penetration is
-    below tol and the reactions settle; then checked (:meth:`Contact.reject`, stability).
-    ``newton`` and ``admissible`` are :func:`matid.rod.newton.newton` and its check (passed in:
-    newton sits above the terms). Raises ConvergenceError when it cannot."""
-    bound = contact_of(system)
-    if bound is None:
-        return X
-    term, prep = bound
-    state = prep["state"]
-    lu = info.lu
-    for outer in range(MAX_OUTER + 1):
-        f, gaps = term.forces(prep, system.expand(X))
-        penetration = max(0.0, -min(float(g.min()) for g, _, _ in gaps))
-        if term.method == "penalty":
-            if penetration <= term.tolerance:
-                break
-            state.k *= 10.0
-        else:
-            change = float(np.abs(f - state.mu).max())
-            if penetration <= term.tolerance and change <= 1e-10 * max(1.0, float(f.max())):
-                break
-            state.mu = f
-        if outer == MAX_OUTER:
-            raise ConvergenceError(
-                f"contact: the walls are not met within {term.tolerance:.3g} L after {MAX_OUTER} "
-                f"{'penalty increases' if term.method == 'penalty' else 'multiplier updates'}",
-                load_factor=1.0,
-            )
-        try:
-            X, its, lu = newton(system, X, 1.0)
-        except NewtonFailure as exc:
-            message = f"contact: Newton failed while settling the contacts ({exc})"
-            raise ConvergenceError(message, load_factor=1.0) from exc
-        state.outer += 1
-        state.newton += its
-        info.iterations += its
-    state.checking = True
-    try:
-        admissible(system, X, 1.0, lu)
-    except NewtonFailure as exc:
-        raise ConvergenceError(f"contact: {exc}", load_factor=1.0) from exc
-    info.lu = lu
-    return X
 
 
 def to_lab(entries: list[dict], e_a, L: float, E_b: float) -> list[dict]:
