@@ -142,7 +142,9 @@ def keep_out_of(scene: Scene, e_a, passes: int = 4):
     direction (its (transverse, normal, axial) frame), None for the full model."""
     if not scene.walls and scene.lumen is None:
         return None
-    frame = np.eye(3) if e_a is None else np.array([[e_a[0], e_a[1], 0.0], [-e_a[1], e_a[0], 0.0], [0, 0, 1.0]])
+    frame = np.eye(3)
+    if e_a is not None:
+        frame = np.array([[e_a[0], e_a[1], 0.0], [-e_a[1], e_a[0], 0.0], [0.0, 0.0, 1.0]])
     walls = [(frame @ np.asarray(w.point, float), frame @ np.asarray(w.normal, float)) for w in scene.walls]
     line = None
     if scene.lumen is not None:
@@ -248,4 +250,3 @@ def step_entry(free: float, sol, substeps: int = 0) -> dict:
         "discretization_error": None if sol.discretization_error is None else float(sol.discretization_error),
         "warnings": list(sol.extra.get("warnings", [])),
     }
-

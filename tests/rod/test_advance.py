@@ -123,7 +123,8 @@ def test_a_step_that_cannot_be_reached_is_named():
             raise ConvergenceError("Newton failed", load_factor=0.25)
         return solve(step), None
 
-    with pytest.raises(ConvergenceError, match=r"step 3 \(free length 60 mm, reached 50 mm\).*load factor 0.25"):
+    says = r"step 3 \(free length 60 mm, reached 50 mm\).*load factor 0.25"
+    with pytest.raises(ConvergenceError, match=says):
         A.solve_steps(scene, failing)
 
 
@@ -145,7 +146,10 @@ def test_a_step_that_fails_is_reached_through_halved_increments():
     steps = A.solve_steps(scene, short_steps)
     assert asked == [20, 10, 20, 40, 30, 40, 50]
     assert [(s.free, s.solution, s.substeps) for s in steps] == [
-        (0.02, "solution at 0.02", 1), (0.04, "solution at 0.04", 1), (0.05, "solution at 0.05", 0)]  # fmt: skip
+        (0.02, "solution at 0.02", 1),
+        (0.04, "solution at 0.04", 1),
+        (0.05, "solution at 0.05", 0),
+    ]
 
 
 def test_the_shortest_sub_step_is_a_fraction_of_the_free_length():
