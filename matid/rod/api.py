@@ -145,11 +145,12 @@ def _solve_forward(scene: Scene, *, elements, model, variant, element, start=Non
 
 def _solve_advanced(scene: Scene, **options):
     """:func:`solve` of a scene with ``[advance]``: every step in order, each warm-started from the
-    last (:mod:`matid.rod.advance`); the last step's Solution with ``steps`` in its extra."""
+    last, through intermediate free lengths where it must (:mod:`matid.rod.advance`); the last
+    step's Solution with ``steps`` in its extra (each with its ``substeps``)."""
     steps = solve_steps(scene, lambda step, start: _solve_forward(step, start=start, **options))
-    free, sol, _ = steps[-1]
-    entries = [step_entry(f, s) for f, s, _ in steps]
-    runtime = sum(s.runtime_s for _, s, _ in steps)
+    free, sol = steps[-1].free, steps[-1].solution
+    entries = [step_entry(s.free, s.solution, s.substeps) for s in steps]
+    runtime = sum(s.runtime_s for s in steps)  # sub-steps included
     return replace(sol, runtime_s=runtime, extra={**sol.extra, "steps": entries, "free_length": free})
 
 

@@ -305,8 +305,11 @@ TABLES: tuple[Table, ...] = (
     Table(
         "advance",
         "quasi-static insertion out of a sheath at the clamp: [rod] length is the whole tube, each step "
-        "models its distal free length, solved in order, each from the last (examples/scenes/"
-        "advance_channel.toml, advance_lumen.toml)",
+        "models its distal free length, solved in order, each from the last (its shape kept, the new "
+        "length continued along the tip and kept inside the walls and lumen); a step that does not "
+        "solve from there is reached through intermediate free lengths (the failed increment halved, "
+        "down to 1/64 of the free length), counted in its `substeps` in solution.json "
+        "(examples/scenes/advance_channel.toml, advance_lumen.toml)",
         (
             Key("free_lengths", "lengths", "free lengths, each in (0, length], in the order pushed",
                 '["10 mm", "20 mm", "30 mm"]', "length", LENGTH),
