@@ -210,3 +210,15 @@ def test_example_magnetic_cantilever_is_the_benchmark():
 
 # Every example scene against an independent reference: tests/test_examples.py (it replaces the
 # check that three of them converged with finite values and |d3| = 1).
+
+
+def test_an_unloaded_scene_beside_an_oblique_wall_has_a_finite_plane():
+    """With no load the scale of plane_of is 1e-300: its wall direction (0.6, 0.8) times it
+    underflowed np.linalg.norm to 0, and the plane was NaN (the pulling-reaction check's scene)."""
+    from matid.rod.scenes import plane_of
+
+    scene = scene_from_dict({
+        "rod": {"length": 0.03, "E_b": 6.5e-5, "E_t": 4.4e-5, "E_s": 21.0, "E_e": 120.0, "outer_diameter": 1e-3},
+        "wall": [{"point": [0.006, 0.008, 0.0], "normal": [-0.6, -0.8, 0.0]}],
+    })  # fmt: skip
+    assert plane_of(scene) == pytest.approx((-0.6, -0.8, 0.0), rel=1e-15)  # along the normal
