@@ -94,7 +94,7 @@ def status(est: Estimate, fit: TestFit | None = None) -> Status:
         interval = _interval_problem(est)
         if interval:
             return Status("not_identifiable", interval, instead)
-    partner, r = _strongest_correlation(est.parameter, fit, sls_k1=est.method != "linear")
+    partner, r = _strongest_correlation(est.parameter, fit, sls_k1=est.method != "ramp-line")
     if partner and abs(r) >= INSEPARABLE_R:
         why = f"{est.parameter} and {partner} are inseparable (r = {r:+.4f}): the data fix a combination"
         return Status("not_identifiable", why, instead)

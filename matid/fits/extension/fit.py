@@ -194,7 +194,7 @@ def _ramp_line(e_e: Estimate, runs) -> Estimate:
         value=slope,
         stderr=se,
         ci95=interval(slope, se, dof),
-        method="linear",
+        method="ramp-line",
         warnings=(_RAMP_LINE,),
         extra={"ci_method": "t"},
     )
@@ -204,7 +204,7 @@ def _nonlinear(e_e: Estimate, runs, k, best: prony.PronyFit | None) -> Estimate:
     """E_e with its interval spanning the elastic tangents over the strain range, and why, when
     the force is not linear in strain (:func:`checks.nonlinear`); the relaxing part is that of
     the model that gave E_e (the preferred Prony series, else the SLS; none for the ramp's line)."""
-    if e_e.method == "linear":
+    if e_e.method == "ramp-line":
         zeros = [np.zeros(run.t.size) for run in runs]
         found = nonlinear(runs, zeros, e_e.value, "the force's own tangent")
         return e_e if found is None else _widened(e_e, *found)
