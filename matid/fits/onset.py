@@ -7,7 +7,8 @@ the noise); the range is found in x, with no start at zero or direction assumed:
       [-1, 1]; u|u| for records symmetric about their middle),
       divided by the AR(1) variance factor of the noise and taken on n_eff dof
       (correlated noise is not curvature). The noise is the residual, in recording
-      order, of a smooth Legendre series (degree <= 12): the alternative's own residuals
+      order, of a smooth Legendre series (degree <= 12, raised while it misses a curve by
+      more than twice the model-free noise, as a yield's kink): the alternative's own residuals
       would count a curve it misses as correlated noise. Passing: every row.
    b. Otherwise the onsets of departure at either end by segmented regression,
       ``y = c + a u + b_lo min(u - u_lo, 0)^2 + b_hi max(u - u_hi, 0)^2`` (C^1 departures:
@@ -26,6 +27,8 @@ the noise); the range is found in x, with no start at zero or direction assumed:
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import scipy.special
@@ -52,14 +55,37 @@ def _curvature_p(u: np.ndarray, y: np.ndarray, order: np.ndarray) -> float:
 NOISE_DEGREE = 12
 
 
+#: The series follows the curve until its residuals are within this factor of the model-free
+#: noise (second differences) ...
+NOISE_FOLLOWS = 2.0
+#: ... raising its degree by this factor, up to one degree per ten rows and NOISE_DEGREE_MAX.
+NOISE_DEGREE_GROWTH = 1.5
+NOISE_DEGREE_MAX = 40
+
+
 def _noise_factor(u: np.ndarray, y: np.ndarray, order: np.ndarray) -> tuple[float, float]:
     """(f, n_eff) of :func:`matid.fits.stats.variance_factor` on the residuals, in recording
     order, of a Legendre series of degree up to NOISE_DEGREE: a curve the test's
-    alternative misses would otherwise be read as correlated noise, and hide itself."""
+    alternative misses would otherwise be read as correlated noise, and hide itself.
+
+    A curve that a series of that degree cannot follow either (a kink in the slope, as a yield's,
+    on a record of low noise) leaves residuals far above the noise, and they would be read as
+    noise of correlation near 1 (rho 0.98 on a flexural coupon: factor 81, the yield unseen). So
+    while the residuals' sd exceeds NOISE_FOLLOWS x the model-free noise of
+    :func:`matid.fits.stats.difference_noise`, the degree rises by NOISE_DEGREE_GROWTH, up to one
+    per ten rows and NOISE_DEGREE_MAX (at most four more fits). Noise itself (i.i.d. residuals
+    about the model-free level, or AR(1) up to rho ~0.7, whose sd lies within that factor of its
+    second-difference level) stops it at once.
+    """
     degree = int(min(NOISE_DEGREE, max(6, u.size // 10)))
+    top = max(degree, min(u.size // 10, NOISE_DEGREE_MAX))
     scaled = (u - u.min()) / max(float(np.ptp(u)), 1e-300) * 2.0 - 1.0
-    resid, rank = _legendre_fit(scaled, y, degree)  # orthogonal on [-1, 1]
-    return stats.variance_factor(resid[np.argsort(order)], n_params=rank)
+    level = NOISE_FOLLOWS * stats.difference_noise(y[np.argsort(order)])
+    while True:
+        resid, rank = _legendre_fit(scaled, y, degree)  # orthogonal on [-1, 1]
+        if degree >= top or float(np.sqrt(np.mean(resid**2))) <= level:
+            return stats.variance_factor(resid[np.argsort(order)], n_params=rank)
+        degree = min(int(math.ceil(degree * NOISE_DEGREE_GROWTH)), top)
 
 
 def _legendre_fit(x: np.ndarray, y: np.ndarray, degree: int) -> tuple[np.ndarray, int]:

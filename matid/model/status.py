@@ -94,7 +94,7 @@ def status(est: Estimate, fit: TestFit | None = None) -> Status:
         interval = _interval_problem(est)
         if interval:
             return Status("not_identifiable", interval, instead)
-    partner, r = _strongest_correlation(est.parameter, fit)
+    partner, r = _strongest_correlation(est.parameter, fit, sls_k1=est.method != "ramp-line")
     if partner and abs(r) >= INSEPARABLE_R:
         why = f"{est.parameter} and {partner} are inseparable (r = {r:+.4f}): the data fix a combination"
         return Status("not_identifiable", why, instead)
@@ -145,15 +145,18 @@ def _interval_problem(est: Estimate) -> str:
     return ""
 
 
-def _strongest_correlation(parameter: str, fit: TestFit | None) -> tuple[str | None, float]:
-    """The fitted parameter most correlated with ``parameter`` in ``fit.correlation`` ("a|b" -> r)."""
+def _strongest_correlation(
+    parameter: str, fit: TestFit | None, *, sls_k1: bool = True
+) -> tuple[str | None, float]:
+    """The fitted parameter most correlated with ``parameter`` in ``fit.correlation`` ("a|b" -> r);
+    E_e's are sls_k1's unless ``sls_k1`` is false (E_e from a line, not from the SLS)."""
     best: tuple[str | None, float] = (None, 0.0)
     for pair, r in (fit.correlation if fit else {}).items():
         a, _, b = str(pair).partition("|")
         names = {a: b, b: a}
         if parameter in names and math.isfinite(r) and abs(r) > abs(best[1]):
             best = (names[parameter], float(r))
-        if parameter == "E_e" and "sls_k1" in names and math.isfinite(r) and abs(r) > abs(best[1]):
+        if sls_k1 and parameter == "E_e" and "sls_k1" in names and math.isfinite(r) and abs(r) > abs(best[1]):
             best = (names["sls_k1"], float(r))  # E_e is k1 of the SLS
     return best
 

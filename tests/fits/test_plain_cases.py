@@ -154,15 +154,6 @@ def test_bend_with_noise_of_either_sign_around_zero_before_contact(seed):
     assert below.any() and not np.any(fit.series[0].used & below), "rows before contact entered the fit"
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known defect (issue 28): window.toe_offset takes D790's tangent from one window of n/8 rows, "
-    "whose noise moves d0 by ~0.3 % of the range and E_s by 1.2-2.4 %; the line over onset.linear_range "
-    "from there gives d0 exactly, but then the Bluehill corpus record's yield goes undetected "
-    "(onset's curvature test passes 0.3-1.7 mm once the last toe row is out: p = 0.19, because "
-    "onset._noise_factor reads the residuals of its degree-12 Legendre series, which keep the yield's "
-    "kink on that low-noise record, as AR(1) noise with rho ~0.98: factor 81, n_eff 3.5)",
-)
 @pytest.mark.parametrize("seed", range(3))
 def test_bend_with_a_toe_before_contact(seed):
     """Slack: the nose travels a fifth of the record at nearly no force (a quadratic toe), then

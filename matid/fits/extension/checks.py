@@ -86,7 +86,9 @@ _HOLD_ROWS = 20
 _ABOVE_SE = 3.0
 
 
-def end_of_hold(runs: Sequence[_Run], e_e: float, se_e: float | None) -> tuple[str, float] | None:
+def end_of_hold(
+    runs: Sequence[_Run], e_e: float, se_e: float | None, offsets: Sequence[float] | None = None
+) -> tuple[str, float] | None:
     """(warning, lower end of E_e's interval) when E_e lies above the stiffness a run measured at
     the end of its hold, else None.
 
@@ -97,10 +99,11 @@ def end_of_hold(runs: Sequence[_Run], e_e: float, se_e: float | None) -> tuple[s
     last half of the hold, ``G = a + b ln s`` (s: time since the hold began), gives G_end at the
     end and b, the fall per e-fold of time; the interval then reaches down to where one more
     decade of hold at that rate would bring it, ``G_end + b ln 10`` (to G_end less its 95 % error
-    when G no longer falls).
+    when G no longer falls). A run with a force offset c (slack or preload, ``offsets``) reads
+    ``G = (F - c) / eps``.
     """
     found = None
-    for run in runs:
+    for run, c in zip(runs, offsets if offsets is not None else [0.0] * len(runs), strict=True):
         eps, force, t = run.eps, run.force, run.t
         tol = _HOLD_STRAIN * float(np.ptp(eps))
         moved = np.flatnonzero(~(np.abs(eps - eps[-1]) <= tol) | ~run.used)
@@ -111,7 +114,7 @@ def end_of_hold(runs: Sequence[_Run], e_e: float, se_e: float | None) -> tuple[s
         last = s >= s[-1] / 2.0
         if last.sum() < _HOLD_ROWS:
             continue
-        g = force[start:][last] / eps[start:][last]
+        g = (force[start:][last] - c) / eps[start:][last]
         design = np.column_stack([np.ones(int(last.sum())), np.log(s[last] / s[-1])])
         coef, *_ = np.linalg.lstsq(design, g, rcond=None)
         resid = g - design @ coef
@@ -152,6 +155,23 @@ def single_ramps(runs: Sequence[_Run]) -> bool:
             return False
     rates = [run.rate for run in runs]
     return max(rates) <= 1.1 * min(rates)
+
+
+def ramp_line(runs: Sequence[_Run]) -> tuple[float, float, float]:
+    """(slope, standard error, dof) of ``F = c_j + S eps`` over the used rows of single-ramp runs,
+    one intercept per run, each run weighted by its noise; the AR(1) sandwich of
+    :func:`matid.fits.stats.ar1_covariance`. Raises ValueError when the rows cannot give it."""
+    blocks = []
+    for j, run in enumerate(runs):
+        eps, force, s = run.eps[run.used], run.force[run.used], run.noise
+        design = np.zeros((eps.size, len(runs) + 1))
+        design[:, 0], design[:, j + 1] = eps / s, 1.0 / s
+        blocks.append((design, force / s))
+    design = np.vstack([b[0] for b in blocks])
+    y = np.concatenate([b[1] for b in blocks])
+    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+    cov = stats.ar1_covariance(design, y - design @ coef, [int(run.used.sum()) for run in runs])
+    return float(coef[0]), float(cov.stderr[0]), cov.dof
 
 
 def nonlinear(

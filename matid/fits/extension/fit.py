@@ -25,6 +25,13 @@ the least squares and its starts (:mod:`matid.fits.extension.lsq`), standard err
 (:mod:`matid.fits.extension.stats`), the bin means of long records
 (:mod:`matid.fits.extension.reduce`), identifiability and cautions
 (:mod:`matid.fits.extension.checks`); this module assembles the estimates.
+
+A run that takes up slack or starts at a preload (:mod:`matid.fits.extension.start`) starts where
+the strip becomes taut, from rest, with a free force offset ``F = c + k1 eps + f2`` (projected out
+of the least squares, :mod:`matid.fits.extension.lsq`); E_e says so. Single ramps at one rate
+whose SLS resolves no relaxation (k2 and eta not identifiable) cannot fix k1 (a slow arm is a
+spring over the ramp: k1 slides along a valley of k1 + k2): E_e is then the slope of the force
+over the rows used, the stiffness at that rate, and says why (:func:`_ramp_line`).
 """
 
 from __future__ import annotations
@@ -38,10 +45,18 @@ import numpy as np
 
 from matid.errors import FitError
 from matid.fits.extension import prony
-from matid.fits.extension.checks import _k1_warnings, _unidentifiable, end_of_hold, nonlinear, single_ramps
-from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _models, _solve, _values
+from matid.fits.extension.checks import (
+    _k1_warnings,
+    _unidentifiable,
+    end_of_hold,
+    nonlinear,
+    ramp_line,
+    single_ramps,
+)
+from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _models, _offset, _solve, _values, n_params
 from matid.fits.extension.runs import _Run, _run, _unique
 from matid.fits.extension.stats import _correlation, _covariance_fit, _intervals, _misfit, _sandwich, _stderr
+from matid.fits.stats import interval
 from matid.model.kind import Kind
 from matid.model.results import Estimate, Series, TestFit
 
@@ -129,6 +144,7 @@ def _plot_prony(plot_data: dict, runs, fit: prony.PronyFit) -> None:
     alike on a long record) and the model's name (``model``) for the force-time figure."""
     for run in runs:
         force = prony.prony_force(run.t, run.eps, fit.k0, fit.ks, fit.taus)
+        force = force + _offset(run, force)
         plot_data["force_time"][run.name]["prony_N"] = _plotted(run, force)["model_N"]
     arms = len(fit.taus)
     plot_data["model"] = f"Prony series, {arms} arm{'s' if arms > 1 else ''} (preferred by BIC; gives E_e)"
@@ -139,7 +155,8 @@ def _prony(runs, sigma, k, fixed_k):
     if fixed_k:
         return None, (), None, None
     data = [
-        prony.Data(r.t, r.eps, r.force, r.used, float(s), r.reduce) for r, s in zip(runs, sigma, strict=True)
+        prony.Data(r.t, r.eps, r.force, r.used, float(s), r.reduce, r.offset)
+        for r, s in zip(runs, sigma, strict=True)
     ]
     choice = prony.choose(data)
     if choice is None or choice.best == 1:
@@ -154,10 +171,43 @@ def _widened(e_e: Estimate, warning: str, low: float, high: float) -> Estimate:
     return replace(e_e, ci95=ci, warnings=(warning, *e_e.warnings))
 
 
+#: Why E_e is the ramp's line (:func:`_ramp_line`).
+_RAMP_LINE = (
+    "a single ramp at one rate cannot tell relaxation from the elastic response, and the standard "
+    "linear solid resolves none here (its k2 and eta stay undetermined): E_e is the slope of the line "
+    "force = c + E_e strain over the rows used, the stiffness at this rate (any relaxing part is in "
+    "it: the equilibrium stiffness may be lower); a hold or a second rate would part them, and a "
+    "window on strain where the force is straight gives the small-strain value"
+)
+
+
+def _ramp_line(e_e: Estimate, runs) -> Estimate:
+    """E_e as the slope of the force over the used rows of single-ramp runs whose SLS resolves no
+    relaxation: there k1 lies anywhere along a valley of k1 + k2 (a slow arm is a spring over
+    the ramp), while the slope is what the record determines."""
+    try:
+        slope, se, dof = ramp_line(runs)
+    except (ValueError, np.linalg.LinAlgError):
+        return e_e
+    return replace(
+        e_e,
+        value=slope,
+        stderr=se,
+        ci95=interval(slope, se, dof),
+        method="ramp-line",
+        warnings=(_RAMP_LINE,),
+        extra={"ci_method": "t"},
+    )
+
+
 def _nonlinear(e_e: Estimate, runs, k, best: prony.PronyFit | None) -> Estimate:
     """E_e with its interval spanning the elastic tangents over the strain range, and why, when
     the force is not linear in strain (:func:`checks.nonlinear`); the relaxing part is that of
-    the model that gave E_e (the preferred Prony series, else the SLS)."""
+    the model that gave E_e (the preferred Prony series, else the SLS; none for the ramp's line)."""
+    if e_e.method == "ramp-line":
+        zeros = [np.zeros(run.t.size) for run in runs]
+        found = nonlinear(runs, zeros, e_e.value, "the force's own tangent")
+        return e_e if found is None else _widened(e_e, *found)
     if best is None:
         relaxing = [run.history.force(0.0, k["k2"], k["eta"]) for run in runs]
     else:
@@ -172,14 +222,35 @@ def _nonlinear(e_e: Estimate, runs, k, best: prony.PronyFit | None) -> Estimate:
     return e_e if found is None else _widened(e_e, *found)
 
 
-def _below_hold(e_e: Estimate, runs) -> Estimate:
+def _offsets(runs, k, best: prony.PronyFit | None) -> list[float]:
+    """Each run's force offset (0 for a run without one) under the model that gave E_e: the
+    preferred Prony series (``best``), else the SLS."""
+    if best is None:
+        forces = [run.history.force(k["k1"], k["k2"], k["eta"]) for run in runs]
+    else:
+        forces = [prony.prony_force(run.t, run.eps, best.k0, best.ks, best.taus) for run in runs]
+    return [_offset(run, f) for run, f in zip(runs, forces, strict=True)]
+
+
+def _below_hold(e_e: Estimate, runs, offsets: Sequence[float]) -> Estimate:
     """E_e with its interval reaching down to what a run's hold allows, and why, when it lies
     above the stiffness measured at the end of that hold (:func:`checks.end_of_hold`)."""
-    found = end_of_hold(runs, e_e.value, e_e.stderr)
+    found = end_of_hold(runs, e_e.value, e_e.stderr, offsets)
     if found is None:
         return e_e
     warning, low = found
     return _widened(e_e, warning, low, -math.inf)
+
+
+def _started(e_e: Estimate, runs, offsets: Sequence[float]) -> Estimate:
+    """E_e with a warning per run that starts at slack or a preload: what was found, where the
+    fit starts and the force offset it fitted (:mod:`matid.fits.extension.start`)."""
+    said = [
+        f"{run.name}: {run.start.reason()}: force offset {c:.4g} N; check the plot of its start"
+        for run, c in zip(runs, offsets, strict=True)
+        if run.start is not None
+    ]
+    return replace(e_e, warnings=(*e_e.warnings, *said)) if said else e_e
 
 
 def fit_extension(
@@ -220,12 +291,16 @@ def fit_extension(
     if prony_estimates:
         k0 = prony_estimates[0]
         e_e = replace(k0, parameter="E_e", warnings=(prony_e_e, *k0.warnings))
+    best = choice.fits[choice.best] if prony_estimates else None
+    offsets = _offsets(runs, k, best)
     if "k1" not in fixed_k:
-        best = choice.fits[choice.best] if prony_estimates else None
-        e_e = _below_hold(_nonlinear(e_e, runs, k, best), runs)
+        if reasons and single_ramps(runs):
+            e_e = _ramp_line(e_e, runs)
+        e_e = _below_hold(_nonlinear(e_e, runs, k, best), runs, offsets)
+    e_e = _started(e_e, runs, offsets)
     estimates = (e_e, *sls, *prony_estimates)
     models = _models(runs, k)
-    info = _info(runs, models, k, sigma, n - result.nvarys)
+    info = _info(runs, models, k, sigma, n - n_params(result.nvarys, runs))
     info["lack_of_fit"] = lof.as_info()
     info["n_effective"] = cov.n_eff if cov is not None else float(n)
     info["interval_widening"] = float(np.max(cov.inflation)) if cov is not None else 1.0

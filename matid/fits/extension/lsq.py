@@ -12,6 +12,13 @@ residual noise.
 The fit is an lmfit ``Minimizer`` on a residual function, not a ``Model``: it is one joint
 fit over several runs, each with its own noise weight and its own used rows, while the
 model runs over every row of a run (the solid has a memory).
+
+A run that starts at slack or a preload (``_Run.offset``, :mod:`matid.fits.extension.start`)
+carries a free force offset ``c``: ``F = c + k1 eps + f2``. It is linear and unbounded, so it is
+projected out (variable projection, as the Prony fit does with its stiffnesses): for any
+(k1, k2, eta) it is the mean of the run's measured less model force over its used rows
+(:func:`_offsets`), and the residual lmfit sees is centred. The Jacobian of that residual gives
+(k1, k2, eta) errors that include the offset's correlation with them (Golub and Pereyra 1973).
 """
 
 from __future__ import annotations
@@ -44,15 +51,17 @@ def _tau_grid(runs: Sequence[_Run], fixed: Mapping[str, float], n: int = 33) -> 
 def _profile_point(
     runs: Sequence[_Run], sigma: np.ndarray, tau: float, fixed: Mapping[str, float]
 ) -> tuple[float, float, float]:
-    """For fixed tau, F = k1 eps + eta g(t; tau) is linear: solve (k1, eta) >= 0 by NNLS.
+    """For fixed tau, F = k1 eps + eta g(t; tau) is linear: solve (k1, eta) >= 0 by NNLS (a run's
+    free force offset projected out first: its columns centred, :func:`_centred`).
 
     Returns (cost, k1, eta); fixed k1, eta (or eta = k2 tau for fixed k2) are held.
     """
-    eps = np.concatenate([run.reduce(run.eps) / s for run, s in zip(runs, sigma, strict=True)])
+    pairs = list(zip(runs, sigma, strict=True))
+    eps = np.concatenate([run.reduce(_centred(run, run.eps)) / s for run, s in pairs])
     g = np.concatenate(
-        [run.reduce(run.history.force(0.0, 1.0 / tau, 1.0)) / s for run, s in zip(runs, sigma, strict=True)]
+        [run.reduce(_centred(run, run.history.force(0.0, 1.0 / tau, 1.0))) / s for run, s in pairs]
     )
-    y = np.concatenate([run.reduce(run.force) / s for run, s in zip(runs, sigma, strict=True)])
+    y = np.concatenate([run.reduce(_centred(run, run.force)) / s for run, s in pairs])
     known = {"k1": fixed.get("k1"), "eta": fixed.get("eta")}
     if "k2" in fixed:
         known["eta"] = fixed["k2"] * tau
@@ -110,8 +119,31 @@ def _values(params: lmfit.Parameters, ref: Mapping[str, float]) -> dict[str, flo
     return {name: ref[name] * math.exp(params[name].value) for name in _ORDER}
 
 
+def _offset(run: _Run, model: np.ndarray) -> float:
+    """The run's force offset for this model force: 0, or with a free offset (``run.offset``)
+    the mean of measured less model force over its used rows (also the least squares one on
+    bin means: a bin of m rows weighs sqrt(m) times its mean)."""
+    return float(np.mean((run.force - model)[run.used])) if run.offset else 0.0
+
+
+def _centred(run: _Run, values: np.ndarray) -> np.ndarray:
+    """``values`` less their mean over the used rows for a run with a free offset (projected off
+    the offset's column), else unchanged."""
+    return values - float(np.mean(values[run.used])) if run.offset else values
+
+
 def _models(runs: Sequence[_Run], k: Mapping[str, float]) -> list[np.ndarray]:
-    return [run.history.force(k["k1"], k["k2"], k["eta"]) for run in runs]  # = sls_force(run.t, run.eps, ...)
+    """Model force of each run over all its rows, its force offset (:func:`_offset`) included."""
+    out = []
+    for run in runs:
+        f = run.history.force(k["k1"], k["k2"], k["eta"])  # = sls_force(run.t, run.eps, ...)
+        out.append(f + _offset(run, f))
+    return out
+
+
+def n_params(nvarys: int, runs: Sequence[_Run]) -> int:
+    """Parameters of the fit: lmfit's varied ones and one force offset per run that has one."""
+    return nvarys + sum(run.offset for run in runs)
 
 
 def residual(params: lmfit.Parameters, runs, sigma, ref, rows: bool = False) -> np.ndarray:
@@ -174,7 +206,7 @@ def _solve(runs: Sequence[_Run], fixed: Mapping[str, float], reweight: int = 2):
         minimizer, result = _minimise(runs, sigma, [_values(result.params, ref)], ref, fixed)
     for _ in range(reweight):
         resid = residual(result.params, runs, sigma, ref, rows=True)
-        sigma = _run_noise(resid, result.nvarys, runs, sigma)
+        sigma = _run_noise(resid, n_params(result.nvarys, runs), runs, sigma)
         if not np.all(sigma > 0):
             break  # an exact fit: keep the weights
         minimizer, result = _minimise(runs, sigma, [_values(result.params, ref)], ref, fixed)

@@ -53,8 +53,9 @@ BIC_MARGIN = 10.0
 
 @dataclass(frozen=True)
 class Data:
-    """One run for the fit: all rows (the history), the rows used, the run's noise sd, and
-    how its rows become residuals (``rows``; default one per used row)."""
+    """One run for the fit: all rows (the history), the rows used, the run's noise sd, how its
+    rows become residuals (``rows``; default one per used row), and whether its force has a
+    free offset (projected out as the stiffnesses are: :meth:`centred`)."""
 
     t: np.ndarray
     eps: np.ndarray
@@ -62,6 +63,7 @@ class Data:
     used: np.ndarray
     sigma: float
     rows: Reduction | None = None
+    offset: bool = False  # a free force offset (slack or preload, :mod:`matid.fits.extension.start`)
 
     @functools.cached_property
     def history(self) -> History:
@@ -70,6 +72,11 @@ class Data:
     @functools.cached_property
     def reduce(self) -> Reduction:
         return Reduction(self.used) if self.rows is None else self.rows
+
+    def centred(self, values: np.ndarray) -> np.ndarray:
+        """``values`` (rows, or rows x columns) less their mean over the used rows when the run
+        has a free force offset, else unchanged."""
+        return values - np.mean(values[self.used], axis=0) if self.offset else values
 
 
 def arm(t: np.ndarray, eps: np.ndarray, tau: float) -> np.ndarray:
@@ -103,8 +110,8 @@ def _basis(data: Sequence[Data], taus, arms: Arms) -> tuple[np.ndarray, np.ndarr
             if key not in arms:
                 arms[key] = d.history.force(0.0, 1.0, tau)  # = arm(d.t, d.eps, tau)
             block.append(arms[key])
-        cols.append(d.reduce(np.column_stack(block)) / d.sigma)
-        rhs.append(d.reduce(d.force) / d.sigma)
+        cols.append(d.reduce(d.centred(np.column_stack(block))) / d.sigma)
+        rhs.append(d.reduce(d.centred(d.force)) / d.sigma)
     return np.vstack(cols), np.concatenate(rhs)
 
 
@@ -122,7 +129,7 @@ def _model_residual(data, x: np.ndarray, n_terms: int) -> np.ndarray:
     k = np.exp(x[: n_terms + 1])
     taus = np.exp(x[n_terms + 1 :])
     return np.concatenate(
-        [(prony_force(d.t, d.eps, k[0], k[1:], taus) - d.force)[d.used] / d.sigma for d in data]
+        [d.centred(prony_force(d.t, d.eps, k[0], k[1:], taus) - d.force)[d.used] / d.sigma for d in data]
     )
 
 

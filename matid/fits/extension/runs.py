@@ -3,7 +3,9 @@
 Each run keeps its time, strain and force, a model-free noise level (second differences,
 :func:`matid.fits.stats.difference_noise`), and the rows whose residuals enter the fit:
 inside the test's window and not slack (a strip near zero force after loading carries no
-compression).
+compression). A run that takes up slack or starts at a preload before it loads
+(:mod:`matid.fits.extension.start`) begins at its loading (slack rows are dropped, history and
+all) and carries a free force offset (``offset``).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 
 from matid.errors import DataError, FitError
 from matid.fits import stats
+from matid.fits.extension import start as start_
 from matid.fits.extension.reduce import Reduction, reduction
 from matid.physics.sls import History
 
@@ -41,6 +44,12 @@ class _Run:
     window: np.ndarray  # rows inside the test's window
     used: np.ndarray  # rows whose residuals enter the fit (the model runs over all rows)
     left_out: Mapping[str, int] = field(default_factory=dict)  # reason -> rows
+    start: start_.Start | None = None  # slack or preload before loading: a free force offset
+
+    @property
+    def offset(self) -> bool:
+        """Whether the model carries a free force offset (the run starts at slack or a preload)."""
+        return self.start is not None
 
     @functools.cached_property
     def history(self) -> History:
@@ -94,20 +103,27 @@ def _run(m: Measurement) -> _Run:
         raise DataError("time must increase strictly", file=table.path, row=row, column="time")
     if np.ptp(eps) <= 0 or np.ptp(force) <= 0:
         raise FitError(f"{name}: strain or force does not change; nothing to fit")
+    used = np.asarray(m.in_window(), dtype=bool)
+    noise = stats.difference_noise(force) or 1e-9 * float(np.max(np.abs(force)))
+    outside: dict[str, int] = {}
+    begin = start_.find(eps, force, noise)
+    if begin is not None and begin.row > 0:  # the strip is not taut (or at rest) before: no history
+        outside[begin.reason()] = begin.row
+        t, eps, force, used = t[begin.row :], eps[begin.row :], force[begin.row :], used[begin.row :]
     r = np.abs(np.diff(eps) / np.diff(t))
     rate = float(np.median(r[r > 0.1 * r.max()]))
-    noise = stats.difference_noise(force) or 1e-9 * float(np.max(np.abs(force)))
-    used = np.asarray(m.in_window(), dtype=bool)
     if used.sum() < 5:
         raise DataError(f"only {int(used.sum())} rows inside the window; a fit needs 5", file=table.path)
-    outside = {"outside the window": int((~used).sum())} if not used.all() else {}
+    if not used.all():
+        outside["outside the window"] = int((~used).sum())
     # provisionally slack: near zero after the strip was loaded; the fit then decides
     loaded = np.cumsum(force > 0.1 * float(np.max(force))) > 0
     provisional = used & loaded & _near_zero(force, noise)
+    fitted = used
     if provisional.any() and (used & ~provisional).sum() >= 5:
         outside[SLACK] = int(provisional.sum())
-        return _Run(name, t, eps, force, noise, rate, used, used & ~provisional, outside)
-    return _Run(name, t, eps, force, noise, rate, used, used, outside)
+        fitted = used & ~provisional
+    return _Run(name, t, eps, force, noise, rate, used, fitted, outside, begin)
 
 
 def _near_zero(force: np.ndarray, noise: float) -> np.ndarray:

@@ -18,7 +18,7 @@ import lmfit
 import numpy as np
 
 from matid.fits import stats
-from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _minimise, _values, residual
+from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _minimise, _values, n_params, residual
 
 #: Central-difference step of the sandwich's Jacobian in the log-parameters.
 _STEP = 1e-6
@@ -142,6 +142,6 @@ def _misfit(result, runs, sigma, ref, cov) -> tuple[stats.LackOfFit, str | None]
     """Lack of fit of the SLS on the weighted residuals of the used rows, and its warning
     (None if it fits)."""
     rows = residual(result.params, runs, sigma, ref, rows=True)
-    lof = stats.lack_of_fit(rows, result.nvarys, segments=[int(r.used.sum()) for r in runs])
+    lof = stats.lack_of_fit(rows, n_params(result.nvarys, runs), segments=[int(r.used.sum()) for r in runs])
     widening = float(np.max(cov.inflation)) if cov is not None else None
     return lof, lof.warning("the standard linear solid", widening, _ADVICE)

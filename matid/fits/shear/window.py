@@ -72,9 +72,11 @@ def toe_offset(d: np.ndarray, F: np.ndarray) -> float:
 
     A toe is there when the initial slope is below ``TOE_SLOPE_RATIO`` of the
     median slope over the first half of the branch (a smoothly stiffening curve,
-    as the rod's on round rollers, stays near it). The tangent is taken where the
+    as the rod's on round rollers, stays near it). The linear region starts where the
     slope has levelled off after the toe (within 5 % of the slope one window
-    later), as D790 takes it on the linear region. 0 when there is no toe.
+    later); the tangent is the line over its linear range (:func:`onset.linear_range`
+    from there), as D790 takes it on the linear region: one window's line (n/8 rows)
+    moved d0 by its noise, ~0.3 % of the range and E_s by 1-2 %. 0 when there is no toe.
     """
     width = max(4, d.size // 8)
     if d.size < 3 * width:
@@ -86,7 +88,12 @@ def toe_offset(d: np.ndarray, F: np.ndarray) -> float:
     later = slope[np.minimum(np.arange(slope.size) + width, slope.size - 1)]
     level = np.nonzero((slope >= 0.95 * later) & (slope > TOE_SLOPE_RATIO * reference))[0]
     j = int(level[0]) if level.size else int(np.argmax(slope))
-    d0 = -intercept[j] / slope[j]
+    a, b = slope[j], intercept[j]
+    line = onset.linear_range(d[j:], F[j:])  # the tangent over the whole linear region, not one window
+    if line.sum() >= onset.LINEAR_RANGE_MIN_POINTS:
+        fitted, at = np.polyfit(d[j:][line], F[j:][line], 1)
+        a, b = (fitted, at) if fitted > 0 else (a, b)
+    d0 = -b / a
     return float(d0) if d0 > 0 else 0.0
 
 
