@@ -248,7 +248,7 @@ def plane_of(scene: Scene, *, tol: float = 1e-12) -> Vector | None:
     candidates = [v[:2] for v in forces] + [[m[1], -m[0]] for m in moments]  # n x e3
     candidates += [[float(c[0]) * scale, float(c[1]) * scale] for c in contact_directions(scene)]
     first = next((c for c in candidates if math.hypot(*c) > tol * scale), None)
-    direction = [1.0, 0.0] if first is None else (np.asarray(first) / np.linalg.norm(first)).tolist()
+    direction = [1.0, 0.0] if first is None else (np.asarray(first) / (np.linalg.norm(first) or math.hypot(*first))).tolist()  # fmt: skip  # noqa: E501 (norm underflows at 1e-300)
     if any(abs(m[2]) > tol * scale for m in moments):
         return None  # twist moment or twist precurvature
     for c in candidates:

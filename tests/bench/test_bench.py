@@ -47,24 +47,7 @@ REPRESENTATIVES = [
 
 #: The contact cases whose right outcome matid does not reach yet: each a strict xfail naming the
 #: defect (the catalogue states what is right physically: they solve).
-CONTACT_DEFECTS = {
-    "a lumen 1 % wider than the tube": (
-        "defect: with the lumen's wall 5 um from the straight tube the contact is active in the first "
-        "load step and Newton stops at its round-off floor estimate ('Newton stagnated at corrections "
-        "of 7e-4', load factor 0); 1.1 radii fails the same way, 1.5 radii solves"
-    ),
-    "a wall the unloaded rod lies along, pressed on it": (
-        "defect: the rod lying along a wall and pressed on it (a contact stretch) stops Newton at its "
-        "round-off floor ('Newton stagnated', load factor 0) on 16 elements; on 4 it solves to the "
-        "exact answer (reaction to 3e-10)"
-    ),
-    "an advance whose contact changes sides (channel 8 mm, tilted 10 deg)": (
-        "defect: the warm start of the first tip contact (30 mm) diverges ('Newton failed at load "
-        "factor 1.9e-6') and the continuation from the straight rod cannot start inside the channel; in "
-        "5 mm steps the interior contact that follows (35 mm) does not settle within 30 multiplier "
-        "updates, and two contacts at once (95, 100 mm) are the open fix of terms/contact.py (contact2)"
-    ),
-}
+CONTACT_DEFECTS: dict[str, str] = {}  # none left (issue 31: contact2, contact3)
 
 
 def test_representatives_cover_every_case_class():
@@ -81,6 +64,9 @@ CHECKED = [
     "raw q, c_u = 1e+02",
     "a rigid tip body against a wall",
     "a wall the unloaded rod lies along, bent away from it",
+    "a lumen 1 % wider than the tube",
+    "a wall the unloaded rod lies along, pressed on it",
+    "an advance whose contact changes sides (channel 8 mm, tilted 10 deg)",
     "a wall cutting the clamp",
     "a lumen narrower than the tube",
     *(

@@ -164,15 +164,6 @@ def test_example_advance_lumen_against_the_reference():
     assert lumen_steps_against_the_reference(scene) == [0, 1, 1, 1, 1]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=ConvergenceError,
-    reason="defect: the example pushed on to 22.5 and 25 mm (75 deg into the bend), where the reference's "
-    "tip still slides alone along the outer wall (admissible), fails at 22.5 mm: the warm start (the last "
-    "shape pushed along the sheath's axis puts the tip 2.1 mm beyond the outer wall) diverges and the "
-    "continuation from the straight rod cannot start (the straight tube crosses the bend's wall); 1 mm "
-    "steps fail at 21 mm (0.85 mm beyond it)",
-)
 def test_advance_lumen_continued_to_75_degrees_into_the_bend():
     scene = load_scene(LUMEN_EXAMPLE)
     longer = dataclasses.replace(scene, advance=(*scene.advance, 0.0225, 0.025))
