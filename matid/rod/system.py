@@ -232,6 +232,10 @@ class RodSystem:
                 K = K + sp.csr_matrix(entries, shape=K.shape)
         return (R if full else R[self.disc.free]), K
 
+    def branch(self) -> tuple:
+        """The smooth pieces of the last evaluation (:meth:`Term.branch` of each nodal term)."""
+        return tuple(term.branch(prep) for term, prep in self.nodal)
+
     @property
     def symmetric(self) -> bool:
         """The tangent is a Hessian, except with a dead moment in 3D (no potential)."""

@@ -47,25 +47,7 @@ REPRESENTATIVES = [
 
 #: The contact cases whose right outcome matid does not reach yet: each a strict xfail naming the
 #: defect (the catalogue states what is right physically: they solve).
-CONTACT_DEFECTS = {
-    "a lumen 1 % wider than the tube": (
-        "defect: with the lumen's wall 5 um from the straight tube the contact is active in the first "
-        "load step and Newton stops at its round-off floor estimate ('Newton stagnated at corrections "
-        "of 7e-4', load factor 0); 1.1 radii fails the same way, 1.5 radii solves"
-    ),
-    "a wall the unloaded rod lies along, pressed on it": (
-        "defect: the rod lying along a wall and pressed on it (a contact stretch) stops Newton at its "
-        "round-off floor ('Newton stagnated', load factor 0) on 16 elements; on 4 it solves to the "
-        "exact answer (reaction to 3e-10)"
-    ),
-    "an advance whose contact changes sides (channel 8 mm, tilted 10 deg)": (
-        "defect: every step solves with the stated contact sets on 16, 32 and 64 elements (sub-steps "
-        "at 20 or 30 mm; on 16 the tips are within 3e-9 of the free length of tests/rod/"
-        "contact_reference.advance), but on 64 elements the 50 mm step returns a state without its "
-        "interior contact on wall 1 (gap +6.6e-7 m at s = 34 mm, no reaction, tip 2.4e-5 L off, "
-        "estimate 46; 32 and 128 elements from the same start find it): error 2.4e-5 > 1e-5"
-    ),
-}
+CONTACT_DEFECTS: dict[str, str] = {}  # none left (issue 31: contact2, contact3)
 
 
 def test_representatives_cover_every_case_class():
@@ -82,6 +64,9 @@ CHECKED = [
     "raw q, c_u = 1e+02",
     "a rigid tip body against a wall",
     "a wall the unloaded rod lies along, bent away from it",
+    "a lumen 1 % wider than the tube",
+    "a wall the unloaded rod lies along, pressed on it",
+    "an advance whose contact changes sides (channel 8 mm, tilted 10 deg)",
     "a wall cutting the clamp",
     "a lumen narrower than the tube",
     *(

@@ -65,6 +65,12 @@ class Term:
         """Why a converged state is no answer for this term, or None."""
         return None
 
+    def branch(self, prep) -> bytes | None:
+        """Which smooth piece of a piecewise-smooth residual the last :meth:`nodal` evaluated on
+        (a contact's active set), or None for a smooth term: Newton judges its convergence only
+        between evaluations on one piece (:attr:`matid.rod.system.RodSystem.branch`)."""
+        return None
+
 
 class Scale:
     """SI to scaled units of a scene (lengths by L, forces by E_b/L^2, moments by E_b/L), and

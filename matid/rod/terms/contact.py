@@ -78,6 +78,7 @@ class ContactState:
     checking: bool = False  # reject states that break the walls (set by settle)
     outer: int = 0
     newton: int = 0
+    active: bytes = b""  # the loaded nodes of the last evaluation (Contact.branch)
 
 
 @dataclass(frozen=True)
@@ -156,6 +157,7 @@ class Contact(Term):
     def nodal(self, system, prep, U, lam, R, blocks) -> None:
         f, gaps = self.forces(prep, U)
         k, planar = prep["state"].k, prep["planar"]
+        prep["state"].active = np.packbits(f > 0.0).tobytes()
         n = f.shape[1]
         grad_sum = np.zeros((n, 3))
         K = np.zeros((n, 3, 3))
@@ -170,6 +172,10 @@ class Contact(Term):
             grad_sum, K = grad_sum[:, [0, 2]], K[:, [0, 2]][:, :, [0, 2]]
         R[prep["dofs"]] += grad_sum
         blocks.append((prep["pattern"], K))
+
+    def branch(self, prep) -> bytes:
+        """The loaded nodes of the last :meth:`nodal`: Newton's residual is smooth while they stay."""
+        return prep["state"].active
 
     def reject(self, system, prep, U, lam) -> str | None:
         state = prep["state"]
