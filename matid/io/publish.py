@@ -37,9 +37,9 @@ from __future__ import annotations
 import ctypes
 import errno
 import os
+import secrets
 import shutil
 import stat
-import tempfile
 import weakref
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -67,6 +67,8 @@ NEW, OLD, LOCK = ".matid-new-", ".matid-old-", ".matid-lock"
 AT_FDCWD, RENAME_EXCHANGE = -100, 2
 #: Most bytes of the lock file's list of temporary folders read back (a run lists two names at most).
 MAX_JOURNAL = 1 << 16
+#: Names drawn for a temporary folder before giving up (each 48 random bits).
+FRESH_TRIES = 16
 
 
 class OutputError(MatidError):
@@ -191,6 +193,32 @@ class Claim:
             os.fsync(self.fd)
         return folder
 
+    def fresh(self, kind: str) -> Path:
+        """A new hidden temporary folder beside the output (``kind``: NEW or OLD), its name recorded
+        in the lock file BEFORE the folder is made: a run killed between the two leaves a listed name
+        without a folder (skipped by the next claim), never an unlisted folder that no claim may
+        remove (tempfile.mkdtemp first, then the record, left one under load: test_fuzz's kill loop).
+        A name that exists already (a user's) is taken off the list again and another is drawn."""
+        for _ in range(FRESH_TRIES):
+            folder = self.real.parent / (_hidden(self.real, kind) + secrets.token_hex(6))
+            self.made(folder)
+            try:
+                os.mkdir(folder, 0o700)
+                return folder
+            except FileExistsError:
+                self._unlist(folder.name)
+        raise FileExistsError(f"no free temporary folder name beside {self.real} after {FRESH_TRIES} tries")
+
+    def _unlist(self, name: str) -> None:
+        """Take ``name`` off the lock file's list (it was listed but is not ours)."""
+        os.lseek(self.fd, 0, os.SEEK_SET)
+        listed = os.read(self.fd, MAX_JOURNAL).decode("utf-8", "replace").split("\n")
+        kept = "".join(f"{n}\n" for n in listed if n and n != name)
+        os.ftruncate(self.fd, 0)
+        os.lseek(self.fd, 0, os.SEEK_SET)
+        os.write(self.fd, kept.encode())
+        os.fsync(self.fd)
+
     def publish(
         self, files: Mapping[str, bytes | str], *, before_swap: Callable[[], None] | None = None
     ) -> list[Path]:
@@ -204,17 +232,17 @@ class Claim:
         check_output(self.out, OUTPUT_NAMES | frozenset(files))
         real = self.real
         try:
-            new = Path(tempfile.mkdtemp(prefix=_hidden(real, NEW), dir=real.parent))
+            new = self.fresh(NEW)
         except OSError as exc:
             raise OutputError(
-                f"{self.out}: cannot write the outputs: {exc.strerror}; nothing was changed"
+                f"{self.out}: cannot write the outputs: {exc.strerror}; nothing was written, the previous "
+                "contents of the folder are unchanged"
             ) from exc
         try:
-            self.made(new)
             _fill(new, files, mode=_folder_mode(real))
             if before_swap is not None:
                 before_swap()
-            _swap_in(new, real, self.made)
+            _swap_in(new, real, self.fresh)
             os.ftruncate(self.fd, 0)  # the temporary folders are gone: nothing left to list
         except OSError as exc:
             shutil.rmtree(new, ignore_errors=True)
@@ -266,20 +294,15 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
-def _swap_in(new: Path, real: Path, made: Callable[[Path], Path]) -> None:
+def _swap_in(new: Path, real: Path, fresh: Callable[[str], Path]) -> None:
     """Make ``new`` the folder ``real`` in one atomic step (two renames where the syscall is missing);
-    ``made`` records a temporary folder made here (:meth:`Claim.made`)."""
+    ``fresh`` makes a recorded temporary folder (:meth:`Claim.fresh`)."""
     if not real.exists():
         os.rename(new, real)
     elif exchange(new, real):
         shutil.rmtree(new, ignore_errors=True)  # ``new`` now holds the old report
     else:
-        old = Path(tempfile.mkdtemp(prefix=_hidden(real, OLD), dir=real.parent))
-        try:
-            made(old)
-        except OSError:
-            os.rmdir(old)  # still the empty placeholder
-            raise
+        old = fresh(OLD)
         os.rename(real, old)  # replaces the empty placeholder folder
         os.rename(new, real)
         shutil.rmtree(old, ignore_errors=True)

@@ -145,13 +145,19 @@ def test_a_write_error_leaves_the_old_folder_and_no_temp_folder(tmp_path, monkey
     out = tmp_path / "out"
     publish.publish(OLD, out)
 
-    def full(fd, data):
+    write, calls = os.write, []
+
+    def full(fd, data):  # the temporary folder's name reaches the lock file; the outputs do not fit
+        calls.append(fd)
+        if len(calls) == 1:
+            return write(fd, data)
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(publish.os, "write", full)
     with pytest.raises(OutputError, match="No space left on device.*unchanged"):
         publish.publish(NEW, out)
     monkeypatch.undo()
+    assert len(calls) == 2  # failed while writing an output, inside the new folder
     assert _contents(out) == OLD and _beside(out) == []
 
 
