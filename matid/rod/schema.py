@@ -276,7 +276,8 @@ TABLES: tuple[Table, ...] = (
     Table(
         "wall",
         "a rigid plane the tube's outer surface stays on one side of (frictionless, unilateral contact; "
-        "contract section 12); any number of walls",
+        "contract section 12); any number of walls (a tip pressed on a wall by a field: "
+        "examples/scenes/wall_tip.toml)",
         (
             _v("point", "length", POSITION[1], "a point on the wall's surface (lab frame)",
                '["5 mm", "0 mm", "0 mm"]'),
