@@ -142,8 +142,8 @@ def comparison_figure(stats: Sequence[dict]) -> bytes:
             if not mine:
                 continue
             values = [float(r["value"]) for _, r in mine]
-            low = [0.0 if r["ci95_low"] is None else v - r["ci95_low"] for v, (_, r) in zip(values, mine)]
-            high = [0.0 if r["ci95_high"] is None else r["ci95_high"] - v for v, (_, r) in zip(values, mine)]
+            low = [0.0 if r["ci95_low"] is None else v - r["ci95_low"] for v, (_, r) in zip(values, mine, strict=True)]
+            high = [0.0 if r["ci95_high"] is None else r["ci95_high"] - v for v, (_, r) in zip(values, mine, strict=True)]
             label = "value, 95 % interval" if pooled else "left out of the mean (not ok)"
             ax.errorbar(values, [i for i, _ in mine], xerr=[low, high], fmt="o", ms=4, capsize=3, label=label,
                         **style)  # fmt: skip
@@ -153,7 +153,7 @@ def comparison_figure(stats: Sequence[dict]) -> bytes:
         if s.get("geometry"):
             ax.set_title(f"{s['parameter']}, {s['geometry']}", fontsize="medium", loc="left")
         ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4), useMathText=True)
-    legend = {label: handle for ax in axes for handle, label in zip(*ax.get_legend_handles_labels())}
+    legend = {label: handle for ax in axes for handle, label in zip(*ax.get_legend_handles_labels(), strict=True)}
     if legend:
         fig.legend(legend.values(), legend.keys(), loc="outside upper left", ncols=4, frameon=False,
                    fontsize="small")  # fmt: skip

@@ -130,6 +130,6 @@ def test_a_fits_warning_is_one_entry_referred_to_by_each_of_its_parameters():
     for est in fit.estimates:
         item = params[est.parameter]
         assert listed[0] in item["warning_refs"] and text in item["warnings"]
-    for sid, items in doc["specimens"].items():
+    for items in doc["specimens"].values():
         for item in items.values():
             assert [w for w in item["warnings"]] == [doc["warnings"][i].split(": ", 1)[1] for i in item["warning_refs"]]

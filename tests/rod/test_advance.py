@@ -27,7 +27,7 @@ from matid.rod.output import solution_json
 from matid.rod.scenes import load_scene, scene_from_dict
 
 from . import contact_reference as cr
-from .test_contact import CHANNEL, MAG, R_O, channel_field, rod, walls
+from .test_contact import CHANNEL, MAG, channel_field, rod, walls
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "scenes" / "advance_channel.toml"
 

@@ -190,7 +190,7 @@ def test_example_wall_tip_against_the_reference():
 
     scene = load_scene(Path(__file__).resolve().parents[2] / "examples" / "scenes" / "wall_tip.toml")
     sol = solve(scene)
-    (at, m), B = scene.loads.magnets[0], scene.loads.B
+    (_, m), B = scene.loads.magnets[0], scene.loads.B
     wall = scene.walls[0]
     ref = cr.solve_planar_contact(
         scene.rod.length, scene.rod.E_b, scene.rod.outer_diameter / 2,
