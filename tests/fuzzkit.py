@@ -760,7 +760,6 @@ def run_study_case(case, work: Path, *, limit: float = LIMIT) -> Outcome:
 
 def run_scene_case(case, work: Path, *, limit: float = LIMIT) -> Outcome:
     """Write the case's scene into ``work`` and load it (and, when drawn, solve it with few elements)."""
-    from matid.errors import DataError, MatidError
     from matid.rod.scenes import load_scene
     from matid.rod.sweeps import load_sweep
 
@@ -772,20 +771,10 @@ def run_scene_case(case, work: Path, *, limit: float = LIMIT) -> Outcome:
     for file, content in extra.items():
         _write(work / file, content)
     clock = time.perf_counter()
-    code: int | str = 0
-    message = ""
-    try:
-        with time_limit(limit):
-            try:
-                load_sweep(scene) if SOLVE_ALL and _is_sweep(text) else load_scene(scene)
-            except DataError as exc:
-                code, message = 2, str(exc)
-            except MatidError as exc:
-                code, message = 1, str(exc)
-            except Exception as exc:  # noqa: BLE001
-                code, message = 3, f"{type(exc).__name__}: {exc}"
-    except Hang as exc:
-        code, message = "hang", str(exc)
+    def load() -> None:
+        load_sweep(scene) if SOLVE_ALL and _is_sweep(text) else load_scene(scene)
+
+    code, message = classified(load, limit)
     if code == 0 and SOLVE_ALL:  # through the solver, and what it returns checked
         return solve_case(scene, text, limit, clock)
     if code != 0 or not solve:
@@ -808,37 +797,43 @@ NEGLIGIBLE = 1e-12
 ABSURD = 1e100
 
 
+def classified(call, limit: float) -> tuple[int | str, str]:
+    """(exit code, message) of ``call()`` under ``limit`` seconds: 0 (or the (code, message) it
+    returns), 2 on a DataError, 1 on another MatidError, 3 on any other exception, "hang" past the
+    limit."""
+    from matid.errors import DataError, MatidError
+
+    try:
+        with time_limit(limit):
+            try:
+                return call() or (0, "")
+            except DataError as exc:
+                return 2, str(exc)
+            except MatidError as exc:
+                return 1, str(exc)
+            except Exception as exc:  # noqa: BLE001
+                return 3, f"{type(exc).__name__}: {exc}"
+    except Hang as exc:
+        return "hang", str(exc)
+
+
 def solve_case(scene_path: Path, text: str | bytes, limit: float, clock: float) -> Outcome:
     """``matid.rod.solve`` of an accepted scene: exit 0 with a sane solution, 1 (no equilibrium) or 2;
     code "absurd" when it returns a value above ABSURD (or not finite) or a load of the scene is not
     in the energy."""
-    from matid.errors import DataError, MatidError
     from matid.rod.api import solve
     from matid.rod.scenes import load_scene
     from tests.fuzzcontact import solve_sweep
 
     data = text.encode("utf-8") if isinstance(text, str) else text
     elements = ELEMENT_CHOICES[zlib.crc32(data) % len(ELEMENT_CHOICES)]
-    code: int | str = 0
-    message = ""
-    try:
-        with time_limit(limit):
-            try:
-                if _is_sweep(text):  # a family of scenes: as matid solve does, every state checked
-                    code, message = solve_sweep(scene_path, elements)
-                else:
-                    sol = solve(load_scene(scene_path), elements=elements, aim_seconds=AIM_SECONDS)
-                    wrong = absurdity(sol)
-                    if wrong:
-                        code, message = "absurd", wrong
-            except DataError as exc:
-                code, message = 2, str(exc)
-            except MatidError as exc:
-                code, message = 1, str(exc)
-            except Exception as exc:  # noqa: BLE001
-                code, message = 3, f"{type(exc).__name__}: {exc}"
-    except Hang as exc:
-        code, message = "hang", str(exc)
+    def run():
+        if _is_sweep(text):  # a family of scenes: as matid solve does, every state checked
+            return solve_sweep(scene_path, elements)
+        wrong = absurdity(solve(load_scene(scene_path), elements=elements, aim_seconds=AIM_SECONDS))
+        return ("absurd", wrong) if wrong else None
+
+    code, message = classified(run, limit)
     seconds = time.perf_counter() - clock
     if seconds > limit and code != "hang":  # an answer past the limit (a C loop the alarm waited for)
         code, message = "hang", f"answered after {seconds:.0f} s (> {limit} s): {message}"

@@ -49,11 +49,7 @@ COLLECT = os.environ.get("MATID_FUZZ_COLLECT") == "1"
 
 @given(fuzzkit.study_cases())
 def test_fuzzed_study_ends_in_an_allowed_outcome(case):
-    outcome = fuzzkit.run_study_case(case, WORK / "study-case")
-    fuzzkit.log(outcome, case[3], f"study/{case[0]}")
-    problem = fuzzkit.allowed(outcome)
-    if not COLLECT:
-        assert problem is None, f"{case[0]} {case[3]}: {problem}"
+    _check(fuzzkit.run_study_case(case, WORK / "study-case"), case[3], f"study/{case[0]}")
 
 
 #: Scenes solved end to end by the suite (a seeded sample); benchmarks/fuzz.py --scenes-solved runs thousands.
@@ -65,11 +61,7 @@ SOLVED = int(os.environ.get("MATID_FUZZ_SOLVED", "12"))
 def test_fuzzed_scene_solved_ends_in_an_allowed_outcome_and_no_absurdity(case):
     """Issue 30: mutated scenes go through the solver: exit 0 (a solution with no value above 1e100
     and every load of the scene in the energy), 1 or 2; never 3, a hang or a silent absurdity."""
-    outcome = fuzzkit.run_scene_case(case, WORK / "solver-case")
-    fuzzkit.log(outcome, case[3], f"solved/{case[0]}")
-    problem = fuzzkit.allowed(outcome)
-    if not COLLECT:
-        assert problem is None, f"{case[0]} {case[3]}: {problem}"
+    _check(fuzzkit.run_scene_case(case, WORK / "solver-case"), case[3], f"solved/{case[0]}")
 
 
 #: Studies fitted end to end by the suite (a seeded sample); benchmarks/fuzz.py --studies runs thousands.
@@ -90,11 +82,7 @@ def test_fuzzed_study_fitted_ends_in_an_allowed_outcome_and_no_absurdity(case):
 
 @given(fuzzkit.scene_cases())
 def test_fuzzed_scene_ends_in_an_allowed_outcome(case):
-    outcome = fuzzkit.run_scene_case(case, WORK / "scene-case")
-    fuzzkit.log(outcome, case[3], f"scene/{case[0]}")
-    problem = fuzzkit.allowed(outcome)
-    if not COLLECT:
-        assert problem is None, f"{case[0]} {case[3]}: {problem}"
+    _check(fuzzkit.run_scene_case(case, WORK / "scene-case"), case[3], f"scene/{case[0]}")
 
 
 def _check(outcome: fuzzkit.Outcome, labels: list[str], target: str) -> None:
