@@ -15,7 +15,7 @@ import numpy as np
 from matid.errors import DataError
 from matid.physics.boundaries import Centreline, lumen_gap, wall_gap
 from matid.rod import schema
-from matid.rod.scene_values import Vector, array_of_tables, direction, one_table, quantity, si
+from matid.rod.scene_values import Vector, array_of_tables, direction, one_table, quantity, read
 from matid.units import to_si, vector_to_si
 
 #: Default corner radius of a lumen's centreline, in lumen radii (contract section 12).
@@ -44,8 +44,7 @@ def contact_keys(raw: dict) -> dict:
     """{"walls", "lumen", "advance"} of a parsed scene (empty, None, None when absent)."""
     walls = []
     for where, t in array_of_tables(raw, "wall"):
-        point = si(vector_to_si, t, "point", "length", where)
-        schema.check("wall", "point", point, where)
+        point = read(t, "wall", "point", where)
         walls.append(Wall(point, direction(t.get("normal"), f"{where}.normal")))
     walls = tuple(walls)
     lumen = None

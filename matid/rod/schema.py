@@ -279,8 +279,8 @@ TABLES: tuple[Table, ...] = (
         "contract section 12); any number of walls (a tip pressed on a wall by a field: "
         "examples/scenes/wall_tip.toml)",
         (
-            _v("point", "length", POSITION[1], "a point on the wall's surface (lab frame)",
-               '["5 mm", "0 mm", "0 mm"]'),
+            Key("point", "vector", "a point on the wall's surface (lab frame)", '["5 mm", "0 mm", "0 mm"]',
+                "length", (0.0, POSITION[1])),  # required: a wall has no default place
             Key("normal", "direction", "points to the side the tube stays on (normalised)", "[-1, 0, 0]"),
         ),
         array=True,

@@ -102,6 +102,8 @@ def test_a_huge_stiffness_file_is_refused_unread(tmp_path):
         ('scene = "three_point_bend"\n' + ROD + '[three_point_bend]\nspan = "10 mm"\n'
          'support_radius = "2 mm"\nnose_radius = "2 mm"\n'
          'deflection = ' + str(["0.1 mm"] * 1001) + "\n", "at most 1000"),
+        # the fuzz (2026-11-28): a wall without its point was a KeyError, exit 3
+        (ROD + "[[wall]]\nnormal = [-1, 0, 0]\n", r"\[\[wall\]\] #1: missing 'point'"),
     ],
 )  # fmt: skip
 def test_a_bad_scene_value_is_a_data_error_naming_the_key(tmp_path, text, message):
