@@ -3,7 +3,8 @@
     PYTHONPATH=$PWD python benchmarks/dead_solver.py [pytest arguments, default: tests]
 
 runs pytest with this file as a plugin (``-p dead_solver``, ``benchmarks/`` on PYTHONPATH).
-The plugin replaces each function of :data:`TARGETS` (matid.rod.newton's public solvers),
+The plugin replaces each function of :data:`TARGETS` (the public solvers of matid.rod.newton and
+matid.rod.batch),
 wherever a matid module holds it (``from matid.rod.newton import newton`` included), by one
 that counts the call and raises ConvergenceError at entry. A test that reached the dead solver
 and still passed accepts a failure it did not expect, unless it expects that very error with
@@ -30,6 +31,8 @@ import pytest
 TARGETS = [
     ("matid.rod.newton", "newton"),
     ("matid.rod.newton", "follow"),
+    ("matid.rod.batch", "newton"),  # the stacked Newton of many scenes (solve_many, sweeps)
+    ("matid.rod.batch", "follow"),
 ]
 #: Matches a test that expects the solver's error: pytest.raises(ConvergenceError or a subclass).
 EXPECTS = re.compile(r"pytest\.raises\(\s*\(?[\w., ]*\b(ConvergenceError|SlipOffError)\b")
