@@ -78,6 +78,8 @@ MC_OTW = "Data/DAQ-G1G2-OTW.txt"
 MU = ("pedrodamas0803/mechtest_ufmg", "44731d4696a10535f4d5074063d8670ff364ee2d")  # commit "starting things"
 # the fatigue files were removed later (d14d21b): each is read at the commit that added it
 PM = "FollowTheProcess/pymechtest"
+AH = ("a-hilhorst/Tensile-test-Analysis", "e6836508f491bd8a864db831fe5f0e05c65c9402")  # "bu20240904"
+AH_DIR = "imap_versions/other_machine_outputs_examples"
 PM_COMMIT = {
     "Test2": "4b1908e24ede601db1f278861fa0a4243a35c1a9",  # Merge pull request #23 (fatigue)
     "Test5": "cf1b204bdf49413905887fda3edd265765f4d1a9",  # Add fatigue test data ...
@@ -269,6 +271,54 @@ def catman(name: str, window_mm: tuple[float, float]) -> Record:
     )
 
 
+def zwick(
+    name: str, lang: str, cols: dict, spec: tuple[float, float, float], window_mm, order, note=""
+) -> Record:
+    """Tensile coupons of the IMAP lab (UCLouvain), Zwick testXpert II ASCII export ('.TRA'; the
+    repository also holds a byte-identical '.txt' copy of each, which is not used): Latin-1, lines
+    '"name",value,"unit"' of the test set-up (thickness, width, section, the gauge length of the
+    standard-travel extensometer, speeds), then the quoted channel names ('Standard force',
+    'Standard travel', 'Crosshead absolute' or their French 'Force standard', 'Course standard',
+    'Traverse absolue') and a units row. The test starts at the preload (100-150 N) with the
+    extensometer zeroed there. ``spec`` = (thickness, width, gauge length) in mm from the header;
+    ``order`` = (elongation column, force column) for the hand script."""
+    t, w, L0 = spec
+    lo, hi = window_mm
+    el, fc = order
+    return Record(
+        id=f"ah-zwick-{name.replace(' ', '')}",
+        repo=AH[0],
+        commit=AH[1],
+        path=f"{AH_DIR}/{name}.TRA",
+        kind="extension",
+        machine=f"Zwick testXpert II ASCII export (.TRA, {lang} channel names, Latin-1, header lines)",
+        dims=f"thickness {t:g} mm, width {w:g} mm, L0 {L0:g} mm (standard travel)",
+        source=f"the file's own header lines 1-4 ({name}.TRA); the author's import_from_txt.m reads the same "
+        "keys (l.51-54) and takes Standard travel as u, Standard force as F (l.67, l.70)",
+        specimen={"width": f"{w:g} mm", "height": f"{t:g} mm"},
+        test={
+            "gauge_length": f"{L0:g} mm",
+            "columns": cols,
+            "encoding": "latin-1",
+            "window": {"elongation": [f"{lo:g} mm", f"{hi:g} mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=12,
+            delim=",",
+            decimal=".",
+            elong_col=el,
+            force_col=fc,
+            gauge_m=L0 * 1e-3,
+            window_m=(lo * 1e-3, hi * 1e-3),
+            force_si=1.0,
+            encoding="latin-1",
+        ),
+        hand_text=f"standard travel {lo:g}-{hi:g} mm (window also given to matid): line F(strain)",
+        note=note,
+    )
+
+
 def wavematrix(name: str, cycles: str) -> Record:
     """Composite coupon cycled from rest between about 0.3 and 4.5 kN on an Instron 8801 (frame
     8801MTB15319), Instron WaveMatrix 'steps.tracking' CSV export: UTF-8 with BOM, every line ending
@@ -442,6 +492,36 @@ RECORDS: list[Record] = [
     catman("HSM700_7_2", (0.12, 0.165)),
     wavematrix("Test2", "5 load-unload cycles, 400 s, holds at the peaks"),
     wavematrix("Test5", "load-unload cycles, 33 s"),
+    # Zwick testXpert II: the elastic line of each coupon, below the yield (steel) or where the
+    # apparent stiffness of the Invar low-temperature coupon still falls slowly
+    zwick(
+        "Allong 1",
+        "French",
+        {"time": "Temps", "elongation": "Course standard", "force": "Force standard"},
+        (1.0, 5.96, 25.0),
+        (0.005, 0.03),
+        (3, 2),
+    ),
+    zwick(
+        "Invar_LT_05_01",
+        "English",
+        {"time": "Time", "elongation": "Standard travel", "force": "Standard force"},
+        (1.5, 4.89, 30.0),
+        (0.02, 0.1),
+        (2, 3),
+        note="apparent stiffness (81 GPa x A0, Invar is about 140 GPa): the standard travel of this "
+        "low-temperature test includes more than the gauge length; its slope falls from the start. "
+        "The author's import_from_txt.m (l.76-79) would take L0 from 'Capteur de course' (4.98 mm) "
+        "instead; both matid and the hand script use the file's 30 mm",
+    ),
+    zwick(
+        "mDB1pct",
+        "English",
+        {"time": "Time", "elongation": "Standard travel", "force": "Standard force"},
+        (1.06, 6.02, 20.0),
+        (0.01, 0.035),
+        (3, 2),
+    ),
 ]
 
 
