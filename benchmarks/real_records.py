@@ -80,6 +80,7 @@ MU = ("pedrodamas0803/mechtest_ufmg", "44731d4696a10535f4d5074063d8670ff364ee2d"
 PM = "FollowTheProcess/pymechtest"
 AH = ("a-hilhorst/Tensile-test-Analysis", "e6836508f491bd8a864db831fe5f0e05c65c9402")  # "bu20240904"
 AH_DIR = "imap_versions/other_machine_outputs_examples"
+RB = ("raballito/tensile_test_analyzer", "df39176a0ca99420f7fb6e0975b2aeeb090e9c7b")  # "Correction Readme"
 PM_COMMIT = {
     "Test2": "4b1908e24ede601db1f278861fa0a4243a35c1a9",  # Merge pull request #23 (fatigue)
     "Test5": "cf1b204bdf49413905887fda3edd265765f4d1a9",  # Add fatigue test data ...
@@ -485,6 +486,40 @@ RECORDS: list[Record] = [
         ),
         hand_text="strain 1000-3000 microstrain (window also given to matid): line F(strain)",
         note="the file has no header row: columns named by position (README's order), units from the README",
+    ),
+    Record(
+        id="rb-shimadzu-tract",
+        repo=RB[0],
+        commit=RB[1],
+        path="Data/Exemple_Shimadzu_Tract_L100_D2.csv",
+        kind="extension",
+        machine="Shimadzu Trapezium CSV export (HEIG-VD COMATEC, 20 kN frame without extensometer): "
+        "label row '\"C35\",,', quoted Temps/Force/Stroke over sec/N/mm, every number quoted",
+        dims="L0 100 mm (crosshead stroke), D 2 mm",
+        source="the file name's L100_D2 (the analyzer's L0 and D0, Extractor/ConfigWindow.py l.130, "
+        "l.416-418); README.md l.33: 'Shimadzu - 20 [kN] maximum - Sans Extensometre'",
+        specimen={"outer_diameter": "2 mm"},
+        test={
+            "gauge_length": "100 mm",
+            "columns": {"time": "Temps", "elongation": "Stroke", "force": "Force"},
+            "window": {"elongation": ["0.5 mm", "0.8 mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=3,
+            delim=",",
+            decimal=".",
+            elong_col=2,
+            force_col=1,
+            gauge_m=0.1,
+            window_m=(0.5e-3, 0.8e-3),
+            force_si=1.0,
+        ),
+        hand_text="stroke 0.5-0.8 mm, past the grips' take-up and before the slope falls "
+        "(window also given to matid): line F(strain)",
+        note="apparent stiffness of the whole load train (crosshead stroke). E_e / (pi (1 mm)^2) = 195 GPa "
+        "is steel-like, but an 8.3 kN peak on 2 mm would be 2.65 GPa for 'C35': D2 is uncertain; E_e "
+        "does not use it",
     ),
     bluehill("am1", "1016", delim=";", skip=6, header="re-saved: ';', empty first column (Latin-1)"),
     bluehill("am2", "1055", delim=",", skip=5, header="as exported: ',' with the results row above the data"),
