@@ -80,6 +80,7 @@ MU = ("pedrodamas0803/mechtest_ufmg", "44731d4696a10535f4d5074063d8670ff364ee2d"
 PM = "FollowTheProcess/pymechtest"
 AH = ("a-hilhorst/Tensile-test-Analysis", "e6836508f491bd8a864db831fe5f0e05c65c9402")  # "bu20240904"
 AH_DIR = "imap_versions/other_machine_outputs_examples"
+TDA = ("ppieczywek/TDA", "92f6dff0f79cc1c5e403ad62a3c747fa10626621")  # "Create LICENSE"
 RB = ("raballito/tensile_test_analyzer", "df39176a0ca99420f7fb6e0975b2aeeb090e9c7b")  # "Correction Readme"
 PM_COMMIT = {
     "Test2": "4b1908e24ede601db1f278861fa0a4243a35c1a9",  # Merge pull request #23 (fatigue)
@@ -520,6 +521,73 @@ RECORDS: list[Record] = [
         note="apparent stiffness of the whole load train (crosshead stroke). E_e / (pi (1 mm)^2) = 195 GPa "
         "is steel-like, but an 8.3 kN peak on 2 mm would be 2.65 GPa for 'C35': D2 is uncertain; E_e "
         "does not use it",
+    ),
+    Record(
+        id="rb-walterbai-tract2",
+        repo=RB[0],
+        commit=RB[1],
+        path="Data/Exemple_WB100kN_2_Tract_L100_D2.csv",
+        kind="extension",
+        machine="Walter+Bai 100 kN frame export (HEIG-VD COMATEC): ';', units in brackets "
+        "('C_1_Force[kN]', 'C_1_D\u00e9placement[mm]'), a row counter 'S/No' first, every row ending in ';'",
+        dims="L0 100 mm (crosshead 'D\u00e9placement'), D 2 mm",
+        source="the file name's L100_D2 (the analyzer's L0 and D0, Extractor/ConfigWindow.py l.130, "
+        "l.416-418); README.md l.34: 'Walter & Bai - 100 [kN] maximum - Avec et sans extensometres' "
+        "(the extensometer channel 'D\u00e9form1' has no gauge length in the repository: not used)",
+        specimen={"outer_diameter": "2 mm"},
+        test={
+            "gauge_length": "100 mm",
+            "columns": {"time": "C_1_Temps", "elongation": "C_1_D\u00e9placement", "force": "C_1_Force"},
+            "window": {"elongation": ["1 mm", "2.5 mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=1,
+            delim=";",
+            decimal=".",
+            elong_col=4,
+            force_col=2,
+            gauge_m=0.1,
+            window_m=(1e-3, 2.5e-3),
+        ),
+        hand_text="crosshead 1-2.5 mm, past the toe (window also given to matid): line F(strain)",
+        note="apparent stiffness of the load train (crosshead); its tangent falls slowly over the window",
+    ),
+    Record(
+        id="pp-deben-nanocel",
+        repo=TDA[0],
+        commit=TDA[1],
+        path="DATA/NANOCEL_KW.CHAL_450PPM_15.MTR",
+        kind="extension",
+        machine="Deben Microtest miniature tensile stage .MTR (Ver5.5.29, 200 N cell): 19 quoted header "
+        "lines with decimal commas, quoted column names, no units row, a text column 'Motorspeed'",
+        dims="span (gauge length) 10 mm; units mm, N, s given in the study (the file has none)",
+        source="the file's header: line 3 'Span : 10,0', line 6 'Start Sampletime : 100ms' (Point "
+        "steps 0.1 = s), line 18 'Max extension : 0,621mm', line 19 '200N tensile ... Calibrated at "
+        "200N'; tda.py l.27-29 reads Elongation and Force after the 19 header lines",
+        specimen={"width": "5 mm", "height": "1 mm"},
+        test={
+            "gauge_length": "10 mm",
+            "columns": {"time": "Point", "elongation": "Elongation", "force": "Force"},
+            "units": {"time": "s", "elongation": "mm", "force": "N"},
+            "window": {"elongation": ["0.05 mm", "0.09 mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=20,
+            delim=",",
+            decimal=".",
+            elong_col=1,
+            force_col=2,
+            gauge_m=0.01,
+            window_m=(0.05e-3, 0.09e-3),
+            force_si=1.0,
+            first_cells=4,
+        ),
+        hand_text="elongation 0.05-0.09 mm, past the toe and before the film yields (window also given "
+        "to matid): line F(strain)",
+        note="nanocellulose film; width 5 and thickness 1 mm are the header's ('Sample : Default') and "
+        "only label the section",
     ),
     bluehill("am1", "1016", delim=";", skip=6, header="re-saved: ';', empty first column (Latin-1)"),
     bluehill("am2", "1055", delim=",", skip=5, header="as exported: ',' with the results row above the data"),
