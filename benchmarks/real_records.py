@@ -78,6 +78,10 @@ MC_OTW = "Data/DAQ-G1G2-OTW.txt"
 MU = ("pedrodamas0803/mechtest_ufmg", "44731d4696a10535f4d5074063d8670ff364ee2d")  # commit "starting things"
 # the fatigue files were removed later (d14d21b): each is read at the commit that added it
 PM = "FollowTheProcess/pymechtest"
+AH = ("a-hilhorst/Tensile-test-Analysis", "e6836508f491bd8a864db831fe5f0e05c65c9402")  # "bu20240904"
+AH_DIR = "imap_versions/other_machine_outputs_examples"
+TDA = ("ppieczywek/TDA", "92f6dff0f79cc1c5e403ad62a3c747fa10626621")  # "Create LICENSE"
+RB = ("raballito/tensile_test_analyzer", "df39176a0ca99420f7fb6e0975b2aeeb090e9c7b")  # "Correction Readme"
 PM_COMMIT = {
     "Test2": "4b1908e24ede601db1f278861fa0a4243a35c1a9",  # Merge pull request #23 (fatigue)
     "Test5": "cf1b204bdf49413905887fda3edd265765f4d1a9",  # Add fatigue test data ...
@@ -269,6 +273,54 @@ def catman(name: str, window_mm: tuple[float, float]) -> Record:
     )
 
 
+def zwick(
+    name: str, lang: str, cols: dict, spec: tuple[float, float, float], window_mm, order, note=""
+) -> Record:
+    """Tensile coupons of the IMAP lab (UCLouvain), Zwick testXpert II ASCII export ('.TRA'; the
+    repository also holds a byte-identical '.txt' copy of each, which is not used): Latin-1, lines
+    '"name",value,"unit"' of the test set-up (thickness, width, section, the gauge length of the
+    standard-travel extensometer, speeds), then the quoted channel names ('Standard force',
+    'Standard travel', 'Crosshead absolute' or their French 'Force standard', 'Course standard',
+    'Traverse absolue') and a units row. The test starts at the preload (100-150 N) with the
+    extensometer zeroed there. ``spec`` = (thickness, width, gauge length) in mm from the header;
+    ``order`` = (elongation column, force column) for the hand script."""
+    t, w, L0 = spec
+    lo, hi = window_mm
+    el, fc = order
+    return Record(
+        id=f"ah-zwick-{name.replace(' ', '')}",
+        repo=AH[0],
+        commit=AH[1],
+        path=f"{AH_DIR}/{name}.TRA",
+        kind="extension",
+        machine=f"Zwick testXpert II ASCII export (.TRA, {lang} channel names, Latin-1, header lines)",
+        dims=f"thickness {t:g} mm, width {w:g} mm, L0 {L0:g} mm (standard travel)",
+        source=f"the file's own header lines 1-4 ({name}.TRA); the author's import_from_txt.m reads the same "
+        "keys (l.51-54) and takes Standard travel as u, Standard force as F (l.67, l.70)",
+        specimen={"width": f"{w:g} mm", "height": f"{t:g} mm"},
+        test={
+            "gauge_length": f"{L0:g} mm",
+            "columns": cols,
+            "encoding": "latin-1",
+            "window": {"elongation": [f"{lo:g} mm", f"{hi:g} mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=12,
+            delim=",",
+            decimal=".",
+            elong_col=el,
+            force_col=fc,
+            gauge_m=L0 * 1e-3,
+            window_m=(lo * 1e-3, hi * 1e-3),
+            force_si=1.0,
+            encoding="latin-1",
+        ),
+        hand_text=f"standard travel {lo:g}-{hi:g} mm (window also given to matid): line F(strain)",
+        note=note,
+    )
+
+
 def wavematrix(name: str, cycles: str) -> Record:
     """Composite coupon cycled from rest between about 0.3 and 4.5 kN on an Instron 8801 (frame
     8801MTB15319), Instron WaveMatrix 'steps.tracking' CSV export: UTF-8 with BOM, every line ending
@@ -436,12 +488,143 @@ RECORDS: list[Record] = [
         hand_text="strain 1000-3000 microstrain (window also given to matid): line F(strain)",
         note="the file has no header row: columns named by position (README's order), units from the README",
     ),
+    Record(
+        id="rb-shimadzu-tract",
+        repo=RB[0],
+        commit=RB[1],
+        path="Data/Exemple_Shimadzu_Tract_L100_D2.csv",
+        kind="extension",
+        machine="Shimadzu Trapezium CSV export (HEIG-VD COMATEC, 20 kN frame without extensometer): "
+        "label row '\"C35\",,', quoted Temps/Force/Stroke over sec/N/mm, every number quoted",
+        dims="L0 100 mm (crosshead stroke), D 2 mm",
+        source="the file name's L100_D2 (the analyzer's L0 and D0, Extractor/ConfigWindow.py l.130, "
+        "l.416-418); README.md l.33: 'Shimadzu - 20 [kN] maximum - Sans Extensometre'",
+        specimen={"outer_diameter": "2 mm"},
+        test={
+            "gauge_length": "100 mm",
+            "columns": {"time": "Temps", "elongation": "Stroke", "force": "Force"},
+            "window": {"elongation": ["0.5 mm", "0.8 mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=3,
+            delim=",",
+            decimal=".",
+            elong_col=2,
+            force_col=1,
+            gauge_m=0.1,
+            window_m=(0.5e-3, 0.8e-3),
+            force_si=1.0,
+        ),
+        hand_text="stroke 0.5-0.8 mm, past the grips' take-up and before the slope falls "
+        "(window also given to matid): line F(strain)",
+        note="apparent stiffness of the whole load train (crosshead stroke). E_e / (pi (1 mm)^2) = 195 GPa "
+        "is steel-like, but an 8.3 kN peak on 2 mm would be 2.65 GPa for 'C35': D2 is uncertain; E_e "
+        "does not use it",
+    ),
+    Record(
+        id="rb-walterbai-tract2",
+        repo=RB[0],
+        commit=RB[1],
+        path="Data/Exemple_WB100kN_2_Tract_L100_D2.csv",
+        kind="extension",
+        machine="Walter+Bai 100 kN frame export (HEIG-VD COMATEC): ';', units in brackets "
+        "('C_1_Force[kN]', 'C_1_D\u00e9placement[mm]'), a row counter 'S/No' first, every row ending in ';'",
+        dims="L0 100 mm (crosshead 'D\u00e9placement'), D 2 mm",
+        source="the file name's L100_D2 (the analyzer's L0 and D0, Extractor/ConfigWindow.py l.130, "
+        "l.416-418); README.md l.34: 'Walter & Bai - 100 [kN] maximum - Avec et sans extensometres' "
+        "(the extensometer channel 'D\u00e9form1' has no gauge length in the repository: not used)",
+        specimen={"outer_diameter": "2 mm"},
+        test={
+            "gauge_length": "100 mm",
+            "columns": {"time": "C_1_Temps", "elongation": "C_1_D\u00e9placement", "force": "C_1_Force"},
+            "window": {"elongation": ["1 mm", "2.5 mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=1,
+            delim=";",
+            decimal=".",
+            elong_col=4,
+            force_col=2,
+            gauge_m=0.1,
+            window_m=(1e-3, 2.5e-3),
+        ),
+        hand_text="crosshead 1-2.5 mm, past the toe (window also given to matid): line F(strain)",
+        note="apparent stiffness of the load train (crosshead); its tangent falls slowly over the window",
+    ),
+    Record(
+        id="pp-deben-nanocel",
+        repo=TDA[0],
+        commit=TDA[1],
+        path="DATA/NANOCEL_KW.CHAL_450PPM_15.MTR",
+        kind="extension",
+        machine="Deben Microtest miniature tensile stage .MTR (Ver5.5.29, 200 N cell): 19 quoted header "
+        "lines with decimal commas, quoted column names, no units row, a text column 'Motorspeed'",
+        dims="span (gauge length) 10 mm; units mm, N, s given in the study (the file has none)",
+        source="the file's header: line 3 'Span : 10,0', line 6 'Start Sampletime : 100ms' (Point "
+        "steps 0.1 = s), line 18 'Max extension : 0,621mm', line 19 '200N tensile ... Calibrated at "
+        "200N'; tda.py l.27-29 reads Elongation and Force after the 19 header lines",
+        specimen={"width": "5 mm", "height": "1 mm"},
+        test={
+            "gauge_length": "10 mm",
+            "columns": {"time": "Point", "elongation": "Elongation", "force": "Force"},
+            "units": {"time": "s", "elongation": "mm", "force": "N"},
+            "window": {"elongation": ["0.05 mm", "0.09 mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=20,
+            delim=",",
+            decimal=".",
+            elong_col=1,
+            force_col=2,
+            gauge_m=0.01,
+            window_m=(0.05e-3, 0.09e-3),
+            force_si=1.0,
+            first_cells=4,
+        ),
+        hand_text="elongation 0.05-0.09 mm, past the toe and before the film yields (window also given "
+        "to matid): line F(strain)",
+        note="nanocellulose film; width 5 and thickness 1 mm are the header's ('Sample : Default') and "
+        "only label the section",
+    ),
     bluehill("am1", "1016", delim=";", skip=6, header="re-saved: ';', empty first column (Latin-1)"),
     bluehill("am2", "1055", delim=",", skip=5, header="as exported: ',' with the results row above the data"),
     catman("HSM700_7_1", (0.13, 0.175)),
     catman("HSM700_7_2", (0.12, 0.165)),
     wavematrix("Test2", "5 load-unload cycles, 400 s, holds at the peaks"),
     wavematrix("Test5", "load-unload cycles, 33 s"),
+    # Zwick testXpert II: the elastic line of each coupon, below the yield (steel) or where the
+    # apparent stiffness of the Invar low-temperature coupon still falls slowly
+    zwick(
+        "Allong 1",
+        "French",
+        {"time": "Temps", "elongation": "Course standard", "force": "Force standard"},
+        (1.0, 5.96, 25.0),
+        (0.005, 0.03),
+        (3, 2),
+    ),
+    zwick(
+        "Invar_LT_05_01",
+        "English",
+        {"time": "Time", "elongation": "Standard travel", "force": "Standard force"},
+        (1.5, 4.89, 30.0),
+        (0.02, 0.1),
+        (2, 3),
+        note="apparent stiffness (81 GPa x A0, Invar is about 140 GPa): the standard travel of this "
+        "low-temperature test includes more than the gauge length; its slope falls from the start. "
+        "The author's import_from_txt.m (l.76-79) would take L0 from 'Capteur de course' (4.98 mm) "
+        "instead; both matid and the hand script use the file's 30 mm",
+    ),
+    zwick(
+        "mDB1pct",
+        "English",
+        {"time": "Time", "elongation": "Standard travel", "force": "Standard force"},
+        (1.06, 6.02, 20.0),
+        (0.01, 0.035),
+        (3, 2),
+    ),
 ]
 
 

@@ -23,8 +23,17 @@ IN = 0.0254  # m
 LBF_IN = 4.4482216152605 * IN  # N m per in-lbf
 
 
-def read_table(path: Path, skip: int, delim: str | None, *, decimal: str = ".", encoding: str = "utf-8-sig"):
-    """Rows of numbers after ``skip`` lines; cells split on ``delim`` (None: whitespace), quotes dropped."""
+def read_table(
+    path: Path,
+    skip: int,
+    delim: str | None,
+    *,
+    decimal: str = ".",
+    encoding: str = "utf-8-sig",
+    first_cells: int | None = None,
+):
+    """Rows of numbers after ``skip`` lines; cells split on ``delim`` (None: whitespace), quotes dropped;
+    only the ``first_cells`` cells of each row when given (a text column after them)."""
     rows = []
     with open(path, encoding=encoding, errors="replace") as fh:
         for i, line in enumerate(fh):
@@ -33,7 +42,7 @@ def read_table(path: Path, skip: int, delim: str | None, *, decimal: str = ".", 
             line = line.strip().replace('"', "")
             if not line:
                 continue
-            cells = [c for c in (line.split(delim) if delim else line.split()) if c.strip()]
+            cells = [c for c in (line.split(delim) if delim else line.split()) if c.strip()][:first_cells]
             if decimal == ",":
                 cells = [c.replace(",", ".") for c in cells]
             try:
@@ -106,9 +115,10 @@ def extension_window(
     elong_si=1e-3,
     encoding="utf-8-sig",
     strain_col=False,
+    first_cells=None,
 ):
     """E_e = dF/d(strain) over the loading rows with elongation (or strain) inside ``window``."""
-    a = read_table(path, skip, delim, decimal=decimal, encoding=encoding)
+    a = read_table(path, skip, delim, decimal=decimal, encoding=encoding, first_cells=first_cells)
     peak = int(np.argmax(a[:, force_col]))
     x = a[: peak + 1, elong_col] * elong_si
     F = a[: peak + 1, force_col] * force_si

@@ -113,6 +113,16 @@ def _matid_names(
                 for i, (cell, (shown, _)) in enumerate(zip(cells, written, strict=True))
                 if want in (cell.strip().casefold(), shown.strip().casefold())
             ]
+        if len(hits) > 1:  # side-by-side records repeat their names: one must be chosen
+            numbers = ", ".join(str(i + 1) for i in hits)
+            raise DataError(
+                f"columns.{name} = '{bounded_text(header, 80)}' names {len(hits)} columns (numbers "
+                f"{bounded_text(numbers, 80)}): name one by its number, e.g. "
+                f"columns = {{ {name} = {hits[0] + 1} }}",
+                file=path,
+                row=row,
+                column=bounded_text(header, 80),
+            )
         if not hits:
             close = difflib.get_close_matches(header.strip(), cells, n=1, cutoff=0.5)
             hint = f"; did you mean '{close[0]}'?" if close else ""

@@ -100,6 +100,18 @@ def read_rows(raw: bytes, start: Start, layout: Layout, path: Path) -> Rows:
     return Rows(_check_width(frame, lines, raw, layout, path), lines, raw, layout, path)
 
 
+def without_trailing(rows: Rows, indices: list[int]) -> Rows:
+    """``rows`` without the rows at the end where every column of ``indices`` is empty: the lines
+    after one record ends in a file of records side by side (a Shimadzu Trapezium export of several
+    specimens writes each one's columns next to the others', the shorter ones ending first). An
+    empty cell before the last value of the record stays an empty cell."""
+    present = rows.frame.reindex(columns=indices).notna().any(axis=1).to_numpy()
+    if present.size == 0 or present[-1]:
+        return rows
+    keep = int(np.flatnonzero(present)[-1]) + 1 if present.any() else 0
+    return Rows(rows.frame.iloc[:keep], rows.lines[:keep], rows.raw, rows.layout, rows.path)
+
+
 def _parse(raw: bytes, start: Start, layout: Layout, width: int | None) -> pd.DataFrame:
     """``pandas.read_csv(engine="c")`` of the bytes from ``start``; ``width`` columns when given."""
     import pandas as pd

@@ -27,7 +27,7 @@ from matid.fits.kinds import BY_NAME
 from matid.io.ingest import checks as ingest_checks
 from matid.io.ingest.columns import KNOWN, Column, check_required, header
 from matid.io.ingest.detect import HEAD_LINES, Layout, decode, detect, lines_of, preamble
-from matid.io.ingest.frame import Rows, Start, locate, read_rows
+from matid.io.ingest.frame import Rows, Start, locate, read_rows, without_trailing
 from matid.io.ingest.frame import column as frame_column
 from matid.io.study_keys import bounded_text
 from matid.limits import MAX_CSV_BYTES, MAX_CSV_ROWS
@@ -97,7 +97,7 @@ def _table(
     header_row = None if layout.header_at is None else layout.header_at + 1
     check_required(cols, kind, path, row=header_row)
     used = BY_NAME[kind].columns
-    rows = read_rows(raw, start, layout, path)
+    rows = without_trailing(read_rows(raw, start, layout, path), [c.index for c in cols if c.name in used])
     if len(rows.lines) < MIN_ROWS:
         last = int(rows.lines[-1]) if len(rows.lines) else layout.data_at + 1
         raise DataError(f"only {len(rows.lines)} data rows, need at least {MIN_ROWS}", file=path, row=last)
