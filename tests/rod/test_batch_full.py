@@ -1,4 +1,5 @@
-"""The stacked full-model Newton (matid.rod.batch_full) against one RodSystem solve per scene."""
+"""The stacked full-model Newton (matid.rod.batch_full) against one RodSystem solve per scene, and
+[aim]'s starts solved as one stack against the same starts one by one."""
 
 from __future__ import annotations
 
@@ -7,13 +8,14 @@ import dataclasses
 import numpy as np
 import pytest
 
+import matid.rod.aim as A
 from matid.errors import ConvergenceError
 from matid.physics import kinematics as kin
 from matid.rod import batch
 from matid.rod.batch_full import FullStack, stackable
 from matid.rod.cantilever import _prepare, equilibrium, mesh
 from matid.rod.models import FULL
-from matid.rod.scenes import load_scene
+from matid.rod.scenes import Aim, load_scene
 from tests import ROOT
 
 AIM = ROOT / "examples" / "scenes" / "aim.toml"
@@ -94,3 +96,19 @@ def test_dead_moments_and_contact_do_not_stack() -> None:
     assert not stackable(_prepare(moment, FULL)[3])
     point = load_scene(ROOT / "examples" / "scenes" / "point_load.toml")  # a point moment: unsymmetric
     assert not stackable(_prepare(point, FULL)[3])
+
+
+@pytest.mark.parametrize("target, magnitude", [((0.0, 0.0, -1.0), 1.0), ((0.0, 1.0, 0.0), 0.16)])
+def test_aims_stacked_starts_are_its_starts_one_by_one(monkeypatch, target, magnitude) -> None:
+    scene = dataclasses.replace(load_scene(AIM), aim=Aim(target, magnitude))
+    got = {}
+    for stacked in (False, True):
+        monkeypatch.setattr(A, "STACKED_STARTS", stacked)
+        forward = A.Forward(scene, ELEMENTS)
+        starts = A._nearest_starts(forward, np.asarray(target), magnitude)
+        got[stacked] = ([tuple(b) for b in starts], forward.best, forward.solves)
+    assert [tuple(b) for b in A.CANDIDATES] == [tuple(b) for b in CUBE]
+    assert got[True][0] == got[False][0]
+    assert len(got[True][0]) == len(A.CANDIDATES) - (magnitude == 1.0)  # (0, 0, -1) at 1 T fails
+    assert got[True][1][0] == pytest.approx(got[False][1][0], abs=1e-10)
+    assert got[True][2] == got[False][2] == len(got[True][0])  # converged forward solves
