@@ -47,6 +47,10 @@ class Stack:
     ``probe``: their :func:`matid.rod.cantilever.probe_start` when known (it is the same on every mesh).
     """
 
+    #: per-scene arrays (leading scene axis) that :meth:`take` selects; the point stresses' size
+    PER_SCENE = ("k2", "mu", "B", "f", "dead", "magnet", "roundoff", "probe")
+    STRESSES = 2
+
     def __init__(self, disc: Discretisation, parts: list[tuple], probe: np.ndarray | None = None):
         self.disc, nf = disc, 3
         self.work: dict = {}  # scratch arrays, shared with the stacks taken from this one
@@ -128,13 +132,13 @@ class Stack:
 
     def take(self, ids: np.ndarray) -> Stack:
         """The stack of the scenes ``ids`` (shares the mesh and its layout)."""
-        new = object.__new__(Stack)
+        new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)
         new.N = len(ids)
         new.props = {k: v[ids] for k, v in self.props.items()}
-        for name in ("k2", "mu", "B", "f", "dead", "magnet", "roundoff", "probe"):
+        for name in self.PER_SCENE:
             setattr(new, name, getattr(self, name)[ids])
-        new.loaded = {name: bool(getattr(new, name).any()) for name in ("mu", "f", "magnet")}
+        new.loaded = {name: bool(getattr(new, name).any()) for name in self.loaded}
         return new
 
     def expand(self, X: np.ndarray) -> np.ndarray:
@@ -147,8 +151,23 @@ class Stack:
 
     def point_values(self, U: np.ndarray) -> np.ndarray:
         d = self.disc
-        Ue = U.reshape(-1, d.nscalar, 3)[:, d.edofs.T]  # (N, ne, nloc, nf)
-        return np.matmul(d.point_table, Ue).reshape(U.shape[0], d.ne, -1, 6)
+        Ue = U.reshape(-1, d.nscalar, d.nf)[:, d.edofs.T]  # (N, ne, nloc, nf)
+        return np.matmul(d.point_table, Ue).reshape(U.shape[0], d.ne, -1, 2 * d.nf)
+
+    def residual(self, g: np.ndarray, lam: np.ndarray) -> np.ndarray:
+        """R (N, all dofs) from the pointwise gradients g (N, ne, nq, 2 nf) and the dead loads:
+        :meth:`matid.rod.fem.Discretisation.residual` of every scene in one product and one bincount."""
+        d, N, nf = self.disc, g.shape[0], self.disc.nf
+        ne, nq = d.ne, g.shape[2]
+        Wt = d.weighted.transpose(2, 1, 0, 3).reshape(ne, -1, 2 * nq)
+        ge = g.reshape(N, ne, nq, 2, nf).transpose(0, 1, 3, 2, 4).reshape(N, ne, 2 * nq, nf)
+        Re = np.matmul(Wt, ge)
+        index = self.work.get(("index", N))
+        if index is None:
+            index = self.work[("index", N)] = (d.gdofs.ravel()[None, :] + d.n * np.arange(N)[:, None]).ravel()
+        R = np.bincount(index, weights=Re.ravel(), minlength=N * d.n).reshape(N, d.n)
+        R += lam[:, None] * self.dead
+        return R
 
     def evaluate(self, X, lam, *, tangent=True, stress=None, want_strain=False):
         """(R (N, n free), block-tridiagonal tangent or None, strain) at states X, load factors lam (N,)."""
@@ -169,13 +188,7 @@ class Stack:
             g[..., 0] -= lam3 * self.f[:, None, None, 0]
             g[..., 1] -= lam3 * self.f[:, None, None, 1]
         ne, nq = d.ne, g.shape[2]
-        Wt = d.weighted.transpose(2, 1, 0, 3).reshape(ne, -1, 2 * nq)
-        Re = np.matmul(Wt, g.reshape(N, ne, nq, 2, 3).transpose(0, 1, 3, 2, 4).reshape(N, ne, 2 * nq, 3))
-        index = self.work.get(("index", N))
-        if index is None:
-            index = self.work[("index", N)] = (d.gdofs.ravel()[None, :] + d.n * np.arange(N)[:, None]).ravel()
-        R = np.bincount(index, weights=Re.ravel(), minlength=N * d.n).reshape(N, d.n)
-        R += lam[:, None] * self.dead
+        R = self.residual(g, lam)
         T = K = None
         if tangent:  # K_e = tables_e @ H's entries: (ne, node pairs x field pairs, N)
             hs = np.ascontiguousarray(H.reshape(7, N, ne, nq).transpose(2, 3, 0, 1)).reshape(ne, 7 * nq, N)
@@ -338,7 +351,7 @@ def follow(stack: Stack, X0: np.ndarray, stress0: np.ndarray | None = None):
     step, slope = np.ones(N), np.zeros_like(X0)
     its, steps, rejected = np.zeros(N, int), np.zeros(N, int), np.zeros(N, int)
     nq = stack.disc.s_quad.shape
-    stress = np.full((N,) + nq + (2,), np.nan) if stress0 is None else stress0.copy()
+    stress = np.full((N,) + nq + (stack.STRESSES,), np.nan) if stress0 is None else stress0.copy()
     reason: list = [None] * N
     budget = max(nw.MIN_ITERATIONS, int(nw.WORK_BUDGET / max(X0.shape[1], 1)))
     first = definite_steps(stack, X0, step)

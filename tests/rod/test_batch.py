@@ -69,27 +69,34 @@ def test_a_failing_scene_leaves_with_its_reason():
         assert np.max(np.abs(got[i].position - solve(scenes[i]).position)) / L < 1e-9
 
 
-def test_chain_solve_and_definiteness():
+@pytest.mark.parametrize("b", [3, 7])
+def test_chain_solve_and_definiteness(b: int) -> None:
     """The condensed, cyclically reduced factorisation against a dense solve and the eigenvalues,
-    on element matrices of random symmetric blocks (one indefinite) on meshes of 1 to 13 elements."""
+    on element matrices of random symmetric blocks (one indefinite) on meshes of 1 to 13 elements,
+    with b fields per node (planar 3, full model 7) and lumped additions on the vertices (diagonal
+    and full blocks)."""
     rng = np.random.default_rng(3)
     N = 4
     for ne in (1, 2, 3, 5, 8, 13):
-        disc = mesh(ne, (), 3, "P2", 2)
+        disc = mesh(ne, (), b, "P2", 2)
         layout = ChainLayout(disc)
-        Ke = rng.normal(size=(N, ne, 9, 9))  # [(node k, field i), (node l, field j)], layout order
-        shift = np.where(np.arange(N) == 2, 0.0, 30.0)[:, None, None, None] * np.eye(9)
+        Ke = rng.normal(size=(N, ne, 3 * b, 3 * b))  # [(node k, field i), (node l, field j)], layout order
+        shift = np.where(np.arange(N) == 2, 0.0, 10.0 * b)[:, None, None, None] * np.eye(3 * b)
         Ke = Ke + Ke.transpose(0, 1, 3, 2) + shift
-        extra = rng.uniform(0.0, 1.0, size=(3, ne + 1, N))
+        extra = rng.uniform(0.0, 1.0, size=(b, ne + 1, N))
+        blocks = rng.uniform(0.0, 0.1, size=(b, b, ne + 1, N))
+        blocks = blocks + blocks.transpose(1, 0, 2, 3)
         dense = np.zeros((N, disc.n, disc.n))
         for e in range(ne):
-            dofs = (disc.edofs[layout.local, e][:, None] * 3 + np.arange(3)).ravel()
+            dofs = (disc.edofs[layout.local, e][:, None] * b + np.arange(b)).ravel()
             dense[:, dofs[:, None], dofs] += Ke[:, e]
-        for f in range(3):
-            dense[:, layout.vertices * 3 + f, layout.vertices * 3 + f] += extra[f].T
+        for f in range(b):
+            dense[:, layout.vertices * b + f, layout.vertices * b + f] += extra[f].T
+            for g in range(b):
+                dense[:, layout.vertices * b + f, layout.vertices * b + g] += blocks[f, g].T
         free = np.ones(disc.n, bool)
-        free[layout.vertices[0] * 3 + np.arange(3)] = False
-        F = Chain(Ke.reshape(N, ne, 3, 3, 3, 3).transpose(2, 4, 3, 5, 1, 0), layout, extra)
+        free[layout.vertices[0] * b + np.arange(b)] = False
+        F = Chain(Ke.reshape(N, ne, 3, b, 3, b).transpose(2, 4, 3, 5, 1, 0), layout, extra, blocks)
         r = np.where(free, rng.normal(size=(N, disc.n)), 0.0)
         K = dense[:, free][:, :, free]
         x = F.solve(r)
@@ -97,4 +104,5 @@ def test_chain_solve_and_definiteness():
         assert not x[:, ~free].any()
         want = [bool(np.all(np.linalg.eigvalsh(k) > 0)) for k in K]
         assert F.positive_definite(np.arange(N)).tolist() == want
+        assert F.positive_definite(np.array([2, 0])).tolist() == [want[2], want[0]]
         assert want[2] is False and want[0] is True
