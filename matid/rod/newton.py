@@ -173,7 +173,7 @@ def _next_below(size: float, previous: float) -> bool:
 
 #: Inverse iterations of the lowest-eigenvalue estimate of :func:`_settled`, and how far the
 #: estimates of two successive tangents may differ (relative) for the reading to count as settled.
-LOWEST_ITERATIONS, SETTLED = 3, 0.1
+LOWEST_ITERATIONS, SETTLED = 2, 0.1
 
 
 def _settled(lu, previous) -> bool:
@@ -185,25 +185,15 @@ def _settled(lu, previous) -> bool:
     eigenvalue moves by ~2e5 per unit correction (measured: a 2.7e-8 correction turned -0.00417
     into +0.0016, field 179.5 deg at 1.05 q_c, E_s L^2/E_b = 1e8). So the previous tangent must be
     positive definite too, and the lowest-eigenvalue estimates of the two (inverse iteration)
-    agree within SETTLED: the rest of the way, >= 100x shorter (:func:`_next_below`), moves it less.
+    agree within SETTLED (:meth:`matid.rod.band.BandFactor.lowest`, the same start and iterations for
+    both): the rest of the way, >= 100x shorter (:func:`_next_below`), moves it less.
     """
     if getattr(lu, "positive_definite", None) is not True:
         return True
     if getattr(previous, "positive_definite", None) is not True:
         return False
-    now, before = _lowest(lu), _lowest(previous)
+    now, before = lu.lowest(LOWEST_ITERATIONS), previous.lowest(LOWEST_ITERATIONS)
     return abs(now - before) <= SETTLED * now
-
-
-def _lowest(lu) -> float:
-    """The lowest eigenvalue of a positive definite factorised matrix, estimated by inverse
-    iteration from the vector of ones."""
-    v = np.ones(lu.matrix.shape[0])
-    norm = float(np.sqrt(v @ v))
-    for _ in range(LOWEST_ITERATIONS):
-        v = lu.solve(v / norm)
-        norm = float(np.sqrt(v @ v))
-    return 1.0 / norm
 
 
 def _smooth(piece: tuple | None) -> bool:

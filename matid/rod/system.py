@@ -250,9 +250,10 @@ class RodSystem:
         """The smooth pieces of the last evaluation (:meth:`Term.branch` of each nodal term)."""
         return tuple(term.branch(prep) for term, prep in self.nodal)
 
-    @property
+    @functools.cached_property
     def symmetric(self) -> bool:
-        """The tangent is a Hessian, except with a dead moment in 3D (no potential)."""
+        """The tangent is a Hessian, except with a dead moment in 3D (no potential); the bound terms
+        are fixed at construction, so this is read once (each evaluation asks)."""
         bound = self.distributed + self.nodal + self.constraints
         return all(term.symmetric(self) for term, _ in bound)
 
