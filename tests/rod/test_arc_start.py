@@ -8,7 +8,8 @@ import pytest
 
 from matid.bench.peers import precurved_3d
 from matid.rod import cantilever
-from matid.rod.cantilever import _prepare, arc, default_penalty, equilibrium, mesh
+from matid.rod.arc import arc
+from matid.rod.cantilever import _prepare, default_penalty, equilibrium, mesh
 from matid.rod.models import PLANAR
 from matid.rod.scenes import scene_from_dict
 from matid.rod.system import RodSystem
