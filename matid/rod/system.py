@@ -205,9 +205,10 @@ class RodSystem:
         old = sigma_u if self._stress is None else self._stress
         self._stress = old + alpha * (target - old)
 
-    @property
+    @functools.cached_property
     def roundoff(self) -> float:
-        """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread."""
+        """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread
+        (of the stiffnesses bound at construction; read once, each Newton solve asks)."""
         stiff = max([float(v.max()) for v in self.props.values()])  # the method: no np.max dispatch
         return 1e-15 * max(stiff, 1.0)
 
