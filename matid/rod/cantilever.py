@@ -17,6 +17,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from matid.physics import kinematics as kin
+from matid.rod.arc import arc
 from matid.rod.contact_rounds import carry, report, reset, settle
 from matid.rod.fem import Discretisation, graded_vertices
 from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
@@ -169,6 +170,8 @@ def equilibrium(
         carry(system, start)  # the contact multipliers (contact_rounds)
         start = start.state()
     X = _warm(system, start) if start is not None and element == "P2" else None
+    if X is None and start is None and element == "P2" and (bent := arc(system)) is not None:
+        X = _full_load(system, bent)
     if X is None:
         system.stress_start = None  # the continuation starts from the straight rod
         reset(system)
@@ -329,6 +332,11 @@ def _warm(system: RodSystem, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.n
     U0 = interpolate_p2(*start, system.disc.s_dof)
     if system.model == FULL:
         U0[:, 3:] /= np.linalg.norm(U0[:, 3:], axis=1, keepdims=True)
+    return _full_load(system, U0)
+
+
+def _full_load(system: RodSystem, U0: np.ndarray) -> tuple[np.ndarray, NewtonInfo] | None:
+    """Newton at the full load from nodal values U0 (nscalar, nf); None if it fails or is inadmissible."""
     try:
         X, its, lu = newton(system, system.reduce(U0.ravel()), 1.0)
         _check_admissible(system, X, 1.0, lu)
