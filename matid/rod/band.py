@@ -9,7 +9,6 @@ and a successful Cholesky is the stability test of the state (every pivot > 0).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -84,17 +83,6 @@ class BandFactor:
 
     def __init__(self, matrix: Banded, factor: np.ndarray, piv: np.ndarray | None, positive_definite):
         self.matrix, self.factor_, self.piv, self.positive_definite = matrix, factor, piv, positive_definite
-
-    def lowest(self, iterations: int) -> float:
-        """The lowest eigenvalue of a Cholesky-factorised (positive definite) matrix, estimated by
-        ``iterations`` inverse iterations from the vector of ones (in band order: the spectrum is
-        the same)."""
-        v = np.ones(self.factor_.shape[1])
-        norm = math.sqrt(v.size)
-        for _ in range(iterations):
-            v, info = lapack.dpbtrs(self.factor_, v / norm, lower=1)
-            norm = math.sqrt(v @ v)
-        return 1.0 / norm
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         m = self.matrix

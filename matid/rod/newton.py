@@ -61,8 +61,6 @@ MAX_PIECEWISE_ITER = 4 * MAX_ITER
 MIN_STEP, MAX_LOAD_STEP, FAST = 1e-6, 1.0, 4
 #: No correction larger than this is ever accepted as "at the round-off floor".
 FLOOR_CAP = 1e-7
-#: A correction is accepted by the predicted next one (:func:`_next_below`) only below this.
-QUADRATIC_BELOW = 1e-3
 #: Continuation effort before it gives up: Newton iterations x unknowns (and at least
 #: MIN_ITERATIONS iterations). Measured: the Kirchhoff-limit case (E_s L^2/E_b = 1e12,
 #: 99 unknowns) needs 1598 iterations in 253 steps (budget 1e5); 10^4 elements at
@@ -105,10 +103,6 @@ def newton(
     if mixed is not None:
         system.mixed_begin()
     branch, piece = getattr(system, "branch", None), None
-    #: systems that stop on the predicted next correction (:func:`_next_below`) on a smooth piece;
-    #: not those whose caller reads the last factorisation as the solution's (the bend's sensitivities)
-    accept = getattr(system, "accept_step", None)
-    previous = None  # the last iteration's factorised tangent
     for it in range(1, MAX_PIECEWISE_ITER + 1):
         if first is not None and it == 1:
             R, lu = first
@@ -128,11 +122,6 @@ def newton(
         size = measure(dx)
         if size <= XTOL or (size <= floor and sizes and size > 0.1 * sizes[-1]):
             return x + dx, it, lu
-        if accept is not None and sizes and _next_below(size, sizes[-1]) and _smooth(piece):
-            if _settled(lu, previous):
-                accept(dx)  # the next correction would be below XTOL: x + dx, its point stresses
-                return x + dx, it, lu
-        previous = lu
         if len(sizes) >= 3 and size > sizes[-1] and size > sizes[-3]:
             if size < 1e-3 and max(sizes[-3:]) < 10 * min(sizes[-3:]) and size < 1e-2 * sizes[0]:
                 raise RoundoffStagnation(
@@ -149,57 +138,6 @@ def newton(
             mixed(dx, alpha) if size > MIXED_ABOVE else system.mixed_reset()
         x = x + dx * alpha
     raise NewtonFailure(f"no convergence in {it} iterations (correction {size:.3g})")
-
-
-def _next_below(size: float, previous: float) -> bool:
-    """Whether Newton's next correction, predicted from the last two by quadratic convergence
-    (size^2 / previous^2 * size), is below XTOL: then x + dx is converged to XTOL already and the
-    iteration that would only confirm it is saved (one evaluation of a 2-4-iteration solve).
-
-    Only in the quadratic regime: a full step (previous <= MAX_STEP), contracting at least 100x
-    (size <= 1e-2 previous) and below QUADRATIC_BELOW; also below the round-off floor, where the
-    usual test waits for the corrections to stop shrinking. Measured (bench peers, 4/8/16 elements): corrections 2.2e-4 -> 3.5e-8
-    predict 9e-16 (next measured 2.7e-14); 2.1e-3 -> 1.9e-6 predict 1.5e-12 (measured 1.8e-12).
-    The stability test then reads the tangent one correction before the root: its lowest
-    eigenvalue differed from the root's by at most 1e-4 relative there (0.38316 / 0.383144).
-    """
-    return (
-        size <= QUADRATIC_BELOW
-        and previous <= MAX_STEP
-        and size <= 1e-2 * previous
-        and size * size * size <= XTOL * previous * previous
-    )
-
-
-#: Inverse iterations of the lowest-eigenvalue estimate of :func:`_settled`, and how far the
-#: estimates of two successive tangents may differ (relative) for the reading to count as settled.
-LOWEST_ITERATIONS, SETTLED = 2, 0.1
-
-
-def _settled(lu, previous) -> bool:
-    """Whether a stopped Newton's last factorisation may stand for the root's in the stability test.
-
-    It is the tangent one correction before the root. When it is not a positive definite
-    Cholesky the test reads the root itself (``system.reject``): nothing to check. When it is,
-    the root's tangent could still be indefinite: near a critical state of a stiff rod the lowest
-    eigenvalue moves by ~2e5 per unit correction (measured: a 2.7e-8 correction turned -0.00417
-    into +0.0016, field 179.5 deg at 1.05 q_c, E_s L^2/E_b = 1e8). So the previous tangent must be
-    positive definite too, and the lowest-eigenvalue estimates of the two (inverse iteration)
-    agree within SETTLED (:meth:`matid.rod.band.BandFactor.lowest`, the same start and iterations for
-    both): the rest of the way, >= 100x shorter (:func:`_next_below`), moves it less.
-    """
-    if getattr(lu, "positive_definite", None) is not True:
-        return True
-    if getattr(previous, "positive_definite", None) is not True:
-        return False
-    now, before = lu.lowest(LOWEST_ITERATIONS), previous.lowest(LOWEST_ITERATIONS)
-    return abs(now - before) <= SETTLED * now
-
-
-def _smooth(piece: tuple | None) -> bool:
-    """Whether the residual is smooth (no term with pieces, e.g. no contact: its active set could
-    change at x + dx unseen)."""
-    return piece is None or all(p is None for p in piece)
 
 
 def _max_abs(d: np.ndarray) -> float:
