@@ -89,12 +89,20 @@ def _estimate(parameter, name, k, se, ci, n, fixed, warn=()) -> Estimate:
 
 def _plotted(run: _Run, model: np.ndarray) -> dict[str, np.ndarray]:
     """What a plot of the run draws: every row, or on a long record (residuals as bin means,
-    :mod:`matid.fits.extension.reduce`) the bin means of the used rows, model alike."""
+    :mod:`matid.fits.extension.reduce`) the bin means of the used rows, model alike; the rows
+    before the strip became taut (``run.before``) first, not used and without a model."""
     rows = {"time_s": run.t, "strain": run.eps, "force_N": run.force, "model_N": model}
     if run.reduce.starts is None:
-        return {**rows, "used": run.used}
-    means = {key: run.reduce.means(values) for key, values in rows.items()}
-    return {**means, "used": np.ones(means["time_s"].size, dtype=bool)}
+        out = {**rows, "used": run.used}
+    else:
+        out = {key: run.reduce.means(values) for key, values in rows.items()}
+        out["used"] = np.ones(out["time_s"].size, dtype=bool)
+    if run.before is None:
+        return out
+    t, eps, force = run.before
+    first = {"time_s": t, "strain": eps, "force_N": force, "model_N": np.full(t.size, np.nan)}
+    first["used"] = np.zeros(t.size, dtype=bool)
+    return {key: np.concatenate([first[key], out[key]]) for key in out}
 
 
 def _series(runs: Sequence[_Run], models: Sequence[np.ndarray]) -> tuple[Series, ...]:
