@@ -154,6 +154,39 @@ class Record:
         return out
 
 
+#: The quadratic term of a parabola through a record's fitted rows lies more than this many standard
+#: errors from zero: the curve bends inside the range fitted (the bar of the extension fit's
+#: :func:`matid.fits.extension.checks.nonlinear`).
+BEND_T = 3.0
+
+
+def bend(rec: Record) -> float:
+    """|t| of the quadratic term of ``y = c + b u + q u^2`` (u: x scaled over its range) over the
+    rows the onset test accepts as one line (``accepted``; the fitted rows with a window), in
+    recording order, its standard error the AR(1) sandwich of :mod:`matid.fits.stats` (0 with
+    under 10 rows). A long dense record that softens passes the onset test while a parabola over
+    those rows still finds its bend, and trimming stops where the bend is no longer significant:
+    the noise interval of the range kept then understates what the choice of range moves."""
+    rows = rec.used if rec.accepted is None else rec.accepted
+    x, y = rec.x[rows], rec.y[rows]
+    if x.size < 10 or np.ptp(x) <= 0:
+        return 0.0
+    u = (x - x.mean()) / np.ptp(x)
+    design = np.column_stack([np.ones_like(u), u, u**2])
+    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+    se = stats.ar1_covariance(design, y - design @ coef).stderr[2]
+    return abs(float(coef[2])) / se if se > 0 else 0.0
+
+
+def bent(records: Sequence[Record]) -> str:
+    """Which records bend (:func:`bend` above ``BEND_T``), said for a warning; empty when none does."""
+    names = [r.name for r in records if bend(r) > BEND_T]
+    if not names:
+        return ""
+    said = "the rows the onset test accepts as one line bend (a parabola's curvature is significant)"
+    return f"{', '.join(names)}: {said}; "
+
+
 def record(name: str, x: np.ndarray, y: np.ndarray, window: np.ndarray) -> Record:
     """A record with the rows outside ``window`` and the non-finite rows left out."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)

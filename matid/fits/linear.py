@@ -323,11 +323,11 @@ def range_slopes(records: Sequence[Record]) -> list[float]:
 def range_spread(
     records: Sequence[Record], fit: LineFit, warnings: Sequence[Warning], parameter: str, advice: str
 ) -> tuple[LineFit, list[Warning]]:
-    """The fit with its interval widened to the spread of :func:`range_slopes`, and a warning saying
-    so, when a warning of RANGE_KINDS says the line misses the data or holds few of the loading
-    rows: the noise interval of one range then understates what the choice of range moves. The
-    fit unchanged where the spread lies inside the interval or no such warning applies."""
-    if not any(w.kind in RANGE_KINDS for w in warnings):
+    """The fit with its interval widened to the spread of :func:`range_slopes`, and why, after a warning
+    of RANGE_KINDS (a misfit, few loading rows in the range) or where a record bends (:func:`branch.bent`):
+    the noise of one range understates what the choice moves. Else, or inside the interval, unchanged."""
+    bent = branch.bent(records)
+    if not (bent or any(w.kind in RANGE_KINDS for w in warnings)):
         return fit, []
     slopes = range_slopes(records)
     low, high = min(slopes, default=fit.ci95[0]), max(slopes, default=fit.ci95[1])
@@ -336,7 +336,7 @@ def range_spread(
     ci = (min(fit.ci95[0], low), max(fit.ci95[1], high))
     extended = ", and over them extended to either end of the loading" if any(map(_extended, records)) else ""
     text = (
-        f"{parameter} depends on the range fitted: over the halves of the rows fitted and of the rows "
+        f"{bent}{parameter} depends on the range fitted: over the halves of the rows fitted and of the rows "
         f"the onset test accepts as one line{extended}, the slope runs from {low:.4g} to {high:.4g}; the "
         f"95 % interval ({ci[0]:.4g} to {ci[1]:.4g}) includes this spread. Set a window to the range "
         f"you mean, or record more points in the small-strain range. {advice}"

@@ -34,7 +34,8 @@ class Estimate:
     stderr: float | None
     ci95: tuple[float, float] | None
     n_points: int
-    method: str  # "sls", "prony", "linear", "ramp-line", "cosserat-fe", "shear-coefficient", "fixed"
+    method: str  # "sls", "prony", "linear", "ramp-line", "elastic-line", "cosserat-fe", "shear-coefficient",
+    # "fixed"
     warnings: tuple[str, ...] = ()
     extra: Mapping[str, object] = field(default_factory=dict, hash=False)
     #: Why no value can be given, and what to measure instead ("": a value is given). A withheld

@@ -94,7 +94,8 @@ def status(est: Estimate, fit: TestFit | None = None) -> Status:
         interval = _interval_problem(est)
         if interval:
             return Status("not_identifiable", interval, instead)
-    partner, r = _strongest_correlation(est.parameter, fit, sls_k1=est.method != "ramp-line")
+    lines = ("ramp-line", "elastic-line")  # E_e is a line's slope, not sls_k1
+    partner, r = _strongest_correlation(est.parameter, fit, sls_k1=est.method not in lines)
     if partner and abs(r) >= INSEPARABLE_R:
         why = f"{est.parameter} and {partner} are inseparable (r = {r:+.4f}): the data fix a combination"
         return Status("not_identifiable", why, instead)

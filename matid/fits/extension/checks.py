@@ -157,21 +157,23 @@ def single_ramps(runs: Sequence[_Run]) -> bool:
     return max(rates) <= 1.1 * min(rates)
 
 
-def ramp_line(runs: Sequence[_Run]) -> tuple[float, float, float]:
-    """(slope, standard error, dof) of ``F = c_j + S eps`` over the used rows of single-ramp runs,
-    one intercept per run, each run weighted by its noise; the AR(1) sandwich of
-    :func:`matid.fits.stats.ar1_covariance`. Raises ValueError when the rows cannot give it."""
-    blocks = []
-    for j, run in enumerate(runs):
-        eps, force, s = run.eps[run.used], run.force[run.used], run.noise
-        design = np.zeros((eps.size, len(runs) + 1))
-        design[:, 0], design[:, j + 1] = eps / s, 1.0 / s
-        blocks.append((design, force / s))
-    design = np.vstack([b[0] for b in blocks])
-    y = np.concatenate([b[1] for b in blocks])
-    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
-    cov = stats.ar1_covariance(design, y - design @ coef, [int(run.used.sum()) for run in runs])
-    return float(coef[0]), float(cov.stderr[0]), cov.dof
+#: A run is cycled or held when its unloading and hold rows are at least this share of its used rows
+#: (a few rows a noisy extensometer moves back make no cycle).
+_CYCLED_SHARE = 0.05
+
+
+def cycled(runs: Sequence[_Run]) -> bool:
+    """Whether some run's used rows unload or hold (:func:`matid.fits.branch.branch`) on at least
+    ``_CYCLED_SHARE`` of them: rows where the strain rate differs from the loading's, which part a
+    dashpot and a slow drift from a force that bends with strain (:mod:`.elastic`)."""
+    for run in runs:
+        eps, force = run.eps[run.used], run.force[run.used]
+        if eps.size < 3:
+            continue
+        other = sum(int(mask.sum()) for mask in branch.branch(eps, force).values())
+        if other >= _CYCLED_SHARE * eps.size:
+            return True
+    return False
 
 
 def nonlinear(

@@ -31,7 +31,10 @@ the strip becomes taut, from rest, with a free force offset ``F = c + k1 eps + f
 of the least squares, :mod:`matid.fits.extension.lsq`); E_e says so. Single ramps at one rate
 whose SLS resolves no relaxation (k2 and eta not identifiable) cannot fix k1 (a slow arm is a
 spring over the ramp: k1 slides along a valley of k1 + k2): E_e is then the slope of the force
-over the rows used, the stiffness at that rate, and says why (:func:`_ramp_line`).
+over the rows used, the stiffness at that rate, and says why. Runs that unload or hold, where
+neither the SLS nor the preferred Prony series describes them better than the SLS's limits (a
+dashpot and a relaxation slower than the record: a line with two more terms), resolve no
+relaxation either: E_e is then that line's slope (:mod:`matid.fits.extension.elastic`).
 """
 
 from __future__ import annotations
@@ -44,19 +47,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from matid.errors import FitError
-from matid.fits.extension import prony
-from matid.fits.extension.checks import (
-    _k1_warnings,
-    _unidentifiable,
-    end_of_hold,
-    nonlinear,
-    ramp_line,
-    single_ramps,
-)
+from matid.fits.extension import elastic, lsq, prony
+from matid.fits.extension.checks import _k1_warnings, _unidentifiable, end_of_hold, nonlinear, single_ramps
 from matid.fits.extension.lsq import _ORDER, _PARAM_NAMES, _models, _offset, _solve, _values, n_params
 from matid.fits.extension.runs import _Run, _run, _unique
 from matid.fits.extension.stats import _correlation, _covariance_fit, _intervals, _misfit, _sandwich, _stderr
-from matid.fits.stats import interval
 from matid.model.kind import Kind
 from matid.model.results import Estimate, Series, TestFit
 
@@ -94,12 +89,20 @@ def _estimate(parameter, name, k, se, ci, n, fixed, warn=()) -> Estimate:
 
 def _plotted(run: _Run, model: np.ndarray) -> dict[str, np.ndarray]:
     """What a plot of the run draws: every row, or on a long record (residuals as bin means,
-    :mod:`matid.fits.extension.reduce`) the bin means of the used rows, model alike."""
+    :mod:`matid.fits.extension.reduce`) the bin means of the used rows, model alike; the rows
+    before the strip became taut (``run.before``) first, not used and without a model."""
     rows = {"time_s": run.t, "strain": run.eps, "force_N": run.force, "model_N": model}
     if run.reduce.starts is None:
-        return {**rows, "used": run.used}
-    means = {key: run.reduce.means(values) for key, values in rows.items()}
-    return {**means, "used": np.ones(means["time_s"].size, dtype=bool)}
+        out = {**rows, "used": run.used}
+    else:
+        out = {key: run.reduce.means(values) for key, values in rows.items()}
+        out["used"] = np.ones(out["time_s"].size, dtype=bool)
+    if run.before is None:
+        return out
+    t, eps, force = run.before
+    first = {"time_s": t, "strain": eps, "force_N": force, "model_N": np.full(t.size, np.nan)}
+    first["used"] = np.zeros(t.size, dtype=bool)
+    return {key: np.concatenate([first[key], out[key]]) for key in out}
 
 
 def _series(runs: Sequence[_Run], models: Sequence[np.ndarray]) -> tuple[Series, ...]:
@@ -171,42 +174,18 @@ def _widened(e_e: Estimate, warning: str, low: float, high: float) -> Estimate:
     return replace(e_e, ci95=ci, warnings=(warning, *e_e.warnings))
 
 
-#: Why E_e is the ramp's line (:func:`_ramp_line`).
-_RAMP_LINE = (
-    "a single ramp at one rate cannot tell relaxation from the elastic response, and the standard "
-    "linear solid resolves none here (its k2 and eta stay undetermined): E_e is the slope of the line "
-    "force = c + E_e strain over the rows used, the stiffness at this rate (any relaxing part is in "
-    "it: the equilibrium stiffness may be lower); a hold or a second rate would part them, and a "
-    "window on strain where the force is straight gives the small-strain value"
-)
-
-
-def _ramp_line(e_e: Estimate, runs) -> Estimate:
-    """E_e as the slope of the force over the used rows of single-ramp runs whose SLS resolves no
-    relaxation: there k1 lies anywhere along a valley of k1 + k2 (a slow arm is a spring over
-    the ramp), while the slope is what the record determines."""
-    try:
-        slope, se, dof = ramp_line(runs)
-    except (ValueError, np.linalg.LinAlgError):
-        return e_e
-    return replace(
-        e_e,
-        value=slope,
-        stderr=se,
-        ci95=interval(slope, se, dof),
-        method="ramp-line",
-        warnings=(_RAMP_LINE,),
-        extra={"ci_method": "t"},
-    )
-
-
-def _nonlinear(e_e: Estimate, runs, k, best: prony.PronyFit | None) -> Estimate:
+def _nonlinear(e_e: Estimate, runs, k, best: prony.PronyFit | None, line: elastic.Line | None) -> Estimate:
     """E_e with its interval spanning the elastic tangents over the strain range, and why, when
     the force is not linear in strain (:func:`checks.nonlinear`); the relaxing part is that of
-    the model that gave E_e (the preferred Prony series, else the SLS; none for the ramp's line)."""
+    the model that gave E_e (the preferred Prony series, else the SLS; the line's dashpot and
+    drift for the line of :func:`_elastic_line`; none for the ramp's line)."""
     if e_e.method == "ramp-line":
         zeros = [np.zeros(run.t.size) for run in runs]
         found = nonlinear(runs, zeros, e_e.value, "the force's own tangent")
+        return e_e if found is None else _widened(e_e, *found)
+    if line is not None:
+        what = "the force less the line's dashpot and drift"
+        found = nonlinear(runs, line.relaxing, e_e.value, what)
         return e_e if found is None else _widened(e_e, *found)
     if best is None:
         relaxing = [run.history.force(0.0, k["k2"], k["eta"]) for run in runs]
@@ -293,11 +272,15 @@ def fit_extension(
         e_e = replace(k0, parameter="E_e", warnings=(prony_e_e, *k0.warnings))
     best = choice.fits[choice.best] if prony_estimates else None
     offsets = _offsets(runs, k, best)
+    line = None
     if "k1" not in fixed_k:
-        if reasons and single_ramps(runs):
-            e_e = _ramp_line(e_e, runs)
-        e_e = _below_hold(_nonlinear(e_e, runs, k, best), runs, offsets)
+        compared = _relaxing(result, runs, sigma, ref, best)
+        e_e, line = elastic.choose(e_e, runs, sigma, bool(reasons), compared)
+        offsets = list(line.offsets) if line is not None else offsets  # those of the model giving E_e
+        e_e = _below_hold(_nonlinear(e_e, runs, k, best, line), runs, offsets)
     e_e = _started(e_e, runs, offsets)
+    if line is not None:  # the line describes the runs as well: the SLS's k2 and eta are not resolved
+        sls = [elastic.unresolved_arm(est) if est.parameter in ("sls_k2", "sls_eta") else est for est in sls]
     estimates = (e_e, *sls, *prony_estimates)
     models = _models(runs, k)
     info = _info(runs, models, k, sigma, n - n_params(result.nvarys, runs))
@@ -306,8 +289,10 @@ def fit_extension(
     info["interval_widening"] = float(np.max(cov.inflation)) if cov is not None else 1.0
     if choice is not None:
         info["model_choice"] = {"arms_preferred": choice.best, **choice.table()}
-    if prony_estimates:  # E_e is the Prony series': the force-time plot draws that model
+    if prony_estimates and line is None:  # E_e is the Prony series': the force-time plot draws it
         _plot_prony(info["plot_data"], runs, choice.fits[choice.best])
+    if line is not None:  # the figure draws the SLS, which does not give E_e
+        info["plot_data"]["model"] = "SLS model (E_e is the elastic line's slope: no relaxation resolved)"
     return TestFit(
         kind=KIND.name,
         specimen=specimen,
@@ -319,6 +304,16 @@ def fit_extension(
         correlation=corr,
         info=info,
     )
+
+
+def _relaxing(result, runs, sigma, ref, best: prony.PronyFit | None) -> tuple[str, np.ndarray, int]:
+    """The relaxing model that gave E_e: (its name, weighted residuals on every used row, its
+    parameters with the runs' force offsets): the preferred Prony series, else the SLS."""
+    if best is not None:
+        arms = f"the {best.n_terms}-arm Prony series"
+        return arms, best.residual, n_params(best.n_params, runs)
+    resid = lsq.residual(result.params, runs, sigma, ref, rows=True)
+    return "the standard linear solid", resid, n_params(result.nvarys, runs)
 
 
 #: Fixed parameters the extension fit holds (E_e is sls_k1).

@@ -5,7 +5,7 @@ Each run keeps its time, strain and force, a model-free noise level (second diff
 inside the test's window and not slack (a strip near zero force after loading carries no
 compression). A run that takes up slack or starts at a preload before it loads
 (:mod:`matid.fits.extension.start`) begins at its loading (slack rows are dropped, history and
-all) and carries a free force offset (``offset``).
+all; ``before`` keeps them for the plots) and carries a free force offset (``offset``).
 """
 
 from __future__ import annotations
@@ -45,6 +45,8 @@ class _Run:
     used: np.ndarray  # rows whose residuals enter the fit (the model runs over all rows)
     left_out: Mapping[str, int] = field(default_factory=dict)  # reason -> rows
     start: start_.Start | None = None  # slack or preload before loading: a free force offset
+    #: The rows before the strip becomes taut (time, strain, force), for plots only: not in the fit
+    before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @property
     def offset(self) -> bool:
@@ -106,9 +108,10 @@ def _run(m: Measurement) -> _Run:
     used = np.asarray(m.in_window(), dtype=bool)
     noise = stats.difference_noise(force) or 1e-9 * float(np.max(np.abs(force)))
     outside: dict[str, int] = {}
-    begin = start_.find(eps, force, noise)
+    begin, before = start_.find(eps, force, noise), None
     if begin is not None and begin.row > 0:  # the strip is not taut (or at rest) before: no history
         outside[begin.reason()] = begin.row
+        before = (t[: begin.row], eps[: begin.row], force[: begin.row])
         t, eps, force, used = t[begin.row :], eps[begin.row :], force[begin.row :], used[begin.row :]
     r = np.abs(np.diff(eps) / np.diff(t))
     rate = float(np.median(r[r > 0.1 * r.max()]))
@@ -123,7 +126,7 @@ def _run(m: Measurement) -> _Run:
     if provisional.any() and (used & ~provisional).sum() >= 5:
         outside[SLACK] = int(provisional.sum())
         fitted = used & ~provisional
-    return _Run(name, t, eps, force, noise, rate, used, fitted, outside, begin)
+    return _Run(name, t, eps, force, noise, rate, used, fitted, outside, begin, before)
 
 
 def _near_zero(force: np.ndarray, noise: float) -> np.ndarray:

@@ -159,3 +159,21 @@ def test_a_preload_held_at_rest_is_a_preload():
     assert found is not None and found.kind == start.PRELOAD
     assert found.force == pytest.approx(0.3, abs=0.01)
     assert "0.3" in found.reason()
+
+
+def test_the_plots_show_the_rows_before_the_strip_is_taut_as_not_used(tmp_path):
+    """The fit starts where the strip becomes taut; its plots still draw every row of the file, the
+    slack toe hollow (not used) and without a model line there (the old code dropped those rows
+    from the series and the force-time figure)."""
+    t, eps, force = slack_record(0.005, slack=0.2 * STRAIN, tare=0.1, hold=30.0, seed=0)
+    fit, _ = e_e_of(study(tmp_path, [(t, eps, force)]))
+    (series,) = fit.series
+    assert series.x.size == t.size
+    np.testing.assert_allclose(series.y, force, atol=1e-5)  # as the CSV holds them
+    (left,) = [n for reason, n in fit.info["left_out"]["pull1.csv"].items() if reason.startswith("slack")]
+    assert left > 10
+    assert not series.used[:left].any() and series.used[left:].sum() > 0.9 * (t.size - left)
+    assert np.isnan(series.y_fit[:left]).all() and np.isfinite(series.y_fit[left:]).all()
+    plot = fit.info["plot_data"]["force_time"]["pull1.csv"]
+    assert plot["time_s"].size == t.size and not plot["used"][:left].any()
+    np.testing.assert_allclose(plot["time_s"], t, atol=1e-5)

@@ -1,0 +1,225 @@
+r"""E_e where no relaxation time lies inside the record: the line of the SLS's two limits.
+
+The Maxwell arm (k2, tau) of the standard linear solid (:mod:`matid.fits.extension.fit`) has two
+limits a record cannot tell from a solid without relaxation: tau far below the sampling (the arm
+is a dashpot, ``f2 = eta eps'``) and tau far beyond the record (a spring that slowly gives way,
+``f2 = k2 eps - (k2 / tau) int_0^t eps dt + O(1 / tau^2)``). Both together, with a force offset
+c_j per run, are linear in their coefficients::
+
+    F = c_j + S eps + d eps' - g int_0^t eps dt
+
+S is the stiffness on the record's time scale (k1 in the fast limit, k1 + k2 in the slow one),
+d a dashpot (a loop between loading and unloading) and g the rate of a relaxation slower than the
+record (N/s: held at strain eps, the force falls by g eps per second). A relaxing model (the SLS,
+or the Prony series BIC prefers) resolves a relaxation only when it describes the runs better than
+this line by more than ``BIC_MARGIN`` (:func:`resolves`: BIC on the effective number of residuals,
+AR(1), of the relaxing model, both weighted by the same run noise); otherwise its equilibrium
+stiffness is an extrapolation (an elastic composite cycled from rest: a tare and a drift of the
+force read as a relaxation put k1 5 % below the slope of every cycle; records of fatigue
+machines logged in bursts: 50 % below) and E_e is S.
+
+:func:`choose` gives E_e this way (method ``elastic-line``) and, for a single ramp whose SLS
+resolves no relaxation, as the ramp's line (``ramp-line``). A single ramp at one rate is the line
+alone (:func:`line` with ``single``): eps' is constant
+there (one more offset) and int eps grows as eps^2, a curvature an elastic bend makes as well.
+The slope's standard error is the AR(1) sandwich of :func:`matid.fits.stats.ar1_covariance`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import integrate
+
+from matid.fits import stats
+from matid.fits.extension.checks import cycled, single_ramps
+from matid.fits.extension.runs import _Run
+from matid.fits.stats import interval
+from matid.model.results import Estimate
+
+#: BIC decrease a relaxing model needs below the line to count as resolving a relaxation (strong
+#: evidence, Kass & Raftery 1995; the Prony comparison's margin).
+BIC_MARGIN = 10.0
+
+
+@dataclass(frozen=True)
+class Line:
+    """``F = c_j + S eps (+ d eps' - g int eps dt)`` over the used rows of the runs."""
+
+    slope: float  # S [N]
+    se: float
+    dof: float
+    dashpot: float  # d [N s]; 0 for a single ramp
+    drift: float  # g [N/s]; 0 for a single ramp
+    residual: np.ndarray  # weighted, every used row in recording order
+    n_params: int
+    relaxing: tuple[np.ndarray, ...]  # per run, over all rows: d eps' - g int eps (zeros for a ramp)
+    offsets: tuple[float, ...]  # c_j per run
+
+    def bic(self, n_eff: float) -> float:
+        return bic(self.residual, self.n_params, n_eff)
+
+
+def bic(residual: np.ndarray, n_params: int, n_eff: float) -> float:
+    """BIC of weighted residuals with the information of ``n_eff`` independent ones."""
+    return n_eff * math.log(float(residual @ residual) / residual.size) + n_params * math.log(n_eff)
+
+
+def _columns(run: _Run, single: bool) -> list[np.ndarray]:
+    """eps, and unless ``single`` eps' and -int eps dt, over all rows of the run."""
+    if single:
+        return [run.eps]
+    rate = np.gradient(run.eps, run.t)
+    return [run.eps, rate, -integrate.cumulative_trapezoid(run.eps, run.t, initial=0.0)]
+
+
+def line(runs: Sequence[_Run], sigma: Sequence[float] | None = None, *, single: bool = False) -> Line:
+    """The line (module docstring) over the used rows, each run weighted by its noise (``sigma``,
+    default each run's own). Raises ValueError or LinAlgError when the rows cannot give it."""
+    sigma = [run.noise for run in runs] if sigma is None else list(sigma)
+    columns = [_columns(run, single) for run in runs]
+    k = len(columns[0])
+    blocks, ys = [], []
+    for j, (run, cols, s) in enumerate(zip(runs, columns, sigma, strict=True)):
+        design = np.zeros((int(run.used.sum()), k + len(runs)))
+        for i, col in enumerate(cols):
+            design[:, i] = col[run.used] / s
+        design[:, k + j] = 1.0 / s
+        blocks.append(design)
+        ys.append(run.force[run.used] / s)
+    design, y = np.vstack(blocks), np.concatenate(ys)
+    scale = np.linalg.norm(design, axis=0)
+    if np.any(scale <= 0):
+        raise ValueError("a column of the line is zero over the rows used")
+    coef, *_ = np.linalg.lstsq(design / scale, y, rcond=None)
+    residual = design / scale @ coef - y
+    cov = stats.ar1_covariance(design / scale, residual, [int(run.used.sum()) for run in runs])
+    coef = coef / scale
+    relaxing = tuple(
+        sum((c * col for c, col in zip(coef[1:k], cols[1:], strict=True)), np.zeros(run.t.size))
+        for run, cols in zip(runs, columns, strict=True)
+    )
+    return Line(
+        float(coef[0]),
+        float(cov.stderr[0] / scale[0]),
+        cov.dof,
+        float(coef[1]) if k > 1 else 0.0,
+        float(coef[2]) if k > 1 else 0.0,
+        residual,
+        design.shape[1],
+        relaxing,
+        tuple(float(c) for c in coef[k:]),
+    )
+
+
+def resolves(relaxing: np.ndarray, n_params: int, fit: Line, segments: Sequence[int]) -> tuple[bool, float]:
+    """(whether the relaxing model's weighted residuals ``relaxing``, of ``n_params`` parameters,
+    beat the line's by more than ``BIC_MARGIN``, and BIC of the line less that of the model). Both
+    are scored on the effective number of residuals of the relaxing model."""
+    n_eff = stats.effective_n(relaxing, segments, n_params)
+    gain = fit.bic(n_eff) - bic(relaxing, n_params, n_eff)
+    return gain > BIC_MARGIN, float(gain)
+
+
+# --------------------------------------------------------------------------- E_e from the line
+
+
+#: Why E_e is the ramp's line (:func:`ramp_line`).
+_RAMP_LINE = (
+    "a single ramp at one rate cannot tell relaxation from the elastic response, and the standard "
+    "linear solid resolves none here (its k2 and eta stay undetermined): E_e is the slope of the line "
+    "force = c + E_e strain over the rows used, the stiffness at this rate (any relaxing part is in "
+    "it: the equilibrium stiffness may be lower); a hold or a second rate would part them, and a "
+    "window on strain where the force is straight gives the small-strain value"
+)
+
+
+def ramp_line(e_e: Estimate, runs) -> Estimate:
+    """E_e as the slope of the force over the used rows of single-ramp runs whose SLS resolves no
+    relaxation: there k1 lies anywhere along a valley of k1 + k2 (a slow arm is a spring over
+    the ramp), while the slope is what the record determines (:func:`line`)."""
+    try:
+        fit = line(runs, single=True)
+    except (ValueError, np.linalg.LinAlgError):
+        return e_e
+    return _line_estimate(e_e, fit, "ramp-line", (_RAMP_LINE,))
+
+
+def _line_estimate(e_e: Estimate, fit: Line, method: str, warnings) -> Estimate:
+    return replace(
+        e_e,
+        value=fit.slope,
+        stderr=fit.se,
+        ci95=interval(fit.slope, fit.se, fit.dof),
+        method=method,
+        warnings=tuple(warnings),
+        extra={"ci_method": "t"},
+    )
+
+
+def _compared(gain: float) -> str:
+    if gain <= 0:
+        return f"the line's BIC is lower by {-gain:.0f}"
+    return f"its BIC is only {gain:.0f} below the line's, where a relaxation needs {BIC_MARGIN:g}"
+
+
+def _unresolved(model: str, gain: float, value: float, fit: Line, longest: float) -> str:
+    """Why E_e is the line's slope (:func:`_elastic_line`), and how far the record's drift reaches."""
+    text = (
+        "no relaxation time is resolved inside the record: the line force = c + E_e strain + d "
+        "strain rate - g (time integral of strain), the limits of the standard linear solid for a "
+        "relaxation far faster than the sampling (a dashpot d) or far slower than the record (a "
+        f"drift g), describes the runs as well as {model} ({_compared(gain)}), so that model's "
+        f"equilibrium stiffness {value:.4g} N is an extrapolation: E_e is the stiffness on the "
+        "record's time scale"
+    )
+    if fit.drift > 0:
+        low = fit.slope - fit.drift * longest
+        text += (
+            f"; held at a strain the force falls by g = {fit.drift:.4g} N/s per unit strain, "
+            f"{fit.drift * longest:.4g} N of stiffness over the longest run ({longest:.3g} s): "
+            f"the interval reaches down to {low:.4g} N and the equilibrium stiffness may be lower"
+        )
+    return text + "; a hold longer than the relaxation would give the equilibrium value"
+
+
+def _elastic_line(e_e: Estimate, runs, sigma, compared: tuple[str, np.ndarray, int]):
+    """(E_e, the line) when the relaxing model that gave E_e (``compared``: its name, weighted
+    residuals on every used row, parameters) does not describe the runs better than the line
+    of :mod:`matid.fits.extension.elastic`, else (e_e, None)."""
+    try:
+        fit = line(runs, sigma)
+    except (ValueError, np.linalg.LinAlgError):
+        return e_e, None
+    model, resid, params = compared
+    resolved, gain = resolves(resid, params, fit, [int(run.used.sum()) for run in runs])
+    if resolved:
+        return e_e, None
+    longest = max(run.duration for run in runs)
+    out = _line_estimate(e_e, fit, "elastic-line", (_unresolved(model, gain, e_e.value, fit, longest),))
+    if fit.drift > 0 and out.ci95 is not None:
+        out = replace(out, ci95=(min(out.ci95[0], fit.slope - fit.drift * longest), out.ci95[1]))
+    return out, fit
+
+
+def choose(e_e: Estimate, runs, sigma, unresolved: bool, compared) -> tuple[Estimate, Line | None]:
+    """(E_e, the line of :func:`_elastic_line` or None): the ramp's line for single ramps whose SLS
+    resolves no relaxation (``unresolved``); for runs that unload or hold (:func:`cycled`), the
+    line where the relaxing model does not describe them better than it; else E_e as the relaxing
+    model gave it."""
+    if single_ramps(runs):
+        return (ramp_line(e_e, runs) if unresolved else e_e), None
+    if cycled(runs):
+        return _elastic_line(e_e, runs, sigma, compared)
+    return e_e, None
+
+
+def unresolved_arm(est: Estimate) -> Estimate:
+    said = (
+        "k2 and eta are not identifiable: no relaxation time is resolved inside the record (E_e is "
+        "the line's slope; see its warning)"
+    )
+    return replace(est, warnings=(said, *est.warnings))
