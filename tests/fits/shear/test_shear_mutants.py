@@ -22,3 +22,47 @@ from matid.fits.shear.fit import _bias_explains
 def test_a_torsion_disagreement_is_explained_only_within_the_warned_bias(widen, ratio, explained) -> None:
     check = SimpleNamespace(widen=widen, info={"nose_bias_ratio": [0.6, 0.9]} if widen > 1 else {})
     assert _bias_explains(check, ratio) is explained
+
+
+# --- one bend fit on data of the shooting model (matid.example.forward), with E_s_torsion known ---
+
+
+@pytest.fixture(scope="module")
+def torsion_fits():
+    """The 10 mm bend of tests/fits/shear/test_fit (shooting model, 0.3 % noise, seed 12) fitted twice:
+    with E_s_torsion at 3 x the true E_s (+-2 %) and at the true E_s; the first reports its progress."""
+    from matid.model.results import Estimate
+    from tests.fits.shear.test_fit import SPECIMEN, fit_rod, known, measurement, noisy, rig, rod_curve
+
+    d, force = rod_curve(0.010)
+    data = [measurement(d, noisy(force, 12), rig(0.010))]
+    said: list[str] = []
+    fits = {}
+    for ratio in (3.0, 1.0):
+        held = {**known(), "E_s_torsion": Estimate("E_s", ratio * 21.0, 0.02 * ratio * 21.0, None, 0, "torsion")}
+        fits[ratio] = fit_rod(data, specimen=SPECIMEN, known=held, progress=said.append if ratio == 3.0 else None)
+    return fits, said
+
+
+def test_a_torsion_value_three_times_the_bend_s_is_one_warning_and_an_agreeing_one_none(torsion_fits):
+    fits, _ = torsion_fits
+    (warning,) = fits[3.0].estimate("E_s").warnings
+    assert "disagree" in warning and "E_s_torsion = 63 N" in warning
+    assert fits[3.0].info["torsion_check"] == warning
+    assert fits[1.0].estimate("E_s").warnings == ()
+    assert " agree:" in fits[1.0].info["torsion_check"]
+
+
+def test_the_bend_fit_reports_its_progress_and_its_lack_of_fit(torsion_fits):
+    fits, said = torsion_fits
+    assert said and all(s.startswith("E_s fit at ") and " elements: E_s = " in s for s in said)
+    assert set(fits[3.0].info["lack_of_fit"]) >= {"misfit"}
+
+
+@pytest.mark.parametrize(("name", "source"), [("E_b", "a magnetic_bending test"), ("E_e", "extension tests")])
+def test_a_missing_held_stiffness_names_the_test_that_gives_it(name, source) -> None:
+    from matid.errors import FitError
+    from matid.fits.shear.fit import _held
+
+    with pytest.raises(FitError, match=f"E_s of specimen T1 needs {name}: add {source} or a \\[\\[fixed\\]\\]"):
+        _held({}, name, "T1")
