@@ -79,3 +79,48 @@ def test_the_richardson_estimate_of_the_mesh_error_is_the_error_against_the_shoo
     actual = abs(est.value / E_S - 1.0)
     assert est.extra["fe"]["elements"] == 8 and actual > 1e-5  # an error the estimate must see
     assert 1 / 1.5 <= est.extra["fe"]["discretization_error"] / actual <= 1.5
+
+
+# --- the bend record's cut (matid/fits/shear/window.py) on hand-made records ---
+
+
+def test_rows_past_yield_are_those_beyond_the_last_row_on_the_line():
+    """A line of 100 N/m to 1 mm, then the force holds at 0.1 N (a yield plateau), 81 rows with
+    1 mN noise (seed 0): the rows left out past yield are exactly those beyond the deflection the
+    reason names; the row at it stays."""
+    import numpy as np
+
+    from matid.fits.shear import window
+
+    d = np.linspace(0.0, 2e-3, 81)
+    F = np.minimum(100.0 * d, 0.1) + np.random.default_rng(0).normal(0.0, 1e-3, d.size)
+    cut = window.cut(d, F, np.ones(d.size, bool))
+    (reason,) = [r for r in cut.reasons if r.startswith("past yield")]
+    top = float(reason.split("beyond ")[1].split(" mm")[0]) * 1e-3
+    assert np.isclose(d[cut.used].max(), top, rtol=1e-3)
+    assert cut.reasons[reason] == int(np.sum(d[: int(np.argmax(F)) + 1] > d[cut.used].max()))
+
+
+def test_the_toe_of_an_ever_stiffening_curve_is_cut_at_its_last_tangent():
+    """F = exp(k d) - 1 (k = 8000 /m, 60 rows to 1 mm): a toe (the first slope a sixth of the
+    median) whose slope rises 2.6x per window to the end, so the tangent is the last window's. Its
+    zero lies between the zeros of the exponential's tangents at that window's ends (convexity)."""
+    import numpy as np
+
+    from matid.fits.shear import window
+
+    k, d = 8000.0, np.linspace(0.0, 1e-3, 60)
+    d0 = window.toe_offset(d, np.exp(k * d) - 1.0)
+    width = max(4, d.size // 8)
+    a, b = d[-width], d[-1]
+    assert a - (1 - np.exp(-k * a)) / k <= d0 <= b - (1 - np.exp(-k * b)) / k
+
+
+def test_an_all_zero_force_column_is_named_as_having_no_positive_value():
+    import numpy as np
+
+    from matid.errors import FitError
+    from matid.fits.shear import window
+
+    with pytest.raises(FitError, match="the force column has no positive value"):
+        window.check_plausible(np.linspace(0, 1e-3, 10), np.zeros(10), span=0.01, E_b=6.5e-5, file=SimpleNamespace(name="z.csv"))
