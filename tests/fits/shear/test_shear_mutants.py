@@ -124,3 +124,25 @@ def test_an_all_zero_force_column_is_named_as_having_no_positive_value():
 
     with pytest.raises(FitError, match="the force column has no positive value"):
         window.check_plausible(np.linspace(0, 1e-3, 10), np.zeros(10), span=0.01, E_b=6.5e-5, file=SimpleNamespace(name="z.csv"))
+
+
+@pytest.mark.parametrize(("share", "absurd"), [(0.99, True), (1.01, False)])
+def test_data_stiffer_than_half_of_pure_bending_are_refused(share, absurd):
+    """The rule (window.py's docstring): an initial compliance d/F below ABSURD_COMPLIANCE_RATIO of
+    the simply supported beam's S^3/(48 E_b) (closed form) is a wrong unit. Straight data at 1 %
+    below that bound are refused, at 1 % above it pass."""
+    import numpy as np
+
+    from matid.errors import DataError
+    from matid.fits.shear import window
+
+    span, E_b = 0.01, 6.5e-5
+    compliance = share * window.ABSURD_COMPLIANCE_RATIO * span**3 / (48.0 * E_b)
+    d = np.linspace(1e-5, 1e-3, 20)
+    args = (d, d / compliance)
+    kwargs = {"span": span, "E_b": E_b, "file": SimpleNamespace(name="b.csv")}
+    if absurd:
+        with pytest.raises(DataError, match="negative shear compliance"):
+            window.check_plausible(*args, **kwargs)
+    else:
+        window.check_plausible(*args, **kwargs)
