@@ -146,3 +146,18 @@ def test_data_stiffer_than_half_of_pure_bending_are_refused(share, absurd):
             window.check_plausible(*args, **kwargs)
     else:
         window.check_plausible(*args, **kwargs)
+
+
+def test_the_design_note_of_a_fit_uses_a_known_E_t():
+    """With E_t known (1e-5 N m^2) the reference shear stiffness comes from torsion as well: the
+    note is the design for the tube given E_t (sd 1.8 % at 6 mm), not the one from E_e alone."""
+    from matid.fits.design import design, summary
+    from matid.fits.shear.fit import _design_note
+    from matid.model.results import Estimate
+    from tests.fits.shear.test_fit import E_B, E_E, SPECIMEN, known
+
+    held = {**known(), "E_t": Estimate("E_t", 1e-5, 0.0, None, 0, "linear")}
+    with_t = summary(design(SPECIMEN, E_b=E_B, E_e=E_E, E_t=1e-5, precision=0.05), 0.05).splitlines()[-1]
+    alone = summary(design(SPECIMEN, E_b=E_B, E_e=E_E, precision=0.05), 0.05).splitlines()[-1]
+    assert with_t != alone
+    assert _design_note(SPECIMEN, held, E_B) == "E_s to 5 %: " + with_t
