@@ -142,8 +142,11 @@ def test_data_stiffer_than_half_of_pure_bending_are_refused(share, absurd):
     args = (d, d / compliance)
     kwargs = {"span": span, "E_b": E_b, "file": SimpleNamespace(name="b.csv")}
     if absurd:
-        with pytest.raises(DataError, match="negative shear compliance"):
+        with pytest.raises(DataError, match="negative shear compliance") as info:
             window.check_plausible(*args, **kwargs)
+        # the data's slope F/d (1 / compliance), and what to do
+        assert f"the initial slope F/d = {1 / compliance:.4g} N/m" in info.value.detail
+        assert info.value.detail.endswith(": check the units of the force and deflection columns")
     else:
         window.check_plausible(*args, **kwargs)
 
