@@ -136,7 +136,9 @@ def test_a_column_too_small_to_measure_names_its_si_unit(tmp_path: Path) -> None
 
 
 def test_a_row_of_numbers_above_the_header_is_named_by_its_line(tmp_path: Path) -> None:
-    path = _write(tmp_path, "Specimen A\n0.5,1\ntwist_angle [rad],torque [N m]\n0,0\n0.1,0.5\n0.2,1.0\n0.3,1.5\n")
+    path = _write(
+        tmp_path, "Specimen A\n0.5,1\ntwist_angle [rad],torque [N m]\n0,0\n0.1,0.5\n0.2,1.0\n0.3,1.5\n"
+    )
     with pytest.raises(DataError, match="row of numbers above the header row 3") as info:
         read_table(path, "torsion")
     assert info.value.row == 2
@@ -145,7 +147,9 @@ def test_a_row_of_numbers_above_the_header_is_named_by_its_line(tmp_path: Path) 
 def test_the_file_s_own_column_of_a_mapped_name_keeps_its_position_in_its_name(tmp_path: Path) -> None:
     """columns = { torque = "Moment" } while the file has a 'torque' column too (its second): that one
     is kept as 'torque_col2' (1-based position), the mapped one is the torque."""
-    path = _write(tmp_path, "twist_angle [rad],torque [N m],Moment [N m]\n0,0,0\n0.1,0.5,1\n0.2,1.0,2\n0.3,1.5,3\n")
+    path = _write(
+        tmp_path, "twist_angle [rad],torque [N m],Moment [N m]\n0,0,0\n0.1,0.5,1\n0.2,1.0,2\n0.3,1.5,3\n"
+    )
     table = read_table(path, "torsion", columns={"torque": "Moment"})
     assert np.array_equal(table.columns["torque"], [0, 1, 2, 3])
     assert np.array_equal(table.columns["torque_col2"], [0, 0.5, 1.0, 1.5])

@@ -167,5 +167,7 @@ def test_a_stretch_that_leaves_its_wall_inside_the_rod_caps_the_estimate_s_order
     from matid.rod.accuracy import P2_ORDER
     from matid.rod.contact_rounds import STRETCH_ORDER, stretch_order
 
-    result = SimpleNamespace(contact=([{"s": stretch}],), disc=SimpleNamespace(vertices=np.linspace(0.0, 1.0, 9)))
+    result = SimpleNamespace(
+        contact=([{"s": stretch}],), disc=SimpleNamespace(vertices=np.linspace(0.0, 1.0, 9))
+    )
     assert stretch_order(result) == {"stretch": STRETCH_ORDER, "p2": P2_ORDER}[order]

@@ -39,8 +39,13 @@ def torsion_fits():
     said: list[str] = []
     fits = {}
     for ratio in (3.0, 1.0):
-        held = {**known(), "E_s_torsion": Estimate("E_s", ratio * 21.0, 0.02 * ratio * 21.0, None, 0, "torsion")}
-        fits[ratio] = fit_rod(data, specimen=SPECIMEN, known=held, progress=said.append if ratio == 3.0 else None)
+        held = {
+            **known(),
+            "E_s_torsion": Estimate("E_s", ratio * 21.0, 0.02 * ratio * 21.0, None, 0, "torsion"),
+        }
+        fits[ratio] = fit_rod(
+            data, specimen=SPECIMEN, known=held, progress=said.append if ratio == 3.0 else None
+        )
     return fits, said
 
 
@@ -64,7 +69,9 @@ def test_a_missing_held_stiffness_names_the_test_that_gives_it(name, source) -> 
     from matid.errors import FitError
     from matid.fits.shear.fit import _held
 
-    with pytest.raises(FitError, match=f"E_s of specimen T1 needs {name}: add {source} or a \\[\\[fixed\\]\\]"):
+    with pytest.raises(
+        FitError, match=f"E_s of specimen T1 needs {name}: add {source} or a \\[\\[fixed\\]\\]"
+    ):
         _held({}, name, "T1")
 
 
@@ -75,7 +82,9 @@ def test_the_richardson_estimate_of_the_mesh_error_is_the_error_against_the_shoo
     from tests.fits.shear.test_fit import E_S, SPECIMEN, fit_rod, known, measurement, rig, rod_curve
 
     d, force = rod_curve(0.010)
-    est = fit_rod([measurement(d, force, rig(0.010))], specimen=SPECIMEN, known=known(), elements=8).estimate("E_s")
+    est = fit_rod([measurement(d, force, rig(0.010))], specimen=SPECIMEN, known=known(), elements=8).estimate(
+        "E_s"
+    )
     actual = abs(est.value / E_S - 1.0)
     assert est.extra["fe"]["elements"] == 8 and actual > 1e-5  # an error the estimate must see
     assert 1 / 1.5 <= est.extra["fe"]["discretization_error"] / actual <= 1.5
@@ -123,7 +132,9 @@ def test_an_all_zero_force_column_is_named_as_having_no_positive_value():
     from matid.fits.shear import window
 
     with pytest.raises(FitError, match="the force column has no positive value"):
-        window.check_plausible(np.linspace(0, 1e-3, 10), np.zeros(10), span=0.01, E_b=6.5e-5, file=SimpleNamespace(name="z.csv"))
+        window.check_plausible(
+            np.linspace(0, 1e-3, 10), np.zeros(10), span=0.01, E_b=6.5e-5, file=SimpleNamespace(name="z.csv")
+        )
 
 
 @pytest.mark.parametrize(("share", "absurd"), [(0.99, True), (1.01, False)])
