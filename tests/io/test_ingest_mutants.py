@@ -110,7 +110,8 @@ def test_a_study_s_negate_reaches_the_measurement(tmp_path: Path) -> None:
     (tmp_path / "study.toml").write_text(
         '[study]\nname = "negate"\n\n[[specimen]]\nid = "T1"\nouter_diameter = "2 mm"\n'
         'inner_diameter = "1 mm"\n\n[[test]]\nkind = "three_point_bend"\nspecimen = "T1"\n'
-        'file = "data.csv"\nspan = "10 mm"\nspecimen_length = "40 mm"\nsupport_radius = "2 mm"\nnose_radius = "2 mm"\nnegate = ["force"]\n',
+        'file = "data.csv"\nspan = "10 mm"\nspecimen_length = "40 mm"\nsupport_radius = "2 mm"\n'
+        'nose_radius = "2 mm"\nnegate = ["force"]\n',
         encoding="utf-8",
     )
     (measurement,) = load_measurements(load_study(tmp_path / "study.toml"))
