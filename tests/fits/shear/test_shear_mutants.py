@@ -175,3 +175,18 @@ def test_the_design_note_of_a_fit_uses_a_known_E_t():
     alone = summary(design(SPECIMEN, E_b=E_B, E_e=E_E, precision=0.05), 0.05).splitlines()[-1]
     assert with_t != alone
     assert _design_note(SPECIMEN, held, E_B) == "E_s to 5 %: " + with_t
+
+
+def test_crosshead_scatter_below_zero_deflection_is_left_out_as_before_contact():
+    """Three rows at -30, -20, -10 um with only noise (1 mN, seed 3) on the force, then a line of
+    100 N/m from zero: exactly the rows below zero deflection are left out, as before contact."""
+    import numpy as np
+
+    from matid.fits.shear import window
+
+    d = np.r_[-3e-5, -2e-5, -1e-5, np.linspace(0.0, 1e-3, 57)]
+    F = np.where(d > 0, 100.0 * d, 0.0) + np.random.default_rng(3).normal(0.0, 1e-3, d.size)
+    cut = window.cut(d, F, np.ones(d.size, bool))
+    assert cut.d0 == 0.0
+    assert np.array_equal(cut.used, d >= 0)
+    assert cut.reasons == {"before contact (deflection below zero, force within the noise)": 3}
