@@ -7,6 +7,8 @@
 # SEED    the sample's seed (default 29); the same seed and source give the same mutants.
 # FILE    files (globs, relative to the repository) to mutate instead of FILES below.
 # MAX_CHILDREN (environment, default 1): mutants run in parallel.
+# TESTS (environment, optional): space-separated test paths that replace pyproject's
+# pytest_add_cli_args_test_selection for this run (a narrow selection makes mutmut's first pass short).
 # OUT, TMPDIR (environment): where the results go (default benchmarks/results/mutation) and where the
 # copy is made; give two runs at once different ones.
 #
@@ -49,13 +51,18 @@ cd "$WORK"
 unset PYTHONPATH  # the tests must import mutants/matid, not the tree's matid
 
 # Mutate only FILES: `only_mutate` (glob patterns) goes into the copy's [tool.mutmut].
-python - "${FILES[@]}" <<'EOF'
-import json, sys
+TESTS=${TESTS:-} python - "${FILES[@]}" <<'EOF'
+import json, os, re, sys
 from pathlib import Path
 p = Path("pyproject.toml")
 text = p.read_text()
 assert "\n[tool.mutmut]\n" in text and "\nonly_mutate" not in text
-p.write_text(text.replace("\n[tool.mutmut]\n", f"\n[tool.mutmut]\nonly_mutate = {json.dumps(sys.argv[1:])}\n"))
+text = text.replace("\n[tool.mutmut]\n", f"\n[tool.mutmut]\nonly_mutate = {json.dumps(sys.argv[1:])}\n")
+if os.environ["TESTS"]:
+    line = re.compile(r"^pytest_add_cli_args_test_selection = .*$", re.M)
+    assert len(line.findall(text)) == 1
+    text = line.sub(lambda m: f"pytest_add_cli_args_test_selection = {json.dumps(os.environ['TESTS'].split())}", text)
+p.write_text(text)
 EOF
 
 # Generate every mutant of FILES (mutmut's own first step of `mutmut run`), without running tests.

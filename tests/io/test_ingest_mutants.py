@@ -47,3 +47,144 @@ def test_a_preamble_keeps_its_keys_whole_and_its_free_text_as_text(tmp_path: Pat
     lines += ["0,0,0", "1,1,1", "2,2,2"]
     table = read_table(_write(tmp_path, "\n".join(lines) + "\n"), "extension")
     assert table.metadata == {"Xmax": "12 mm", "preamble": "# tested on the blue rig"}
+
+
+# --- single-spaced headers (matid/io/ingest/spaced.py): each of the four rules decides a case ---
+
+
+@pytest.mark.parametrize(
+    ("names", "units"),
+    [
+        # rule 2: the numbers of two channels of one quantity end their names, never start one
+        (["Force 1", "Force 2"], ["N", "N"]),
+        # rules 2 and 4: the prefix 'Ch' (written twice) starts each name it is in
+        (["Time", "Ch Force 1", "Ch Position 1"], ["s", "N", "mm"]),
+        # rule 1 through a colon: 'Time:' names a time, 'Force:' a force
+        (["Elapsed Time:", "Axial Force:"], ["s", "N"]),
+    ],
+)
+def test_single_spaced_names_are_cut_back_into_the_names_written(names, units) -> None:
+    from matid.io.ingest.spaced import spaced_names
+
+    words = " ".join(names).split()
+    assert spaced_names(words, len(names), units) == names
+
+
+def test_fewer_header_words_than_columns_give_no_names() -> None:
+    """Two words cannot name three columns: no names (the header is not read as one)."""
+    from matid.io.ingest.spaced import spaced_names
+
+    assert spaced_names(["Time", "Force"], 3, ["s", "N", "mm"]) is None
+    assert spaced_names(["Time[s]Force[N]"], 2, None) is None
+
+
+# --- frame, checks and load_measurements ---
+
+
+def test_an_unclosed_quote_after_a_quoted_number_names_its_own_row(tmp_path: Path) -> None:
+    """Row 3 holds a quoted number (two quotes, read past); row 4 opens a quote that never closes:
+    the error names row 4."""
+    path = _write(tmp_path, 'twist_angle [rad],torque [N m]\n0,0\n0.1,"0.5"\n0.2,"1.0\n0.3,1.5\n')
+    with pytest.raises(DataError, match=r"never closed") as info:
+        read_table(path, "torsion")
+    assert info.value.row == 4
+
+
+def test_a_negated_column_that_ends_negative_says_to_remove_the_negation(tmp_path: Path) -> None:
+    path = _write(tmp_path, "deflection [mm],force [N]\n0,0.001\n0.1,0.5\n0.2,1.0\n0.3,1.5\n")
+    with pytest.raises(DataError) as info:
+        read_table(path, "three_point_bend", negate=["force"])
+    assert info.value.column == "force"
+    assert 'remove "force" from negate' in info.value.detail
+
+
+def test_a_study_s_negate_reaches_the_measurement(tmp_path: Path) -> None:
+    """A bend record with the force written negative (compression) and negate = ["force"] in its
+    [[test]]: the measurement's force is the record's, sign changed."""
+    from matid.io.ingest.read import load_measurements
+    from matid.io.study import load_study
+
+    forces = [-0.001, -0.5, -1.0, -1.5]
+    rows = "\n".join(f"{0.1 * k},{f}" for k, f in enumerate(forces))
+    _write(tmp_path, "deflection [mm],force [N]\n" + rows + "\n")
+    (tmp_path / "study.toml").write_text(
+        '[study]\nname = "negate"\n\n[[specimen]]\nid = "T1"\nouter_diameter = "2 mm"\n'
+        'inner_diameter = "1 mm"\n\n[[test]]\nkind = "three_point_bend"\nspecimen = "T1"\n'
+        'file = "data.csv"\nspan = "10 mm"\nspecimen_length = "40 mm"\nsupport_radius = "2 mm"\n'
+        'nose_radius = "2 mm"\nnegate = ["force"]\n',
+        encoding="utf-8",
+    )
+    (measurement,) = load_measurements(load_study(tmp_path / "study.toml"))
+    np.testing.assert_array_equal(measurement.table["force"], [-f for f in forces])
+
+
+def test_a_wrong_encoding_names_the_byte_it_cannot_read(tmp_path: Path) -> None:
+    path = tmp_path / "data.csv"
+    path.write_bytes(b"twist_angle [rad],torque [N m]\n0,0\n0.1,0.5\xe9\n0.2,1.0\n")
+    with pytest.raises(DataError) as info:
+        read_table(path, "torsion", encoding="utf-8")
+    assert "byte 42 is b'\\xe9'" in info.value.detail  # the 43rd byte of the file, 0xE9 (not UTF-8)
+
+
+def test_a_column_too_small_to_measure_names_its_si_unit(tmp_path: Path) -> None:
+    """Torques of 1e-40 N m (a unit mistake): the message gives the largest in N m and says what to do."""
+    path = _write(tmp_path, "twist_angle [rad],torque [N m]\n0,0\n0.1,1e-40\n0.2,2e-40\n0.3,1e-40\n")
+    with pytest.raises(DataError) as info:
+        read_table(path, "torsion")
+    assert info.value.column == "torque"
+    assert "is 2e-40 N m (after unit conversion)" in info.value.detail
+    assert "check the unit of the column" in info.value.detail
+
+
+def test_a_row_of_numbers_above_the_header_is_named_by_its_line(tmp_path: Path) -> None:
+    path = _write(
+        tmp_path, "Specimen A\n0.5,1\ntwist_angle [rad],torque [N m]\n0,0\n0.1,0.5\n0.2,1.0\n0.3,1.5\n"
+    )
+    with pytest.raises(DataError, match="row of numbers above the header row 3") as info:
+        read_table(path, "torsion")
+    assert info.value.row == 2
+
+
+def test_the_file_s_own_column_of_a_mapped_name_keeps_its_position_in_its_name(tmp_path: Path) -> None:
+    """columns = { torque = "Moment" } while the file has a 'torque' column too (its second): that one
+    is kept as 'torque_col2' (1-based position), the mapped one is the torque."""
+    path = _write(
+        tmp_path, "twist_angle [rad],torque [N m],Moment [N m]\n0,0,0\n0.1,0.5,1\n0.2,1.0,2\n0.3,1.5,3\n"
+    )
+    table = read_table(path, "torsion", columns={"torque": "Moment"})
+    assert np.array_equal(table.columns["torque"], [0, 1, 2, 3])
+    assert np.array_equal(table.columns["torque_col2"], [0, 0.5, 1.0, 1.5])
+
+
+def test_a_unit_given_in_the_test_that_is_wrong_says_where_it_came_from(tmp_path: Path) -> None:
+    path = _write(tmp_path, "twist_angle [rad],torque [N m]\n0,0\n0.1,0.5\n0.2,1.0\n0.3,1.5\n")
+    with pytest.raises(DataError) as info:
+        read_table(path, "torsion", units={"torque": "furlong"})
+    assert info.value.column == "torque"
+    assert "'furlong'" in info.value.detail and "(in the [[test]]'s units)" in info.value.detail
+
+
+def test_rows_of_nan_only_leave_no_data_rows_at_the_first_data_line(tmp_path: Path) -> None:
+    """Every data row is NaN (dropped as blank): no rows are left; the error points at line 2,
+    where the data would begin."""
+    path = _write(tmp_path, "twist_angle [rad],torque [N m]\nnan,nan\nnan,nan\nnan,nan\n")
+    with pytest.raises(DataError, match="only 0 data rows") as info:
+        read_table(path, "torsion")
+    assert info.value.row == 2
+
+
+def test_a_file_that_grows_past_the_limit_while_read_is_refused_in_mib(tmp_path, monkeypatch) -> None:
+    """The size is checked on stat, then at most MAX_BYTES + 1 bytes are read: a file that grew in
+    between (stat said 40 bytes) is refused, the limit given in MiB (here 1 MiB)."""
+    import os
+    from types import SimpleNamespace
+
+    from matid.io.ingest import read
+
+    small = _write(tmp_path, "twist_angle [rad],torque [N m]\n0,0\n")
+    big = tmp_path / "big.csv"
+    big.write_bytes(b"0,0\n" * (2**18 + 1))  # 1 MiB + 4 bytes
+    monkeypatch.setattr(read, "MAX_BYTES", 2**20)
+    monkeypatch.setattr(read, "os", SimpleNamespace(stat=lambda path: os.stat(small)))
+    with pytest.raises(DataError, match=r"file grew beyond 1 MiB while being read"):
+        read_table(big, "torsion")

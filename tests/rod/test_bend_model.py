@@ -65,3 +65,14 @@ def test_the_drawn_bend_touches_its_rollers_and_nose_at_the_outer_radius():
     # come 15 um inside the nose's offset circle at d = 1 mm: left as noticed, see the session note)
     (centre, radius), middle = shape["nose"], np.argmin(np.abs(z))
     assert abs(np.hypot(*(points[middle] - np.asarray(centre))) - radius - g.outer_diameter / 2) < 1e-9
+
+
+def test_a_half_model_of_one_element_is_refused_with_the_reason():
+    import pytest
+
+    from matid.rod.bend import BendGeometry, BendModel
+
+    geometry = BendGeometry(span=0.01, specimen_length=0.03, support_radius=0.002, nose_radius=0.003,
+                            outer_diameter=2.4e-3)  # fmt: skip
+    with pytest.raises(ValueError, match=r"^the bend half model needs at least 2 elements$"):
+        BendModel(geometry, elements=1)

@@ -129,3 +129,45 @@ def test_check_names_an_unstable_state():
     X, _, lu = newton(system, X, 1.0)
     with pytest.raises(ContactStateError, match="unstable"):
         check(system, X, lu)
+
+
+def test_check_names_a_small_reaction_across_an_open_gap(monkeypatch):
+    """A wall 0.5 L away: every gap is open, so no reaction may act; one of 0.5 E_b/L^2 (below
+    1 in those units) is named as not complementary."""
+    rod = {"length": L, "E_b": EB, "E_t": EB, "E_s": ES, "E_e": ES, "outer_diameter": 2 * R_O}
+    far = [{"point": [0.5 * L, 0.0, 0.0], "normal": [-1.0, 0.0, 0.0]}]
+    system, X = _system({"rod": rod, "wall": far})
+    check(system, X)  # the straight rod, far from the wall: nothing to name
+
+    def pushing(self, prep, U):
+        f, gaps = original(self, prep, U)
+        f[0, 1] = 0.5
+        return f, gaps
+
+    original = C.Contact.forces
+    monkeypatch.setattr(C.Contact, "forces", pushing)
+    with pytest.raises(ContactStateError, match="across an open gap"):
+        check(system, X)
+
+
+@pytest.mark.parametrize(
+    ("stretch", "order"),
+    [
+        ((0.0, 0.6), "stretch"),  # from the root, leaving the wall at 0.6 L: inside the rod
+        ((0.4, 1.0), "stretch"),  # from inside the rod to the tip
+        ((0.0, 1.0), "p2"),  # the whole rod on the wall: no end inside
+        ((0.5, 0.5), "p2"),  # a point contact, not a stretch
+    ],
+)
+def test_a_stretch_that_leaves_its_wall_inside_the_rod_caps_the_estimate_s_order(stretch, order):
+    """contact_rounds.stretch_order on hand-made results (8 elements on [0, 1]): an end of a
+    stretch inside the rod hops between nodes as the mesh doubles, so the order is capped."""
+    from types import SimpleNamespace
+
+    from matid.rod.accuracy import P2_ORDER
+    from matid.rod.contact_rounds import STRETCH_ORDER, stretch_order
+
+    result = SimpleNamespace(
+        contact=([{"s": stretch}],), disc=SimpleNamespace(vertices=np.linspace(0.0, 1.0, 9))
+    )
+    assert stretch_order(result) == {"stretch": STRETCH_ORDER, "p2": P2_ORDER}[order]

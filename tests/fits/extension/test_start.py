@@ -177,3 +177,58 @@ def test_the_plots_show_the_rows_before_the_strip_is_taut_as_not_used(tmp_path):
     plot = fit.info["plot_data"]["force_time"]["pull1.csv"]
     assert plot["time_s"].size == t.size and not plot["used"][:left].any()
     np.testing.assert_allclose(plot["time_s"], t, atol=1e-5)
+
+
+# --- hand-made starts for what the mutation sample (benchmarks/mutation.sh, seed 29) showed ---
+
+
+def _corner_record(scale: float = 1.0):
+    """A noise-free spring behind slack: the strain moves 0.3 % per row, the strip becomes taut at
+    strain 0.0093 (between rows 3 and 4: row 3 is the last one at or before it, and row 4 is already
+    above the band), then its force rises K1 per unit strain to a peak; 2 rows hold it there.
+    (eps, force, noise)."""
+    eps = np.r_[0.003 * np.arange(30), np.full(2, 0.003 * 29)]
+    force = scale * (0.1 + K1 * np.maximum(eps - 0.0093, 0.0))
+    return eps, force, 0.0
+
+
+def test_a_strip_taut_between_two_rows_starts_at_the_last_row_before_it():
+    """The tangent of the taut strip meets the tare at strain 0.0093: the run starts at row 3
+    (strain 0.009), the last row at or before it, a slack start (0.9 % of 8.7 % moved before)."""
+    eps, force, noise = _corner_record()
+    found = start.find(eps, force, noise)
+    assert found is not None and found.kind == start.SLACK
+    assert found.row == 3
+    assert found.force == pytest.approx(0.1)
+    assert found.strain == (eps[0], eps[3])  # from the first reading to the taut row
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1e3])
+def test_the_start_does_not_depend_on_the_force_unit(scale):
+    """The same record in mN or kN (force and noise scaled alike: a soft strip's slope below 1 N)
+    has the same start."""
+    eps, force, noise = _corner_record()
+    for t, e, f in (slack_record(0.005, slack=0.1 * STRAIN, tare=0.05, hold=0.0, seed=1), (None, eps, force)):
+        n = _noise(f) if t is not None else noise
+        one, scaled = start.find(e, f, n), start.find(e, scale * f, scale * n)
+        assert one is not None and scaled is not None
+        assert (scaled.kind, scaled.row, scaled.strain) == (one.kind, one.row, one.strain)
+        assert scaled.force == pytest.approx(scale * one.force)
+
+
+def test_strain_taken_up_between_the_first_two_readings_is_slack():
+    """The grip takes up 1 % strain between the first and the second reading, rests there at the
+    tare, and the strip becomes taut at 1.1 % (between rows 9 and 10): the strain moved before the
+    strip was taut, so the start is slack, spanning the first reading's strain to row 9's."""
+    eps = np.r_[0.0, np.full(9, 0.01), 0.01 + 0.002 * np.arange(1, 41)]
+    force = 0.2 + K1 * np.maximum(eps - 0.011, 0.0)
+    found = start.find(eps, force, 0.0)
+    assert found is not None and found.kind == start.SLACK
+    assert found.strain[0] == 0.0 and found.row == 9
+
+
+def test_a_preload_says_it_is_fitted_as_a_force_offset():
+    eps = np.r_[np.zeros(10), 0.002 * np.arange(1, 41)]
+    found = start.find(eps, 0.3 + K1 * eps, 0.0)
+    assert found is not None and found.kind == start.PRELOAD
+    assert found.reason().endswith("from rest with a force offset)")

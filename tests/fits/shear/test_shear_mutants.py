@@ -22,3 +22,171 @@ from matid.fits.shear.fit import _bias_explains
 def test_a_torsion_disagreement_is_explained_only_within_the_warned_bias(widen, ratio, explained) -> None:
     check = SimpleNamespace(widen=widen, info={"nose_bias_ratio": [0.6, 0.9]} if widen > 1 else {})
     assert _bias_explains(check, ratio) is explained
+
+
+# --- one bend fit on data of the shooting model (matid.example.forward), with E_s_torsion known ---
+
+
+@pytest.fixture(scope="module")
+def torsion_fits():
+    """The 10 mm bend of tests/fits/shear/test_fit (shooting model, 0.3 % noise, seed 12) fitted twice:
+    with E_s_torsion at 3 x the true E_s (+-2 %) and at the true E_s; the first reports its progress."""
+    from matid.model.results import Estimate
+    from tests.fits.shear.test_fit import SPECIMEN, fit_rod, known, measurement, noisy, rig, rod_curve
+
+    d, force = rod_curve(0.010)
+    data = [measurement(d, noisy(force, 12), rig(0.010))]
+    said: list[str] = []
+    fits = {}
+    for ratio in (3.0, 1.0):
+        held = {
+            **known(),
+            "E_s_torsion": Estimate("E_s", ratio * 21.0, 0.02 * ratio * 21.0, None, 0, "torsion"),
+        }
+        fits[ratio] = fit_rod(
+            data, specimen=SPECIMEN, known=held, progress=said.append if ratio == 3.0 else None
+        )
+    return fits, said
+
+
+def test_a_torsion_value_three_times_the_bend_s_is_one_warning_and_an_agreeing_one_none(torsion_fits):
+    fits, _ = torsion_fits
+    (warning,) = fits[3.0].estimate("E_s").warnings
+    assert "disagree" in warning and "E_s_torsion = 63 N" in warning
+    assert fits[3.0].info["torsion_check"] == warning
+    assert fits[1.0].estimate("E_s").warnings == ()
+    assert " agree:" in fits[1.0].info["torsion_check"]
+
+
+def test_the_bend_fit_reports_its_progress_and_its_lack_of_fit(torsion_fits):
+    fits, said = torsion_fits
+    assert said and all(s.startswith("E_s fit at ") and " elements: E_s = " in s for s in said)
+    assert set(fits[3.0].info["lack_of_fit"]) >= {"misfit"}
+
+
+@pytest.mark.parametrize(("name", "source"), [("E_b", "a magnetic_bending test"), ("E_e", "extension tests")])
+def test_a_missing_held_stiffness_names_the_test_that_gives_it(name, source) -> None:
+    from matid.errors import FitError
+    from matid.fits.shear.fit import _held
+
+    with pytest.raises(
+        FitError, match=f"E_s of specimen T1 needs {name}: add {source} or a \\[\\[fixed\\]\\]"
+    ):
+        _held({}, name, "T1")
+
+
+def test_the_richardson_estimate_of_the_mesh_error_is_the_error_against_the_shooting_model():
+    """Noise-free data of the shooting model (E_s = 21 N exactly) fitted on 8 P2 elements: the fit's
+    FE error estimate (from the solve at half the elements, order 4) is within a factor 1.5 of the
+    actual error of its E_s (measured: 7.9e-5 for 9.2e-5, ratio 0.86)."""
+    from tests.fits.shear.test_fit import E_S, SPECIMEN, fit_rod, known, measurement, rig, rod_curve
+
+    d, force = rod_curve(0.010)
+    est = fit_rod([measurement(d, force, rig(0.010))], specimen=SPECIMEN, known=known(), elements=8).estimate(
+        "E_s"
+    )
+    actual = abs(est.value / E_S - 1.0)
+    assert est.extra["fe"]["elements"] == 8 and actual > 1e-5  # an error the estimate must see
+    assert 1 / 1.5 <= est.extra["fe"]["discretization_error"] / actual <= 1.5
+
+
+# --- the bend record's cut (matid/fits/shear/window.py) on hand-made records ---
+
+
+def test_rows_past_yield_are_those_beyond_the_last_row_on_the_line():
+    """A line of 100 N/m to 1 mm, then the force holds at 0.1 N (a yield plateau), 81 rows with
+    1 mN noise (seed 0): the rows left out past yield are exactly those beyond the deflection the
+    reason names; the row at it stays."""
+    import numpy as np
+
+    from matid.fits.shear import window
+
+    d = np.linspace(0.0, 2e-3, 81)
+    F = np.minimum(100.0 * d, 0.1) + np.random.default_rng(0).normal(0.0, 1e-3, d.size)
+    cut = window.cut(d, F, np.ones(d.size, bool))
+    (reason,) = [r for r in cut.reasons if r.startswith("past yield")]
+    top = float(reason.split("beyond ")[1].split(" mm")[0]) * 1e-3
+    assert np.isclose(d[cut.used].max(), top, rtol=1e-3)
+    assert cut.reasons[reason] == int(np.sum(d[: int(np.argmax(F)) + 1] > d[cut.used].max()))
+
+
+def test_the_toe_of_an_ever_stiffening_curve_is_cut_at_its_last_tangent():
+    """F = exp(k d) - 1 (k = 8000 /m, 60 rows to 1 mm): a toe (the first slope a sixth of the
+    median) whose slope rises 2.6x per window to the end, so the tangent is the last window's. Its
+    zero lies between the zeros of the exponential's tangents at that window's ends (convexity)."""
+    import numpy as np
+
+    from matid.fits.shear import window
+
+    k, d = 8000.0, np.linspace(0.0, 1e-3, 60)
+    d0 = window.toe_offset(d, np.exp(k * d) - 1.0)
+    width = max(4, d.size // 8)
+    a, b = d[-width], d[-1]
+    assert a - (1 - np.exp(-k * a)) / k <= d0 <= b - (1 - np.exp(-k * b)) / k
+
+
+def test_an_all_zero_force_column_is_named_as_having_no_positive_value():
+    import numpy as np
+
+    from matid.errors import FitError
+    from matid.fits.shear import window
+
+    with pytest.raises(FitError, match="the force column has no positive value"):
+        window.check_plausible(
+            np.linspace(0, 1e-3, 10), np.zeros(10), span=0.01, E_b=6.5e-5, file=SimpleNamespace(name="z.csv")
+        )
+
+
+@pytest.mark.parametrize(("share", "absurd"), [(0.99, True), (1.01, False)])
+def test_data_stiffer_than_half_of_pure_bending_are_refused(share, absurd):
+    """The rule (window.py's docstring): an initial compliance d/F below ABSURD_COMPLIANCE_RATIO of
+    the simply supported beam's S^3/(48 E_b) (closed form) is a wrong unit. Straight data at 1 %
+    below that bound are refused, at 1 % above it pass."""
+    import numpy as np
+
+    from matid.errors import DataError
+    from matid.fits.shear import window
+
+    span, E_b = 0.01, 6.5e-5
+    compliance = share * window.ABSURD_COMPLIANCE_RATIO * span**3 / (48.0 * E_b)
+    d = np.linspace(1e-5, 1e-3, 20)
+    args = (d, d / compliance)
+    kwargs = {"span": span, "E_b": E_b, "file": SimpleNamespace(name="b.csv")}
+    if absurd:
+        with pytest.raises(DataError, match="negative shear compliance") as info:
+            window.check_plausible(*args, **kwargs)
+        # the data's slope F/d (1 / compliance), and what to do
+        assert f"the initial slope F/d = {1 / compliance:.4g} N/m" in info.value.detail
+        assert info.value.detail.endswith(": check the units of the force and deflection columns")
+    else:
+        window.check_plausible(*args, **kwargs)
+
+
+def test_the_design_note_of_a_fit_uses_a_known_E_t():
+    """With E_t known (1e-5 N m^2) the reference shear stiffness comes from torsion as well: the
+    note is the design for the tube given E_t (sd 1.8 % at 6 mm), not the one from E_e alone."""
+    from matid.fits.design import design, summary
+    from matid.fits.shear.fit import _design_note
+    from matid.model.results import Estimate
+    from tests.fits.shear.test_fit import E_B, E_E, SPECIMEN, known
+
+    held = {**known(), "E_t": Estimate("E_t", 1e-5, 0.0, None, 0, "linear")}
+    with_t = summary(design(SPECIMEN, E_b=E_B, E_e=E_E, E_t=1e-5, precision=0.05), 0.05).splitlines()[-1]
+    alone = summary(design(SPECIMEN, E_b=E_B, E_e=E_E, precision=0.05), 0.05).splitlines()[-1]
+    assert with_t != alone
+    assert _design_note(SPECIMEN, held, E_B) == "E_s to 5 %: " + with_t
+
+
+def test_crosshead_scatter_below_zero_deflection_is_left_out_as_before_contact():
+    """Three rows at -30, -20, -10 um with only noise (1 mN, seed 3) on the force, then a line of
+    100 N/m from zero: exactly the rows below zero deflection are left out, as before contact."""
+    import numpy as np
+
+    from matid.fits.shear import window
+
+    d = np.r_[-3e-5, -2e-5, -1e-5, np.linspace(0.0, 1e-3, 57)]
+    F = np.where(d > 0, 100.0 * d, 0.0) + np.random.default_rng(3).normal(0.0, 1e-3, d.size)
+    cut = window.cut(d, F, np.ones(d.size, bool))
+    assert cut.d0 == 0.0
+    assert np.array_equal(cut.used, d >= 0)
+    assert cut.reasons == {"before contact (deflection below zero, force within the noise)": 3}
