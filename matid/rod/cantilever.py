@@ -228,7 +228,7 @@ class Equilibrium:
         accurate). Only the first Newton tangent of a warm start uses them (see equilibrium)."""
         if self.stress is None or self.disc.element != "P2" or self.stress.shape[1] != 2:
             return None
-        R = _recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
+        R = stress_recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
         ns = self.stress.shape[-1]
         return (R @ self.stress.reshape(-1, ns)).reshape(disc.s_quad.shape + (ns,))
 
@@ -374,7 +374,7 @@ def _p2_operator(vertices: bytes, points: bytes):
 
 
 @functools.lru_cache(maxsize=64)
-def _recovery(vertices: bytes, coarse: bytes, points: bytes):
+def stress_recovery(vertices: bytes, coarse: bytes, points: bytes):
     """The matrix of :meth:`Equilibrium.stress_at`: linear through the two Gauss points of the
     coarse element holding each point (cached per mesh pair)."""
     v, s = np.frombuffer(vertices), np.frombuffer(points)

@@ -26,10 +26,10 @@ from matid.rod.cantilever import (
     Equilibrium,
     Solution,
     _prepare,
-    _recovery,
     interpolate_p2,
     mesh,
     probe_start,
+    stress_recovery,
 )
 from matid.rod.checks import planar_point_strains, strain_warnings
 from matid.rod.models import PLANAR
@@ -236,7 +236,7 @@ def _level(prepared, n: int, at: tuple, coarse: Level | None, probe: np.ndarray)
 def _stresses(coarse: Level, disc) -> np.ndarray:
     """Equilibrium.stress_at of every scene: the coarse point stresses recovered at disc's points."""
     cd = coarse.disc
-    R = _recovery(cd.vertices.tobytes(), cd.s_quad.tobytes(), disc.s_quad.tobytes())
+    R = stress_recovery(cd.vertices.tobytes(), cd.s_quad.tobytes(), disc.s_quad.tobytes())
     N, ns = coarse.stress.shape[0], coarse.stress.shape[-1]
     flat = coarse.stress.reshape(N, -1, ns).transpose(1, 0, 2).reshape(-1, N * ns)
     return (R @ flat).reshape(-1, N, ns).transpose(1, 0, 2).reshape((N,) + disc.s_quad.shape + (ns,))
