@@ -115,13 +115,17 @@ class Forward:
         if time.perf_counter() > self.deadline:
             raise OutOfTime
         self.last = equilibrium(self._in(B), elements=self.elements, model=FULL, start=self.last)
+        self._solved(B, self.last.tip()[3:])
+        return self.last
+
+    def _solved(self, B: np.ndarray, d3: np.ndarray) -> None:
+        """Counts a converged forward solve at B and keeps it as :attr:`best` when its tip d3 is the
+        closest to the target so far."""
         self.solves += 1
         if self.target is not None:
-            d3 = self.last.tip()[3:]
             error = angle(d3, self.target)
             if error < self.best[0]:
                 self.best = (error, _unit(B), d3)
-        return self.last
 
     def cold_tips(self, fields: list[np.ndarray]) -> list[np.ndarray | None] | None:
         """The tip d3 of a cold forward solve at each field (None where it fails), all as one stacked
@@ -141,10 +145,9 @@ class Forward:
         tips = []
         for B, row, reason in zip(fields, U[:, tip], reasons, strict=True):
             d3 = None if reason is not None else np.array(kin.d3(row[3:].tolist()))  # Equilibrium.tip
-            self.solves += d3 is not None  # as Forward.at counts: the converged ones
+            if d3 is not None:
+                self._solved(B, d3)
             tips.append(d3)
-            if d3 is not None and self.target is not None and angle(d3, self.target) < self.best[0]:
-                self.best = (angle(d3, self.target), _unit(B), d3)
         return tips
 
     def _in(self, B: np.ndarray) -> Scene:
