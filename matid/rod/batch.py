@@ -98,12 +98,12 @@ class Stack:
             self.dead[i, tip * 3 : tip * 3 + 3] -= (t.force[0], t.force[2], t.moment[1])
         elif isinstance(t, PointLoads):
             for s, F, M in t.loads:
-                k = self.disc.vertex_dof(int(np.argmin(np.abs(self.disc.vertices - s))))
+                k = self.disc.nearest_vertex_dof(s)
                 self.dead[i, k * 3 : k * 3 + 3] -= (F[0], F[2], M[1])
         elif isinstance(t, Magnets):
             self.B[i] = t.B
             for s, m in t.along_d3:
-                self.magnet[i, self.disc.vertex_dof(int(np.argmin(np.abs(self.disc.vertices - s))))] += m
+                self.magnet[i, self.disc.nearest_vertex_dof(s)] += m
 
     def _layout(self) -> None:
         """The chain of the mesh, the element tables in its node order, the reference state: built

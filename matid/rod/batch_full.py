@@ -97,10 +97,7 @@ class FullStack(Stack):
 
     def _add(self, i: int, t) -> None:
         d, s = self.disc, self.disc.s_quad
-
-        def vertex(at: float) -> int:  # matid.rod.terms.base.node
-            return d.vertex_dof(int(np.argmin(np.abs(d.vertices - at))))
-
+        vertex = d.nearest_vertex_dof  # as the terms place them (matid.rod.terms.base.node)
         if isinstance(t, Magnetisation):
             self.B[i] = t.B
             self.moments[i, ..., 2] += t.mu_at(s)
@@ -132,7 +129,7 @@ class FullStack(Stack):
             U[:, 2], U[:, 3] = d.affine(0.0, 1.0), d.affine(1.0, 0.0)
             built = d.__dict__["_full_stack_layout"] = (d.s_dof, ChainLayout(d), U.ravel())
         self.chain, self.ref = built[1:]
-        if self.lumped[:, self.chain.mids].any():  # never: magnets sit on vertices (terms.base.node)
+        if self.lumped[:, self.chain.mids].any():  # never: magnets sit on vertices (nearest_vertex_dof)
             raise ValueError("a lumped magnet off the mesh vertices")
 
     def evaluate(self, X, lam, *, tangent=True, stress=None, want_strain=False):
