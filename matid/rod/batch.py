@@ -52,11 +52,9 @@ class Stack:
     STRESSES = 2
 
     def __init__(self, disc: Discretisation, parts: list[tuple], probe: np.ndarray | None = None):
-        self.disc, nf = disc, 3
+        self.disc = disc
         self.work: dict = {}  # scratch arrays, shared with the stacks taken from this one
-        free = np.ones(disc.n, dtype=bool)
-        free[disc.vertex_dof(0) * nf + np.arange(nf)] = False
-        disc.set_free(free)
+        disc.clamp()
         self.N, s = len(parts), disc.s_quad
         # uniform rods: their values at every point, in one product; rods with segments: their own
         base = np.array([(1.0, rod.E_s, rod.E_e, rod.kappa_ref[1]) for rod, _ in parts]).T

@@ -60,9 +60,7 @@ class FullStack(Stack):
         if disc.nf != NF:
             raise ValueError(f"a full-model stack needs {NF} fields per node, not {disc.nf}")
         self.disc, self.work, self.N = disc, {}, len(parts)
-        free = np.ones(disc.n, dtype=bool)
-        free[disc.vertex_dof(0) * NF + np.arange(NF)] = False
-        disc.set_free(free)
+        disc.clamp()
         s, N = disc.s_quad, self.N
         stiff = [rod.stiffness_at(s) for rod, _ in parts]
         self.props = {k: np.stack([p[k] for p in stiff]) for k in ("E_b", "E_t", "E_s", "E_e")}
