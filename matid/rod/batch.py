@@ -83,7 +83,7 @@ class Stack:
         self.probe = probe
         self.loaded = {name: bool(getattr(self, name).any()) for name in ("mu", "f", "magnet")}
         stiffest = np.max([v.reshape(self.N, -1).max(1) for v in self.props.values()], 0)
-        self.roundoff = 1e-15 * np.maximum(1.0, stiffest)
+        self.roundoff = nw.roundoff_floor(stiffest)
         self._layout()
 
     def _add(self, i: int, t, tip: int, pieces: list) -> None:

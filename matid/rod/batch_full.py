@@ -26,6 +26,7 @@ from matid.rod.batch import Stack
 from matid.rod.cantilever import default_penalty
 from matid.rod.chain import Chain, ChainLayout
 from matid.rod.fem import Discretisation
+from matid.rod.newton import roundoff_floor
 from matid.rod.terms import DistributedForce, Magnetisation, Magnets, PointLoads, Tip
 
 NF = 7
@@ -91,7 +92,7 @@ class FullStack(Stack):
             "lumped_maps": bool(self.lumped.any()),
         }
         stiffest = np.max([v.reshape(N, -1).max(1) for v in self.props.values()], 0)
-        self.roundoff = 1e-15 * np.maximum(1.0, stiffest)
+        self.roundoff = roundoff_floor(stiffest)
 
     def _add(self, i: int, t) -> None:
         d, s = self.disc, self.disc.s_quad
