@@ -22,7 +22,7 @@ import numpy as np
 
 from matid.physics import full
 from matid.physics import kinematics as kin
-from matid.rod.batch import Stack
+from matid.rod.batch import STACKED, Stack
 from matid.rod.cantilever import default_penalty
 from matid.rod.chain import Chain, ChainLayout
 from matid.rod.fem import Discretisation
@@ -38,7 +38,7 @@ KERNEL_POINTS = 128
 def stackable(loads) -> bool:
     """Whether a full-model scene's terms are all evaluated by :class:`FullStack` (symmetric ones)."""
     for t in loads:
-        if type(t) not in (Magnetisation, DistributedForce, Tip, Magnets, PointLoads):
+        if type(t) not in STACKED:  # the term types the planar stack takes too
             return False
         if isinstance(t, Tip) and any(t.moment):
             return False
