@@ -9,7 +9,8 @@ tables built once per mesh, factorised for all scenes at once by :class:`matid.r
 Per scene the arithmetic is that of :class:`matid.rod.system.RodSystem` (the same kernels, the
 same terms' data): :func:`newton` and :func:`follow` are :func:`matid.rod.newton.newton` and
 :func:`matid.rod.newton.follow` with their tests applied per scene, so a scene that converges,
-diverges or lands on an unstable state leaves the stack with its answer or its reason.
+diverges or lands on an unstable state leaves the stack with its answer or its reason. They take
+any stack with this interface: the full model's is :class:`matid.rod.batch_full.FullStack`.
 """
 
 from __future__ import annotations
