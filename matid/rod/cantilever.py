@@ -14,7 +14,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 
 from matid.physics import kinematics as kin
 from matid.rod.arc import arc
@@ -25,6 +24,7 @@ from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follo
 from matid.rod.scenes import Scene, plane_of
 from matid.rod.system import RodSystem
 from matid.rod.terms import Scale, Term, loads_of
+from matid.rod.transfer import interpolate_p2, stress_recovery
 
 #: A rigid segment: bending and twist RIGID_FACTOR times the rod's, shear and
 #: extension at least RIGID_FACTOR (scaled by E_b/L^2). Its share of the rod's
@@ -343,45 +343,6 @@ def _full_load(system: RodSystem, U0: np.ndarray) -> tuple[np.ndarray, NewtonInf
     except NewtonFailure:
         return None
     return X, NewtonInfo(iterations=its, steps=1, lu=lu)
-
-
-def interpolate_p2(vertices: np.ndarray, values: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """The P2 field with nodal ``values`` (vertex, mid-point, vertex, ... sorted by s) at points s."""
-    return _p2_operator(np.asarray(vertices, float).tobytes(), np.asarray(s, float).tobytes()) @ values
-
-
-#: Interpolation operators up to this many entries are dense (one small matmul), larger ones sparse.
-DENSE_ENTRIES = 1 << 16
-
-
-def _operator(cols: np.ndarray, weights: np.ndarray, ncols: int):
-    """The matrix with row k holding ``weights[k]`` in columns ``cols[k]``: dense when small (the
-    error estimate's meshes), else CSR."""
-    n, k = cols.shape
-    matrix = sp.csr_matrix((weights.ravel(), (np.repeat(np.arange(n), k), cols.ravel())), shape=(n, ncols))
-    return matrix if n * ncols > DENSE_ENTRIES else matrix.toarray()
-
-
-@functools.lru_cache(maxsize=64)
-def _p2_operator(vertices: bytes, points: bytes):
-    """The matrix of :func:`interpolate_p2` from one mesh to the points (cached: the meshes of a
-    solve repeat)."""
-    v, s = np.frombuffer(vertices), np.frombuffer(points)
-    e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
-    t = (s - v[e]) / (v[e + 1] - v[e])
-    weights = np.stack([2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)], axis=1)
-    return _operator(np.stack([2 * e, 2 * e + 1, 2 * e + 2], axis=1), weights, 2 * v.size - 1)
-
-
-@functools.lru_cache(maxsize=64)
-def stress_recovery(vertices: bytes, coarse: bytes, points: bytes):
-    """The matrix of :meth:`Equilibrium.stress_at`: linear through the two Gauss points of the
-    coarse element holding each point (cached per mesh pair)."""
-    v, s = np.frombuffer(vertices), np.frombuffer(points)
-    q = np.frombuffer(coarse).reshape(v.size - 1, 2)
-    e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
-    t = (s - q[e, 0]) / (q[e, 1] - q[e, 0])
-    return _operator(np.stack([2 * e, 2 * e + 1], axis=1), np.stack([1.0 - t, t], axis=1), q.size)
 
 
 def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

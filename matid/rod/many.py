@@ -26,16 +26,15 @@ from matid.rod.cantilever import (
     Equilibrium,
     Solution,
     _prepare,
-    interpolate_p2,
     mesh,
     probe_start,
-    stress_recovery,
 )
 from matid.rod.checks import planar_point_strains, strain_warnings
 from matid.rod.models import PLANAR
 from matid.rod.newton import NewtonInfo
 from matid.rod.scenes import Scene
 from matid.rod.system import term_labels
+from matid.rod.transfer import interpolate_p2, stress_recovery
 
 
 @dataclass(frozen=True)
