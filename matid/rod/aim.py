@@ -49,7 +49,15 @@ from matid.physics import kinematics as kin
 from matid.physics.jet import Jet
 from matid.rod import batch
 from matid.rod.batch_full import FullStack, stackable
-from matid.rod.cantilever import INTORDER, Equilibrium, _prepare, default_penalty, equilibrium, mesh, scaled
+from matid.rod.cantilever import (
+    INTORDER,
+    Equilibrium,
+    default_penalty,
+    equilibrium,
+    mesh,
+    prepare_scene,
+    scaled,
+)
 from matid.rod.models import FULL
 from matid.rod.scenes import Scene
 from matid.rod.system import RodSystem
@@ -132,11 +140,11 @@ class Forward:
         system (:mod:`matid.rod.batch_full`); None when the scene's terms do not stack."""
         if time.perf_counter() > self.deadline:
             raise OutOfTime
-        _, _, _, loads, at = _prepare(self._in(fields[0]), FULL)
+        _, _, _, loads, at = prepare_scene(self._in(fields[0]), FULL)
         if not stackable(loads):
             return None
         scenes = [self._in(B) for B in fields]
-        parts = [_prepare(scene, FULL)[2:4] for scene in scenes]
+        parts = [prepare_scene(scene, FULL)[2:4] for scene in scenes]
         disc = mesh(self.elements, at, 7, "P2", INTORDER["P2"])
         stack = FullStack(disc, parts)
         X, _, _, reasons = batch.follow(stack, stack.reference())
@@ -157,7 +165,7 @@ class Forward:
 
     def sensitivity(self, eq: Equilibrium) -> np.ndarray:
         """dd3(L)/dB (3 x 3) at a converged state, from its tangent (module docstring)."""
-        _, _, rod, loads, _ = _prepare(eq.scene, FULL)
+        _, _, rod, loads, _ = prepare_scene(eq.scene, FULL)
         c_u = default_penalty(rod, kin.NORMALISED)
 
         def field(B) -> RodSystem:

@@ -25,8 +25,8 @@ from matid.rod.cantilever import (
     INTORDER,
     Equilibrium,
     Solution,
-    _prepare,
     mesh,
+    prepare_scene,
     probe_start,
 )
 from matid.rod.checks import planar_point_strains, strain_warnings
@@ -73,7 +73,7 @@ def _alone(scene: Scene, elements: int | None):
 
 
 def _stack_key(scene: Scene, elements: int | None) -> tuple:
-    """((mesh breaks, fixed element count or None), its _prepare) of a scene the stack solves,
+    """((mesh breaks, fixed element count or None), its prepare_scene) of a scene the stack solves,
     else (None, None)."""
     if not isinstance(scene, Scene) or scene.kind != "cantilever" or scene.aim is not None:
         return None, None
@@ -81,7 +81,7 @@ def _stack_key(scene: Scene, elements: int | None) -> tuple:
     if fixed == 1:  # a single element is estimated against two: runs alone
         return None, None
     try:
-        prepared = _prepare(scene, "auto")
+        prepared = prepare_scene(scene, "auto")
     except ValueError:
         return None, None
     if prepared[0] != PLANAR or not B.stackable(prepared[3]):
