@@ -20,7 +20,7 @@ from matid.rod.arc import arc
 from matid.rod.contact_rounds import carry, report, reset, settle
 from matid.rod.fem import Discretisation, graded_vertices
 from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
-from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follow, newton
+from matid.rod.newton import NewtonFailure, NewtonInfo, check_admissible, follow, newton
 from matid.rod.scenes import Scene, plane_of
 from matid.rod.system import RodSystem
 from matid.rod.terms import Scale, Term, loads_of
@@ -343,7 +343,7 @@ def _full_load(system: RodSystem, U0: np.ndarray) -> tuple[np.ndarray, NewtonInf
     """Newton at the full load from nodal values U0 (nscalar, nf); None if it fails or is inadmissible."""
     try:
         X, its, lu = newton(system, system.reduce(U0.ravel()), 1.0)
-        _check_admissible(system, X, 1.0, lu)
+        check_admissible(system, X, 1.0, lu)
     except NewtonFailure:
         return None
     return X, NewtonInfo(iterations=its, steps=1, lu=lu)

@@ -176,7 +176,7 @@ def tangent(system: System, x: np.ndarray, lam: float, lu: object) -> np.ndarray
     return lu.solve(-dR)
 
 
-def _check_admissible(system: System, x: np.ndarray, lam: float, factor: object = None) -> None:
+def check_admissible(system: System, x: np.ndarray, lam: float, factor: object = None) -> None:
     """Reject a converged state the system says is no answer (``system.reject(x, lam)`` -> reason or None).
 
     Newton converges to any root: from the straight rod in a field beyond the
@@ -189,6 +189,11 @@ def _check_admissible(system: System, x: np.ndarray, lam: float, factor: object 
     reason = reject(x, lam, factor) if reject is not None else None
     if reason:
         raise NewtonFailure(reason)
+
+
+#: The old name, which rod/contact_rounds (another helper's file now) still imports: drop once it
+#: takes check_admissible.
+_check_admissible = check_admissible
 
 
 #: At most this many halvings of the first step by :func:`definite_step` (each one assembly and
@@ -277,7 +282,7 @@ def follow(
             probe = None  # the probe was at the start: only the first attempt may use it
             try:
                 x_new, its, lu = newton(system, guess, lam_try, first=first)
-                _check_admissible(system, x_new, lam_try, lu)
+                check_admissible(system, x_new, lam_try, lu)
             except RoundoffStagnation as exc:
                 raise ConvergenceError(str(exc), load_factor=lam) from exc
             except NewtonFailure as exc:
