@@ -903,7 +903,7 @@ def missing_load(scene) -> str | None:
     as the solve builds them) leave out, or carry as zero or not finite; None when all are there."""
     from matid.rod import terms
     from matid.rod.api import resolve_model
-    from matid.rod.cantilever import _prepare
+    from matid.rod.cantilever import prepare_scene
 
     loads, L, Eb = scene.loads, scene.rod.length, scene.rod.E_b
     B = max(abs(c) for c in loads.B)
@@ -916,7 +916,7 @@ def missing_load(scene) -> str | None:
         terms.Magnetisation: max([abs(m) * B * L**2 / Eb for *_, m in loads.magnetization] + [0.0]),
     }
     largest = max(list(size.values()) + [abs(k) * L for k in scene.rod.precurvature])
-    built = {type(t): t for t in _prepare(scene, resolve_model(scene))[3]}
+    built = {type(t): t for t in prepare_scene(scene, resolve_model(scene))[3]}
     if (scene.walls or scene.lumen is not None) and terms.Contact not in built:
         return "Contact: walls or a lumen in the scene, absent from the energy"
     for kind, scaled_size in size.items():

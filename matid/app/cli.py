@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING
 from matid import __version__
 from matid.app.options import _positive_int, add_command, add_units_and_strict
 from matid.app.outcome import error_message, exit_code, study_code
-from matid.app.solve_cli import _register_design, _register_solve
+from matid.app.solve_cli import register_design, register_solve
 from matid.errors import MatidError
 
 if TYPE_CHECKING:
@@ -84,8 +84,8 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(title="commands", metavar="COMMAND")
     _register_fit(subparsers)
     _register_demo(subparsers)
-    _register_solve(subparsers)
-    _register_design(subparsers)
+    register_solve(subparsers)
+    register_design(subparsers)
     if argv is None or next((a for a in argv if not a.startswith("-")), None) == "bench":
         from matid.bench.cli import register
 

@@ -16,7 +16,7 @@ from matid.app.options import _fraction, _positive_int, add_command
 from matid.errors import ConvergenceError, DataError, SlipOffError
 
 
-def _register_solve(subparsers) -> None:
+def register_solve(subparsers) -> None:
     parser = add_command(
         subparsers,
         "solve",
@@ -142,7 +142,7 @@ def solve_summary(sol) -> str:
     )
 
 
-def _register_design(subparsers) -> None:
+def register_design(subparsers) -> None:
     parser = add_command(
         subparsers,
         "design",

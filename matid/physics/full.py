@@ -119,7 +119,7 @@ def derivatives(
     a = n2[:, None] ** power  # (n, nF)
     a1 = power * a / n2[:, None]
     W = linear_maps(tuple(float(b) for b in B))
-    F, gF, _ = _numerators(z, rows_times(z, W), mu is not None)
+    F, gF = _numerators(z, rows_times(z, W), mu is not None)
     M = W[3:7, 60:64] if mu is not None else None
     gn2 = np.zeros((n, 11))
     gn2[:, YQ] = 2.0 * q
@@ -157,7 +157,7 @@ def derivatives(
 
 
 def _numerators(z, Wz, magnetic):
-    """(F, dF/dy, Q_ji q) at every point: the strain numerators and their gradients."""
+    """(F, dF/dy) at every point: the strain numerators and their gradients."""
     n = z.shape[0]
     q, dr, p = z[:, 3:7], z[:, 7:10], z[:, 10:14]
     Aq, Ap = Wz[:, 0:12].reshape(n, 3, 4), Wz[:, 12:24].reshape(n, 3, 4)
@@ -176,7 +176,7 @@ def _numerators(z, Wz, magnetic):
         Mq = Wz[:, 60:64]
         F[:, 6] = np.einsum("pa,pa->p", Mq, q)
         gF[:, 6, YQ] = 2.0 * Mq
-    return F, gF, Qq
+    return F, gF
 
 
 def _gradient(s, a, a1, F, gF, gn2, penalty):
@@ -219,7 +219,8 @@ def _hessian(ge6, Cge, s, a, a1, power, n2, F, gF, gn2, dr, q, M, penalty, c_u):
     if M is not None:  # Hess (q^T M q) = 2 M
         Hqq += 2.0 * sa[:, 6, None] * M.reshape(1, 16)
     blocks[:, YQ, YQ] = Hqq.reshape(n, 4, 4)
-    T = rows_times((sa[:, 3:6, None] * q[:, None, :]).reshape(n, 12), Q_T).reshape(n, 4, 3)  # the nu rows' q-r' block
+    sq = (sa[:, 3:6, None] * q[:, None, :]).reshape(n, 12)
+    T = rows_times(sq, Q_T).reshape(n, 4, 3)  # the nu rows' q-r' block
     blocks[:, YQ, YR] = T
     blocks[:, YR, YQ] = T.transpose(0, 2, 1)
     H += blocks

@@ -49,7 +49,15 @@ from matid.physics import kinematics as kin
 from matid.physics.jet import Jet
 from matid.rod import batch
 from matid.rod.batch_full import FullStack, stackable
-from matid.rod.cantilever import INTORDER, Equilibrium, _prepare, default_penalty, equilibrium, mesh, scaled
+from matid.rod.cantilever import (
+    INTORDER,
+    Equilibrium,
+    default_penalty,
+    equilibrium,
+    mesh,
+    prepare_scene,
+    scaled,
+)
 from matid.rod.models import FULL
 from matid.rod.scenes import Scene
 from matid.rod.system import RodSystem
@@ -115,24 +123,28 @@ class Forward:
         if time.perf_counter() > self.deadline:
             raise OutOfTime
         self.last = equilibrium(self._in(B), elements=self.elements, model=FULL, start=self.last)
+        self._solved(B, self.last.tip()[3:])
+        return self.last
+
+    def _solved(self, B: np.ndarray, d3: np.ndarray) -> None:
+        """Counts a converged forward solve at B and keeps it as :attr:`best` when its tip d3 is the
+        closest to the target so far."""
         self.solves += 1
         if self.target is not None:
-            d3 = self.last.tip()[3:]
             error = angle(d3, self.target)
             if error < self.best[0]:
                 self.best = (error, _unit(B), d3)
-        return self.last
 
     def cold_tips(self, fields: list[np.ndarray]) -> list[np.ndarray | None] | None:
         """The tip d3 of a cold forward solve at each field (None where it fails), all as one stacked
         system (:mod:`matid.rod.batch_full`); None when the scene's terms do not stack."""
         if time.perf_counter() > self.deadline:
             raise OutOfTime
-        _, _, _, loads, at = _prepare(self._in(fields[0]), FULL)
+        _, _, _, loads, at = prepare_scene(self._in(fields[0]), FULL)
         if not stackable(loads):
             return None
         scenes = [self._in(B) for B in fields]
-        parts = [_prepare(scene, FULL)[2:4] for scene in scenes]
+        parts = [prepare_scene(scene, FULL)[2:4] for scene in scenes]
         disc = mesh(self.elements, at, 7, "P2", INTORDER["P2"])
         stack = FullStack(disc, parts)
         X, _, _, reasons = batch.follow(stack, stack.reference())
@@ -141,10 +153,9 @@ class Forward:
         tips = []
         for B, row, reason in zip(fields, U[:, tip], reasons, strict=True):
             d3 = None if reason is not None else np.array(kin.d3(row[3:].tolist()))  # Equilibrium.tip
-            self.solves += d3 is not None  # as Forward.at counts: the converged ones
+            if d3 is not None:
+                self._solved(B, d3)
             tips.append(d3)
-            if d3 is not None and self.target is not None and angle(d3, self.target) < self.best[0]:
-                self.best = (angle(d3, self.target), _unit(B), d3)
         return tips
 
     def _in(self, B: np.ndarray) -> Scene:
@@ -154,7 +165,7 @@ class Forward:
 
     def sensitivity(self, eq: Equilibrium) -> np.ndarray:
         """dd3(L)/dB (3 x 3) at a converged state, from its tangent (module docstring)."""
-        _, _, rod, loads, _ = _prepare(eq.scene, FULL)
+        _, _, rod, loads, _ = prepare_scene(eq.scene, FULL)
         c_u = default_penalty(rod, kin.NORMALISED)
 
         def field(B) -> RodSystem:

@@ -9,7 +9,8 @@ tables built once per mesh, factorised for all scenes at once by :class:`matid.r
 Per scene the arithmetic is that of :class:`matid.rod.system.RodSystem` (the same kernels, the
 same terms' data): :func:`newton` and :func:`follow` are :func:`matid.rod.newton.newton` and
 :func:`matid.rod.newton.follow` with their tests applied per scene, so a scene that converges,
-diverges or lands on an unstable state leaves the stack with its answer or its reason.
+diverges or lands on an unstable state leaves the stack with its answer or its reason. They take
+any stack with this interface: the full model's is :class:`matid.rod.batch_full.FullStack`.
 """
 
 from __future__ import annotations
@@ -52,11 +53,9 @@ class Stack:
     STRESSES = 2
 
     def __init__(self, disc: Discretisation, parts: list[tuple], probe: np.ndarray | None = None):
-        self.disc, nf = disc, 3
+        self.disc = disc
         self.work: dict = {}  # scratch arrays, shared with the stacks taken from this one
-        free = np.ones(disc.n, dtype=bool)
-        free[disc.vertex_dof(0) * nf + np.arange(nf)] = False
-        disc.set_free(free)
+        disc.clamp()
         self.N, s = len(parts), disc.s_quad
         # uniform rods: their values at every point, in one product; rods with segments: their own
         base = np.array([(1.0, rod.E_s, rod.E_e, rod.kappa_ref[1]) for rod, _ in parts]).T
@@ -85,7 +84,7 @@ class Stack:
         self.probe = probe
         self.loaded = {name: bool(getattr(self, name).any()) for name in ("mu", "f", "magnet")}
         stiffest = np.max([v.reshape(self.N, -1).max(1) for v in self.props.values()], 0)
-        self.roundoff = 1e-15 * np.maximum(1.0, stiffest)
+        self.roundoff = nw.roundoff_floor(stiffest)
         self._layout()
 
     def _add(self, i: int, t, tip: int, pieces: list) -> None:
@@ -98,12 +97,12 @@ class Stack:
             self.dead[i, tip * 3 : tip * 3 + 3] -= (t.force[0], t.force[2], t.moment[1])
         elif isinstance(t, PointLoads):
             for s, F, M in t.loads:
-                k = self.disc.vertex_dof(int(np.argmin(np.abs(self.disc.vertices - s))))
+                k = self.disc.nearest_vertex_dof(s)
                 self.dead[i, k * 3 : k * 3 + 3] -= (F[0], F[2], M[1])
         elif isinstance(t, Magnets):
             self.B[i] = t.B
             for s, m in t.along_d3:
-                self.magnet[i, self.disc.vertex_dof(int(np.argmin(np.abs(self.disc.vertices - s))))] += m
+                self.magnet[i, self.disc.nearest_vertex_dof(s)] += m
 
     def _layout(self) -> None:
         """The chain of the mesh, the element tables in its node order, the reference state: built

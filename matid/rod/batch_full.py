@@ -22,10 +22,11 @@ import numpy as np
 
 from matid.physics import full
 from matid.physics import kinematics as kin
-from matid.rod.batch import Stack
+from matid.rod.batch import STACKED, Stack
 from matid.rod.cantilever import default_penalty
 from matid.rod.chain import Chain, ChainLayout
 from matid.rod.fem import Discretisation
+from matid.rod.newton import roundoff_floor
 from matid.rod.terms import DistributedForce, Magnetisation, Magnets, PointLoads, Tip
 
 NF = 7
@@ -37,7 +38,7 @@ KERNEL_POINTS = 128
 def stackable(loads) -> bool:
     """Whether a full-model scene's terms are all evaluated by :class:`FullStack` (symmetric ones)."""
     for t in loads:
-        if type(t) not in (Magnetisation, DistributedForce, Tip, Magnets, PointLoads):
+        if type(t) not in STACKED:  # the term types the planar stack takes too
             return False
         if isinstance(t, Tip) and any(t.moment):
             return False
@@ -60,9 +61,7 @@ class FullStack(Stack):
         if disc.nf != NF:
             raise ValueError(f"a full-model stack needs {NF} fields per node, not {disc.nf}")
         self.disc, self.work, self.N = disc, {}, len(parts)
-        free = np.ones(disc.n, dtype=bool)
-        free[disc.vertex_dof(0) * NF + np.arange(NF)] = False
-        disc.set_free(free)
+        disc.clamp()
         s, N = disc.s_quad, self.N
         stiff = [rod.stiffness_at(s) for rod, _ in parts]
         self.props = {k: np.stack([p[k] for p in stiff]) for k in ("E_b", "E_t", "E_s", "E_e")}
@@ -93,14 +92,11 @@ class FullStack(Stack):
             "lumped_maps": bool(self.lumped.any()),
         }
         stiffest = np.max([v.reshape(N, -1).max(1) for v in self.props.values()], 0)
-        self.roundoff = 1e-15 * np.maximum(1.0, stiffest)
+        self.roundoff = roundoff_floor(stiffest)
 
     def _add(self, i: int, t) -> None:
         d, s = self.disc, self.disc.s_quad
-
-        def vertex(at: float) -> int:  # matid.rod.terms.base.node
-            return d.vertex_dof(int(np.argmin(np.abs(d.vertices - at))))
-
+        vertex = d.nearest_vertex_dof  # as the terms place them (matid.rod.terms.base.node)
         if isinstance(t, Magnetisation):
             self.B[i] = t.B
             self.moments[i, ..., 2] += t.mu_at(s)
@@ -132,7 +128,7 @@ class FullStack(Stack):
             U[:, 2], U[:, 3] = d.affine(0.0, 1.0), d.affine(1.0, 0.0)
             built = d.__dict__["_full_stack_layout"] = (d.s_dof, ChainLayout(d), U.ravel())
         self.chain, self.ref = built[1:]
-        if self.lumped[:, self.chain.mids].any():  # never: magnets sit on vertices (terms.base.node)
+        if self.lumped[:, self.chain.mids].any():  # never: magnets sit on vertices (nearest_vertex_dof)
             raise ValueError("a lumped magnet off the mesh vertices")
 
     def evaluate(self, X, lam, *, tangent=True, stress=None, want_strain=False):

@@ -35,7 +35,7 @@ from matid.physics.contact import Circle
 from matid.rod.bend_system import BendSystem
 from matid.rod.fem import Discretisation
 from matid.rod.models import PLANAR, ScaledRod
-from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follow, newton
+from matid.rod.newton import NewtonFailure, NewtonInfo, check_admissible, follow, newton
 from matid.rod.system import RodSystem
 
 #: Default elements of the half model (measured: see ``matid bench``).
@@ -243,7 +243,7 @@ class BendModel:
         if warm is not None:
             try:
                 X_new, its, lu = newton(system, warm, target)
-                _check_admissible(system, X_new, target)
+                check_admissible(system, X_new, target)
                 info.iterations += its
                 info.steps += 1
                 info.lu = lu

@@ -14,17 +14,17 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 
 from matid.physics import kinematics as kin
 from matid.rod.arc import arc
 from matid.rod.contact_rounds import carry, report, reset, settle
 from matid.rod.fem import Discretisation, graded_vertices
 from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
-from matid.rod.newton import NewtonFailure, NewtonInfo, _check_admissible, follow, newton
+from matid.rod.newton import NewtonFailure, NewtonInfo, check_admissible, follow, newton
 from matid.rod.scenes import Scene, plane_of
 from matid.rod.system import RodSystem
 from matid.rod.terms import Scale, Term, loads_of
+from matid.rod.transfer import interpolate_p2, stress_recovery
 
 #: A rigid segment: bending and twist RIGID_FACTOR times the rod's, shear and
 #: extension at least RIGID_FACTOR (scaled by E_b/L^2). Its share of the rod's
@@ -149,7 +149,7 @@ def equilibrium(
     ``contact_at``: scaled arc lengths of interior contact points, mesh vertices too (issue 31).
     """
     t0 = time.perf_counter()
-    chosen, e_a, rod, loads, at = _prepare(scene, model)
+    chosen, e_a, rod, loads, at = prepare_scene(scene, model)
     ne = elements or scene.elements or DEFAULT_ELEMENTS
     order = intorder or INTORDER[element]
     if contact_at:
@@ -228,7 +228,7 @@ class Equilibrium:
         accurate). Only the first Newton tangent of a warm start uses them (see equilibrium)."""
         if self.stress is None or self.disc.element != "P2" or self.stress.shape[1] != 2:
             return None
-        R = _recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
+        R = stress_recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
         ns = self.stress.shape[-1]
         return (R @ self.stress.reshape(-1, ns)).reshape(disc.s_quad.shape + (ns,))
 
@@ -301,7 +301,7 @@ def scene_plane(scene: Scene) -> tuple[float, float, float] | None:
     return _remembered("plane", scene, lambda: plane_of(scene))
 
 
-def _prepare(scene: Scene, model: str) -> tuple:
+def prepare_scene(scene: Scene, model: str) -> tuple:
     """(model, plane direction, scaled rod, its load terms, mesh breaks) of a scene; the last one is
     remembered (scenes are frozen), so the meshes of one error estimate compute them once."""
 
@@ -314,6 +314,10 @@ def _prepare(scene: Scene, model: str) -> tuple:
         return chosen, e_a, *scaled(scene, e_a), breaks(scene)
 
     return _remembered(model, scene, make)
+
+
+#: The old name, which tests/rod/test_contact_stretch.py still imports: drop once it takes prepare_scene.
+_prepare = prepare_scene
 
 
 @functools.lru_cache(maxsize=64)
@@ -339,49 +343,10 @@ def _full_load(system: RodSystem, U0: np.ndarray) -> tuple[np.ndarray, NewtonInf
     """Newton at the full load from nodal values U0 (nscalar, nf); None if it fails or is inadmissible."""
     try:
         X, its, lu = newton(system, system.reduce(U0.ravel()), 1.0)
-        _check_admissible(system, X, 1.0, lu)
+        check_admissible(system, X, 1.0, lu)
     except NewtonFailure:
         return None
     return X, NewtonInfo(iterations=its, steps=1, lu=lu)
-
-
-def interpolate_p2(vertices: np.ndarray, values: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """The P2 field with nodal ``values`` (vertex, mid-point, vertex, ... sorted by s) at points s."""
-    return _p2_operator(np.asarray(vertices, float).tobytes(), np.asarray(s, float).tobytes()) @ values
-
-
-#: Interpolation operators up to this many entries are dense (one small matmul), larger ones sparse.
-DENSE_ENTRIES = 1 << 16
-
-
-def _operator(cols: np.ndarray, weights: np.ndarray, ncols: int):
-    """The matrix with row k holding ``weights[k]`` in columns ``cols[k]``: dense when small (the
-    error estimate's meshes), else CSR."""
-    n, k = cols.shape
-    matrix = sp.csr_matrix((weights.ravel(), (np.repeat(np.arange(n), k), cols.ravel())), shape=(n, ncols))
-    return matrix if n * ncols > DENSE_ENTRIES else matrix.toarray()
-
-
-@functools.lru_cache(maxsize=64)
-def _p2_operator(vertices: bytes, points: bytes):
-    """The matrix of :func:`interpolate_p2` from one mesh to the points (cached: the meshes of a
-    solve repeat)."""
-    v, s = np.frombuffer(vertices), np.frombuffer(points)
-    e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
-    t = (s - v[e]) / (v[e + 1] - v[e])
-    weights = np.stack([2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)], axis=1)
-    return _operator(np.stack([2 * e, 2 * e + 1, 2 * e + 2], axis=1), weights, 2 * v.size - 1)
-
-
-@functools.lru_cache(maxsize=64)
-def _recovery(vertices: bytes, coarse: bytes, points: bytes):
-    """The matrix of :meth:`Equilibrium.stress_at`: linear through the two Gauss points of the
-    coarse element holding each point (cached per mesh pair)."""
-    v, s = np.frombuffer(vertices), np.frombuffer(points)
-    q = np.frombuffer(coarse).reshape(v.size - 1, 2)
-    e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
-    t = (s - q[e, 0]) / (q[e, 1] - q[e, 0])
-    return _operator(np.stack([2 * e, 2 * e + 1], axis=1), np.stack([1.0 - t, t], axis=1), q.size)
 
 
 def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

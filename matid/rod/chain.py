@@ -51,7 +51,7 @@ def inverse3(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def inverse(A: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     """(inverses, positive definite or None) of the b x b blocks A (b, b, ...): :func:`inverse3`
-    for b = 3, else np.linalg.inv (definiteness then from :func:`definite`); a singular block's
+    for b = 3, else np.linalg.inv (definiteness then from :func:`blocks_definite`); a singular block's
     inverse is NaN."""
     if A.shape[0] == 3:
         return inverse3(A)
@@ -69,7 +69,7 @@ def inverse(A: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     return inv.transpose(A.ndim - 2, A.ndim - 1, *range(A.ndim - 2)), None
 
 
-def definite(A: np.ndarray) -> np.ndarray:
+def blocks_definite(A: np.ndarray) -> np.ndarray:
     """Per scene (last axis): every symmetric b x b block of A (b, b, ..., N) positive definite
     (its eigenvalues; a non-finite block is not)."""
     M = A.transpose(*range(2, A.ndim), 0, 1)
@@ -117,7 +117,7 @@ class Chain:
         ne, N, m, b = lay.ne, K.shape[5], lay.m, K.shape[2]
         self.N, self.b = N, b
         self.Gm, definite = inverse(K[2, 2])
-        pivots = [K[2, 2]] if definite is None else None  # the pivot blocks, for definite()
+        pivots = [K[2, 2]] if definite is None else None  # the pivot blocks, for blocks_definite()
         self.Kl, self.Kr = K[0, 2].copy(), K[1, 2].copy()  # K itself may be a work array
         # x_m = Gm r_m - Pl x_l - Pr x_r (K symmetric: K_ml = K_lm^T)
         self.Pl, self.Pr = mm(self.Gm, self.Kl.swapaxes(0, 1)), mm(self.Gm, self.Kr.swapaxes(0, 1))
@@ -159,7 +159,7 @@ class Chain:
         rows = np.asarray(rows, int)
         out = np.ones(rows.size, bool)
         for P in self.pivots:
-            out &= definite(P[..., rows])
+            out &= blocks_definite(P[..., rows])
         return out
 
     def solve(self, r: np.ndarray) -> np.ndarray:
@@ -167,7 +167,7 @@ class Chain:
         lay, b = self.layout, self.b
         N, ne = r.shape[0], lay.ne
         r = r.reshape(N, lay.nscalar, b).T  # (b, nscalar, N)
-        rv = r[:, lay.vertices]  # (3, ne + 1, N)
+        rv = r[:, lay.vertices]  # (b, ne + 1, N)
         ym = mv(self.Gm, r[:, lay.mids])
         rv[:, :-1] -= mv(self.Kl, ym)
         rv[:, 1:] -= mv(self.Kr, ym)

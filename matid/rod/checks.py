@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from matid.physics import kinematics as kin
-from matid.rod.cantilever import _prepare, equilibrium
+from matid.rod.cantilever import equilibrium, prepare_scene
 from matid.rod.models import PLANAR
 
 #: Largest strain the linear law is taken to describe (contract section 9: 0.05).
@@ -25,7 +25,7 @@ LINEAR_RANGE = 0.05
 def point_strains(eq, rod=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(s / L, |nu - e3|, |kappa - kappa_ref| scaled by L) at the quadrature points of eq."""
     disc, model = eq.disc, eq.model
-    rod = _prepare(eq.scene, model)[2] if rod is None else rod
+    rod = prepare_scene(eq.scene, model)[2] if rod is None else rod
     vals, ders = disc.interpolate(eq.U.ravel())
     ref = rod.kappa_ref_at(disc.s_quad)
     ref = np.broadcast_to(np.asarray(rod.kappa_ref, float), disc.s_quad.shape + (3,)) if ref is None else ref

@@ -164,6 +164,16 @@ class Discretisation:
         """Scalar dof of the value at mesh vertex ``index`` (scikit-fem's first nodal dof)."""
         return int(self.basis.nodal_dofs[0, index])
 
+    def nearest_vertex_dof(self, s: float) -> int:
+        """Scalar dof of the mesh vertex nearest to (scaled) arc length s."""
+        return self.vertex_dof(int(np.argmin(np.abs(self.vertices - s))))
+
+    def clamp(self) -> None:
+        """:meth:`set_free` with every dof free but the values at vertex 0 (a cantilever's clamp)."""
+        free = np.ones(self.n, dtype=bool)
+        free[self.vertex_dof(0) * self.nf + np.arange(self.nf)] = False
+        self.set_free(free)
+
     def set_free(self, free: np.ndarray) -> None:
         """Which dofs are free: the band pattern now, the CSR pattern when first used.
 

@@ -25,10 +25,8 @@ from matid.rod.cantilever import (
     INTORDER,
     Equilibrium,
     Solution,
-    _prepare,
-    _recovery,
-    interpolate_p2,
     mesh,
+    prepare_scene,
     probe_start,
 )
 from matid.rod.checks import planar_point_strains, strain_warnings
@@ -36,6 +34,7 @@ from matid.rod.models import PLANAR
 from matid.rod.newton import NewtonInfo
 from matid.rod.scenes import Scene
 from matid.rod.system import term_labels
+from matid.rod.transfer import interpolate_p2, stress_recovery
 
 
 @dataclass(frozen=True)
@@ -74,7 +73,7 @@ def _alone(scene: Scene, elements: int | None):
 
 
 def _stack_key(scene: Scene, elements: int | None) -> tuple:
-    """((mesh breaks, fixed element count or None), its _prepare) of a scene the stack solves,
+    """((mesh breaks, fixed element count or None), its prepare_scene) of a scene the stack solves,
     else (None, None)."""
     if not isinstance(scene, Scene) or scene.kind != "cantilever" or scene.aim is not None:
         return None, None
@@ -82,7 +81,7 @@ def _stack_key(scene: Scene, elements: int | None) -> tuple:
     if fixed == 1:  # a single element is estimated against two: runs alone
         return None, None
     try:
-        prepared = _prepare(scene, "auto")
+        prepared = prepare_scene(scene, "auto")
     except ValueError:
         return None, None
     if prepared[0] != PLANAR or not B.stackable(prepared[3]):
@@ -236,7 +235,7 @@ def _level(prepared, n: int, at: tuple, coarse: Level | None, probe: np.ndarray)
 def _stresses(coarse: Level, disc) -> np.ndarray:
     """Equilibrium.stress_at of every scene: the coarse point stresses recovered at disc's points."""
     cd = coarse.disc
-    R = _recovery(cd.vertices.tobytes(), cd.s_quad.tobytes(), disc.s_quad.tobytes())
+    R = stress_recovery(cd.vertices.tobytes(), cd.s_quad.tobytes(), disc.s_quad.tobytes())
     N, ns = coarse.stress.shape[0], coarse.stress.shape[-1]
     flat = coarse.stress.reshape(N, -1, ns).transpose(1, 0, 2).reshape(-1, N * ns)
     return (R @ flat).reshape(-1, N, ns).transpose(1, 0, 2).reshape((N,) + disc.s_quad.shape + (ns,))

@@ -23,6 +23,7 @@ from matid.physics.jet import Jet
 from matid.rod import stability
 from matid.rod.fem import Discretisation
 from matid.rod.models import FULL, PLANAR, ScaledRod
+from matid.rod.newton import roundoff_floor
 from matid.rod.terms import Term, UnityGauge
 from matid.rod.terms.base import at_points
 
@@ -196,7 +197,7 @@ class RodSystem:
         """Smallest Newton correction distinguishable from round-off: eps times the stiffness spread
         (of the stiffnesses bound at construction; read once, each Newton solve asks)."""
         stiff = max([float(v.max()) for v in self.props.values()])  # the method: no np.max dispatch
-        return 1e-15 * max(stiff, 1.0)
+        return float(roundoff_floor(stiff))
 
     # -- residual and tangent on the free dofs ---------------------------------
     def evaluate(

@@ -48,47 +48,32 @@ def _trapezium(path: Path, gap: int | None = None) -> Path:
     return path
 
 
+def _bend(path: Path, columns: dict):
+    """The three-point bend record of ``columns`` in the Latin-1 file ``path``."""
+    return read_table(path, "three_point_bend", columns=columns, encoding="latin-1")
+
+
 def test_the_shorter_of_two_records_side_by_side_ends_at_its_last_value(tmp_path):
-    table = read_table(
-        _trapezium(tmp_path / "flex.csv"),
-        "three_point_bend",
-        columns={"deflection": 6, "force": 5},
-        encoding="latin-1",
-    )
+    table = _bend(_trapezium(tmp_path / "flex.csv"), {"deflection": 6, "force": 5})
     assert table.n_rows == SHORT
     np.testing.assert_allclose(table["force"], [float(f"{f:.6g}") for f in F_SHORT])
     np.testing.assert_allclose(table["deflection"], [1e-3 * float(f"{d:.6g}") for d in D_SHORT])
 
 
 def test_the_longer_record_side_by_side_is_read_to_its_end(tmp_path):
-    table = read_table(
-        _trapezium(tmp_path / "flex.csv"),
-        "three_point_bend",
-        columns={"deflection": 3, "force": 2},
-        encoding="latin-1",
-    )
+    table = _bend(_trapezium(tmp_path / "flex.csv"), {"deflection": 3, "force": 2})
     assert table.n_rows == LONG
     np.testing.assert_allclose(table["force"][-1], float(f"{F_LONG[-1]:.6g}"))
 
 
 def test_an_empty_cell_before_the_last_value_of_a_record_is_still_refused(tmp_path):
     with pytest.raises(DataError, match=r"row 14, column 'Force': empty cell"):
-        read_table(
-            _trapezium(tmp_path / "flex.csv", gap=10),
-            "three_point_bend",
-            columns={"deflection": 6, "force": 5},
-            encoding="latin-1",
-        )
+        _bend(_trapezium(tmp_path / "flex.csv", gap=10), {"deflection": 6, "force": 5})
 
 
 def test_a_header_text_every_record_repeats_is_refused_with_the_column_numbers(tmp_path):
     with pytest.raises(DataError, match=r"columns.force = 'Force' names 2 columns \(numbers 2, 5\)"):
-        read_table(
-            _trapezium(tmp_path / "flex.csv"),
-            "three_point_bend",
-            columns={"deflection": 6, "force": "Force"},
-            encoding="latin-1",
-        )
+        _bend(_trapezium(tmp_path / "flex.csv"), {"deflection": 6, "force": "Force"})
 
 
 def _zwick(path: Path) -> tuple[Path, np.ndarray, np.ndarray]:

@@ -9,14 +9,14 @@ import pytest
 from matid.bench.peers import precurved_3d
 from matid.rod import cantilever
 from matid.rod.arc import arc
-from matid.rod.cantilever import _prepare, default_penalty, equilibrium, mesh
+from matid.rod.cantilever import default_penalty, equilibrium, mesh, prepare_scene
 from matid.rod.models import PLANAR
 from matid.rod.scenes import scene_from_dict
 from matid.rod.system import RodSystem
 
 
 def _system(scene, elements: int, model: str) -> RodSystem:
-    chosen, _, rod, loads, at = _prepare(scene, model)
+    chosen, _, rod, loads, at = prepare_scene(scene, model)
     disc = mesh(elements, at, 3 if chosen == PLANAR else 7, "P2", 2)
     return RodSystem(disc, rod, loads, model=chosen, c_u=default_penalty(rod, "normalised"), banded=True)
 

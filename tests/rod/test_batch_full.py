@@ -13,7 +13,7 @@ from matid.errors import ConvergenceError
 from matid.physics import kinematics as kin
 from matid.rod import batch
 from matid.rod.batch_full import FullStack, stackable
-from matid.rod.cantilever import _prepare, equilibrium, mesh
+from matid.rod.cantilever import equilibrium, mesh, prepare_scene
 from matid.rod.models import FULL
 from matid.rod.scenes import Aim, load_scene
 from tests import ROOT
@@ -64,7 +64,7 @@ def _variants() -> list:
 
 def test_stacked_full_model_gives_each_scenes_own_answer_and_failure() -> None:
     scenes = _variants()
-    parts = [_prepare(scene, FULL)[2:4] for scene in scenes]
+    parts = [prepare_scene(scene, FULL)[2:4] for scene in scenes]
     assert all(stackable(loads) for _, loads in parts)
     disc = mesh(ELEMENTS, (1.0,), 7, "P2", 2)
     stack = FullStack(disc, parts)
@@ -93,10 +93,10 @@ def test_stacked_full_model_gives_each_scenes_own_answer_and_failure() -> None:
 def test_dead_moments_and_contact_do_not_stack() -> None:
     scene = dataclasses.replace(load_scene(AIM), aim=None)
     moment = dataclasses.replace(scene, loads=dataclasses.replace(scene.loads, tip_moment=(1e-4, 0.0, 0.0)))
-    assert stackable(_prepare(scene, FULL)[3])
-    assert not stackable(_prepare(moment, FULL)[3])
+    assert stackable(prepare_scene(scene, FULL)[3])
+    assert not stackable(prepare_scene(moment, FULL)[3])
     point = load_scene(ROOT / "examples" / "scenes" / "point_load.toml")  # a point moment: unsymmetric
-    assert not stackable(_prepare(point, FULL)[3])
+    assert not stackable(prepare_scene(point, FULL)[3])
 
 
 @pytest.mark.parametrize("target, magnitude", [((0.0, 0.0, -1.0), 1.0), ((0.0, 1.0, 0.0), 0.16)])

@@ -6,7 +6,7 @@ import pytest
 
 from matid.bench import scenes as S
 from matid.physics import kinematics as kin
-from matid.rod.cantilever import _prepare, default_penalty, equilibrium, mesh, probe_start
+from matid.rod.cantilever import default_penalty, equilibrium, mesh, prepare_scene, probe_start
 from matid.rod.models import PLANAR
 from matid.rod.newton import definite, definite_step, follow
 from matid.rod.scenes import scene_from_dict
@@ -14,7 +14,7 @@ from matid.rod.system import RodSystem
 
 
 def _system(scene, elements: int = 4) -> RodSystem:
-    chosen, _, rod, loads, at = _prepare(scene, "auto")
+    chosen, _, rod, loads, at = prepare_scene(scene, "auto")
     disc = mesh(elements, at, 3 if chosen == PLANAR else 7, "P2", 2)
     c_u = default_penalty(rod, kin.NORMALISED)
     return RodSystem(disc, rod, loads, model=chosen, c_u=c_u, banded=True, mixed=True)

@@ -5,11 +5,12 @@ import numpy as np
 import pytest
 
 from matid.physics.kinematics import NORMALISED, RAW
-from matid.rod.cantilever import INTORDER, interpolate_p2
+from matid.rod.cantilever import INTORDER
 from matid.rod.fem import Discretisation
 from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
 from matid.rod.system import RodSystem
 from matid.rod.terms import DistributedForce, Magnetisation, Magnets, Tip
+from matid.rod.transfer import interpolate_p2
 
 ROD = ScaledRod(
     E_t=0.7,

@@ -20,7 +20,7 @@ class Untested(RodSystem):
 
 
 def _state(scene, lams, elements=16):
-    model, _, rod, loads, at = cantilever._prepare(scene, "auto")
+    model, _, rod, loads, at = cantilever.prepare_scene(scene, "auto")
     disc = cantilever.mesh(elements, at, 7, "P2", 2)
     system = Untested(
         disc, rod, loads, model=model, c_u=cantilever.default_penalty(rod, "normalised"), banded=True

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from matid.rod.bend import BendGeometry, BendModel
-from matid.rod.cantilever import _prepare, mesh
+from matid.rod.cantilever import mesh, prepare_scene
 from matid.rod.models import PLANAR
 from matid.rod.scenes import load_scene, scene_from_dict
 from matid.rod.system import RodSystem
@@ -31,7 +31,7 @@ ROD = {"length": "30 mm", "E_b": 1e-4, "E_t": 1e-4, "E_s": 10, "E_e": 10}
 
 
 def _system(scene) -> RodSystem:
-    chosen, _, rod, loads, at = _prepare(scene, "auto")
+    chosen, _, rod, loads, at = prepare_scene(scene, "auto")
     disc = mesh(4, at, 3 if chosen == PLANAR else 7, "P2", 2)
     return RodSystem(disc, rod, loads, model=chosen)
 

@@ -11,7 +11,7 @@ import pytest
 
 from matid.physics.kinematics import NORMALISED, RAW
 from matid.rod import solve
-from matid.rod.cantilever import INTORDER, _prepare, equilibrium, mesh
+from matid.rod.cantilever import INTORDER, equilibrium, mesh, prepare_scene
 from matid.rod.fem import Discretisation
 from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
 from matid.rod.scenes import load_scene, scene_from_dict
@@ -26,7 +26,7 @@ ROD = {"length": "30 mm", "E_b": 1e-4, "E_t": 1e-4, "E_s": 10, "E_e": 10, "outer
 
 
 def _system(raw: dict, elements: int = 4) -> RodSystem:
-    chosen, _, rod, loads, at = _prepare(scene_from_dict(raw), "auto")
+    chosen, _, rod, loads, at = prepare_scene(scene_from_dict(raw), "auto")
     disc = mesh(elements, at, 3 if chosen == PLANAR else 7, "P2", 2)
     return RodSystem(disc, rod, loads, model=chosen)
 

@@ -98,46 +98,59 @@ def _matid_names(
     canonical name (renamed on collision)."""
     result = [canonical(name) or f"column_{i + 1}" for i, (name, _) in enumerate(written)]
     for name, header in mapping.items():
-        if isinstance(header, int):  # a column number, 1 = the first
-            if header > len(cells):
-                raise DataError(
-                    f"columns.{name} = {header}: the file has {len(cells)} columns",
-                    file=path,
-                    row=row,
-                )
-            hits = [header - 1]
-        else:
-            want = header.strip().casefold()
-            hits = [
-                i
-                for i, (cell, (shown, _)) in enumerate(zip(cells, written, strict=True))
-                if want in (cell.strip().casefold(), shown.strip().casefold())
-            ]
-        if len(hits) > 1:  # side-by-side records repeat their names: one must be chosen
-            numbers = ", ".join(str(i + 1) for i in hits)
-            raise DataError(
-                f"columns.{name} = '{bounded_text(header, 80)}' names {len(hits)} columns (numbers "
-                f"{bounded_text(numbers, 80)}): name one by its number, e.g. "
-                f"columns = {{ {name} = {hits[0] + 1} }}",
-                file=path,
-                row=row,
-                column=bounded_text(header, 80),
-            )
-        if not hits:
-            close = difflib.get_close_matches(header.strip(), cells, n=1, cutoff=0.5)
-            hint = f"; did you mean '{close[0]}'?" if close else ""
-            raise DataError(
-                f"columns.{name} = '{bounded_text(header, 80)}' is not a column of the file; header row has: "
-                f"{bounded_text(', '.join(cells), 300)}{hint}",
-                file=path,
-                row=row,
-                column=bounded_text(header, 80),
-            )
+        hit = _mapped_column(name, header, cells, written, path, row)
         for i, current in enumerate(result):
-            if current == name and i != hits[0]:
+            if current == name and i != hit:
                 result[i] = f"{current}_col{i + 1}"  # the file's own 'force' when 'Load' is mapped to force
-        result[hits[0]] = name
+        result[hit] = name
     return result
+
+
+def _mapped_column(
+    name: str,
+    header: str | int,
+    cells: list[str],
+    written: list[tuple[str, str]],
+    path: Path,
+    row: int | None,
+) -> int:
+    """The index of the one column ``columns.<name> = header`` names (by header text or column
+    number, 1 = the first); a DataError when it names none or several."""
+    if isinstance(header, int):
+        if header > len(cells):
+            raise DataError(
+                f"columns.{name} = {header}: the file has {len(cells)} columns",
+                file=path,
+                row=row,
+            )
+        return header - 1
+    want = header.strip().casefold()
+    hits = [
+        i
+        for i, (cell, (shown, _)) in enumerate(zip(cells, written, strict=True))
+        if want in (cell.strip().casefold(), shown.strip().casefold())
+    ]
+    if len(hits) > 1:  # side-by-side records repeat their names: one must be chosen
+        numbers = ", ".join(str(i + 1) for i in hits)
+        raise DataError(
+            f"columns.{name} = '{bounded_text(header, 80)}' names {len(hits)} columns (numbers "
+            f"{bounded_text(numbers, 80)}): name one by its number, e.g. "
+            f"columns = {{ {name} = {hits[0] + 1} }}",
+            file=path,
+            row=row,
+            column=bounded_text(header, 80),
+        )
+    if not hits:
+        close = difflib.get_close_matches(header.strip(), cells, n=1, cutoff=0.5)
+        hint = f"; did you mean '{close[0]}'?" if close else ""
+        raise DataError(
+            f"columns.{name} = '{bounded_text(header, 80)}' is not a column of the file; header row has: "
+            f"{bounded_text(', '.join(cells), 300)}{hint}",
+            file=path,
+            row=row,
+            column=bounded_text(header, 80),
+        )
+    return hits[0]
 
 
 def _units_row(line: str, layout: Layout) -> list[str]:

@@ -102,8 +102,7 @@ class Scale:
 
 def node(system, s: float) -> int:
     """The scalar dof of the mesh vertex nearest to scaled arc length s."""
-    verts = system.disc.vertices
-    return system.disc.vertex_dof(int(np.argmin(np.abs(verts - s))))
+    return system.disc.nearest_vertex_dof(s)
 
 
 def q_dofs(nodes, nf: int) -> np.ndarray:
