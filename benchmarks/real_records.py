@@ -589,6 +589,43 @@ RECORDS: list[Record] = [
         note="nanocellulose film; width 5 and thickness 1 mm are the header's ('Sample : Default') and "
         "only label the section",
     ),
+    Record(
+        id="pp-deben-bc-cyclic",
+        repo=TDA[0],
+        commit=TDA[1],
+        path="DATA/BC_0_W_R.013.MTR",
+        kind="extension",
+        machine="Deben Microtest .MTR as for pp-deben-nanocel, ending with the stage's end-of-test row "
+        "'0,0,0,0,1,0,\"0\"' (file line 29395: time, elongation and force all 0)",
+        dims="span (gauge length) 10 mm; units mm, N, s given in the study (the file has none)",
+        source="the file's header: line 3 'Span : 10,0', line 4 'Width : 5,0', line 5 'Thickness : 1,0', "
+        "line 6 'Start Sampletime : 100ms', line 11 'Number of points : 29374' (the last row is not one)",
+        specimen={"width": "5 mm", "height": "1 mm"},
+        test={
+            "gauge_length": "10 mm",
+            "columns": {"time": "Point", "elongation": "Elongation", "force": "Force"},
+            "units": {"time": "s", "elongation": "mm", "force": "N"},
+            "window": {"time": ["0 s", "124 s"], "elongation": ["0.45 mm", "0.85 mm"]},
+        },
+        hand=lambda p: hand.extension_window(
+            p,
+            skip=20,
+            delim=",",
+            decimal=".",
+            elong_col=1,
+            force_col=2,
+            gauge_m=0.01,
+            window_m=(0.45e-3, 0.85e-3),
+            force_si=1.0,
+            first_cells=4,
+            until_s=124.0,
+        ),
+        hand_text="the first loading (time to 124 s, its first peak at 124.3 s), elongation 0.45-0.85 mm "
+        "past the slack toe (window also given to matid): line F(strain)",
+        note="wet bacterial cellulose cycled to growing peaks (0.88 to 5.38 mm) with a growing set: no one "
+        "elastic line holds over the record, the first loading's tangent is the value (the whole record "
+        "gives not_identifiable: tangent 6.9 N at strain 0.06, negative at 0.52)",
+    ),
     bluehill("am1", "1016", delim=";", skip=6, header="re-saved: ';', empty first column (Latin-1)"),
     bluehill("am2", "1055", delim=",", skip=5, header="as exported: ',' with the results row above the data"),
     catman("HSM700_7_1", (0.13, 0.175)),

@@ -116,9 +116,14 @@ def extension_window(
     encoding="utf-8-sig",
     strain_col=False,
     first_cells=None,
+    until_s=None,
 ):
-    """E_e = dF/d(strain) over the loading rows with elongation (or strain) inside ``window``."""
+    """E_e = dF/d(strain) over the loading rows with elongation (or strain) inside ``window``: the
+    rows up to the peak force, or with ``until_s`` up to that time (column 0, s: the first loading
+    of load-unload cycles whose peaks grow)."""
     a = read_table(path, skip, delim, decimal=decimal, encoding=encoding, first_cells=first_cells)
+    if until_s is not None:
+        a = a[a[:, 0] <= until_s]
     peak = int(np.argmax(a[:, force_col]))
     x = a[: peak + 1, elong_col] * elong_si
     F = a[: peak + 1, force_col] * force_si

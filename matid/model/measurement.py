@@ -6,7 +6,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -34,6 +34,9 @@ class Table(PicklesViews):
     preamble: tuple[str, ...] = ()
     #: The file's header text of each column, for messages.
     written: Mapping[str, str] = field(default_factory=dict)
+    #: The 1-based file line of each row (a ``range`` when no line between them was skipped);
+    #: None for a table not read from a file.
+    lines: Sequence[int] | None = None
 
     def __post_init__(self) -> None:
         lengths = {len(v) for v in self.columns.values()}
@@ -47,6 +50,8 @@ class Table(PicklesViews):
         for name in ("units", "metadata", "written"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
         object.__setattr__(self, "preamble", tuple(self.preamble))
+        if self.lines is not None and len(self.lines) != self.n_rows:
+            raise ValueError(f"{self.path}: {len(self.lines)} line numbers for {self.n_rows} rows")
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
@@ -57,6 +62,12 @@ class Table(PicklesViews):
     @property
     def n_rows(self) -> int:
         return len(next(iter(self.columns.values()))) if self.columns else 0
+
+    def line(self, k: int) -> int:
+        """The file line (1-based, as an editor shows it) of row ``k`` (0-based, negative from the
+        end), for messages; for a table not read from a file, ``k`` counted from the row under the header."""
+        k = range(self.n_rows)[k]
+        return int(self.lines[k]) if self.lines is not None else self.header_row + 1 + k
 
 
 @dataclass(frozen=True)

@@ -223,12 +223,14 @@ def _below_hold(e_e: Estimate, runs, offsets: Sequence[float]) -> Estimate:
 
 def _started(e_e: Estimate, runs, offsets: Sequence[float]) -> Estimate:
     """E_e with a warning per run that starts at slack or a preload: what was found, where the
-    fit starts and the force offset it fitted (:mod:`matid.fits.extension.start`)."""
+    fit starts and the force offset it fitted (:mod:`matid.fits.extension.start`); and one per row
+    dropped from a run (its end-of-test row, :mod:`matid.fits.extension.runs`)."""
     said = [
         f"{run.name}: {run.start.reason()}: force offset {c:.4g} N; check the plot of its start"
         for run, c in zip(runs, offsets, strict=True)
         if run.start is not None
     ]
+    said += [text for run in runs for text in run.said]
     return replace(e_e, warnings=(*e_e.warnings, *said)) if said else e_e
 
 

@@ -47,6 +47,8 @@ class _Run:
     start: start_.Start | None = None  # slack or preload before loading: a free force offset
     #: The rows before the strip becomes taut (time, strain, force), for plots only: not in the fit
     before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    #: What was dropped from the record before the fit and why (a warning of E_e each)
+    said: tuple[str, ...] = ()
 
     @property
     def offset(self) -> bool:
@@ -98,14 +100,21 @@ def _run(m: Measurement) -> _Run:
     force = np.asarray(table["force"], dtype=float)
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(eps)) and np.all(np.isfinite(force))):
         raise DataError("time, strain and force must be finite in every row", file=table.path)
+    used = np.asarray(m.in_window(), dtype=bool)
+    said: tuple[str, ...] = ()
+    if _end_of_test(t, eps, force):
+        said = (
+            f"{name}: the last row (file line {table.line(-1)}) has time, strain and force all 0 where "
+            f"time had reached {t[-2]:.6g} s: the test stage's end-of-test row, not a sample; it is not read",
+        )
+        t, eps, force, used = t[:-1], eps[:-1], force[:-1], used[:-1]
     if t.size < 5:
         raise FitError(f"{name}: only {t.size} samples; an extension run needs at least 5")
     if np.any(np.diff(t) <= 0):
-        row = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
+        row = table.line(int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1)
         raise DataError("time must increase strictly", file=table.path, row=row, column="time")
     if np.ptp(eps) <= 0 or np.ptp(force) <= 0:
         raise FitError(f"{name}: strain or force does not change; nothing to fit")
-    used = np.asarray(m.in_window(), dtype=bool)
     noise = stats.difference_noise(force) or 1e-9 * float(np.max(np.abs(force)))
     outside: dict[str, int] = {}
     begin, before = start_.find(eps, force, noise), None
@@ -126,7 +135,23 @@ def _run(m: Measurement) -> _Run:
     if provisional.any() and (used & ~provisional).sum() >= 5:
         outside[SLACK] = int(provisional.sum())
         fitted = used & ~provisional
-    return _Run(name, t, eps, force, noise, rate, used, fitted, outside, begin, before)
+    if said:
+        outside[END_OF_TEST] = 1
+    return _Run(name, t, eps, force, noise, rate, used, fitted, outside, begin, before, said)
+
+
+#: Why the last row of a record is left out (a key of ``info["left_out"]``): the row a test stage
+#: writes when the test ends (a Deben Microtest .MTR ends with ``0,0,0,0,1,0,"0"``, Code 1).
+END_OF_TEST = "end-of-test row (time, strain and force all 0 after the last sample)"
+
+
+def _end_of_test(t: np.ndarray, eps: np.ndarray, force: np.ndarray) -> bool:
+    """Whether the last row is an end-of-test row: time falls back to 0 there and its strain and
+    force are 0 too, after rows whose time increases strictly. Only such a record, which a strictly
+    increasing time would refuse, loses a row: every record read before is read as before."""
+    if t.size < 3 or t[-1] != 0 or eps[-1] != 0 or force[-1] != 0 or t[-2] <= 0:
+        return False
+    return bool(np.all(np.diff(t[:-1]) > 0))
 
 
 def _near_zero(force: np.ndarray, noise: float) -> np.ndarray:

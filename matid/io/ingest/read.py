@@ -119,7 +119,18 @@ def _table(
         header_row=header_row or 0,
         preamble=text,
         written=written,
+        lines=_lines(rows.lines),
     )
+
+
+def _lines(lines) -> range | np.ndarray:
+    """The file line of each row, as a ``range`` when they follow each other (a long record then keeps
+    no array of them)."""
+    if len(lines) and int(lines[-1]) - int(lines[0]) == len(lines) - 1:
+        return range(int(lines[0]), int(lines[-1]) + 1)
+    out = np.asarray(lines, dtype=np.int64)
+    out.setflags(write=False)
+    return out
 
 
 def load_measurements(study: Study) -> list[Measurement]:
