@@ -27,7 +27,7 @@ from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.cantilever import Equilibrium, Solution, equilibrium, scene_plane
 from matid.rod.checks import penalty_error, strain_warnings
-from matid.rod.contact_rounds import contact_rounds, stretch_order
+from matid.rod.contact_mesh import contact_rounds, stretch_order
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
 from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene, load_scene
@@ -114,10 +114,11 @@ def _solve_forward(scene: Scene, *, elements, model, variant, element, start=Non
         force = np.asarray(sol.three_point_bend["force"])
         return sol, force / bend_force_scale(scene), sol.runtime_s
 
-    def meshes_at(points: tuple[float, ...], enough=None):
+    def meshes_at(points: tuple[float, ...], enough=None, stretches=()):
         nonlocal contact_at
         contact_at = points
-        return refine(at, tolerance=scene.tolerance, fixed=fixed, enough=enough, cap=stretch_order)
+        cap = lambda result: stretch_order(result, stretches)  # noqa: E731
+        return refine(at, tolerance=scene.tolerance, fixed=fixed, enough=enough, cap=cap)
 
     fixed = elements or scene.elements
     result, est, rounds, moved = contact_rounds(meshes_at, scene.tolerance)

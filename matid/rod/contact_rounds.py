@@ -1,6 +1,6 @@
 """Solving with walls and a lumen (issue 31): the multipliers settled after Newton (:func:`settle`),
-carried from one mesh to the next (:func:`carry`), the returned state checked (:func:`check`), and
-the rounds that put a mesh vertex at every interior point contact (:func:`contact_rounds`).
+carried from one mesh to the next (:func:`carry`) and the returned state checked (:func:`check`);
+the rounds that put mesh vertices at interior contacts are in :mod:`matid.rod.contact_mesh`.
 
 The contact itself is a load term (:mod:`matid.rod.terms.contact`); this module sits above it and
 above Newton, so that the term needs neither.
@@ -14,7 +14,6 @@ import scipy.sparse.linalg as spla
 from scipy.optimize import nnls
 
 from matid.errors import ConvergenceError
-from matid.rod.accuracy import P2_ORDER
 from matid.rod.newton import NewtonFailure, _check_admissible, newton
 from matid.rod.terms.contact import MAX_OUTER, ContactState, contact_of
 
@@ -41,12 +40,6 @@ MAX_UPDATES = 80
 #: Newton's round-off (E_s L^2/E_b = 1e9) and never settles to 1e-10; their resultant and moment
 #: do (equilibrium).
 CHANGE_TOL, GAP_ROUNDOFF, GAP_SETTLED = 1e-10, 1e-15, 0.1
-#: Interior contact points are mesh vertices once the next step would move them less than this
-#: (x L) and less than the scene's tolerance, within at most CONTACT_ROUNDS rounds.
-CONTACT_MOVE = 1e-4
-CONTACT_ROUNDS = 6
-#: The order the error estimate may assume at most when a stretch leaves its wall inside the rod.
-STRETCH_ORDER = 1.0
 
 
 class ContactStateError(ConvergenceError):
@@ -219,7 +212,7 @@ def carry(system, start) -> None:
     carried = getattr(start, "contact", None)
     if bound is None or carried is None or len(carried) < 4:
         return
-    s_old, f_old, _ = carried[3]
+    s_old, f_old = carried[3][:2]
     prep = bound[1]
     s = prep["s"]
     order = np.argsort(s)
@@ -242,19 +235,20 @@ def reset(system) -> None:
 
 
 def report(system, X: np.ndarray) -> tuple | None:
-    """(contacts, quantities, touch points, (node s, reactions, k)) of a settled state, scaled;
-    None without walls."""
+    """(contacts, quantities, touch points, (node s, reactions, k, gaps)) of a settled state,
+    scaled (reactions and gaps: (boundaries, nodes)); None without walls."""
     bound = contact_of(system)
     if bound is None:
         return None
     term, prep = bound
     U = system.expand(X)
     f = with_clamp(system, term, prep, X, U)
+    f0, gaps = term.forces(prep, U)
     return (
         term.contacts(system, prep, U, f),
         term.quantities(system, prep, U, f),
         term.touch_points(system, prep, U, f),
-        (prep["s"].copy(), term.forces(prep, U)[0], prep["state"].k),
+        (prep["s"].copy(), f0, prep["state"].k, np.array([g for g, _, _ in gaps])),
     )
 
 
@@ -279,107 +273,3 @@ def with_clamp(system, term, prep, X: np.ndarray, U: np.ndarray) -> np.ndarray:
         if g[node] <= term.tolerance and np.any(f[b][first] > 0.0):
             f[b, node] = float(F @ grad[node])
     return f
-
-
-def contact_rounds(meshes_at, tolerance: float):
-    """(answer, its Estimate, the Estimates of every round, the last step) of ``meshes_at(points,
-    enough)`` (refine on meshes with a vertex at each scaled s in points, stopping the doubling
-    early once ``enough(answer)``).
-
-    First without points, then with a vertex at each interior contact point, all of them together,
-    until the points move less than CONTACT_MOVE (a contact on a vertex of every nested mesh left
-    the estimate blind to its O(h) position error). A point starts where the P2 gap is smallest;
-    once the contact sits on its vertex, secant steps on the gap's slope there (zero where the rod
-    touches the wall tangentially). A round stops doubling its meshes as soon as a contact is off
-    its vertex (or none is given): its nodal contact then hops between nodes as the mesh doubles,
-    so its Richardson estimate need not converge, and only the touching point is wanted from it
-    (measured, a channel with the tip on one wall and the rod on the other: a round with its vertex
-    1e-2 L off went to 1024 elements, then failed to settle). Raises ConvergenceError naming the
-    round when the points still move after CONTACT_ROUNDS."""
-
-    cut = []  # whether the last round stopped its doubling early
-
-    def off_vertex(points):
-        cut.clear()
-
-        def enough(result) -> bool:
-            touches = interior_contacts(result)
-            off = len(touches) != len(points) or not all(_on_vertex(p, t) for t, p in zip(touches, points, strict=True))
-            cut[:] = [off]
-            return off
-
-        return enough
-
-    result, est = meshes_at((), enough=off_vertex(()))
-    rounds, touches = [est], interior_contacts(result)
-    points, last = tuple(t[0] for t in touches), [(t[1], t[2]) for t in touches]
-    for _ in range(1, CONTACT_ROUNDS + 1):
-        if not points:  # no interior contact (left): refined to the tolerance without a point
-            if any(cut):
-                result, est = meshes_at(())
-                rounds.append(est)
-            return result, est, rounds, 0.0
-        result, est = meshes_at(points, enough=off_vertex(points))
-        rounds.append(est)
-        touches = interior_contacts(result)
-        if len(touches) != len(points):  # the contact set changed: start again where they touch
-            points, last = tuple(t[0] for t in touches), [(t[1], t[2]) for t in touches]
-            continue
-        moved = tuple(_next(p, t, pg) for p, t, pg in zip(points, touches, last, strict=True))
-        step = max(abs(a - b) for a, b in zip(moved, points, strict=True))
-        on_vertices = all(_on_vertex(p, t) for t, p in zip(touches, points, strict=True))
-        if on_vertices and step < min(CONTACT_MOVE, tolerance):
-            return result, est, rounds, step
-        points, last = moved, [(t[1], t[2]) for t in touches]
-    raise ConvergenceError(
-        f"interior contact points still moved after round {CONTACT_ROUNDS} of meshing at them: "
-        f"{', '.join(f'{s:.6g} L' for s in points)}",
-        round=CONTACT_ROUNDS,
-    )
-
-
-def _on_vertex(p: float, touch: tuple) -> bool:
-    """Whether a point contact sits on its vertex p (its most loaded node is p)."""
-    return touch[1] == p
-
-
-def _next(p: float, touch: tuple, last: tuple) -> float:
-    """The next vertex of a contact: on its vertex, a secant step on the gap's slope (through the
-    last round's); off it, where the P2 gap is smallest."""
-    if touch[1] != p or last[0] == p:
-        return touch[0]
-    return _secant(p, touch[2], *last)
-
-
-def _secant(s: float, slope: float, s0: float, slope0: float) -> float:
-    """The zero of the line through (s0, slope0), (s, slope) (s0 != s); s itself when level."""
-    return s if slope == slope0 else s - slope * (s - s0) / (slope - slope0)
-
-
-def interior_contacts(result) -> list[tuple[float, float, float]]:
-    """:meth:`Contact.touch_points` of a converged cantilever away from its tip (a contact on its
-    last element is a tip contact), sorted by s: point contacts and the ends of stretches."""
-    contact = getattr(result, "contact", None)
-    if contact is None or not hasattr(result, "disc"):
-        return []
-    tip = 1.0 - float(result.disc.vertices[-1] - result.disc.vertices[-2])
-    return sorted((t for t in contact[2] if t[1] < tip and t[0] < tip), key=lambda t: (t[0], t[1]))
-
-
-def stretch_order(result) -> float:
-    """The highest order the error estimate may assume for a converged cantilever: STRETCH_ORDER
-    when a stretch (a contact over more than three nodes) leaves its wall inside the rod, else
-    P2's. That end lies inside an element and the discrete lift-off hops between nodes as the
-    mesh doubles: the differences of successive meshes then follow no C h^p, and with the observed
-    order (2.3-4) the estimate was 6x below the true tip error (a cantilever pressed on a wall by
-    q L^3/E_b = 100 and pulled off by a tip force P L^2/E_b = 10: 3.9e-7 for 2.4e-6 at 128
-    elements, against tests/rod/contact_reference.lying_on_a_wall)."""
-    contact = getattr(result, "contact", None)
-    if contact is None or not hasattr(result, "disc"):
-        return P2_ORDER
-    v = result.disc.vertices
-    for c in contact[0]:
-        a, b = c["s"]
-        if a != b and (a > v[1] or b < v[-2]):
-            return STRETCH_ORDER
-    return P2_ORDER

@@ -804,3 +804,78 @@ def advance_in_bend(free_lengths, EI, R_o, lumen: BendLumen, B=(0.0, 0.0), m=0.0
         steps.append(res)
         prev = res
     return steps
+
+
+# -- a shearable tube lying flat on a lumen's wall over a short stretch ---------------------------
+
+
+def _nx_on_wall(th: float, nz: float, es: float, ee: float) -> float:
+    """The force n_x that keeps a shearable, extensible centreline along a wall x = const at director
+    angle th: x' = (1 + n3/E_e) sin th + (n1/E_s) cos th = 0 is linear in n_x."""
+    sn, c = math.sin(th), math.cos(th)
+    return -(sn + nz * c * sn * (1.0 / ee - 1.0 / es)) / (sn * sn / ee + c * c / es)
+
+
+def _rhs_shear(s, y, nx, nz, es, ee, k0, on_wall):
+    th, m = y[2], y[3]
+    sn, c = math.sin(th), math.cos(th)
+    if on_wall:
+        nx = _nx_on_wall(th, nz, es, ee)
+    n3, n1 = nx * sn + nz * c, nx * c - nz * sn
+    xp = (1.0 + n3 / ee) * sn + (n1 / es) * c
+    zp = (1.0 + n3 / ee) * c - (n1 / es) * sn
+    return [xp, zp, m + k0, -(zp * nx - xp * nz)]
+
+
+def shear_stretch_in_lumen(L, EI, E_s, E_e, w, B, m, guess, kappa0=0.0, samples=400) -> dict:
+    """A planar Reissner rod (extensible E_e, shearable E_s; nu1 = n1/E_s, nu3 = 1 + n3/E_e) clamped
+    at the origin along +z between the walls x = -w and x = +w (a straight lumen's section through
+    its axis, w = lumen radius - outer radius), with a tip magnet m along d3 in the in-plane field
+    B = (B_x, B_z) and a precurvature kappa0: its tip on x = +w and its side flat on x = -w over a
+    stretch [a, b]. On the stretch the centreline stays on the wall while the director turns (the
+    shear strain takes it up): n_x(theta) keeps x' = 0 and the wall's reaction, spread over the
+    stretch, is -n_x'. The rod leaves the wall smoothly at both ends (no point force: n_x
+    continuous, so x' = 0 there too). Unknowns m(0), n_x before the stretch, a, b; equations
+    x(a) = -w, n_x(a) = n_x(theta(a)), the tip couple m(L) = m (d3 x B).e2 and x(L) = w; n_z = 0
+    (no axial load). ``guess``: (m0 [N m], n_x [N], a [m], b [m]). Returns tip (x, z), a, b, the
+    stretch's resultant (N, along +x), the tip's reaction (N, along -x), residual and admissible
+    (reactions >= 0 along the stretch and at the tip, gaps >= 0 sampled)."""
+    fs, ms = EI / L**2, EI / L
+    es, ee = E_s / fs, E_e / fs
+    wl, k0 = w / L, kappa0 * L
+    mB = m * np.asarray(B, float) / ms
+
+    def shoot(u, dense=False):
+        m0, nx0, a, b = u
+        opts = dict(method="DOP853", rtol=RTOL, atol=ATOL, dense_output=dense)
+        p1 = solve_ivp(_rhs_shear, (0.0, a), [0.0, 0.0, 0.0, m0], args=(nx0, 0.0, es, ee, k0, False), **opts)
+        p2 = solve_ivp(_rhs_shear, (a, b), p1.y[:, -1], args=(0.0, 0.0, es, ee, k0, True), **opts)
+        nxb = _nx_on_wall(p2.y[2, -1], 0.0, es, ee)
+        p3 = solve_ivp(_rhs_shear, (b, 1.0), p2.y[:, -1], args=(nxb, 0.0, es, ee, k0, False), **opts)
+        return p1, p2, p3, nxb
+
+    def residual(u):
+        p1, _, p3, _ = shoot(u)
+        ya, yL = p1.y[:, -1], p3.y[:, -1]
+        couple = mB[0] * math.cos(yL[2]) - mB[1] * math.sin(yL[2])
+        return [ya[0] + wl, u[1] - _nx_on_wall(ya[2], 0.0, es, ee), yL[3] - couple, yL[0] - wl]
+
+    u0 = [guess[0] / ms, guess[1] / fs, guess[2] / L, guess[3] / L]
+    out = root(residual, u0, method="hybr", options={"xtol": 1e-14})
+    resid = float(np.max(np.abs(residual(out.x))))
+    p1, p2, p3, nxb = shoot(out.x, dense=True)
+    m0, nx0, a, b = out.x
+    ss = np.linspace(a, b, samples)
+    nx_on = np.array([_nx_on_wall(th, 0.0, es, ee) for th in p2.sol(ss)[2]])
+    gaps = []
+    for sol, lo, hi in ((p1, 0.0, a), (p3, b, 1.0)):
+        x = sol.sol(np.linspace(lo, hi, samples))[0]
+        gaps += [float(np.min(x + wl)), float(np.min(wl - x))]
+    admissible = bool(resid < RESIDUAL_TOL and np.all(np.diff(nx_on) <= 1e-12) and -nxb >= 0 and 0 < a < b < 1
+                      and min(gaps) >= -1e-10)  # fmt: skip
+    yL = p3.y[:, -1]
+    return {
+        "tip": np.array([yL[0], yL[1]]) * L, "a": a * L, "b": b * L, "theta_L": yL[2],
+        "stretch_force": (nx0 - nxb) * fs, "tip_force": -nxb * fs,
+        "residual": resid, "admissible": admissible, "m0": m0 * ms,
+    }  # fmt: skip

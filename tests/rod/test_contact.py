@@ -203,32 +203,59 @@ def test_example_wall_tip_against_the_reference():
     assert np.linalg.norm(force - ref["contacts"][0]["force_vector"]) < 1e-4 * abs(ref["contacts"][0]["force"])
 
 
-def _rounds_with(slope, monkeypatch):
+def _rounds_with(slope, monkeypatch, ends=None):
     """contact_rounds on a stand-in solver: a contact on the node at 0.6 L touching at 0.58 L
-    first, then on whichever vertex it is given, with the gap's slope ``slope(vertex)`` there."""
-    from matid.rod import contact_rounds as CR
+    first, then on whichever vertex it is given, with the gap's slope ``slope(vertex)`` there;
+    a short stretch (given with ``stretches``) moves its ends to ``ends(from, to)``."""
+    from matid.rod import contact_mesh as CR
 
     given = []
 
-    def meshes_at(points, enough=None):
-        given.append(points)
-        return points, object()
+    def meshes_at(points, enough=None, stretches=()):
+        given.append((points, stretches))
+        return (points, stretches), object()
 
     def touches(result):
-        return [(0.58, 0.6, slope(0.6))] if result == () else [(0.0, p, slope(p)) for p in result]
+        points, stretches = result
+        if stretches:
+            return []
+        return [(0.58, 0.6, slope(0.6))] if points == () else [(0.0, p, slope(p)) for p in points]
+
+    def stretch_ends(result, a, b):
+        qa, qb = ends(a, b)
+        return qa, qb, True
 
     monkeypatch.setattr(CR, "interior_contacts", touches)
+    monkeypatch.setattr(CR, "stretch_ends", stretch_ends)
     return CR.contact_rounds(meshes_at, 1e-6), given
 
 
 def test_contact_rounds_step_the_vertex_to_where_the_rod_is_tangent(monkeypatch):
-    (points, _, rounds, step), given = _rounds_with(lambda s: 3.0 * (s - 0.55) + (s - 0.55) ** 2, monkeypatch)
+    ((points, stretches), _, rounds, step), given = _rounds_with(
+        lambda s: 3.0 * (s - 0.55) + (s - 0.55) ** 2, monkeypatch
+    )
     assert abs(points[0] - 0.55) < 1e-6 and step < 1e-6 and len(rounds) == len(given) <= 5
+    assert stretches == ()  # a touching point stays a point
+
+
+def test_a_point_contact_whose_steps_crawl_is_a_short_stretch_with_its_ends_settled(monkeypatch):
+    """Secant steps on a cube root grow: the contact is a short stretch between its last two
+    vertices, whose ends then move to where the (stand-in) rod leaves its wall, 0.5 and 0.6 L."""
+    from matid.rod import contact_mesh as CR
+
+    settle = lambda a, b: (a + 0.5 * (0.5 - a), b + 0.5 * (0.6 - b))  # noqa: E731 (rate 0.5)
+    crawl = lambda s: np.cbrt(s - 0.55)  # noqa: E731
+    ((points, stretches), _, rounds, step), given = _rounds_with(crawl, monkeypatch, settle)
+    ((a, b),) = stretches
+    assert points == (a, b) and abs(a - 0.5) < 1e-6 and abs(b - 0.6) < 1e-6 and step < 1e-6
+    assert len(rounds) == len(given) <= CR.CONTACT_ROUNDS + 1
 
 
 def test_contact_rounds_that_do_not_settle_are_a_convergence_error(monkeypatch):
     from matid.errors import ConvergenceError
+    from matid.rod import contact_mesh as CR
 
-    with pytest.raises(ConvergenceError, match="after round 6") as err:  # secant steps on a cube root grow
-        _rounds_with(lambda s: np.cbrt(s - 0.55), monkeypatch)
-    assert err.value.info["round"] == 6
+    widen = lambda a, b: (a - 0.01, b + 0.01)  # noqa: E731 (a stretch whose ends keep moving)
+    with pytest.raises(ConvergenceError, match=f"after round {CR.CONTACT_ROUNDS}") as err:
+        _rounds_with(lambda s: np.cbrt(s - 0.55), monkeypatch, widen)
+    assert err.value.info["round"] == CR.CONTACT_ROUNDS

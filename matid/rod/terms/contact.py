@@ -253,14 +253,17 @@ class Contact(Term):
     def touch_points(self, system, prep, U: np.ndarray, f: np.ndarray | None = None) -> list[tuple]:
         """Per point contact (a run of at most three nodes, :meth:`runs`), in order: (s where the
         P2 interpolant of its boundary's gap is smallest on the elements holding the loaded nodes,
-        s of its most loaded node, the gap's slope dg/ds = grad g . d3 there), scaled. A contact on
+        s of its most loaded node, the gap's slope dg/ds = grad g . d3 there, and (s of the first,
+        of the last loaded node) when nodes on both sides of the most loaded one are loaded, else
+        None: a short stretch, :mod:`matid.rod.contact_mesh`), scaled. A contact on
         a node away from the true touching point leaves the rod crossing the wall beside it and not
-        tangent to it (slope != 0): what matid.rod.contact_rounds.contact_rounds moves a mesh
-        vertex by (issue 31). A stretch gets no vertex: where it leaves the wall is estimated on
-        one element (:meth:`_leaves`), 3e-3 L off on the coarse meshes that settle the tip, and
+        tangent to it (slope != 0): what matid.rod.contact_mesh.contact_rounds moves a mesh
+        vertex by (issue 31). A stretch gets no touch point: where it leaves the wall is estimated
+        on one element (:meth:`_leaves`), 3e-3 L off on the coarse meshes that settle the tip, and
         rounds on it did not settle in 6 (measured: a cantilever pressed on a wall by a load and
         pulled off by a tip force, q L^3/E_b = 10, P L^2/E_b = 2); the estimate covers its O(h)
-        end on nested meshes (tests/rod/test_contact_stretch.py)."""
+        end on nested meshes (tests/rod/test_contact_stretch.py). A stretch with both ends inside
+        the rod gets a vertex at each end from :mod:`matid.rod.contact_mesh`."""
         f0, gaps = self.forces(prep, U)
         f = f0 if f is None else f
         s = prep["s"]
@@ -278,7 +281,9 @@ class Contact(Term):
             best = min(_smallest(ss[e : e + 3], gb[e : e + 3]) for e in firsts if e + 2 < ss.size)
             node = int(idx[np.argmax(f[b][idx])])
             d3 = self.directors(system, prep, U, [node])[0]
-            out.append((best[1], float(s[node]), float(grad[node] @ d3)))
+            both = sorted_idx[0] < rank[node] < sorted_idx[-1]  # loaded on both sides of it
+            span = (float(ss[sorted_idx[0]]), float(ss[sorted_idx[-1]])) if both else None
+            out.append((best[1], float(s[node]), float(grad[node] @ d3), span))
         return out
 
     def _span(self, system, prep, U, gap, idx) -> tuple[float, float]:

@@ -1,0 +1,311 @@
+"""Mesh vertices at interior contacts (issue 31): the rounds of :func:`contact_rounds` put a vertex
+at every interior point contact and one at each end of a short stretch, and :func:`stretch_order`
+caps the error estimate's order where a stretch leaves its wall inside an element.
+
+A short stretch: a shearable tube (E_s L^2/E_b ~ 300, the precurved and the tip-twist examples in a
+lumen) lies flat on its wall over a length shorter than the node spacing. There the shear strain
+turns the director while the centreline stays on the wall, so the reaction is spread over the
+stretch (Timoshenko: phi'' = (GA/EI) phi on it) and the rod leaves it smoothly at each end (gap
+~ c (s - end)^2). A point contact on one vertex cannot hold it: its nodes beside the vertex stay
+loaded, the P2 gap's smallest point hops between the two ends from round to round (0.618 <-> 0.628 L
+on the tip-twist scene in a 3 mm lumen, 6 rounds, exit 1). Measured on that scene with a vertex at
+each end, each end moved to the smallest point of the quadratic through the gaps of the element
+outside it: the ends settle to 1e-7 L in 4 solves on 16 elements, and the tip and the contact force
+then converge at P2's order (differences 4.7e-6, 3.0e-7, 1.9e-8 L at 16, 32, 64, 128 elements),
+where the uniform meshes hopped (differences 1e-2 ... 1e-6, no order) up to 2048 elements.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from matid.errors import ConvergenceError
+from matid.rod.accuracy import P2_ORDER
+
+#: Interior contact points are mesh vertices once the next step would move them less than this
+#: (x L) and less than the scene's tolerance, within at most CONTACT_ROUNDS rounds.
+CONTACT_MOVE = 1e-4
+CONTACT_ROUNDS = 10
+#: The order the error estimate may assume at most when a stretch leaves its wall inside the rod.
+STRETCH_ORDER = 1.0
+#: An end of a short stretch is off its vertex when its next estimate is farther from it than this
+#: fraction of the element outside it (as a point contact is off its vertex when another node
+#: carries more).
+OFF_END = 0.25
+#: A point contact is a short stretch between its last two vertices when its next step goes back
+#: to within HOP of the last step of the vertex before, or when it is on its vertex in both rounds
+#: and its secant step is more than HOP times the last (a true touching point: superlinear steps;
+#: a short stretch: the slope there keeps one sign, 4e-4 to 5e-3 on the precurved example in a
+#: 1.5 mm lumen at 12 elements, and the steps crawl, 0.0023 then 0.0020 L; on the tip-twist
+#: example in a 3 mm lumen at 12 elements the vertex cycled 0.6266 <-> 0.6026 L).
+HOP = 0.5
+#: A short stretch whose ends come closer than this (x L) is a point contact again.
+SHORTEST = 1e-6
+
+
+def contact_rounds(meshes_at, tolerance: float):
+    """(answer, its Estimate, the Estimates of every round, the last step) of ``meshes_at(points,
+    enough[, stretches])`` (refine on meshes with a vertex at each scaled s in points, stopping the
+    doubling early once ``enough(answer)``; ``stretches``: the (from, to) of short stretches among
+    the points, for :func:`stretch_order`).
+
+    First without points, then with a vertex at each interior contact point, all of them together,
+    until the points move less than CONTACT_MOVE (a contact on a vertex of every nested mesh left
+    the estimate blind to its O(h) position error). A point starts where the P2 gap is smallest;
+    once the contact sits on its vertex, secant steps on the gap's slope there (zero where the rod
+    touches the wall tangentially). A point on its vertex whose nodes on both sides stay loaded is a
+    short stretch: a vertex at each end, moved by :func:`stretch_ends`. A round stops doubling its
+    meshes as soon as a contact is off its vertex (or none is given): its nodal contact then hops
+    between nodes as the mesh doubles, so its Richardson estimate need not converge, and only the
+    touching point is wanted from it (measured, a channel with the tip on one wall and the rod on
+    the other: a round with its vertex 1e-2 L off went to 1024 elements, then failed to settle).
+    Raises ConvergenceError naming the round when the points still move after CONTACT_ROUNDS (not
+    refined without points instead: on the magnetic workspace sweep in a bent 0.6 mm lumen, where
+    long stretches along the bend merge and split between rounds, that took 146 and 215 s per
+    state at 4096 elements, order 1, and still reported 7e-5 and 1.2e-4 for a tolerance of 1e-6)."""
+
+    cut = []  # whether the last round stopped its doubling early
+
+    def off_vertex(contacts):
+        cut.clear()
+
+        def enough(result) -> bool:
+            seen = _observe(result, contacts)
+            off = seen is None or not all(on for _, on in seen)
+            cut[:] = [off]
+            return off
+
+        return enough
+
+    def solve(contacts):
+        points = tuple(sorted(x for c in contacts for x in c[1:]))
+        stretches = tuple(c[1:] for c in contacts if c[0] == "stretch")
+        extra = {"stretches": stretches} if stretches else {}
+        return meshes_at(points, enough=off_vertex(contacts), **extra)
+
+    result, est = solve(())
+    rounds, (contacts, last) = [est], _fresh(result)
+    for _ in range(1, CONTACT_ROUNDS + 1):
+        if not contacts:  # no interior contact (left): refined to the tolerance without a point
+            if any(cut):
+                result, est = meshes_at(())
+                rounds.append(est)
+            return result, est, rounds, 0.0
+        result, est = solve(contacts)
+        rounds.append(est)
+        seen = _observe(result, contacts)
+        if seen is None:  # the contact set changed: start again where they touch
+            contacts, last = _fresh(result)
+            continue
+        moved = [_next(c, obs, old) for c, (obs, _), old in zip(contacts, seen, last, strict=True)]
+        step = max(_distance(a, b) for a, b in zip(moved, contacts, strict=True))
+        if all(on for _, on in seen) and step < min(CONTACT_MOVE, tolerance):
+            _report_ends(result, moved)
+            return result, est, rounds, step
+        contacts, last = moved, [_last(c, obs) for c, (obs, _) in zip(contacts, seen, strict=True)]
+    points = [x for c in contacts for x in c[1:]]
+    raise ConvergenceError(
+        f"interior contact points still moved after round {CONTACT_ROUNDS} of meshing at them: "
+        f"{', '.join(f'{s:.6g} L' for s in points)}",
+        round=CONTACT_ROUNDS,
+    )
+
+
+def _fresh(result) -> tuple[list, list]:
+    """The contacts of a result, each with what the next round's step needs of it: a point contact
+    where each touch is (:func:`interior_contacts`), a short stretch with a vertex at each end of
+    every stretch whose ends are both inside the rod (:func:`interior_runs`)."""
+    touches = [(t[0], ("point", t[0], t)) for t in interior_contacts(result)]
+    runs = [(a, ("stretch", a, b, a, b)) for a, b in interior_runs(result)]
+    both = sorted(touches + runs, key=lambda x: x[0])
+    return [x[1][:2] if x[1][0] == "point" else x[1][:3] for x in both], [x[1] for x in both]
+
+
+def interior_runs(result, besides=()) -> list[tuple[float, float]]:
+    """(from, to) of the stretches of a converged cantilever with both ends inside the rod (beyond
+    its first and before its last element), apart from those overlapping ``besides``."""
+    contact = getattr(result, "contact", None)
+    if contact is None or not hasattr(result, "disc"):
+        return []
+    v = result.disc.vertices
+    out = []
+    for c in contact[0]:
+        a, b = c["s"]
+        if a != b and a > v[1] and b < v[-2] and not any(max(a, lo) <= min(b, hi) for lo, hi in besides):
+            out.append((float(a), float(b)))
+    return out
+
+
+def _last(contact: tuple, obs) -> tuple:
+    """What the next round's step needs of this one: ("point", vertex, touch) or ("stretch", from,
+    to, next from, next to)."""
+    return (*contact, *obs) if contact[0] == "stretch" else (*contact, obs)
+
+
+def _observe(result, contacts) -> list | None:
+    """Per contact (in order) (what the result says of it, on its vertices): a point contact's touch
+    (:meth:`Contact.touch_points`), a short stretch's next ends (:func:`stretch_ends`); None when
+    the contacts are not those given (one more or fewer, a stretch lifted off)."""
+    stretches = [c for c in contacts if c[0] == "stretch"]
+    ends = {c: stretch_ends(result, c[1], c[2]) for c in stretches}
+    if any(e is None for e in ends.values()):
+        return None
+    touches = [t for t in interior_contacts(result) if not any(_part_of(result, t, c) for c in stretches)]
+    runs = [(a, b, None, ("run", a, b)) for a, b in interior_runs(result, [c[1:] for c in stretches])]
+    touches = sorted(touches + runs, key=lambda t: t[0])  # a point whose nodes now form a stretch
+    if len(touches) != len(contacts) - len(stretches):
+        return None
+    out, it = [], iter(touches)
+    for c in contacts:
+        if c[0] == "point":
+            t = next(it)
+            out.append((t, _on_vertex(c[1], t)))
+        else:
+            qa, qb, on = ends[c]
+            out.append(((qa, qb), on))
+    return out
+
+
+def _part_of(result, touch: tuple, stretch: tuple) -> bool:
+    """Whether a point touch lies on a stretch's elements or the ones beside them (a coarse mesh
+    loads only a stretch's two vertices and its mid-point: a point contact by its nodes)."""
+    v = result.disc.vertices
+    i, j = np.searchsorted(v, stretch[1] - 1e-12), np.searchsorted(v, stretch[2] + 1e-12)
+    return v[max(i - 1, 0)] <= touch[1] <= v[min(j, v.size - 1)]
+
+
+def _next(contact: tuple, obs, last) -> tuple:
+    """The next vertices of a contact. A point on its vertex loaded on both sides becomes a short
+    stretch from its first to its last loaded node; a stretch whose ends meet, a point."""
+    if contact[0] == "stretch":
+        qa, qb = obs
+        if last[0] == "stretch":  # a secant on each end's move (rate ~0.05)
+            qa = _end_secant(contact[1], qa, last[1], last[3])
+            qb = _end_secant(contact[2], qb, last[2], last[4])
+        return ("point", 0.5 * (qa + qb)) if qb - qa < SHORTEST else ("stretch", qa, qb)
+    p = contact[1]
+    span = obs[3] if len(obs) > 3 else None
+    if span is not None and span[0] == "run":  # its nodes form a stretch now
+        return ("stretch", span[1], span[2])
+    if _on_vertex(p, obs) and span is not None and span[1] - span[0] >= SHORTEST:
+        return ("stretch", *span)
+    if last[0] == "stretch":
+        return ("point", obs[0])
+    p0, t0 = last[1], last[2]
+    secant = obs[1] == p and t0[1] != p
+    nxt = _secant(p, obs[2], t0[1], t0[2]) if secant else obs[0]
+    crawls = secant and t0[1] == p0 and abs(nxt - p) > HOP * abs(p - p0)  # on its vertex twice
+    if crawls or abs(nxt - p0) < HOP * abs(p - p0):  # or back towards the last vertex
+        return ("stretch", min(p, p0), max(p, p0))
+    return ("point", nxt)
+
+
+def _end_secant(x: float, q: float, x0: float, q0: float) -> float:
+    """The zero of the move q - x of a stretch end through its last two rounds (x0 -> q0, x -> q),
+    taken when it lies between 0.5 and 2 moves ahead (the fixed point's rate is small and steady);
+    else the move itself."""
+    r, r0 = q - x, q0 - x0
+    if r == 0.0 or r == r0 or x == x0:
+        return q
+    step = -r * (x - x0) / (r - r0)
+    return x + step if 0.5 <= step / r <= 2.0 else q
+
+
+def _distance(new: tuple, old: tuple) -> float:
+    """How far a contact's vertices moved (inf when it changed kind)."""
+    if new[0] != old[0]:
+        return float("inf")
+    return max(abs(a - b) for a, b in zip(new[1:], old[1:], strict=True))
+
+
+def _on_vertex(p: float, touch: tuple) -> bool:
+    """Whether a point contact sits on its vertex p (its most loaded node is p)."""
+    return touch[1] == p
+
+
+def _secant(s: float, slope: float, s0: float, slope0: float) -> float:
+    """The zero of the line through (s0, slope0), (s, slope) (s0 != s); s itself when level."""
+    return s if slope == slope0 else s - slope * (s - s0) / (slope - slope0)
+
+
+def stretch_ends(result, a: float, b: float) -> tuple[float, float, bool] | None:
+    """(next from, next to, both on their vertices) of a short stretch with mesh vertices at a < b,
+    or None when nothing between them is loaded. Each end moves to the smallest point of the
+    quadratic through the gaps at the three nodes of the element outside it (where the rod, leaving
+    the wall as c (s - end)^2, would touch it); on its vertex when that is within OFF_END of the
+    element."""
+    s, f, _, g = result.contact[3][:4]
+    order = np.argsort(s)
+    ss = s[order]
+    ia, ib = int(np.argmin(np.abs(ss - a))), int(np.argmin(np.abs(ss - b)))
+    F = f[:, order][:, ia : ib + 1].sum(axis=1)
+    if F.max() <= 0.0:
+        return None
+    gb = g[int(np.argmax(F))][order]
+    qa, qb, on = a, b, True
+    if ia >= 2:
+        qa = _smallest_point(ss[ia - 2 : ia + 1], gb[ia - 2 : ia + 1])
+        on = abs(qa - a) <= OFF_END * (ss[ia] - ss[ia - 2])
+    if ib + 2 < ss.size:
+        qb = _smallest_point(ss[ib : ib + 3], gb[ib : ib + 3])
+        on = on and abs(qb - b) <= OFF_END * (ss[ib + 2] - ss[ib])
+    if qb <= qa:  # the ends crossed: the stretch is a point
+        qa = qb = 0.5 * (qa + qb)
+    return float(qa), float(qb), bool(on)
+
+
+def _smallest_point(s: np.ndarray, g: np.ndarray) -> float:
+    """Where the quadratic through three (s, g) is smallest, within an element beyond them; the
+    node of the smallest g when it is not convex."""
+    A, B, _ = np.polyfit(s - s[0], g, 2)
+    if A <= 0.0:
+        return float(s[int(np.argmin(g))])
+    h = s[2] - s[0]
+    return float(np.clip(s[0] - B / (2.0 * A), s[0] - h, s[2] + h))
+
+
+def _report_ends(result, contacts: list) -> None:
+    """The reported s range of each short stretch: its settled ends (not the one-element estimate
+    of :meth:`Contact._span`, made for stretches without vertices)."""
+    contact = getattr(result, "contact", None)
+    if contact is None:
+        return
+    for c in contacts:
+        if c[0] != "stretch":
+            continue
+        for entry in contact[0]:
+            lo, hi = entry["s"]
+            if max(lo, c[1]) <= min(hi, c[2]) or c[1] <= lo <= c[2]:
+                entry["s"] = (c[1], c[2])
+                break
+
+
+def interior_contacts(result) -> list[tuple]:
+    """:meth:`Contact.touch_points` of a converged cantilever away from its tip (a contact on its
+    last element is a tip contact), sorted by s: point contacts and the ends of stretches."""
+    contact = getattr(result, "contact", None)
+    if contact is None or not hasattr(result, "disc"):
+        return []
+    tip = 1.0 - float(result.disc.vertices[-1] - result.disc.vertices[-2])
+    return sorted((t for t in contact[2] if t[1] < tip and t[0] < tip), key=lambda t: (t[0], t[1]))
+
+
+def stretch_order(result, stretches: tuple = ()) -> float:
+    """The highest order the error estimate may assume for a converged cantilever: STRETCH_ORDER
+    when a stretch (a contact over more than three nodes) leaves its wall inside the rod, else
+    P2's. That end lies inside an element and the discrete lift-off hops between nodes as the
+    mesh doubles: the differences of successive meshes then follow no C h^p, and with the observed
+    order (2.3-4) the estimate was 6x below the true tip error (a cantilever pressed on a wall by
+    q L^3/E_b = 100 and pulled off by a tip force P L^2/E_b = 10: 3.9e-7 for 2.4e-6 at 128
+    elements, against tests/rod/contact_reference.lying_on_a_wall). A short stretch with a vertex
+    at each end (``stretches``, its (from, to)) leaves its wall on a vertex: P2's order."""
+    contact = getattr(result, "contact", None)
+    if contact is None or not hasattr(result, "disc"):
+        return P2_ORDER
+    v = result.disc.vertices
+    for c in contact[0]:
+        a, b = c["s"]
+        ours = any(max(a, lo) <= min(b, hi) for lo, hi in stretches)
+        if a != b and (a > v[1] or b < v[-2]) and not ours:
+            return STRETCH_ORDER
+    return P2_ORDER
