@@ -316,10 +316,6 @@ def prepare_scene(scene: Scene, model: str) -> tuple:
     return _remembered(model, scene, make)
 
 
-#: The old name, which tests/rod/test_contact_stretch.py still imports: drop once it takes prepare_scene.
-_prepare = prepare_scene
-
-
 @functools.lru_cache(maxsize=64)
 def mesh(elements: int, at: tuple[float, ...], nf: int, element: str, intorder: int) -> Discretisation:
     """The cantilever's discretisation, built once per (mesh, fields, element, rule).

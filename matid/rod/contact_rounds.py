@@ -14,7 +14,7 @@ import scipy.sparse.linalg as spla
 from scipy.optimize import nnls
 
 from matid.errors import ConvergenceError
-from matid.rod.newton import NewtonFailure, _check_admissible, newton
+from matid.rod.newton import NewtonFailure, check_admissible, newton
 from matid.rod.terms.contact import MAX_OUTER, ContactState, contact_of
 
 #: The augmented Lagrangian's k grows x10 (up to K_MAX) when an update shrinks the multipliers'
@@ -194,7 +194,7 @@ def check(system, X: np.ndarray, lu=None) -> None:
     if reason is None:
         prep["state"].checking = True
         try:
-            _check_admissible(system, X, 1.0, lu)
+            check_admissible(system, X, 1.0, lu)
         except NewtonFailure as exc:
             reason = str(exc)
     if reason is not None:

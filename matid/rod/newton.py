@@ -191,11 +191,6 @@ def check_admissible(system: System, x: np.ndarray, lam: float, factor: object =
         raise NewtonFailure(reason)
 
 
-#: The old name, which rod/contact_rounds (another helper's file now) still imports: drop once it
-#: takes check_admissible.
-_check_admissible = check_admissible
-
-
 #: At most this many halvings of the first step by :func:`definite_step` (each one assembly and
 #: factorisation; 2^-10 of the load is far below any step Newton needs from a stable start).
 MAX_DEFINITE_HALVINGS = 10

@@ -42,7 +42,7 @@ def solved_and_checked(scene, elements, model="auto"):
     multipliers and passed through matid.rod.contact_rounds.check (walls met within
     contact_tolerance, no pulling reaction, stable with its contacts)."""
     sol, eq = _solve_forward(scene, elements=elements, model=model, variant=kin.NORMALISED, element="P2")
-    _, _, rod, loads, _ = cantilever._prepare(scene, model)
+    _, _, rod, loads, _ = cantilever.prepare_scene(scene, model)
     penalty = cantilever.default_penalty(rod, kin.NORMALISED)
     system = RodSystem(eq.disc, rod, loads, model=eq.model, c_u=penalty, banded=True, mixed=True)
     carry(system, eq)

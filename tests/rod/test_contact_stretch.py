@@ -88,7 +88,7 @@ def test_a_rod_pressed_on_a_wall_and_pulled_off_at_its_tip(q, P):
 def _system(raw, elements=8):
     """A bound RodSystem of a scene (the mesh and terms equilibrium would build) and its straight state."""
     scene = scene_from_dict(raw)
-    chosen, e_a, rod, loads, at = cantilever._prepare(scene, "auto")
+    chosen, e_a, rod, loads, at = cantilever.prepare_scene(scene, "auto")
     disc = cantilever.mesh(elements, at, 3 if chosen == "planar" else 7, "P2", 2)
     system = RodSystem(disc, rod, loads, model=chosen, banded=True, mixed=True, c_u=1.0)
     return system, system.reduce(system.reference())
