@@ -194,19 +194,23 @@ def _warnings(study: Path) -> set[tuple[str | None, str]]:
     return {(None, w) for w in ext.warnings} | {(e.parameter, w) for e in ext.estimates for w in e.warnings}
 
 
-def test_the_warnings_of_unidentifiable_k2_and_eta_do_not_hang_on_the_last_digit(tmp_path):
+@pytest.mark.parametrize("row", [200, 345, 370])
+def test_the_warnings_of_unidentifiable_k2_and_eta_do_not_hang_on_the_last_digit(tmp_path, row):
     """tau 2000 s beyond 38 s runs: k2 and eta end anywhere along a flat valley. One force reading
     moved by 0.1 uN (its last written digit; the noise is 4 mN) must not change the warnings on
     k2, eta and E_e: the printed tau and relative standard errors moved with it (4.4e+03 s, 9494 %
     against 9490 %), so the same study could warn differently from one run to the next (the flaky
-    test above). The misfit warning's statistics of the residuals may move with the data."""
+    test above). Rows 345 and 370: the elastic line's reason printed the unresolved SLS's
+    equilibrium stiffness, 4.736 N, and 5.989 or 4.735 N with the reading moved (2026-11-28, a
+    failure of this test in the suite). The misfit warning's statistics of the residuals may move
+    with the data."""
     study = make_study(tmp_path / "a", seed=13, tau=2000.0)
     moved = make_study(tmp_path / "b", seed=13, tau=2000.0)
     path = moved.parent / "zug_r1.TXT"
     lines = path.read_bytes().decode("cp1252").split("\r\n")
-    t, elongation, force, *rest = lines[200].split(";")
+    t, elongation, force, *rest = lines[row].split(";")
     force_mN = float(force.replace(",", ".")) + 1e-4
-    lines[200] = ";".join([t, elongation, f"{force_mN:.4f}".replace(".", ","), *rest])
+    lines[row] = ";".join([t, elongation, f"{force_mN:.4f}".replace(".", ","), *rest])
     path.write_bytes("\r\n".join(lines).encode("cp1252"))
     first, second = (
         {(p, w) for p, w in _warnings(s) if "describe the data within their noise" not in w}
