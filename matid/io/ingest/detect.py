@@ -138,6 +138,18 @@ def lines_of(text: str, limit: int) -> list[str]:
     return lines
 
 
+#: What separates cells of a space-delimited record: runs of spaces and tabs, as pandas' C reader
+#: splits them (``sep=r"\s+"``); a no-break space or another Unicode space stays inside its cell.
+_SPACES = re.compile(r"[ \t]+")
+
+
+def spaced_cells(line: str) -> list[str]:
+    """The cells of a space-delimited line, split where the reader of the rows splits them (so an
+    error names the cell pandas read: '0.5<NBSP>7' is one cell, not a number, as it was read)."""
+    line = line.strip(" \t\r\n")
+    return _SPACES.split(line) if line else []
+
+
 def split(line: str, delimiter: str) -> list[str]:
     """Cells of one line, stripped; trailing empty cells (a trailing delimiter) dropped.
 
@@ -145,7 +157,7 @@ def split(line: str, delimiter: str) -> list[str]:
     """
     if delimiter == " ":
         cells = (
-            line.split()
+            spaced_cells(line)
             if '"' not in line
             else next(csv.reader([line.strip()], delimiter=" ", skipinitialspace=True), [])
         )

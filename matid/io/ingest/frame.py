@@ -35,6 +35,7 @@ from matid.io.ingest.detect import (
     Layout,
     nth_break,
     number,
+    spaced_cells,
     split,
 )
 from matid.io.study_keys import bounded_text
@@ -147,7 +148,7 @@ def _widest(raw: bytes, layout: Layout) -> int:
     """An upper bound of the fields of any data row (delimiters + 1, empty trailing cells counted)."""
     rows = _data_lines(raw, layout)
     if layout.delimiter == " ":
-        return max((len(r.split()) for r in rows), default=1)
+        return max((len(spaced_cells(r)) for r in rows), default=1)
     return max((r.count(layout.delimiter) + 1 for r in rows), default=1)
 
 
@@ -334,6 +335,8 @@ _HINTS = (
     ),
     (re.compile(r"^#(DIV/0!|N/A|VALUE!|REF!|NUM!|NAME\?|NULL!|#+)$"), "a spreadsheet error cell"),
     (re.compile(r"(?![0-9])\d"), "only the digits 0-9 are read"),  # \d: any Unicode digit
+    (re.compile(r"(?![ \t])\s"), "a Unicode space (such as the no-break space U+00A0) is inside the cell: "
+     "cells are split at spaces and tabs only"),  # fmt: skip
 )
 
 
