@@ -238,6 +238,10 @@ START_TRIES = 3
 STACKED_STARTS = True
 
 
+#: Digits (rad) of a start's angle to the target that order the starts; closer is a tie.
+TIE_DIGITS = 9
+
+
 def _nearest_starts(forward: Forward, target: np.ndarray, magnitude: float) -> list[np.ndarray]:
     """The CANDIDATES sorted by the angle of their tip to the target (cold solves; failures left out):
     one stacked solve (:func:`Forward.cold_tips`) when the scene's terms stack, else one by one."""
@@ -250,8 +254,10 @@ def _nearest_starts(forward: Forward, target: np.ndarray, magnitude: float) -> l
                 tips.append(forward.at(magnitude * b).tip()[3:])
             except ConvergenceError:
                 tips.append(None)
-    scored = [(angle(d3, target), tuple(b)) for b, d3 in zip(CANDIDATES, tips, strict=True) if d3 is not None]
-    return [np.array(b) for _, b in sorted(scored)]
+    # angles equal to 1e-9 rad (candidates symmetric about the target) keep the CANDIDATES' order:
+    # sorted by the last bits, the stacked and the one-by-one solves ordered them apart (lowest pins)
+    scored = [(round(angle(d3, target), TIE_DIGITS), i) for i, d3 in enumerate(tips) if d3 is not None]
+    return [np.array(CANDIDATES[i]) for _, i in sorted(scored)]
 
 
 def _continue(forward: Forward, b: np.ndarray, magnitude: float, target: np.ndarray) -> tuple:
