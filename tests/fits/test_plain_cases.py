@@ -180,3 +180,22 @@ def test_bend_past_yield(seed):
     clean = _timoshenko(d) - f_top * (past / D_TOP) ** 2 * 1.5
     fit = _bend_fit(d, clean + _noise(rng, d.size, f_top))
     assert fit.estimate("E_s").value == pytest.approx(E_S, rel=0.01)
+
+
+def test_torsion_reports_the_r2_of_its_line_and_labels_its_axis():
+    """The report's "R² of the straight line" row and the plot's x axis of a torsion fit (the
+    mutation sample of 2026-11-28 renamed the info key and dropped the label unseen): R² is
+    1 - SS_res / SS_tot of numpy's line through the rows used, on a clean line every row."""
+    rng = np.random.default_rng(3)
+    L, E_t = 0.05, 4.4e-5
+    phi = np.linspace(0.0, 0.5, 200)
+    torque = E_t * phi / L + rng.normal(0.0, 2e-6, phi.size)
+    test = Test("torsion", "T1", Path("torsion.csv"), {"length": L})
+    table = Table(Path("torsion.csv"), {"twist_angle": phi, "torque": torque}, {}, {}, "")
+    fit = fit_torsion([Measurement(test, table)], specimen="T1")
+    assert fit.info["excluded_points"] == 0
+    x = phi / L
+    residual = torque - np.polyval(np.polyfit(x, torque, 1), x)
+    r2 = 1.0 - float(residual @ residual) / float(((torque - torque.mean()) ** 2).sum())
+    assert fit.info["r2"] == pytest.approx(r2, rel=1e-9)
+    assert "twist" in fit.x_label and "[rad/m]" in fit.x_label
