@@ -252,6 +252,12 @@ def t95(dof: float) -> float:
     return float(sstats.t.ppf(0.975, max(dof, 1.0)))
 
 
+def bic(rss: float, n: int, n_params: int, n_eff: float) -> float:
+    """BIC of ``n`` weighted residuals whose squares sum to ``rss``, with the information of
+    ``n_eff`` independent ones (AR(1): :func:`effective_n`)."""
+    return n_eff * math.log(rss / n) + n_params * math.log(n_eff)
+
+
 def interval(value: float, se: float, dof: float) -> tuple[float, float]:
     """The 95 % interval ``value -+ t95(dof) se``."""
     half = t95(dof) * se

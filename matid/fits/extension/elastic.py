@@ -28,7 +28,6 @@ The slope's standard error is the AR(1) sandwich of :func:`matid.fits.stats.ar1_
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -66,7 +65,7 @@ class Line:
 
 def bic(residual: np.ndarray, n_params: int, n_eff: float) -> float:
     """BIC of weighted residuals with the information of ``n_eff`` independent ones."""
-    return n_eff * math.log(float(residual @ residual) / residual.size) + n_params * math.log(n_eff)
+    return stats.bic(float(residual @ residual), residual.size, n_params, n_eff)
 
 
 #: A step in time longer than this many median sampling intervals is a gap in the record (a fatigue

@@ -156,7 +156,7 @@ class PronyFit:
 
     def bic_at(self, n_eff: float) -> float:
         """BIC with the information of ``n_eff`` independent residuals."""
-        return n_eff * math.log(self.rss / self.n) + self.n_params * math.log(n_eff)
+        return stats.bic(self.rss, self.n, self.n_params, n_eff)
 
     def aic_at(self, n_eff: float) -> float:
         return n_eff * math.log(self.rss / self.n) + 2.0 * self.n_params
