@@ -58,6 +58,7 @@ class Record:
     hand_text: str  # the hand computation in words
     fixed: dict = field(default_factory=dict)  # parameter -> "value unit" ([[fixed]])
     note: str = ""
+    also: tuple = ()  # further paths of the same repository the hand value reads (copied alongside)
 
     @property
     def parameter(self) -> str:
@@ -82,6 +83,9 @@ AH = ("a-hilhorst/Tensile-test-Analysis", "e6836508f491bd8a864db831fe5f0e05c65c9
 AH_DIR = "imap_versions/other_machine_outputs_examples"
 TDA = ("ppieczywek/TDA", "92f6dff0f79cc1c5e403ad62a3c747fa10626621")  # "Create LICENSE"
 RB = ("raballito/tensile_test_analyzer", "df39176a0ca99420f7fb6e0975b2aeeb090e9c7b")  # "Correction Readme"
+# a copy of Dryad doi:10.5061/dryad.8pk0p2nq8 v8 (Kim et al., Sci. Robot. 7, eabg9907, 2022, data S1)
+KIM = ("CraYAnshINcHAN/undergraduate_project", "1bde22078601615d092d2b551f94e0e9a378d3a9")
+KIM_DIR = "参考文献/doi_10.5061_dryad.8pk0p2nq8__v8"
 PM_COMMIT = {
     "Test2": "4b1908e24ede601db1f278861fa0a4243a35c1a9",  # Merge pull request #23 (fatigue)
     "Test5": "cf1b204bdf49413905887fda3edd265765f4d1a9",  # Add fatigue test data ...
@@ -409,6 +413,42 @@ def od_bend(index: int, name: str) -> Record:
     )
 
 
+def kim(mode: str, column: str, psi: float) -> Record:
+    """A magnetic soft continuum guidewire bent by a permanent magnet (Kim et al. 2022, Fig. 3C):
+    its tip angle at 13 distances d from the magnet, the field angle psi = +-90 deg."""
+    return Record(
+        id=f"kim-{mode}-psi{abs(psi):g}",
+        repo=KIM[0],
+        commit=KIM[1],
+        path=f"{KIM_DIR}/Guidewire_Deflection.xlsx",
+        also=(f"{KIM_DIR}/Flux_Density_B.txt",),
+        kind="magnetic_bending",
+        machine="Excel workbook (.xlsx) of the authors' figure data: sheet 'Figure 3C', one column of tip "
+        "angles (deg, read from images to 0.5 deg) per mode and field angle, a row per distance",
+        dims=f"{mode} mode, field angle {psi:+g} deg from the undeflected tip (the angle the tip "
+        "reaches in the strongest field); field |B| 9-412 mT from the authors' COMSOL line along the magnet "
+        "axis at height d - 50.8 mm; magnet moment and free length not in the data: 1 A m^2 and 1 m "
+        "written, so the value is E_b / (m L) in T",
+        source="README.txt (data S1 of Sci. Robot. 7, eabg9907); xlsx 'Figure 3C' rows 1-3 "
+        "('Distance from magnet center (R = 50 mm)', 'phi=90', 'Guidewire Tip Angle'); "
+        "Flux_Density_B.txt (COMSOL, model 'Cylindrical_4inch.mph': the on-axis field of a 4 in x 4 in "
+        "cylinder, Br 1.44 T, within 2.2 mT)",
+        specimen={"outer_diameter": "1 mm"},  # not in the data: labels the section only
+        test={"free_length": "1 m", "magnet_moment": "1 A m^2"},
+        hand=lambda p: hand.magnetic_tip(
+            p,
+            column=column,
+            field_angle_deg=psi,
+            field_file="Flux_Density_B.txt",
+            half_length_m=0.0508,
+        ),
+        hand_text="B sin(psi - theta) against theta over the rows with |theta| <= 45 deg: line, slope "
+        "E_b/(m L)",
+        note="a distributed-magnetisation tip in a field with a gradient, not a tip magnet in a uniform "
+        "field; the guidewire's diameter is not in the data (1 mm written: it labels the section only)",
+    )
+
+
 RECORDS: list[Record] = [
     vhb_relax("1d5", 0.5),
     vhb_relax("3d0", 2.0, encoding=None),  # this one file is UTF-8
@@ -662,6 +702,8 @@ RECORDS: list[Record] = [
         (0.01, 0.035),
         (3, 2),
     ),
+    kim("attraction", "C", 90.0),
+    kim("repulsion", "F", -90.0),
 ]
 
 
@@ -858,16 +900,17 @@ def copy_from_mirror(mirror: Path, records: Path) -> None:
     for rec in RECORDS:
         repo = mirror / rec.repo.replace("/", "+") / "repo"
         git_dir = repo / ".git" if (repo / ".git").is_dir() else repo
-        dest = records / rec.repo / rec.path
-        if dest.exists() or not git_dir.is_dir():
-            continue
-        data = subprocess.run(
-            ["git", "--git-dir", str(git_dir), "show", f"{rec.commit}:{rec.path}"],
-            capture_output=True,
-            check=True,
-        ).stdout
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        dest.write_bytes(data)
+        for path in (rec.path, *rec.also):
+            dest = records / rec.repo / path
+            if dest.exists() or not git_dir.is_dir():
+                continue
+            data = subprocess.run(
+                ["git", "--git-dir", str(git_dir), "show", f"{rec.commit}:{path}"],
+                capture_output=True,
+                check=True,
+            ).stdout
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            dest.write_bytes(data)
 
 
 def main(argv: list[str] | None = None) -> int:

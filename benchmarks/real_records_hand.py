@@ -169,3 +169,64 @@ def cycle_mean(path, *, gauge_m, strain_window, encoding="gbk"):
     dn = np.interp(grid, np.maximum.accumulate(eps_dn), F_dn)
     k, se, n = line_fit(grid, 0.5 * (up + dn))
     return k, se, n
+
+
+# --- magnetic bending (a workbook of tip angles and a field table) ----------------------
+
+
+def xlsx_sheet(path, name: str) -> dict[str, object]:
+    """The cells of sheet ``name`` of an .xlsx workbook as {"C4": value}: read with the standard
+    library (the workbook is a zip of XML), numbers as float, shared strings as str. The value
+    of a formula cell is the one the workbook saved."""
+    import posixpath
+    import xml.etree.ElementTree as ET
+    import zipfile
+
+    ns = {"m": "http://schemas.openxmlformats.org/spreadsheetml/2006/main"}
+    rel = "{http://schemas.openxmlformats.org/officeDocument/2006/relationships}id"
+    with zipfile.ZipFile(path) as z:
+        book = ET.fromstring(z.read("xl/workbook.xml"))
+        rid = next(s.get(rel) for s in book.iterfind("m:sheets/m:sheet", ns) if s.get("name") == name)
+        rels = ET.fromstring(z.read("xl/_rels/workbook.xml.rels"))
+        target = next(r.get("Target") for r in rels if r.get("Id") == rid)
+        shared = []
+        if "xl/sharedStrings.xml" in z.namelist():
+            for si in ET.fromstring(z.read("xl/sharedStrings.xml")).iterfind("m:si", ns):
+                shared.append("".join(t.text or "" for t in si.iter(f"{{{ns['m']}}}t")))
+        sheet = ET.fromstring(z.read(posixpath.join("xl", target)))
+    cells = {}
+    for c in sheet.iter(f"{{{ns['m']}}}c"):
+        v = c.find("m:v", ns)
+        if v is None:
+            continue
+        cells[c.get("r")] = shared[int(v.text)] if c.get("t") == "s" else float(v.text)
+    return cells
+
+
+def magnetic_tip(
+    path,
+    *,
+    column: str,
+    field_angle_deg: float,
+    field_file: str,
+    half_length_m: float,
+    max_angle_deg: float = 45.0,
+    sheet: str = "Figure 3C",
+    rows=range(4, 17),
+):
+    """E_b / (m L) [T] of a magnetised tip in the field of a permanent magnet, read as matid's
+    magnetic bending reads a tip magnet in a uniform field: m B sin(psi - theta) = E_b theta / L,
+    so B sin(psi - theta) = c + (E_b / (m L)) theta. theta: the workbook's tip angle (deg) in
+    ``column``; the distance d from the magnet's centre (mm) in column B; B: the authors' field
+    along the magnet's axis (``field_file``, a COMSOL line: height above the face in mm, |B| in
+    mT) at height d - ``half_length_m``. Least-squares line over the rows with
+    |theta| <= ``max_angle_deg`` (the tip not near the field direction, where sin(psi - theta)
+    is lost in the angle's 0.5 deg reading)."""
+    cells = xlsx_sheet(path, sheet)
+    d = np.array([cells[f"B{r}"] for r in rows]) * 1e-3
+    theta = np.deg2rad([cells[f"{column}{r}"] for r in rows])
+    h, B = read_table(Path(path).parent / field_file, 8, None).T  # 8 '%' lines of COMSOL's header
+    field = np.interp((d - half_length_m) * 1e3, h, B) * 1e-3  # T
+    y = field * np.sin(np.deg2rad(field_angle_deg) - theta)
+    keep = np.abs(theta) <= np.deg2rad(max_angle_deg)
+    return line_fit(theta[keep], y[keep])

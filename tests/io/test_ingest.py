@@ -695,3 +695,29 @@ def test_an_unclosed_quote_names_the_row_that_opens_it(tmp_path):
     message = r"a quote \(\"\) opens a cell and is never closed"
     with pytest.raises(DataError, match=where(path, row=3) + message):
         read_table(path, "torsion")
+
+
+@pytest.mark.parametrize(
+    ("name", "magic", "what"),
+    [
+        ("data.xlsx", b"PK\x03\x04\x14\x00\x06\x00", "a zip archive such as an .xlsx"),
+        ("data.xls", b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1\x00\x00", "an .xls workbook"),
+    ],
+)
+def test_a_binary_workbook_is_refused_as_one(tmp_path, name, magic, what):
+    """A workbook is said to be one, with the way out (save the sheet as CSV), whatever its
+    file name says; it is not read as Latin-1 text and refused for lacking a header row."""
+    import zipfile
+
+    path = tmp_path / name
+    if magic.startswith(b"PK"):  # a real (minimal) workbook: a zip with the sheet's XML in it
+        with zipfile.ZipFile(path, "w") as z:
+            z.writestr("xl/worksheets/sheet1.xml", "<worksheet/>")
+        assert path.read_bytes().startswith(magic[:4])
+    else:
+        path.write_bytes(magic + b"\x00" * 500)
+    renamed = tmp_path / "export.csv"  # the name does not decide
+    renamed.write_bytes(path.read_bytes())
+    for p in (path, renamed):
+        with pytest.raises(DataError, match=where(p) + f"is {re.escape(what)}.*save the sheet as CSV"):
+            read_table(p, "magnetic_bending")

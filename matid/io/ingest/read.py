@@ -38,6 +38,12 @@ from matid.units import DIMENSIONS, UnitError, si_factor
 MIN_ROWS = 3
 #: Largest file read, most lines (docs/limits.md): checked on the bytes, before anything is parsed.
 MAX_BYTES, MAX_ROWS = MAX_CSV_BYTES, MAX_CSV_ROWS
+#: The first bytes of binary workbooks, which matid does not read: a zip archive (.xlsx, .ods)
+#: and an OLE2 compound file (.xls).
+WORKBOOKS = (
+    (b"PK\x03\x04", "a zip archive such as an .xlsx or .ods workbook"),
+    (b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1", "an .xls workbook"),
+)
 
 
 def read_table(
@@ -59,6 +65,13 @@ def read_table(
         raise ValueError(f"unknown test kind {kind!r} (one of {', '.join(BY_NAME)})")
     path = Path(path)
     raw = _read_bytes(path)
+    for magic, what in WORKBOOKS:
+        if raw.startswith(magic):
+            raise DataError(
+                f"is {what}, not a text table: save the sheet as CSV (a header row of column names "
+                "with units, then a row per sample) and name that file",
+                file=path,
+            )
     text, used = decode(raw, path, encoding)
     lines = lines_of(text, HEAD_LINES)
     if not lines:
