@@ -17,6 +17,7 @@ disagreement beyond their errors says E_b depends on length (clamp compliance, s
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -71,7 +72,8 @@ def _record(m: Measurement) -> tuple[branch.Record, float]:
     length = float(m.test.params["free_length"])
     x = np.asarray(m.table["tip_angle"], dtype=float) / length
     y = bending_torque(m.table, m.test)
-    return branch.select(m.table.path.name, x, y, m.in_window(), m.test.window, file=m.table.path), length
+    record = branch.select(m.table.path.name, x, y, m.in_window(), m.test.window, file=m.table.path)
+    return replace(record, computed="torque" not in m.table), length
 
 
 def _per_length(records, lengths) -> tuple[dict[str, dict[str, float]], float | None]:

@@ -127,6 +127,9 @@ class Record:
     used: np.ndarray
     excluded: dict[str, np.ndarray] = field(default_factory=dict)
     flipped: bool = False
+    #: y computed from other channels (a tip magnet's m B sin(psi - theta)), not read from a
+    #: meter whose polarity could be flipped: :func:`matid.fits.linear.orient` never negates it.
+    computed: bool = False
     #: Rows the onset test accepts as one line, before trimming (:func:`matid.fits.onset.linear_ranges`);
     #: None with a window or before :func:`automatic`.
     accepted: np.ndarray | None = None

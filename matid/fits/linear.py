@@ -25,8 +25,8 @@ Which rows enter: :func:`matid.fits.branch.select`, each row left out with its r
 
 Sign: physics makes E > 0 (torque rises with twist, the magnet's torque with tip angle).
 A file whose slope on its fitted rows is clearly negative (t < -SIGN_T) has a flipped
-sign convention: it is negated and a warning says so (:func:`orient`). A joint slope
-<= 0 is never a result (FitError).
+sign convention: it is negated and a warning says so (:func:`orient`), unless its torque is
+computed from the field and angles. A joint slope <= 0 is never a result (FitError).
 
 Warnings carry a machine-readable kind (:class:`Warning`, ``Estimate.extra
 ["warning_kinds"]``) so that a status per value can be decided from them.
@@ -83,12 +83,12 @@ def orient(records: Sequence[Record], quantity: str, against: str) -> tuple[list
     """Negate the y of every record whose own slope on its used rows is clearly negative; say so.
 
     Physics makes ``quantity`` rise with ``against``; a slope below -SIGN_T standard
-    errors is a flipped sign convention (a torque meter mounted the other way round).
-    """
+    errors is a flipped sign convention (a torque meter mounted the other way round), never
+    in a ``computed`` record (no meter: a falling line there is left to :func:`check_sign`)."""
     out, warnings = [], []
     for rec in records:
         slope, se = _line(rec.x[rec.used], rec.y[rec.used])
-        if slope < 0 and slope < -SIGN_T * se:
+        if slope < 0 and slope < -SIGN_T * se and not rec.computed:
             out.append(replace(rec, y=-rec.y, flipped=True))
             warnings.append(
                 Warning(
