@@ -8,20 +8,19 @@ intercept c_f and all files of a specimen share the slope E::
 
     y_fi = c_f + E x_fi + e_fi                       (:func:`fit_lines`)
 
-fitted by weighted least squares as an lmfit ``Model`` per file (the slope a shared
-``Parameter``, each offset its own, ``vary=False`` where a value is fixed: the offsets at 0
-for lines through the origin, or the slope given), each file weighted by 1 / s_f^2 with
-s_f its own residual rms (iterated; a short tube twisted further is noisier). When the
-offsets are not significant (Wald test, p >= OFFSET_ALPHA) the lines go through the
-origin: an offset per file would cost precision for nothing. On top of lmfit's result,
-matid gives the interval as the AR(1) sandwich of :mod:`matid.fits.stats` on Student's t
-with n_eff - p dof, so it holds for dense records whose noise is correlated, and widens
-when the line misses the data; :func:`matid.fits.stats.lack_of_fit` then names the
-misfit in a warning. A line that misses the data, or holds few of the loading rows, is not
-the curve's one slope: its interval then also spans the slopes over plausible ranges
-(:func:`range_spread`), since the noise of one chosen range does not say what the choice moves.
-
-Which rows enter: :func:`matid.fits.branch.select`, each row left out with its reason.
+fitted by weighted least squares as an lmfit ``Model`` per file (the slope a shared ``Parameter``,
+each offset its own, ``vary=False`` where a value is fixed: the offsets at 0 for lines through the
+origin, or the slope given), each file weighted by 1 / s_f^2 with s_f its own residual rms
+(iterated; a short tube twisted further is noisier). When the offsets are not significant (Wald
+test, p >= OFFSET_ALPHA) the lines go through the origin: an offset per file would cost precision
+for nothing. Atop lmfit's result, matid gives the interval as the AR(1) sandwich of
+:mod:`matid.fits.stats` on Student's t with n_eff - p dof (at least the HC3 variance: noise growing
+along the line), so it holds for dense records whose noise is correlated, and widens when the line
+misses the data; :func:`matid.fits.stats.lack_of_fit` then names the misfit in a warning. A line
+that misses the data, or holds few of the loading rows, is not the curve's one slope: its interval
+then also spans the slopes over plausible ranges (:func:`range_spread`), since the noise of one
+chosen range does not say what the choice moves. Which rows enter: :func:`matid.fits.branch.select`,
+each row left out with its reason.
 
 Sign: physics makes E > 0 (torque rises with twist, the magnet's torque with tip angle).
 A file whose slope on its fitted rows is clearly negative (t < -SIGN_T) has a flipped
@@ -232,6 +231,7 @@ def fit_lines(records: Sequence[Record]) -> LineFit:
     p = _offset_p(coef, cov) if cov.rho == 0.0 else 0.0
     if p >= OFFSET_ALPHA:
         coef, design, weighted, sigma, cov = _solve(xs, ys, offsets=False)
+    cov = stats.heteroscedastic_floor(design, weighted, cov)  # after the offsets' test
     segments = [x.size for x in xs]
     slope, se = float(coef[0]), float(cov.stderr[0])
     return LineFit(

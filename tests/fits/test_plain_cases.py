@@ -232,8 +232,7 @@ def _bending_fit(field, field_angle, theta):
 def test_tip_magnet_equilibria_give_E_b_in_either_order(seed):
     """A table of static equilibria (no time column) read weakest or strongest field first gives
     one E_b, unflipped. Over 200 seeds of this record (13 rows, angles read to 0.5 deg) the error
-    has sd 0.71 % and stays within 3 %; the 95 % interval covers E_b in 78.5 % of them (the angle
-    noise enters x and the computed torque together, growing with the field: issue 28's note)."""
+    has sd 0.71 % and stays within 3 %."""
     values = []
     for strongest_first in (False, True):
         field, theta = _tip_magnet_rows(90.0, seed, strongest_first)
@@ -254,3 +253,15 @@ def test_a_computed_torque_that_falls_is_refused_not_negated():
     field, theta = _tip_magnet_rows(60.0, seed=0, strongest_first=False)
     with pytest.raises(FitError, match="does not rise with tip angle"):
         _bending_fit(field, np.deg2rad(-60.0), theta)
+
+
+def test_tip_magnet_equilibria_interval_coverage():
+    """The angle noise enters x and the computed torque together, and grows with the field: the
+    95 % interval covered E_b in 157 of these 200 records (78.5 %) with one noise level, 179
+    (89.5 %) with the HC3 floor of stats.heteroscedastic_floor; still short of 95 % (13 rows)."""
+    hits = 0
+    for seed in range(200):
+        field, theta = _tip_magnet_rows(90.0, seed, strongest_first=False)
+        lo, hi = _bending_fit(field, np.deg2rad(90.0), theta).estimate("E_b").ci95
+        hits += lo <= TIP_E_B <= hi
+    assert hits >= 170
