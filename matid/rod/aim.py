@@ -56,11 +56,11 @@ from matid.rod.cantilever import (
     equilibrium,
     mesh,
     prepare_scene,
-    scaled,
 )
 from matid.rod.models import FULL
 from matid.rod.scenes import Scene
 from matid.rod.system import RodSystem
+from matid.rod.terms import Scale, loads_of
 
 #: Largest turn of the target per continuation stage (rad).
 MAX_TURN = 0.35
@@ -168,9 +168,11 @@ class Forward:
         _, _, rod, loads, _ = prepare_scene(eq.scene, FULL)
         c_u = default_penalty(rod, kin.NORMALISED)
 
-        def field(B) -> RodSystem:
+        scale = Scale(eq.scene.rod.length, eq.scene.rod.E_b, None)
+
+        def field(B) -> RodSystem:  # the system with the loads of the field B (only they bound anew)
             in_field = dataclasses.replace(eq.scene, loads=dataclasses.replace(eq.scene.loads, B=B))
-            return RodSystem(eq.disc, rod, scaled(in_field, None)[1], model=FULL, c_u=c_u, banded=True)
+            return system.with_loads(loads_of(in_field, scale))
 
         system = RodSystem(eq.disc, rod, loads, model=FULL, c_u=c_u, banded=True)
         X = system.reduce(eq.U.ravel())

@@ -32,9 +32,12 @@ def arc(system) -> np.ndarray | None:
     size = float(np.sqrt(k @ k))
     axis, phi = k / size, size * s
     c, sn = np.cos(phi), np.sin(phi)
-    e3 = np.array([0.0, 0.0, 1.0])
-    # d3 = c e3 + (1 - c)(a.e3) a + sin (a x e3), integrated from the clamp
-    r = (sn / size)[:, None] * e3 + ((1.0 - c) / size)[:, None] * np.cross(axis, e3)
-    r += ((s - sn / size) * axis[2])[:, None] * axis
-    q = np.column_stack([np.cos(0.5 * phi), np.sin(0.5 * phi)[:, None] * axis])  # kappa = 2 G(q) q' = k
-    return np.concatenate([r, q], axis=1)
+    # d3 = c e3 + (1 - c)(a.e3) a + sin (a x e3), integrated from the clamp (a x e3 = (a2, -a1, 0))
+    U = np.empty((s.size, 7))
+    U[:, :3] = ((s - sn / size) * axis[2])[:, None] * axis
+    U[:, 0] += ((1.0 - c) / size) * axis[1]
+    U[:, 1] += ((1.0 - c) / size) * -axis[0]
+    U[:, 2] += sn / size
+    U[:, 3] = np.cos(0.5 * phi)  # kappa = 2 G(q) q' = k
+    U[:, 4:] = np.sin(0.5 * phi)[:, None] * axis
+    return U

@@ -351,9 +351,11 @@ def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.n
         a0, a1 = float(e_a[0]), float(e_a[1])
         x, z, c, s = U[:, 0], U[:, 1], np.cos(U[:, 2]), np.sin(U[:, 2])
         one_c = 1.0 - c
-        position = np.stack([x * a0, x * a1, z], axis=1) * L
-        d1 = np.stack([c + a1 * a1 * one_c, -a0 * a1 * one_c, -a0 * s], axis=1)  # R e1
-        d3 = np.stack([a0 * s, a1 * s, c], axis=1)  # d3 = R e3 = c e3 + s e_a
+        position, d1, d3 = (np.empty((U.shape[0], 3)) for _ in range(3))  # column writes: np.stack ~5 us
+        position[:, 0], position[:, 1], position[:, 2] = x * a0, x * a1, z
+        position *= L
+        d1[:, 0], d1[:, 1], d1[:, 2] = c + a1 * a1 * one_c, -a0 * a1 * one_c, -a0 * s  # R e1
+        d3[:, 0], d3[:, 1], d3[:, 2] = a0 * s, a1 * s, c  # d3 = R e3 = c e3 + s e_a
         return position, d1, d3
     position = U[:, :3] * L
     q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)

@@ -81,6 +81,19 @@ class RodSystem:
         self.constraints = self._bind(gauge)
         self.terms = self._labels()
 
+    def with_loads(self, loads: tuple[Term, ...]) -> RodSystem:
+        """This system (mesh, rod, model, constraints) with other load terms, only those bound anew:
+        the same residual as a new RodSystem of them, without building the rest again (the field
+        sensitivities of matid.rod.aim evaluate one system per field component)."""
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new.__dict__.pop("symmetric", None)  # read off the bound terms
+        new.loads = tuple(loads)
+        new.distributed = new._bind(t for t in new.loads if t.kind == "distributed")
+        new.nodal = new._bind(t for t in new.loads if t.kind == "nodal")
+        new.terms = new._labels()
+        return new
+
     def _bind(self, terms) -> list[tuple[Term, object]]:
         return [(term, term.prepare(self)) for term in terms if self.model in term.models]
 

@@ -28,20 +28,26 @@ class UnityGauge(Term):
 
     def prepare(self, system):
         disc, nf = system.disc, system.disc.nf
-        dofs = q_dofs(disc.value_dofs, nf)
         values, slopes = disc.slope_pairs  # Hermite: (q, q') at each vertex
+        # every scalar dof a point value (P1, P2): q of all of them in dof order, read by a slice
+        every = disc.value_dofs.size == disc.nscalar
+        dofs = q_dofs(np.arange(disc.nscalar) if every else disc.value_dofs, nf)
         pairs = np.concatenate([q_dofs(values, nf), q_dofs(slopes, nf)], axis=1)
         slope_pattern = disc.block_pattern(pairs) if values.size else None
-        return dofs, disc.block_pattern(dofs), pairs, slope_pattern
+        return (None if every else dofs), disc.block_pattern(dofs), pairs, slope_pattern
 
     def nodal(self, system, prep, U, lam, R, blocks) -> None:
         dofs, pattern, pairs, slope_pattern = prep
-        c_u = self.c_u
-        Q = U[dofs]
+        c_u, nf = self.c_u, system.disc.nf
+        # q at every node (None: all scalar dofs, by a slice: a fancy index costs 3 times as much)
+        Q = U.reshape(-1, nf)[:, 3:7].copy() if dofs is None else U[dofs]
         e = np.einsum("na,na->n", Q, Q) - 1.0
-        R[dofs] += (2.0 * c_u) * e[:, None] * Q
+        if dofs is None:
+            R.reshape(-1, nf)[:, 3:7] += (2.0 * c_u) * e[:, None] * Q
+        else:
+            R[dofs] += (2.0 * c_u) * e[:, None] * Q
         H = (4.0 * c_u) * (Q[:, :, None] * Q[:, None, :])
-        H[:, _DIAG4, _DIAG4] += (2.0 * c_u) * e[:, None]
+        H.reshape(-1, 16)[:, ::5] += (2.0 * c_u) * e[:, None]  # the diagonals
         blocks.append((pattern, H))
         if slope_pattern is not None:
             Rs, Hs = self._slopes(U, pairs)
