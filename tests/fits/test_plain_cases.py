@@ -199,3 +199,27 @@ def test_torsion_reports_the_r2_of_its_line_and_labels_its_axis():
     r2 = 1.0 - float(residual @ residual) / float(((torque - torque.mean()) ** 2).sum())
     assert fit.info["r2"] == pytest.approx(r2, rel=1e-9)
     assert "twist" in fit.x_label and "[rad/m]" in fit.x_label
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_torsion_warnings_name_its_line_and_E_t(seed):
+    """The user-visible texts of two torsion fits (the mutation sample of 2026-11-28 upper-cased
+    the one and dropped the name from the other unseen): noise that wanders (AR(1), r = 0.9, made
+    by scipy's lfilter) gets the misfit warning naming the torsion line; a tube that softens with
+    twist (torque ~ phi (1 - 0.3 phi)) the warning that E_t depends on the range fitted."""
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(seed)
+    L, E_t = 0.05, 4.4e-5
+    phi = np.linspace(0.0, 0.5, 200)
+    test = Test("torsion", "T1", Path("torsion.csv"), {"length": L})
+
+    def warnings(torque):
+        table = Table(Path("torsion.csv"), {"twist_angle": phi, "torque": torque}, {}, {}, "")
+        return fit_torsion([Measurement(test, table)], specimen="T1").estimate("E_t").warnings
+
+    wanders = warnings(E_t * phi / L + lfilter([1.0], [1.0, -0.9], rng.normal(0.0, 2e-6, phi.size)))
+    misfit = "the line torque = c + E_t phi / L does not describe the data within their noise"
+    assert any(w.startswith(misfit) for w in wanders), wanders
+    softens = warnings(E_t * phi / L * (1 - 0.3 * phi) + rng.normal(0.0, 2e-6, phi.size))
+    assert any("; E_t depends on the range fitted: " in w for w in softens), softens

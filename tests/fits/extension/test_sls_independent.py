@@ -220,6 +220,18 @@ def test_the_warnings_of_unidentifiable_k2_and_eta_do_not_hang_on_the_last_digit
     assert second == first
 
 
+def test_k2_and_eta_of_a_relaxation_beyond_the_runs_send_the_reader_to_e_e(tmp_path):
+    """tau 2000 s beyond 38 s runs: E_e is the elastic line's slope, and the first warning on k2 and
+    on eta, as a reader sees it, says they are not identifiable and points to E_e's warning (the
+    mutation sample of 2026-11-28 lower-cased E_e there unseen)."""
+    (ext,) = run_study(load_study(make_study(tmp_path / "study", seed=13, tau=2000.0))).fits
+    assert ext.estimate("E_e").method == "elastic-line"
+    for name in ("sls_k2", "sls_eta"):
+        first = ext.estimate(name).warnings[0]
+        assert first.startswith("k2 and eta are not identifiable: "), first
+        assert first.endswith("(E_e is the line's slope; see its warning)"), first
+
+
 def test_e_e_of_a_true_sls_keeps_its_interval(tmp_path):
     # seed 149: BIC preferred a 2-arm Prony model whose fast arm (tau 3.3 ms) lies 30x below the
     # 0.1 s sampling interval; its covariance is singular, so E_e became prony_k0 with no standard
