@@ -232,7 +232,8 @@ def test_every_warning_is_the_same_wherever_along_its_flat_valley_the_sls_lands(
     study = make_study(tmp_path / "study", seed=13, tau=2000.0)
     starts = lsq._starts
     landed, said = set(), set()
-    for rel in (0.0, 1e-15, -1e-15, 1e-13, -1e-13, 1e-9, 1e-7, 1e-5):
+    # k1 lands at 4.736, 5.99, 5.989, 9.12 N (at the lowest pins: 5.99, 4.736, 4.736, 9.12)
+    for rel in (0.0, -1e-15, 1e-13, 1e-5):
         monkeypatch.setattr(
             lsq, "_starts", lambda *a, rel=rel: [{k: v * (1 + rel) for k, v in s.items()} for s in starts(*a)]
         )
