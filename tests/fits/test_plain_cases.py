@@ -122,8 +122,10 @@ def _bend_fit(d, force):
         {"span": SPAN, "specimen_length": 0.03, "support_radius": 2e-3, "nose_radius": 2e-3},
     )
     table = Table(Path("3pb.csv"), {"deflection": d, "force": force}, {}, {}, "")
-    known = {"E_b": Estimate("E_b", E_B, 0.0, None, 0, "linear"),
-             "E_e": Estimate("E_e", 120.0, 0.0, None, 0, "sls")}
+    known = {
+        "E_b": Estimate("E_b", E_B, 0.0, None, 0, "linear"),
+        "E_e": Estimate("E_e", 120.0, 0.0, None, 0, "sls"),
+    }
     return fit_three_point_bend(
         [Measurement(test, table)],
         specimen=Specimen("T1", 2.4e-3, 1.6e-3),
@@ -211,6 +213,7 @@ def _tip_magnet_rows(psi_deg: float, seed: int, strongest_first: bool):
 
     psi = np.deg2rad(psi_deg)
     field = np.geomspace(9e-3, 0.4, 13)
+
     def balance(t, b):
         return TIP_E_B * t / FREE - MOMENT * b * np.sin(psi - t)
 
@@ -265,3 +268,27 @@ def test_tip_magnet_equilibria_interval_coverage():
         lo, hi = _bending_fit(field, np.deg2rad(90.0), theta).estimate("E_b").ci95
         hits += lo <= TIP_E_B <= hi
     assert hits >= 170
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_torsion_warnings_name_its_line_and_E_t(seed):
+    """The user-visible texts of two torsion fits (the mutation sample of 2026-11-28 upper-cased
+    the one and dropped the name from the other unseen): noise that wanders (AR(1), r = 0.9, made
+    by scipy's lfilter) gets the misfit warning naming the torsion line; a tube that softens with
+    twist (torque ~ phi (1 - 0.3 phi)) the warning that E_t depends on the range fitted."""
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(seed)
+    L, E_t = 0.05, 4.4e-5
+    phi = np.linspace(0.0, 0.5, 200)
+    test = Test("torsion", "T1", Path("torsion.csv"), {"length": L})
+
+    def warnings(torque):
+        table = Table(Path("torsion.csv"), {"twist_angle": phi, "torque": torque}, {}, {}, "")
+        return fit_torsion([Measurement(test, table)], specimen="T1").estimate("E_t").warnings
+
+    wanders = warnings(E_t * phi / L + lfilter([1.0], [1.0, -0.9], rng.normal(0.0, 2e-6, phi.size)))
+    misfit = "the line torque = c + E_t phi / L does not describe the data within their noise"
+    assert any(w.startswith(misfit) for w in wanders), wanders
+    softens = warnings(E_t * phi / L * (1 - 0.3 * phi) + rng.normal(0.0, 2e-6, phi.size))
+    assert any("; E_t depends on the range fitted: " in w for w in softens), softens

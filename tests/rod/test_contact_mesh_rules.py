@@ -1,0 +1,117 @@
+"""The rules of matid.rod.contact_mesh on hand-made results, where the answer is known in closed form.
+
+A result here is what contact_mesh reads of a converged cantilever: ``disc.vertices`` and
+``contact`` = (contacts with their s range, -, touch points, (s, f, -, g) of the P2 nodes). The
+gap the rod leaves beside a stretch is a quadratic c (s - q)^2 whose smallest point q is chosen by
+the test, so where each end must go is known without matid.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from matid.errors import ConvergenceError
+from matid.rod import contact_mesh as CR
+
+#: 10 elements on [0, 1]: vertices every 0.1, P2 nodes every 0.05
+VERTICES = np.linspace(0.0, 1.0, 11)
+NODES = np.linspace(0.0, 1.0, 21)
+H = 0.1  # element length
+
+
+def _result(a: float, b: float, left: float, right: float, *, touches=(), entries=None):
+    """A rod lying on one wall from vertex a to vertex b (every node between loaded), whose gap
+    beside it is (s - left)^2 up to a and (s - right)^2 from b (0 between)."""
+    tol = 1e-12
+    gap = np.where(
+        NODES <= a + tol, (NODES - left) ** 2, np.where(NODES >= b - tol, (NODES - right) ** 2, 0.0)
+    )
+    force = np.where((NODES >= a - tol) & (NODES <= b + tol), 1.0, 0.0)
+    contact = (
+        [{"s": (a, b)}] if entries is None else entries,
+        None,
+        list(touches),
+        (NODES, force[None, :], None, gap[None, :]),
+    )
+    return SimpleNamespace(contact=contact, disc=SimpleNamespace(vertices=VERTICES))
+
+
+@pytest.mark.parametrize(("off", "on"), [(0.02, True), (0.03, False)])
+def test_a_stretch_end_moves_to_where_the_gap_beside_it_is_smallest(off, on):
+    """The left end of a stretch on 0.5-0.7 L goes to the smallest point 0.5 - off of the gap's
+    quadratic; it is on its vertex only within OFF_END (0.25) of the element outside it, 0.025 L."""
+    qa, qb, said = CR.stretch_ends(_result(0.5, 0.7, 0.5 - off, 0.7), 0.5, 0.7)
+    assert qa == pytest.approx(0.5 - off, abs=1e-12) and qb == pytest.approx(0.7, abs=1e-12)
+    assert said is on and (abs(qa - 0.5) <= CR.OFF_END * H) is on
+
+
+def test_a_stretch_end_moves_at_most_one_element_beyond_the_nodes_it_is_read_from():
+    """The gap beside the left end falling towards 0.75 L (inside the stretch, past the right end)
+    moves that end one element beyond the three nodes it is read from (0.4-0.5 L), to 0.6 L."""
+    qa, qb, said = CR.stretch_ends(_result(0.5, 0.7, 0.75, 0.7), 0.5, 0.7)
+    assert qa == pytest.approx(0.5 + H, abs=1e-12) and qb == pytest.approx(0.7, abs=1e-12)
+    assert not said
+
+
+@pytest.mark.parametrize(
+    ("node", "part"), [(0.3, False), (0.4, True), (0.6, True), (0.8, True), (0.9, False)]
+)
+def test_a_touch_on_a_stretch_or_the_element_beside_it_is_part_of_it(node, part):
+    """A stretch from 0.5 to 0.7 L: a touch whose most loaded node lies on its elements or on the
+    element beside either end (0.4-0.8 L) is that stretch seen on a coarse mesh."""
+    result = _result(0.5, 0.7, 0.5, 0.7)
+    assert bool(CR._part_of(result, (node, node, 0.0, None), ("stretch", 0.5, 0.7))) is part
+
+
+def test_interior_contacts_are_in_the_order_of_where_they_touch():
+    """Two walls touched beside the same node (0.5 L) at 0.52 and 0.48 L: sorted by where they
+    touch, as the rounds pair them with their contacts; the tip's element (beyond 0.9 L) is left out."""
+    touches = [(0.52, 0.5, 1.0, None), (0.95, 0.95, 0.0, None), (0.48, 0.5, -1.0, None)]
+    result = _result(0.5, 0.5, 0.5, 0.5, touches=touches, entries=[])
+    assert [t[0] for t in CR.interior_contacts(result)] == [0.48, 0.52]
+
+
+def _solver(results):
+    """A stand-in for ``meshes_at``: the result of each call in turn (the last one repeated),
+    with what it was asked for."""
+    given = []
+
+    def meshes_at(points, enough=None, stretches=()):
+        given.append((points, stretches))
+        return results[min(len(given) - 1, len(results) - 1)], object()
+
+    return meshes_at, given
+
+
+def test_a_stretch_found_by_the_first_solve_is_meshed_at_its_ends_and_settles():
+    """The first solve (no points) finds the rod lying on its wall from 0.4 to 0.6 L with the gap
+    leaving it smoothly at both ends: the next solve has a vertex at each end, is told they bound a
+    stretch (for stretch_order), and the ends stay (step 0)."""
+    result = _result(0.4, 0.6, 0.4, 0.6)
+    meshes_at, given = _solver([result])
+    answer, _, rounds, step = CR.contact_rounds(meshes_at, 1e-6)
+    assert given == [((), ()), ((0.4, 0.6), ((0.4, 0.6),))]
+    assert answer is result and step < 1e-12 and len(rounds) == 2
+    ((a, b),) = [entry["s"] for entry in answer.contact[0]]
+    assert a == pytest.approx(0.4, abs=1e-12) and b == pytest.approx(0.6, abs=1e-12)
+
+
+def test_contact_rounds_stop_after_contact_rounds_rounds(monkeypatch):
+    """A stretch whose ends move out by 0.01 L each round never settles: the first solve and
+    CONTACT_ROUNDS rounds, then a ConvergenceError naming the round."""
+    calls = []
+
+    def meshes_at(points, enough=None, stretches=()):
+        calls.append(points)
+        return _result(0.4, 0.6, 0.4, 0.6), object()
+
+    monkeypatch.setattr(CR, "stretch_ends", lambda result, a, b: (a - 0.01, b + 0.01, True))
+    with pytest.raises(ConvergenceError, match=f"after round {CR.CONTACT_ROUNDS} ") as err:
+        CR.contact_rounds(meshes_at, 1e-6)
+    assert len(calls) == 1 + CR.CONTACT_ROUNDS and err.value.info["round"] == CR.CONTACT_ROUNDS
+    assert calls[-1] == pytest.approx(
+        (0.4 - 0.01 * (CR.CONTACT_ROUNDS - 1), 0.6 + 0.01 * (CR.CONTACT_ROUNDS - 1))
+    )
