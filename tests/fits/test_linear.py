@@ -562,3 +562,25 @@ def test_interval_coverage_when_the_scatter_grows_along_the_line(rows):
         fit = fit_lines([Record("a.csv", x, y, np.ones(rows, dtype=bool))])
         hits += fit.ci95[0] < 2.0 < fit.ci95[1]
     assert 0.92 * 400 <= hits <= 0.99 * 400
+
+
+def test_range_slopes_are_the_slopes_of_each_half_in_x():
+    """A curve y = x + x^2 recorded from its far end back (x falling): the halves are taken in x,
+    not in row order, and each half's slope is numpy's polyfit over it."""
+    from matid.fits.linear import range_slopes
+
+    x = np.linspace(1.0, 0.0, 40)
+    rec = _one_record(x + x**2, x)
+    low, high = np.polyfit(x[20:], (x + x**2)[20:], 1)[0], np.polyfit(x[:20], (x + x**2)[:20], 1)[0]
+    assert range_slopes([rec]) == pytest.approx([low, high], rel=1e-9)
+
+
+def test_a_file_with_one_fitted_row_is_refused_not_dropped():
+    """A tare offset per file needs 2 distinct x in every file: a file with one row is refused
+    (FitError), never left out of the joint line without a word."""
+    x = np.linspace(0.1, 1.0, 20)
+    one = np.zeros(20, dtype=bool)
+    one[5] = True
+    records = [_one_record(2.0 * x, x), Record("b.csv", x, 2.0 * x + 0.1, one)]
+    with pytest.raises(FitError, match="2 distinct x per file"):
+        fit_lines(records)

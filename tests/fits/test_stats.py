@@ -129,3 +129,40 @@ def test_lag1_p_holds_its_false_alarm_rate_on_short_independent_records():
     p = np.array([st.lag1_p(st.lag1(rng.standard_normal(30)), 30) for _ in range(20_000)])
     assert np.mean(p < 1e-3) <= 1e-3
     assert 0.03 < np.mean(p < 0.05) < 0.06
+
+
+def test_runs_are_counted_within_each_segment():
+    """Signs + - - | - + + (two files): 2 runs in each, 4 in all, expected 1 + 2 n+ n- / n = 7/3
+    per file; read as one sequence they would be 3 runs."""
+    r = np.array([1.0, -1.0, -1.0, -1.0, 1.0, 1.0])
+    observed, expected, _ = st.runs(r, [3, 3])
+    assert observed == 4 and expected == pytest.approx(2 * 7 / 3)
+    assert st.runs(r)[0] == 3
+
+
+def test_runs_p_is_wald_wolfowitz_with_a_continuity_correction():
+    """n+ = n- = 10 in 2 blocks: mean 11, variance 2 n+ n- (2 n+ n- - n) / (n^2 (n - 1)) = 180/38,
+    p = Phi((2 - 11 + 0.5) / sqrt(var)) (the textbook normal approximation, its + 0.5 included)."""
+    import math
+
+    import scipy.stats
+
+    r = np.r_[np.ones(10), -np.ones(10)]
+    observed, expected, p = st.runs(r)
+    var = 2 * 10 * 10 * (2 * 10 * 10 - 20) / (20 * 20 * 19)
+    assert (observed, expected) == (2, 11.0)
+    assert p == pytest.approx(scipy.stats.norm.cdf((2 - 11 + 0.5) / math.sqrt(var)), rel=1e-12)
+
+
+def test_as_many_points_as_parameters_give_no_errors():
+    with pytest.raises(ValueError, match="cannot give errors"):
+        st.ar1_covariance(np.column_stack([np.arange(2.0), np.ones(2)]), np.array([0.1, -0.1]))
+
+
+def test_a_misfit_warning_says_by_how_much_the_interval_was_widened():
+    x = np.linspace(0.0, 1.0, 200)
+    curve = (x**2 - np.polyval(np.polyfit(x, x**2, 1), x)) + 1e-4 * np.random.default_rng(0).normal(size=200)
+    lof = st.lack_of_fit(curve, 2)
+    assert lof.misfit
+    assert "; the interval is widened 1.5x for it" in lof.warning("the line", 1.5)
+    assert "widened" not in lof.warning("the line", 1.04)
