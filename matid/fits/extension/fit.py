@@ -276,8 +276,9 @@ def fit_extension(
     offsets = _offsets(runs, k, best)
     line = None
     if "k1" not in fixed_k:
-        compared = _relaxing(result, runs, sigma, ref, best)
-        e_e, line = elastic.choose(e_e, runs, sigma, bool(reasons), compared)
+        noise = [run.noise for run in runs]  # model-free: the line must not move with where the fit landed
+        compared = _relaxing(result, runs, sigma, ref, best, noise)
+        e_e, line = elastic.choose(e_e, runs, noise, bool(reasons), compared)
         offsets = list(line.offsets) if line is not None else offsets  # those of the model giving E_e
         e_e = _below_hold(_nonlinear(e_e, runs, k, best, line), runs, offsets)
     e_e = _started(e_e, runs, offsets)
@@ -308,14 +309,16 @@ def fit_extension(
     )
 
 
-def _relaxing(result, runs, sigma, ref, best: prony.PronyFit | None) -> tuple[str, np.ndarray, int]:
-    """The relaxing model that gave E_e: (its name, weighted residuals on every used row, its
-    parameters with the runs' force offsets): the preferred Prony series, else the SLS."""
+def _relaxing(result, runs, sigma, ref, best: prony.PronyFit | None, noise) -> tuple[str, np.ndarray, int]:
+    """The relaxing model that gave E_e: (its name, residuals on every used row weighted by each
+    run's model-free ``noise`` as the elastic line's are, its parameters with the runs' force
+    offsets): the preferred Prony series, else the SLS (both fitted with weights ``sigma``)."""
+    rescale = np.repeat(np.asarray(sigma, dtype=float) / noise, [int(run.used.sum()) for run in runs])
     if best is not None:
         arms = f"the {best.n_terms}-arm Prony series"
-        return arms, best.residual, n_params(best.n_params, runs)
+        return arms, best.residual * rescale, n_params(best.n_params, runs)
     resid = lsq.residual(result.params, runs, sigma, ref, rows=True)
-    return "the standard linear solid", resid, n_params(result.nvarys, runs)
+    return "the standard linear solid", resid * rescale, n_params(result.nvarys, runs)
 
 
 #: Fixed parameters the extension fit holds (E_e is sls_k1).
