@@ -213,7 +213,8 @@ class Contact(Term):
             if loaded.size == 0:
                 continue
             pairs = list(zip(loaded[:-1], loaded[1:], strict=True))
-            cuts = [k + 1 for k, (i, j) in enumerate(pairs) if np.any(gb[i + 1 : j] > near) or nb[i] @ nb[j] < SAME_SIDE]
+            apart = [np.any(gb[i + 1 : j] > near) or nb[i] @ nb[j] < SAME_SIDE for i, j in pairs]
+            cuts = [k + 1 for k, cut in enumerate(apart) if cut]
             runs = np.split(loaded, cuts)
             k = 0
             while k + 1 < len(runs):  # a stretch takes in a run at most two unloaded nodes away
