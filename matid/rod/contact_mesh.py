@@ -25,7 +25,9 @@ from matid.rod.accuracy import P2_ORDER
 #: Interior contact points are mesh vertices once the next step would move them less than this
 #: (x L) and less than the scene's tolerance, within at most CONTACT_ROUNDS rounds.
 CONTACT_MOVE = 1e-4
-CONTACT_ROUNDS = 10
+#: (16: on the magnetic workspace in a bent 0.6 mm lumen, 36 states, the contact set settles in up
+#: to 5 rounds, three stretches and a corner contact, and their ends in up to 8 more.)
+CONTACT_ROUNDS = 16
 #: The order the error estimate may assume at most when a stretch leaves its wall inside the rod.
 STRETCH_ORDER = 1.0
 #: An end of a short stretch is off its vertex when its next estimate is farther from it than this
@@ -39,6 +41,16 @@ OFF_END = 0.25
 #: 1.5 mm lumen at 12 elements, and the steps crawl, 0.0023 then 0.0020 L; on the tip-twist
 #: example in a 3 mm lumen at 12 elements the vertex cycled 0.6266 <-> 0.6026 L).
 HOP = 0.5
+#: A point contact whose last step was below this (x L) has settled: its next step is not read as
+#: crawling (the corner contact of the workspace in a bent lumen, settled at 0.4992391 L, stepped
+#: 5e-10 then 5e-10 again and became a stretch of no length, whose ends then moved by 1e-3 L).
+SETTLED = 1e-8
+#: A stretch end's secant step is taken up to AHEAD times its plain move (a fixed point that the
+#: plain moves approach at rate rho lies 1 / (1 - rho) moves ahead: rho up to 0.9). At 2 (rho up
+#: to 0.5) the ends of the stretches along a bent 0.6 mm lumen crawled 1e-4 L a round at rate ~0.7
+#: and were still moving after 10 rounds (the magnetic workspace, E_b = 6e-5 N m^2, B along
+#: (10, 0, -17.3) mT).
+AHEAD = 10.0
 #: A short stretch whose ends come closer than this (x L) is a point contact again.
 SHORTEST = 1e-6
 
@@ -55,30 +67,36 @@ def contact_rounds(meshes_at, tolerance: float):
     once the contact sits on its vertex, secant steps on the gap's slope there (zero where the rod
     touches the wall tangentially). A point on its vertex whose nodes on both sides stay loaded is a
     short stretch: a vertex at each end, moved by :func:`stretch_ends`. A round stops doubling its
-    meshes as soon as a contact is off its vertex (or none is given): its nodal contact then hops
-    between nodes as the mesh doubles, so its Richardson estimate need not converge, and only the
-    touching point is wanted from it (measured, a channel with the tip on one wall and the rod on
-    the other: a round with its vertex 1e-2 L off went to 1024 elements, then failed to settle).
+    meshes as soon as a contact is off its vertex (or none is given) and its last two meshes found
+    the same kinds of contact: its nodal contact then hops between nodes as the mesh doubles, so
+    its Richardson estimate need not converge, and only the touching point is wanted from it
+    (measured, a channel with the tip on one wall and the rod on the other: a round with its
+    vertex 1e-2 L off went to 1024 elements, then failed to settle). A mesh that has not found the
+    contacts yet tells nothing of where they go: the magnetic workspace in a bent 0.6 mm lumen
+    (three stretches, a corner contact and the tip) stopped every round at 8 elements, where the
+    contacts came and went from round to round, and 29 of its 36 states raised after 10 rounds.
+    Stretches that reach each other are merged (:func:`_merged`).
     Raises ConvergenceError naming the round when the points still move after CONTACT_ROUNDS (not
-    refined without points instead: on the magnetic workspace sweep in a bent 0.6 mm lumen, where
-    long stretches along the bend merge and split between rounds, that took 146 and 215 s per
-    state at 4096 elements, order 1, and still reported 7e-5 and 1.2e-4 for a tolerance of 1e-6)."""
+    refined without points instead: on that sweep, that took 146 and 215 s per state at 4096
+    elements, order 1, and still reported 7e-5 and 1.2e-4 for a tolerance of 1e-6)."""
 
     cut = []  # whether the last round stopped its doubling early
 
     def off_vertex(contacts):
         cut.clear()
+        kinds = []  # the kinds of contact each mesh of the round found
 
         def enough(result) -> bool:
             seen = _observe(result, contacts)
             off = seen is None or not all(on for _, on in seen)
+            kinds.append([c[0] for c in _fresh(result)[0]])
             cut[:] = [off]
-            return off
+            return off and len(kinds) > 1 and kinds[-1] == kinds[-2]
 
         return enough
 
     def solve(contacts):
-        points = tuple(sorted(x for c in contacts for x in c[1:]))
+        points = tuple(sorted(x for c in contacts for x in c[1:] if 0.0 < x < 1.0))
         stretches = tuple(c[1:] for c in contacts if c[0] == "stretch")
         extra = {"stretches": stretches} if stretches else {}
         return meshes_at(points, enough=off_vertex(contacts), **extra)
@@ -102,13 +120,28 @@ def contact_rounds(meshes_at, tolerance: float):
         if all(on for _, on in seen) and step < min(CONTACT_MOVE, tolerance):
             _report_ends(result, moved)
             return result, est, rounds, step
-        contacts, last = moved, [_last(c, obs) for c, (obs, _) in zip(contacts, seen, strict=True)]
-    points = [x for c in contacts for x in c[1:]]
+        contacts, last = _merged(moved, [_last(c, obs) for c, (obs, _) in zip(contacts, seen, strict=True)])
+    points = [x for c in contacts for x in c[1:] if 0.0 < x < 1.0]
     raise ConvergenceError(
         f"interior contact points still moved after round {CONTACT_ROUNDS} of meshing at them: "
         f"{', '.join(f'{s:.6g} L' for s in points)}",
         round=CONTACT_ROUNDS,
     )
+
+
+def _merged(contacts: list, last: list) -> tuple[list, list]:
+    """The next round's contacts in order of s, a stretch and the contacts its range reaches (their
+    vertices met or crossed) one stretch over all of them, its ends' steps started afresh: two
+    stretches that touch are one contact, whichever round finds them touching."""
+    out, steps = [], []
+    for c, old in sorted(zip(contacts, last, strict=True), key=lambda x: (x[0][1], x[0][-1])):
+        if out and c[1] <= out[-1][-1] and "stretch" in (c[0], out[-1][0]):
+            a, b = out[-1][1], max(out[-1][-1], c[-1])
+            out[-1], steps[-1] = ("stretch", a, b), ("stretch", a, b, a, b)
+        else:
+            out.append(c)
+            steps.append(old)
+    return out, steps
 
 
 def _fresh(result) -> tuple[list, list]:
@@ -122,8 +155,16 @@ def _fresh(result) -> tuple[list, list]:
 
 
 def interior_runs(result, besides=()) -> list[tuple[float, float]]:
-    """(from, to) of the stretches of a converged cantilever with both ends inside the rod (beyond
-    its first and before its last element), apart from those overlapping ``besides``."""
+    """(from, to) of the stretches of a converged cantilever that start inside the rod (beyond its
+    first element), apart from those overlapping ``besides``; an end on the tip's element is 1
+    (held there: no vertex, :func:`stretch_ends`). A stretch that reaches the tip needs a vertex at
+    its inner end as a short one does at both: left inside an element, that end cost the estimate
+    its order (the magnetic workspace in a bent 0.6 mm lumen, a stretch from 0.61 L to the tip:
+    4096 elements, 55 s, error 5.6e-4 for a tolerance of 1e-6; with the vertex: 64 elements,
+    1.6 s, 7e-7). A stretch from the clamp keeps the one-element estimate of where it leaves its
+    wall (:meth:`Contact._span`): an unshearable rod lying on a wall leaves it tangentially (gap
+    ~ (s - a)^3), where the smallest point of :func:`stretch_ends` was 8e-4 L off the reference
+    (lying on a wall, q L^3/E_b = 3, P L^2/E_b = 1) and its rounds did not settle."""
     contact = getattr(result, "contact", None)
     if contact is None or not hasattr(result, "disc"):
         return []
@@ -131,7 +172,8 @@ def interior_runs(result, besides=()) -> list[tuple[float, float]]:
     out = []
     for c in contact[0]:
         a, b = c["s"]
-        if a != b and a > v[1] and b < v[-2] and not any(max(a, lo) <= min(b, hi) for lo, hi in besides):
+        b = 1.0 if b >= v[-2] else b
+        if a != b and a > v[1] and a < 1.0 and not any(max(a, lo) <= min(b, hi) for lo, hi in besides):
             out.append((float(a), float(b)))
     return out
 
@@ -194,7 +236,12 @@ def _next(contact: tuple, obs, last) -> tuple:
     p0, t0 = last[1], last[2]
     secant = obs[1] == p and t0[1] != p
     nxt = _secant(p, obs[2], t0[1], t0[2]) if secant else obs[0]
-    crawls = secant and t0[1] == p0 and abs(nxt - p) > HOP * abs(p - p0)  # on its vertex twice
+    if abs(p - p0) < SETTLED:  # a step at the secant's round-off says nothing of a stretch
+        return ("point", nxt)
+    twice = secant and t0[1] == p0  # on its vertex in both rounds
+    if twice and obs[2] * t0[2] < 0.0:  # the slopes bracket the touching point: the secant is
+        return ("point", nxt)  # between the vertices (0.3659, 0.3670 -> 0.3662 L, the channel at 160 mm)
+    crawls = twice and abs(nxt - p) > HOP * abs(p - p0)
     if crawls or abs(nxt - p0) < HOP * abs(p - p0):  # or back towards the last vertex
         return ("stretch", min(p, p0), max(p, p0))
     return ("point", nxt)
@@ -202,13 +249,15 @@ def _next(contact: tuple, obs, last) -> tuple:
 
 def _end_secant(x: float, q: float, x0: float, q0: float) -> float:
     """The zero of the move q - x of a stretch end through its last two rounds (x0 -> q0, x -> q),
-    taken when it lies between 0.5 and 2 moves ahead (the fixed point's rate is small and steady);
-    else the move itself."""
+    taken when it lies between 0.5 and AHEAD moves ahead (the fixed point's rate is steady) or
+    when the two moves point at each other (the end lies between x0 and x, and the secant too: an
+    end that alternated 0.687436 <-> 0.688118 L for 12 rounds, the magnetic workspace in a bent
+    lumen at E_b = 1.2e-4 N m^2, B = 20 mT along x); else the move itself."""
     r, r0 = q - x, q0 - x0
     if r == 0.0 or r == r0 or x == x0:
         return q
     step = -r * (x - x0) / (r - r0)
-    return x + step if 0.5 <= step / r <= 2.0 else q
+    return x + step if 0.5 <= step / r <= AHEAD or r * r0 < 0.0 else q
 
 
 def _distance(new: tuple, old: tuple) -> float:
@@ -246,7 +295,7 @@ def stretch_ends(result, a: float, b: float) -> tuple[float, float, bool] | None
     if ia >= 2:
         qa = _smallest_point(ss[ia - 2 : ia + 1], gb[ia - 2 : ia + 1])
         on = abs(qa - a) <= OFF_END * (ss[ia] - ss[ia - 2])
-    if ib + 2 < ss.size:
+    if ib + 2 < ss.size and b < 1.0:
         qb = _smallest_point(ss[ib : ib + 3], gb[ib : ib + 3])
         on = on and abs(qb - b) <= OFF_END * (ss[ib + 2] - ss[ib])
     if qb <= qa:  # the ends crossed: the stretch is a point

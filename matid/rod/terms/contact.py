@@ -65,6 +65,13 @@ MAX_OUTER = 30
 #: contact_tolerance = CONTACT_FRACTION x the scene's tolerance x L (penetration allowed).
 CONTACT_FRACTION = 1e-3
 METHODS = ("augmented", "penalty")
+#: Two loaded nodes belong to one contact only on the same side of their boundary: their walls'
+#: normals (the gaps' gradients) within 60 degrees. A lumen is one boundary; a tube pressed
+#: through a bend touches its outer side, its inner corner and its outer side again within a few
+#: nodes of a coarse mesh (issue 31, the magnetic workspace in a bent 0.6 mm lumen at 12-14
+#: elements: three point contacts and a short stretch were one "stretch" from 0.32 to 1 L whose
+#: forces cancelled, -1.1 of +12.9, -26.5, +12.6, and the rounds chased its ends).
+SAME_SIDE = 0.5
 #: The method every scene uses (see the module docstring for the measurements that chose it).
 METHOD = "augmented"
 
@@ -200,18 +207,19 @@ class Contact(Term):
         order = np.argsort(s)
         near = self.tolerance / CONTACT_FRACTION
         out = []
-        for b, (g, _, _) in enumerate(gaps):
-            fb, gb = f[b][order], g[order]
+        for b, (g, grad, _) in enumerate(gaps):
+            fb, gb, nb = f[b][order], g[order], grad[order]
             loaded = np.flatnonzero(fb > 0)
             if loaded.size == 0:
                 continue
-            pairs = zip(loaded[:-1], loaded[1:], strict=True)
-            cuts = [k + 1 for k, (i, j) in enumerate(pairs) if np.any(gb[i + 1 : j] > near)]
+            pairs = list(zip(loaded[:-1], loaded[1:], strict=True))
+            apart = [np.any(gb[i + 1 : j] > near) or nb[i] @ nb[j] < SAME_SIDE for i, j in pairs]
+            cuts = [k + 1 for k, cut in enumerate(apart) if cut]
             runs = np.split(loaded, cuts)
             k = 0
             while k + 1 < len(runs):  # a stretch takes in a run at most two unloaded nodes away
                 a, c = runs[k], runs[k + 1]
-                if c[0] - a[-1] <= 3 and max(a.size, c.size) > 3:
+                if c[0] - a[-1] <= 3 and max(a.size, c.size) > 3 and nb[a[-1]] @ nb[c[0]] >= SAME_SIDE:
                     runs[k : k + 2] = [np.concatenate([a, c])]
                     k = max(k - 1, 0)
                 else:
