@@ -53,6 +53,7 @@ def workspace_png(axes: list[Axis], rows: list[dict], *, name: str = "", dpi: in
     fig = Figure(figsize=(5.8 * len(views) + 1, 4.6), layout="constrained")
     panels = fig.subplots(1, len(views), squeeze=False)[0]
     span = span_of(tip)
+    zoom, arrow = view(tip[ok], span)
     lane = len(axes[-1].values)
     for ax, c in zip(panels, views, strict=True):
         for start in range(0, len(rows), lane):  # the last key's states joined
@@ -68,11 +69,12 @@ def workspace_png(axes: list[Axis], rows: list[dict], *, name: str = "", dpi: in
             cmap="viridis",
             angles="xy",
             scale_units="xy",
-            scale=1.0 / (0.08 * span),
+            scale=1.0 / arrow,
             width=0.003,
             zorder=2,
         )
-        ax.plot([0], [0], "ks", ms=6)
+        if not zoom:
+            ax.plot([0], [0], "ks", ms=6)
         ax.set_xlabel(f"tip {'xy'[c]} (mm)")
         ax.set_ylabel("tip z (mm)")
         ax.set_aspect("equal", adjustable="datalim")
@@ -82,11 +84,26 @@ def workspace_png(axes: list[Axis], rows: list[dict], *, name: str = "", dpi: in
     failed = int((~ok).sum())
     title = f"{name}: {len(rows)} states of {' x '.join(a.key for a in axes)}: tips and d3"
     title += f" (grey: along {axes[-1].key})"
+    title += "; zoomed on the tips (the clamp, at 0, is outside the view)" if zoom else ""
     title += f"; {failed} failed (not drawn)" if failed else ""
     fig.suptitle(textwrap.fill(title, 60 * len(views)), color="C3" if failed else "k", fontsize=9)
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi)
     return buffer.getvalue()
+
+
+#: Tips spread over less than this share of their distance from the clamp are drawn zoomed in.
+ZOOM = 0.1
+
+
+def view(tip: np.ndarray, span: float) -> tuple[bool, float]:
+    """(whether to zoom on the tips, the d3 arrows' length in mm): tips (mm) that spread over less
+    than ZOOM of their distance ``span`` from the clamp (a lumen, a wall) are drawn without the
+    clamp, with arrows scaled to their spread; else the clamp is shown and arrows scale with span."""
+    finite = tip[np.all(np.isfinite(tip), axis=1)]
+    extent = float(np.max(np.ptp(finite, axis=0))) if finite.size else 0.0
+    zoom = 0.0 < extent < ZOOM * span
+    return zoom, 0.08 * (2.0 * extent if zoom else span)
 
 
 def span_of(tip: np.ndarray) -> float:
