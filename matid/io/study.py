@@ -17,6 +17,7 @@ from pathlib import Path
 from matid.errors import DataError
 from matid.fits.kinds import BY_NAME
 from matid.io import study_keys as keys
+from matid.io.ingest.checks import DYNAMIC_RANGE
 from matid.io.study_keys import bounded_text, nearest
 from matid.limits import MAX_ENTRIES
 from matid.model.study import DEFLECTION_AT, PARAMETERS, Fixed, Specimen, Study, Test
@@ -123,6 +124,12 @@ def _value(source: Path, where: str, key: str, value: object, kind: str) -> floa
         raise DataError(
             f"{where}: {key} = '{shown(value)}' is {number:g} in SI, beyond the physical "
             f"bound {bound:g} for a {kind}",
+            file=source,
+        )
+    if bound is not None and 0 < abs(number) < bound / DYNAMIC_RANGE:  # the data columns' floor
+        raise DataError(
+            f"{where}: {key} = '{shown(value)}' is {number:g} in SI, below {bound / DYNAMIC_RANGE:g}, "
+            f"the smallest {kind} matid reads (a unit or export mistake): check its unit",
             file=source,
         )
     return number

@@ -227,3 +227,30 @@ def test_a_small_but_measurable_column_is_read(tmp_path):
     """Torques of ~1e-9 N m (a micro-scale rig) stay data: the floor is far below any instrument."""
     test = load_study(study(tmp_path, data=_scaled(1, 1e-6))).tests[0]
     assert read_table(test.file, test.kind).columns["torque"].max() > 0
+
+
+# -- tiny set-up values: the data columns' floor -------------------------------------------------
+
+
+@pytest.mark.parametrize(("key", "value"), [("length", "1e-300 mm"), ("length", "5e-33 m")])
+def test_a_set_up_value_below_the_floor_of_its_kind_is_refused_naming_the_key(tmp_path, key, value):
+    """A nonzero value below PHYSICAL_BOUND / DYNAMIC_RANGE (the floor of a data column) is a unit
+    mistake. Found by the study fuzz of 2026-11-28: magnet_moment x 1e-300 made the computed torque
+    ~1e-304 N m, whose weights overflowed (exit 3: lmfit's NaN ValueError)."""
+    folder = study(tmp_path)
+    toml = folder / "study.toml"
+    text = toml.read_text(encoding="utf-8").replace('length = "60 mm"', f'{key} = "{value}"')
+    toml.write_text(text, encoding="utf-8")
+    said = rf"\[\[test\]\] #1: {key} = '{value}' is .* below 1e-29, the smallest length"
+    with pytest.raises(DataError, match=said):
+        load_study(folder)
+
+
+def test_a_tiny_magnet_moment_is_exit_2_not_an_internal_error(tmp_path):
+    from matid.app.cli import main
+
+    folder = tmp_path / "demo"
+    shutil.copytree(ROOT / "matid" / "example", folder, ignore=shutil.ignore_patterns("*.py", "__pycache__"))
+    text = (folder / "study.toml").read_text(encoding="utf-8").replace('"0.0125 A m^2"', '"1.25e-302 A m^2"')
+    (folder / "study.toml").write_text(text, encoding="utf-8")
+    assert main(["fit", str(folder), "--out", str(tmp_path / "out"), "--quiet"]) == 2
