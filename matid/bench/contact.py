@@ -397,4 +397,13 @@ def _refused_cases() -> list[Case]:
             expect=refused(says="narrower than the tube"),
             **options,
         ),
+        _case(
+            "a lumen as wide as the tube",
+            {"lumen radius / tube radius": 1.0},
+            lambda: S.with_contact(S.magnetic_raw(), lumen={**STRAIGHT, "radius": S.R_O}),
+            None,
+            REFUSED_BY_READER,
+            expect=refused(says="leaves the tube no room"),
+            **options,
+        ),
     ]

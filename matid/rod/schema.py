@@ -296,7 +296,8 @@ TABLES: tuple[Table, ...] = (
         (
             Key("centreline", "points", "the centreline's corners [x, y, z] (lab frame), at least two",
                 '[["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "40 mm"]]', "length"),
-            _q("radius", "length", DIAMETER, "inner radius (>= the tube's outer radius)", '"3 mm"',
+            _q("radius", "length", DIAMETER,
+               "inner radius (wider than the tube: its clearance above the contact tolerance)", '"3 mm"',
                open_low=True),
             _q("corner_radius", "length", DIAMETER, "radius the corners are rounded with", '"15 mm"',
                default="5 x radius", open_low=True),

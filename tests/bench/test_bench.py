@@ -69,6 +69,7 @@ CHECKED = [
     "an advance whose contact changes sides (channel 8 mm, tilted 10 deg)",
     "a wall cutting the clamp",
     "a lumen narrower than the tube",
+    "a lumen as wide as the tube",
     *(
         pytest.param(name, marks=pytest.mark.xfail(strict=True, reason=why))
         for name, why in CONTACT_DEFECTS.items()
@@ -105,6 +106,7 @@ def test_impossible_contact_scenes_exit_2_before_solving(tmp_path):
     scenes = {
         "cuts the clamp": '[[wall]]\npoint = ["0.25 mm", "0 mm", "0 mm"]\nnormal = [-1, 0, 0]\n',
         "narrower than the tube": lumen + 'radius = "0.45 mm"\n',
+        "leaves the tube no room": lumen + 'radius = "0.5 mm"\n',
     }
     for says, table in scenes.items():
         path = tmp_path / "scene.toml"

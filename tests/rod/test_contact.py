@@ -10,6 +10,7 @@ E_e L^2/E_b = 1e9, whose own difference is ~1e-9.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -161,6 +162,38 @@ def test_impossible_scenes_are_data_errors():
         scene_from_dict({"rod": rod(), "lumen": {"centreline": [[0, 0, 0], [0, 0, L]], "radius": 0.9 * R_O}})
     # a wall touching the clamp's surface is allowed
     scene_from_dict({"rod": rod(), "wall": [{"point": [R_O, 0, 0], "normal": [-1, 0, 0]}]})
+
+
+def test_a_lumen_that_leaves_the_tube_no_room_is_refused_and_one_just_wider_solves():
+    """Found by the scene fuzz of 2026-11-28 (4 of 7000 cases past 60 s): the magnetic workspace in
+    a straight lumen of the tube's own radius. The tube on the lumen's centreline, where the wall's
+    direction is undefined, got a contact at nearly every node (8871 at 9458 elements after 12 s).
+    A clearance within the contact tolerance (1e-3 x tolerance x L) is refused before solving."""
+    line = [[0, 0, -L], [0, 0, 2 * L]]
+    axial = {"field": {"B": [0, 0, 0.02]}, "magnet": [{"at": L, "moment": 0.01}]}  # no torque
+    room = C.CONTACT_FRACTION * 1e-6 * L
+    for clearance in (0.0, 0.5 * room):
+        raw = {"rod": rod(), **axial, "lumen": {"centreline": line, "radius": R_O + clearance}}
+        with pytest.raises(DataError, match=r"\[lumen\] leaves the tube no room"):
+            scene_from_dict(raw)
+    raw = {"rod": rod(), **axial, "lumen": {"centreline": line, "radius": R_O + 10 * room}}
+    sol = solve(scene_from_dict(raw), elements=8)
+    assert np.allclose(sol.tip["position"], [0, 0, L], rtol=0, atol=1e-12 * L)
+    assert sol.extra["contacts"] == []
+
+
+def test_the_slopes_of_a_quadratic_through_close_nodes_are_exact_and_silent():
+    """Where a stretch leaves its wall, d3's slope comes from the quadratic through three nodes. At
+    nodes 1e-9 L apart np.polyfit warned RankWarning to the terminal. Lagrange's form in
+    differences from the first node is exact but for the values' round-off over the spacing
+    (1e-16 / 1e-9: measured 3e-7)."""
+    x = 0.5 + np.array([0.0, 0.4e-9, 1e-9])  # np.polyfit: RankWarning, 5e-7 off
+    a, b, c = np.array([1.0, -2.0, 0.5]), np.array([0.3, 1.0, -4.0]), np.array([2.0, 0.0, 7.0])
+    y = a + b * x[:, None] + c * x[:, None] ** 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        slopes = C._quadratic_slopes(x, y)
+    assert np.allclose(slopes, b + 2 * c * x[:, None], rtol=0, atol=1e-6)
 
 
 def test_two_walls_on_one_plane_facing_one_way_are_refused_and_a_channel_is_not():

@@ -319,16 +319,17 @@ class Contact(Term):
         nodes = order[lo : lo + 3]
         se = ss[lo : lo + 3]
         d3 = self.directors(system, prep, U, nodes)
-        dd3 = np.array([np.polyval(np.polyder(np.polyfit(se, d3[:, c], 2)), se) for c in range(3)]).T
+        dd3 = _quadratic_slopes(se, d3)
         _, grad, H = gap
         psi = np.einsum("ij,ij->i", grad[nodes], dd3)
         if H is not None:
             psi += np.einsum("ij,ijk,ik->i", d3, H[nodes], d3)
-        slope, value = np.polyfit(se, psi, 1)
+        dx = se - se.mean()  # the least-squares line through (se, psi), centred: no Vandermonde
+        slope = float(dx @ psi) / float(dx @ dx)
         if slope == 0.0:
             return None
         h = se[2] - se[0]
-        return float(np.clip(-value / slope, se[0] - h, se[2] + h))
+        return float(np.clip(se.mean() - psi.mean() / slope, se[0] - h, se[2] + h))
 
     def quantities(self, system, prep, U: np.ndarray, f: np.ndarray | None = None) -> np.ndarray:
         """Per boundary: the resultant force (3) and the force-weighted s: what the error estimate
@@ -375,3 +376,14 @@ def to_lab(entries: list[dict], e_a, L: float, E_b: float) -> list[dict]:
         }
         for c in entries
     ]
+
+
+def _quadratic_slopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The slopes at x (3,) of the quadratic through (x, y (3, k)), Lagrange's form in differences
+    from the first node (exact however close the nodes: np.polyfit's Vandermonde warned RankWarning
+    on the terminal when a contact put thousands of vertices on a rod)."""
+    t, dy = x - x[0], y - y[0]
+    d01, d02, d12 = t[0] - t[1], t[0] - t[2], t[1] - t[2]
+    den = np.array([d01 * d02, -d01 * d12, d02 * d12])
+    others = np.array([t[1] + t[2], t[0] + t[2], t[0] + t[1]])
+    return ((2.0 * t[:, None] - others[None, :]) / den[None, :]) @ dy
