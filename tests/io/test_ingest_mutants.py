@@ -188,3 +188,15 @@ def test_a_file_that_grows_past_the_limit_while_read_is_refused_in_mib(tmp_path,
     monkeypatch.setattr(read, "os", SimpleNamespace(stat=lambda path: os.stat(small)))
     with pytest.raises(DataError, match=r"file grew beyond 1 MiB while being read"):
         read_table(big, "torsion")
+
+
+def test_a_row_with_values_under_the_first_row_s_trailing_delimiters_is_named_and_counted(tmp_path: Path) -> None:
+    """The first data row ends in two empty cells (a trailing ',,'), so pandas parses five columns
+    without an error; row 3 writes values into the two beyond the header's three: it is named with
+    its own count of cells (a row under an empty trailing cell only, row 4, is read)."""
+    path = _write(tmp_path, "time [s],force [N],strain [%]\n0,0,0,,\n1,1,1,7,8\n2,2,2,\n3,3,3\n")
+    with pytest.raises(DataError) as info:
+        read_table(path, "extension")
+    assert info.value.row == 3 and info.value.detail.startswith("row has 5 cells, header has 3")
+    path = _write(tmp_path, "time [s],force [N],strain [%]\n0,0,0,,\n1,1,1\n2,2,2,\n3,3,3\n")
+    assert np.array_equal(read_table(path, "extension").columns["force"], [0, 1, 2, 3])
