@@ -110,9 +110,6 @@ def read_rows(raw: bytes, start: Start, layout: Layout, path: Path) -> Rows:
             frame = _parse(raw, start, layout, _widest(raw, layout))
         except pd.errors.ParserError as exc:  # not a width: a quote that never closes, say
             raise _unparsable(raw, layout, path, exc) from None
-    except (UnicodeDecodeError, ValueError):
-        _first_bad_row(raw, layout, path)
-        raise
     if not all(pd.api.types.is_numeric_dtype(t) for t in frame.dtypes):
         frame = frame.apply(_blank_as_na)
     blank = frame.isna().all(axis=1).to_numpy()
