@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from matid.errors import DataError
+from matid.io.ingest.detect import split
 from matid.io.ingest.read import read_table
 
 
@@ -257,3 +258,16 @@ def test_a_redundant_escape_of_iso2022_jp_does_not_move_the_rows(tmp_path: Path)
     path.write_bytes(b"\x1b(B" + _BODY.encode("iso2022_jp"))
     table = read_table(path, "torsion", encoding="iso2022_jp", **_BY_NUMBER)
     assert np.array_equal(table.columns["twist_angle"], [1000.5, 2, 3, 4, 5])
+
+
+def test_a_tab_before_a_quoted_cell_of_a_space_delimited_row_separates_cells(tmp_path: Path) -> None:
+    """Space-delimited rows '0.5 1.25<TAB>"run a"': pandas splits at the tab (``\\s+``), and so does the
+    reading of a row for layout and messages now, quoted cell or not (a tab inside quotes stays). Before:
+    the quoted branch split at spaces only, '1.25<TAB>"run' was one cell, and the file had 'no header
+    row'; with a third number before the tab, a row of 4 cells was reported as 'row has 3 cells, header
+    has 3'. Found looking for an input that reaches frame._check_width."""
+    rows = "".join(f'{k}.5 {k + 1}.25\t"run {k}"\n' for k in range(4))
+    path = _write(tmp_path, "twist_angle [rad]  torque [N m]  note\n" + rows)
+    table = read_table(path, "torsion")
+    assert np.array_equal(table.columns["torque"], [1.25, 2.25, 3.25, 4.25])
+    assert split('1 2\t"a\tb" 3', " ") == ["1", "2", "a\tb", "3"]
