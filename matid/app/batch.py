@@ -198,8 +198,12 @@ def _outcome(future, task: tuple) -> StudyOutcome:
     try:
         return future.result()
     except Exception as exc:
-        error = f"worker failed: {type(exc).__name__}: {exc}"
-        return StudyOutcome(task[0], study_folder_name(task[0]), 3, error=error)
+        return _worker_failed(task, exc)
+
+
+def _worker_failed(task: tuple, exc: Exception) -> StudyOutcome:
+    error = f"worker failed: {type(exc).__name__}: {exc}"
+    return StudyOutcome(task[0], study_folder_name(task[0]), 3, error=error)
 
 
 @contextlib.contextmanager
@@ -242,7 +246,7 @@ def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyO
     """Each task in a process of a local pool, its output staged and swapped in here; results in the
     order of ``tasks``."""
     import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, ProcessPoolExecutor, wait
 
     # forkserver: workers start clean (no inherited threads, e.g. a progress bar's). Nothing is
     # preloaded in the server: while it imports, it cannot see this process die, and it outlived a
@@ -263,7 +267,12 @@ def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyO
                     outcomes[i] = staged
                     done(staged)
                     continue
-                running[pool.submit(fit_one, *task, str(staged[1]))] = (i, *staged)
+                try:
+                    running[pool.submit(fit_one, *task, str(staged[1]))] = (i, *staged)
+                except BrokenExecutor as exc:  # a worker died: the pool takes no more studies
+                    staged[0].discard(staged[1])
+                    outcomes[i] = _worker_failed(task, exc)
+                    done(outcomes[i])
             if not running:
                 break
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
