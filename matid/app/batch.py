@@ -12,17 +12,24 @@ others; the exit code of the batch is the worst of the studies' (0 < 1 < 2 < 3 <
 On a Dask cluster the workers read the study folders and write into DIR by the
 same paths as this process: the cluster must share that file system.
 
-A batch stops whole (docs/contract.md section 11). Each local worker process runs a
-thread that ends it (``os._exit``) as soon as the batch's process is gone (the
-sentinel of :func:`multiprocessing.parent_process`, readable once the parent died,
-even by SIGKILL) or the batch is stopped (a shared :class:`multiprocessing.Event`),
-and a worker checks the event again just before it publishes. SIGINT (Ctrl-C) and,
-while a batch runs in the main thread, SIGTERM (:class:`Terminated`) stop it: the
-event is set, the pool's processes killed (:func:`multiprocessing.active_children`,
-less the children this process had before), the queued studies cancelled,
-temporary folders the workers left removed, and the interrupt raised on (exit 130
-/ 143). Studies that finished keep their folders; no summary is written for an
-interrupted batch.
+A batch stops whole (docs/contract.md section 11). With local processes
+(``--jobs``) a worker never publishes: it writes a study's files into a hidden
+folder that this process staged (:meth:`matid.io.publish.Claim.stage`, holding the
+output's lock), and this process swaps it in (:meth:`~matid.io.publish.Claim.swap`)
+in its main thread, where SIGINT and SIGTERM are handled: once the batch is
+stopped or killed, nothing swaps. A worker that published itself could do it in
+the moment between the signal and the batch's reaction to it (seen under load:
+a study published after SIGTERM, or after SIGKILL, in 2 of 180 runs). Each local worker process
+runs a thread that ends it (``os._exit``) as soon as the batch's process is gone
+(the sentinel of :func:`multiprocessing.parent_process`, readable once the parent
+died, even by SIGKILL) or the batch is stopped (a shared
+:class:`multiprocessing.Event`). SIGINT (Ctrl-C) and, while a batch runs in the
+main thread, SIGTERM (:class:`Terminated`) stop it: the event is set, the pool's
+processes killed (:func:`multiprocessing.active_children`, less the children this
+process had before), the queued studies cancelled, the staged folders removed,
+and the interrupt raised on (exit 130 / 143). Studies that finished keep their
+folders; no summary is written for an interrupted batch. At most
+:data:`AHEAD` studies per process are staged at a time (each holds a lock file open).
 """
 
 from __future__ import annotations
@@ -44,8 +51,8 @@ from matid.errors import DataError, MatidError
 
 #: Seconds between a worker's looks at the batch's stop event (the parent's death wakes it at once).
 WATCH_S = 0.05
-#: The stop event of the batch in a worker process (None in the batch's own process and on Dask).
-_STOP = None
+#: Studies staged (handed to the pool, their outputs locked) per local process at most.
+AHEAD = 2
 
 
 class Terminated(KeyboardInterrupt):
@@ -71,21 +78,15 @@ def study_folder_name(source: str | Path) -> str:
     return path.parent.name if path.suffix.lower() == ".toml" else path.name
 
 
-class Stopped(BaseException):
-    """Raised in a worker whose batch was stopped, at the last moment before a study would be published
-    (a BaseException: no ``except Exception`` on the way may turn it into an outcome)."""
+def fit_one(
+    source: str, out: str, units: str = "SI", strict: bool = False, staged: str | None = None
+) -> StudyOutcome:
+    """Load, fit and write one study into ``out``; never raises: errors become the outcome's code.
 
-
-def _unless_stopped() -> None:
-    """Raise :class:`Stopped` once the batch's stop event is set (a worker's last look before publishing:
-    the watching thread ends the process within WATCH_S, this closes that window)."""
-    if _STOP is not None and _STOP.is_set():
-        raise Stopped
-
-
-def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> StudyOutcome:
-    """Load, fit and write one study into ``out``; never raises: errors become the outcome's code."""
-    from matid.app.pipeline import run_study, write_outputs
+    With ``staged`` (a batch's local worker) the files are written into that folder, which the batch
+    staged beside ``out`` and swaps in itself (:func:`_swap`); the outcome's paths say they were."""
+    from matid.app.pipeline import output_files, run_study, write_outputs
+    from matid.io.publish import fill
     from matid.io.results import table_rows
     from matid.io.study import load_study
 
@@ -93,14 +94,14 @@ def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> S
     name = study_folder_name(source)
     try:
         result = run_study(load_study(source))
-        _unless_stopped()
-        paths = write_outputs(result, Path(out), units=units, before_swap=_unless_stopped)
-    except Stopped:  # the batch was stopped: publish nothing more (the new folder is already gone)
-        os._exit(Terminated.exit_code)
-    except Exception as exc:  # the code and message of `matid fit`; a bug keeps its traceback for --debug
-        code = exit_code(exc)
-        error = error_message(exc) + (f"\n{traceback.format_exc()}" if code == 3 else "")
-        return StudyOutcome(source, name, code, error=error, runtime_s=time.perf_counter() - clock)
+        if staged is None:
+            paths = write_outputs(result, Path(out), units=units)
+        else:
+            files = output_files(result, units=units)
+            fill(Path(staged), files, Path(out))
+            paths = [Path(out) / n for n in files]
+    except Exception as exc:
+        return _failed(source, exc, time.perf_counter() - clock)
     warnings = result.warnings()
     code = study_code(result, strict)
     return StudyOutcome(
@@ -113,6 +114,14 @@ def fit_one(source: str, out: str, units: str = "SI", strict: bool = False) -> S
         paths=[str(p) for p in paths],
         runtime_s=time.perf_counter() - clock,
     )
+
+
+def _failed(source: str, exc: Exception, runtime_s: float = 0.0) -> StudyOutcome:
+    """The outcome of a study stopped by ``exc``: the code and message of `matid fit`; a bug keeps its
+    traceback for --debug."""
+    code = exit_code(exc)
+    error = error_message(exc) + (f"\n{traceback.format_exc()}" if code == 3 else "")
+    return StudyOutcome(source, study_folder_name(source), code, error=error, runtime_s=runtime_s)
 
 
 def run_batch(
@@ -175,17 +184,26 @@ def _check_folder_name(source: str | Path, name: str, out: Path) -> None:
 
 def _gather(completed: Iterable[tuple[int, Any]], tasks: list[tuple], done: Callable) -> list[StudyOutcome]:
     """The outcomes of (task index, finished future) pairs in completion order, each passed to ``done``;
-    returned in the order of ``tasks``. A worker that died, was lost or could not unpickle the task
-    gives code 3 (not the study's fault)."""
+    returned in the order of ``tasks``."""
     outcomes: dict[int, StudyOutcome] = {}
     for i, future in completed:
-        try:
-            outcomes[i] = future.result()
-        except Exception as exc:
-            error = f"worker failed: {type(exc).__name__}: {exc}"
-            outcomes[i] = StudyOutcome(tasks[i][0], study_folder_name(tasks[i][0]), 3, error=error)
+        outcomes[i] = _outcome(future, tasks[i])
         done(outcomes[i])
     return [outcomes[i] for i in range(len(tasks))]
+
+
+def _outcome(future, task: tuple) -> StudyOutcome:
+    """A finished future's outcome; a worker that died, was lost or could not unpickle the task gives
+    code 3 (not the study's fault)."""
+    try:
+        return future.result()
+    except Exception as exc:
+        return _worker_failed(task, exc)
+
+
+def _worker_failed(task: tuple, exc: Exception) -> StudyOutcome:
+    error = f"worker failed: {type(exc).__name__}: {exc}"
+    return StudyOutcome(task[0], study_folder_name(task[0]), 3, error=error)
 
 
 @contextlib.contextmanager
@@ -207,7 +225,8 @@ def _sigterm_interrupts():
 
 
 def _watch(stop) -> None:
-    """In a worker: wait until the batch stops or the batch's process is gone, then end this process."""
+    """In a worker: wait until the batch stops or the batch's process is gone, then end this process
+    (its study is not published either way: the batch swaps it in, :func:`_swap`)."""
     import multiprocessing
     from multiprocessing.connection import wait
 
@@ -215,20 +234,19 @@ def _watch(stop) -> None:
     while not stop.is_set():
         if wait([parent.sentinel], timeout=WATCH_S):
             break  # the parent died (even by SIGKILL): nothing of this batch may go on
-    os._exit(Terminated.exit_code)  # at once: no study of a dead or stopped batch is published
+    os._exit(Terminated.exit_code)  # at once: no work goes on for a dead or stopped batch
 
 
 def _start_worker(stop) -> None:
-    """Initializer of each pool process: remember the stop event, start the watching thread."""
-    global _STOP
-    _STOP = stop
+    """Initializer of each pool process: start the watching thread."""
     threading.Thread(target=_watch, args=(stop,), name="matid-batch-watch", daemon=True).start()
 
 
 def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyOutcome]:
-    """Each task in a process of a local pool; results in the order of ``tasks``."""
+    """Each task in a process of a local pool, its output staged and swapped in here; results in the
+    order of ``tasks``."""
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, ProcessPoolExecutor, wait
 
     # forkserver: workers start clean (no inherited threads, e.g. a progress bar's). Nothing is
     # preloaded in the server: while it imports, it cannot see this process die, and it outlived a
@@ -237,28 +255,73 @@ def _run_processes(tasks: list[tuple], jobs: int, done: Callable) -> list[StudyO
     stop = context.Event()
     others = set(multiprocessing.active_children())  # this process's children that are not the pool's
     pool = ProcessPoolExecutor(jobs, mp_context=context, initializer=_start_worker, initargs=(stop,))
+    outcomes: dict[int, StudyOutcome] = {}
+    running: dict[Any, tuple[int, Any, Path]] = {}  # future -> (task index, claim, staged folder)
+    queue = iter(enumerate(tasks))
     try:
-        futures = {pool.submit(fit_one, *task): i for i, task in enumerate(tasks)}
-        outcomes = _gather(((futures[f], f) for f in as_completed(futures)), tasks, done)
+        while True:
+            while len(running) < AHEAD * jobs and (item := next(queue, None)) is not None:
+                i, task = item
+                staged = _stage(task)
+                if isinstance(staged, StudyOutcome):  # its output cannot be written: not fitted
+                    outcomes[i] = staged
+                    done(staged)
+                    continue
+                try:
+                    running[pool.submit(fit_one, *task, str(staged[1]))] = (i, *staged)
+                except BrokenExecutor as exc:  # a worker died: the pool takes no more studies
+                    staged[0].discard(staged[1])
+                    outcomes[i] = _worker_failed(task, exc)
+                    done(outcomes[i])
+            if not running:
+                break
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in finished:
+                i, claim, folder = running.pop(future)
+                outcomes[i] = _swap(_outcome(future, tasks[i]), claim, folder)
+                done(outcomes[i])
     except BaseException:  # SIGINT, SIGTERM (Terminated), or a failing progress callback
         stop.set()
         for worker in set(multiprocessing.active_children()) - others:
-            worker.kill()  # now: a worker half-way through a publication must not finish it
+            worker.kill()  # now: no work goes on for a stopped batch
         pool.shutdown(wait=True, cancel_futures=True)
-        _tidy([Path(task[1]) for task in tasks])
+        for _, claim, folder in running.values():
+            claim.discard(folder)
         raise
     pool.shutdown(wait=True)
-    return outcomes
+    return [outcomes[i] for i in range(len(tasks))]
 
 
-def _tidy(outs: list[Path]) -> None:
-    """Remove the temporary folders that stopped workers left beside their output folders."""
+def _stage(task: tuple):
+    """(claim, staged folder) of a task's output (:meth:`matid.io.publish.Claim.stage`), or the outcome
+    of a study whose output cannot be written (a DataError or OutputError, before it is fitted)."""
     from matid.io.publish import claim_output
 
-    for out in outs:
-        if any(out.parent.glob(f".{out.name}.matid-new-*")):
-            with contextlib.suppress(MatidError, OSError), claim_output(out):
-                pass  # a claim cleans what a crashed run left (matid.io.publish.Claim._recover)
+    claim = None
+    try:
+        claim = claim_output(Path(task[1]))
+        return claim, claim.stage()
+    except MatidError as exc:
+        if claim is not None:
+            claim.release()
+        return _failed(task[0], exc)
+
+
+def _swap(outcome: StudyOutcome, claim, folder: Path) -> StudyOutcome:
+    """Publish the folder a worker filled (its outcome has paths), here in the batch's main thread:
+    an interrupt is raised before a swap or after it, and once the batch stopped or died nothing
+    swaps; a folder the worker did not fill is removed. The output's lock is dropped."""
+    try:
+        if not outcome.paths:
+            claim.discard(folder)
+            return outcome
+        try:
+            claim.swap(folder, [Path(p).name for p in outcome.paths])
+        except MatidError as exc:
+            return _failed(outcome.source, exc, outcome.runtime_s)
+        return outcome
+    finally:
+        claim.release()
 
 
 def _run_dask(tasks: list[tuple], address: str, done: Callable) -> list[StudyOutcome]:

@@ -166,20 +166,21 @@ def render_report(result: StudyResult, *, units: str = "SI") -> dict[str, bytes]
     return render(result, units=units)
 
 
-def write_outputs(
-    result: StudyResult, out: Path, *, units: str = "SI", before_swap: Callable[[], None] | None = None
-) -> list[Path]:
-    """Render every output file of docs/contract.md section 4 in memory, then publish them as the
-    folder ``out`` whole; returns the paths.
-
-    The old contents of ``out`` stay whole until the new folder replaces them in
-    one step (:func:`matid.io.publish.publish`, which calls ``before_swap`` just before it);
-    a write error raises OutputError.
-    """
-    files = {
+def output_files(result: StudyResult, *, units: str = "SI") -> dict[str, bytes | str]:
+    """Every output file of docs/contract.md section 4, rendered in memory: name -> content."""
+    return {
         **render_report(result, units=units),
         "stiffness.csv": stiffness_csv(result, units),
         "stiffness.json": json.dumps(stiffness_json(result, units), indent=2) + "\n",
         "stiffness.xlsx": stiffness_xlsx(result, units),  # docs/contract.md section 7
     }
-    return publish(files, Path(out), before_swap=before_swap)
+
+
+def write_outputs(result: StudyResult, out: Path, *, units: str = "SI") -> list[Path]:
+    """Render every output file (:func:`output_files`) in memory, then publish them as the folder
+    ``out`` whole; returns the paths.
+
+    The old contents of ``out`` stay whole until the new folder replaces them in
+    one step (:func:`matid.io.publish.publish`); a write error raises OutputError.
+    """
+    return publish(output_files(result, units=units), Path(out))

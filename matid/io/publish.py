@@ -16,6 +16,8 @@ and new files when the process dies between two of them. Here instead:
    RENAME_EXCHANGE)`` swaps the two folder names atomically, and the old folder,
    now under the hidden name, is removed. ``DIR/report.html`` etc. stay at the
    same paths. When ``DIR`` does not exist yet, a plain ``rename`` publishes.
+   The three steps are :meth:`Claim.stage`, :func:`fill` and :meth:`Claim.swap`:
+   a batch fills in its worker processes and swaps in its own (:mod:`matid.app.batch`).
 3. Where ``renameat2`` is missing (not Linux, an old kernel, a filesystem without
    it), two renames stand in: ``DIR`` -> ``.DIR.matid-old-XXXX``, then the new
    folder -> ``DIR``. Between the two a reader finds no ``DIR`` (never a mix); a
@@ -41,7 +43,7 @@ import secrets
 import shutil
 import stat
 import weakref
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
 from matid.errors import DataError, MatidError
@@ -219,30 +221,33 @@ class Claim:
         os.write(self.fd, kept.encode())
         os.fsync(self.fd)
 
-    def publish(
-        self, files: Mapping[str, bytes | str], *, before_swap: Callable[[], None] | None = None
-    ) -> list[Path]:
-        """Write ``files`` (name -> content) into a new folder and swap it in; returns the output paths.
+    def publish(self, files: Mapping[str, bytes | str]) -> list[Path]:
+        """Write ``files`` (name -> content) into a new folder and swap it in; returns the output paths."""
+        new = self.stage(files)
+        fill(new, files, self.out)
+        return self.swap(new, files)
 
-        ``before_swap`` is called last before the swap; if it raises, the new folder is removed and the
-        old contents stay (a stopped batch's worker: nothing published after the stop).
-        """
+    def stage(self, names: Iterable[str] = ()) -> Path:
+        """A new hidden folder beside the output, recorded in the lock file, for :func:`fill` (in this
+        process or another: a batch's worker) and then :meth:`swap` or :meth:`discard`."""
         if self.fd is None:
-            raise RuntimeError("publish on a released claim")
-        check_output(self.out, OUTPUT_NAMES | frozenset(files))
-        real = self.real
+            raise RuntimeError("stage on a released claim")
+        check_output(self.out, OUTPUT_NAMES | frozenset(names))
         try:
-            new = self.fresh(NEW)
+            return self.fresh(NEW)
         except OSError as exc:
             raise OutputError(
                 f"{self.out}: cannot write the outputs: {exc.strerror}; nothing was written, the previous "
                 "contents of the folder are unchanged"
             ) from exc
+
+    def swap(self, new: Path, names: Iterable[str]) -> list[Path]:
+        """Make the staged and filled folder ``new`` the output in one step; returns the output paths.
+        On an error (or an interrupt) ``new`` is removed and the old contents stay."""
+        names = list(names)
         try:
-            _fill(new, files, mode=_folder_mode(real))
-            if before_swap is not None:
-                before_swap()
-            _swap_in(new, real, self.fresh)
+            check_output(self.out, OUTPUT_NAMES | frozenset(names))
+            _swap_in(new, self.real, self.fresh)
             os.ftruncate(self.fd, 0)  # the temporary folders are gone: nothing left to list
         except OSError as exc:
             shutil.rmtree(new, ignore_errors=True)
@@ -253,7 +258,30 @@ class Claim:
         except BaseException:
             shutil.rmtree(new, ignore_errors=True)
             raise
-        return [self.out / name for name in files]
+        return [self.out / name for name in names]
+
+    def discard(self, new: Path) -> None:
+        """Remove the staged folder ``new`` (nothing published) and drop the lock."""
+        shutil.rmtree(new, ignore_errors=True)
+        if self.fd is not None:
+            os.ftruncate(self.fd, 0)
+        self.release()
+
+
+def fill(new: Path, files: Mapping[str, bytes | str], out: Path) -> None:
+    """Write ``files`` into the staged folder ``new`` (:meth:`Claim.stage`) of the output ``out``, each
+    fsynced, and give it the mode of ``out``. A write error removes ``new`` and raises OutputError."""
+    try:
+        _fill(new, files, mode=_folder_mode(Path(os.path.realpath(out))))
+    except OSError as exc:
+        shutil.rmtree(new, ignore_errors=True)
+        raise OutputError(
+            f"{out}: cannot write the outputs: {exc.strerror or exc}; "
+            "the previous contents of the folder are unchanged"
+        ) from exc
+    except BaseException:
+        shutil.rmtree(new, ignore_errors=True)
+        raise
 
 
 def _folder_mode(real: Path) -> int:
@@ -345,9 +373,6 @@ def claim_output(out: Path) -> Claim:
     return claim
 
 
-def publish(
-    files: Mapping[str, bytes | str], out: Path, *, before_swap: Callable[[], None] | None = None
-) -> list[Path]:
-    """Publish ``files`` as the folder ``out`` whole, under this process's claim or a short one of its own
-    (``before_swap``: see :meth:`Claim.publish`)."""
-    return claim_output(out).publish(files, before_swap=before_swap)
+def publish(files: Mapping[str, bytes | str], out: Path) -> list[Path]:
+    """Publish ``files`` as the folder ``out`` whole, under this process's claim or a short one of its own."""
+    return claim_output(out).publish(files)

@@ -3,6 +3,7 @@ seed 29) showed no other test sees."""
 
 from __future__ import annotations
 
+import codecs
 import re
 from pathlib import Path
 
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from matid.errors import DataError
+from matid.io.ingest.detect import split
 from matid.io.ingest.read import read_table
 
 
@@ -188,3 +190,84 @@ def test_a_file_that_grows_past_the_limit_while_read_is_refused_in_mib(tmp_path,
     monkeypatch.setattr(read, "os", SimpleNamespace(stat=lambda path: os.stat(small)))
     with pytest.raises(DataError, match=r"file grew beyond 1 MiB while being read"):
         read_table(big, "torsion")
+
+
+def test_a_row_with_values_under_the_first_row_s_trailing_delimiters_is_named_and_counted(tmp_path) -> None:
+    """The first data row ends in two empty cells (a trailing ',,'), so pandas parses five columns
+    without an error; row 3 writes values into the two beyond the header's three: it is named with
+    its own count of cells (a row under an empty trailing cell only, row 4, is read)."""
+    path = _write(tmp_path, "time [s],force [N],strain [%]\n0,0,0,,\n1,1,1,7,8\n2,2,2,\n3,3,3\n")
+    with pytest.raises(DataError) as info:
+        read_table(path, "extension")
+    assert info.value.row == 3 and info.value.detail.startswith("row has 5 cells, header has 3")
+    path = _write(tmp_path, "time [s],force [N],strain [%]\n0,0,0,,\n1,1,1\n2,2,2,\n3,3,3\n")
+    assert np.array_equal(read_table(path, "extension").columns["force"], [0, 1, 2, 3])
+
+
+_BODY = "twist_angle [rad],torque [N m]\n1000.5,2.25\n2,3.25\n3,4.25\n4,5.25\n5,6.25\n"
+_BY_NUMBER = {"columns": {"twist_angle": 1, "torque": 2}, "units": {"twist_angle": "rad", "torque": "N m"}}
+
+
+@pytest.mark.parametrize(
+    ("mark", "codec"),
+    [
+        (codecs.BOM_UTF8, "utf-8"),
+        (codecs.BOM_UTF16_LE, "utf-16-le"),
+        (codecs.BOM_UTF16_BE, "utf-16-be"),
+        (codecs.BOM_UTF32_LE, "utf-32-le"),
+    ],
+    ids=["utf-8", "utf-16-le", "utf-16-be", "utf-32-le"],
+)
+def test_a_byte_order_mark_kept_by_the_test_s_encoding_is_counted_once(tmp_path: Path, mark, codec) -> None:
+    """A file with a byte-order mark read with `encoding` naming the codec without its mark ("utf-8"
+    for an Excel "CSV UTF-8"): the codec keeps the mark as U+FEFF, and the first data row starts
+    where it starts. Before: the mark was counted twice, and 1000.5 was read as 0.5, silently."""
+    path = tmp_path / "marked.csv"
+    path.write_bytes(mark + _BODY.encode(codec))
+    table = read_table(path, "torsion", encoding=codec, **_BY_NUMBER)
+    assert np.array_equal(table.columns["twist_angle"], [1000.5, 2, 3, 4, 5])
+    assert list(table.lines) == [2, 3, 4, 5, 6]
+
+
+def test_a_first_row_read_from_the_middle_of_a_character_was_a_crash(tmp_path: Path) -> None:
+    """As above with a text cell 'abé' first: the row read 3 bytes late started inside 'é', and pandas'
+    UnicodeDecodeError reached the user (exit 3). Now the row reads."""
+    path = tmp_path / "marked.csv"
+    text = "note,twist_angle [rad],torque [N m]\nabé,0.5,1.25\nx,1.5,2.25\nx,2.5,3.25\nx,3.5,4.25\n"
+    path.write_bytes(codecs.BOM_UTF8 + text.encode("utf-8"))
+    table = read_table(path, "torsion", encoding="utf-8")
+    assert np.array_equal(table.columns["torque"], [1.25, 2.25, 3.25, 4.25])
+
+
+def test_utf_16_text_starting_with_nul_is_not_taken_for_a_utf_32_mark(tmp_path: Path) -> None:
+    """UTF-16 LE with its mark, the first character U+0000: the file starts FF FE 00 00, the UTF-32 LE
+    mark. Read as "utf-16" (the test's encoding), the rows are UTF-16 LE. Before: parsed as UTF-32 LE
+    from the data row on, a UnicodeDecodeError (exit 3). Found by a hypothesis search for the
+    ValueError path of frame.read_rows."""
+    path = tmp_path / "nul.csv"
+    path.write_bytes(codecs.BOM_UTF16_LE + ("\x00 export\n" + _BODY).encode("utf-16-le"))
+    table = read_table(path, "torsion", encoding="utf-16", **_BY_NUMBER)
+    assert np.array_equal(table.columns["torque"], [2.25, 3.25, 4.25, 5.25, 6.25])
+
+
+def test_a_redundant_escape_of_iso2022_jp_does_not_move_the_rows(tmp_path: Path) -> None:
+    """ISO-2022-JP with an escape to ASCII at the start where the text is ASCII already: it decodes to
+    nothing, and the text encoded again is 3 bytes shorter than the file's. Before: the rows were read
+    from 3 bytes early ('NaN or infinite value' at a good cell)."""
+    path = tmp_path / "jis.csv"
+    path.write_bytes(b"\x1b(B" + _BODY.encode("iso2022_jp"))
+    table = read_table(path, "torsion", encoding="iso2022_jp", **_BY_NUMBER)
+    assert np.array_equal(table.columns["twist_angle"], [1000.5, 2, 3, 4, 5])
+
+
+def test_a_tab_before_a_quoted_cell_of_a_space_delimited_row_separates_cells(tmp_path: Path) -> None:
+    """Space-delimited rows '0.5 1.25<TAB>"run a"': pandas splits at the tab (``\\s+``), and so does the
+    reading of a row for layout and messages now, quoted cell or not (a tab inside quotes stays). Before:
+    the quoted branch split at spaces only, '1.25<TAB>"run' was one cell, and the file had 'no header
+    row'; with a third number before the tab, a row of 4 cells was reported as 'row has 3 cells, header
+    has 3'. Found looking for an input that reaches frame._check_width."""
+    rows = "".join(f'{k}.5 {k + 1}.25\t"run {k}"\n' for k in range(4))
+    path = _write(tmp_path, "twist_angle [rad]  torque [N m]  note\n" + rows)
+    table = read_table(path, "torsion")
+    assert np.array_equal(table.columns["torque"], [1.25, 2.25, 3.25, 4.25])
+    assert split('1 2\t"a\tb" 3', " ") == ["1", "2", "a\tb", "3"]

@@ -53,27 +53,24 @@ def test_publish_creates_then_replaces_the_whole_folder(tmp_path):
     assert _beside(out) == []
 
 
-def test_a_raising_before_swap_publishes_nothing_and_leaves_no_folder_behind(tmp_path):
-    """A stopped batch's worker raises in ``before_swap`` (matid.app.batch.Stopped, a BaseException):
-    the old folder stays whole, the filled new folder is removed, the exception reaches the caller;
-    a ``before_swap`` that returns lets the swap happen."""
-    from matid.app.batch import Stopped
-
+def test_a_staged_folder_is_published_only_by_its_swap_and_a_discarded_one_leaves_nothing(tmp_path):
+    """A batch stages a folder (recorded in the lock file), a worker fills it, the batch swaps it in or
+    discards it (matid.app.batch): the old folder stays whole until the swap, and a discarded folder is
+    gone with its lock."""
     out = tmp_path / "out"
     publish.publish(OLD, out)
-    calls = []
-
-    def stop():
-        calls.append(sorted(p.name for p in tmp_path.iterdir()))  # the new folder is filled by now
-        raise Stopped
-
-    with pytest.raises(Stopped):
-        publish.publish(NEW, out, before_swap=stop)
-    assert any(name.startswith(".out.matid-") for name in calls[0])
-    assert _contents(out) == OLD
-    assert _beside(out) == []
-    publish.publish(NEW, out, before_swap=lambda: calls.append("called"))
-    assert calls[-1] == "called" and _contents(out) == _encoded(NEW)
+    claim = claim_output(out)
+    new = claim.stage(NEW)
+    publish.fill(new, NEW, out)
+    assert _beside(out) == [new.name] and _contents(out) == OLD  # filled, not yet published
+    assert claim.swap(new, NEW) == [out / n for n in NEW]
+    assert _contents(out) == _encoded(NEW) and _beside(out) == []
+    new = claim.stage(OLD)
+    publish.fill(new, OLD, out)
+    claim.discard(new)
+    assert claim.fd is None and _contents(out) == _encoded(NEW) and _beside(out) == []
+    with claim_output(out) as again:  # the lock was dropped: another claim gets it at once
+        assert again.fd is not None
 
 
 @pytest.mark.skipif(publish._RENAMEAT2 is None, reason="no renameat2 in this libc")

@@ -150,17 +150,20 @@ def spaced_cells(line: str) -> list[str]:
     return _SPACES.split(line) if line else []
 
 
+#: A quoted cell (kept whole) or a tab outside one (a separator, as pandas' ``\s+`` reads it).
+_QUOTED_OR_TAB = re.compile(r'"[^"]*"|\t')
+
+
 def split(line: str, delimiter: str) -> list[str]:
     """Cells of one line, stripped; trailing empty cells (a trailing delimiter) dropped.
 
     Raises csv.Error for a cell longer than csv's field limit.
     """
-    if delimiter == " ":
-        cells = (
-            spaced_cells(line)
-            if '"' not in line
-            else next(csv.reader([line.strip()], delimiter=" ", skipinitialspace=True), [])
-        )
+    if delimiter == " " and '"' not in line:
+        cells = spaced_cells(line)
+    elif delimiter == " ":  # quoted cells: csv splits at spaces, so tabs outside them become spaces
+        spaced = _QUOTED_OR_TAB.sub(lambda m: " " if m.group() == "\t" else m.group(), line.strip())
+        cells = next(csv.reader([spaced], delimiter=" ", skipinitialspace=True), [])
     else:
         cells = [c.strip() for c in next(csv.reader([line], delimiter=delimiter), [])]
     while cells and not cells[-1]:

@@ -17,6 +17,7 @@ file: :func:`matid.io.ingest.detect.number`, so the message is the same.
 from __future__ import annotations
 
 import codecs
+import contextlib
 import csv
 import io
 import re
@@ -68,8 +69,28 @@ def locate(raw: bytes, text: str, layout: Layout) -> Start:
     """The byte offset of the first data row and the decimal mark, from the decoded ``text``
     (which the caller may then drop: the rows are parsed from ``raw``)."""
     start = _line_start(text, layout.data_at)
-    codec, bom = _tail_codec(raw, layout.encoding)
-    return Start(bom + len(text[:start].encode(codec)), _decimal(text, start, layout))
+    return Start(_offset(raw, text[:start], layout.encoding), _decimal(text, start, layout))
+
+
+def _offset(raw: bytes, head: str, encoding: str) -> int:
+    """The byte of ``raw`` where its decoded start ``head`` ends (after a byte-order mark if ``head`` is
+    empty). ``head`` encoded again gives it, with the mark's length, when that gives back the file's
+    bytes; where it does not, the bytes are decoded one by one until ``head`` is read: a mark the codec
+    keeps as U+FEFF (a UTF-8 file with a mark read as "utf-8": it was counted twice, and the first row
+    lost its first character), or iso2022_jp's redundant escapes."""
+    codec, bom = _tail_codec(raw, encoding)
+    if not head:
+        return bom
+    with contextlib.suppress(UnicodeError):
+        guess = bom + len(head.encode(codec))
+        if raw[:guess].decode(encoding) == head:
+            return guess
+    decoder, chars = codecs.getincrementaldecoder(encoding)(), 0
+    for end in range(1, len(raw) + 1):
+        chars += len(decoder.decode(raw[end - 1 : end]))
+        if chars >= len(head):
+            return end
+    return len(raw)
 
 
 def read_rows(raw: bytes, start: Start, layout: Layout, path: Path) -> Rows:
@@ -89,9 +110,6 @@ def read_rows(raw: bytes, start: Start, layout: Layout, path: Path) -> Rows:
             frame = _parse(raw, start, layout, _widest(raw, layout))
         except pd.errors.ParserError as exc:  # not a width: a quote that never closes, say
             raise _unparsable(raw, layout, path, exc) from None
-    except (UnicodeDecodeError, ValueError):
-        _first_bad_row(raw, layout, path)
-        raise
     if not all(pd.api.types.is_numeric_dtype(t) for t in frame.dtypes):
         frame = frame.apply(_blank_as_na)
     blank = frame.isna().all(axis=1).to_numpy()
@@ -241,8 +259,8 @@ def _line_start(text: str, line: int) -> int:
 def _tail_codec(raw: bytes, encoding: str) -> tuple[str, int]:
     """(codec for bytes after the start, length of the byte-order mark the start has)."""
     family = codecs.lookup(encoding).name
-    for bom, _, codec in BOMS:
-        if raw.startswith(bom) and family in ("utf-8-sig", "utf-16", "utf-32", codec):
+    for bom, name, codec in BOMS:  # a mark of this codec's own (UTF-16 LE text may start FF FE 00 00)
+        if raw.startswith(bom) and family in (name, codec):
             return codec, len(bom)
     return {"utf-8-sig": "utf-8", "utf-16": "utf-16-le", "utf-32": "utf-32-le"}.get(family, family), 0
 

@@ -90,6 +90,40 @@ def test_the_richardson_estimate_of_the_mesh_error_is_the_error_against_the_shoo
     assert 1 / 1.5 <= est.extra["fe"]["discretization_error"] / actual <= 1.5
 
 
+def test_the_coarse_forces_of_the_fe_error_are_solved_at_every_picked_row_of_a_long_curve():
+    """100 rows (a line with 3 % noise: the data only set the rows and the interpolation tolerance;
+    the forces of both meshes are the model's), every row a knot of the 16-element fit: fe_error's
+    coarse solve (8 elements) at every third knot and the last, 34 rows, more than the
+    2 START_KNOTS - 1 that a Problem left to choose its knots solves each. Its Richardson estimate
+    equals the one from BendModel solved at those rows directly (the same model at the same rows:
+    equal to rounding). Forces interpolated from START_KNOTS coarse knots instead moved it by
+    2.7e-4 of itself (measured)."""
+    import numpy as np
+
+    from matid.fits.shear import fit as shear
+    from matid.fits.shear.problem import ORDER, START_KNOTS, Problem, fe_error
+    from matid.rod.bend import BendModel
+    from tests.fits.shear.test_fit import E_B, E_E, E_S, SPECIMEN, measurement, rig
+
+    d = np.linspace(0.0, 1e-3, 100)
+    F = 200.0 * d + np.random.default_rng(3).normal(0.0, 0.03 * 0.2, d.size)
+    data = [shear.bend_data(measurement(d, F, rig(0.010)), SPECIMEN, E_B)]
+    (b,) = data
+    every = np.unique(b.d, return_index=True)[1]
+    problem = Problem(data, E_B, E_E, fit_E_b=False, elements=16, knots=[every])
+    x = np.log([E_S])
+    error, levels = fe_error(problem, x, data, E_E, False)
+
+    picked = every[np.unique(np.r_[np.arange(0, every.size, 3), every.size - 1])]
+    assert picked.size > 2 * START_KNOTS - 1  # the coarse Problem would not solve every row itself
+    r, J = problem.evaluate(x)
+    coarse = BendModel(b.geometry, elements=8).solve(E_B, E_S, E_E, b.d[picked]).force - b.F[picked]
+    shift = np.linalg.lstsq(J[picked], (r[picked] - coarse) / (2.0**ORDER - 1.0), rcond=None)[0]
+    assert error > 0 and error == pytest.approx(abs(shift[0]), rel=1e-9)
+    assert [lvl["elements"] for lvl in levels] == [8, 16]
+    assert levels[0]["discretization_error"] == pytest.approx(2.0**ORDER * error, rel=1e-12)
+
+
 # --- the bend record's cut (matid/fits/shear/window.py) on hand-made records ---
 
 
