@@ -376,34 +376,15 @@ def _sides_case() -> Case:
 
 def _refused_cases() -> list[Case]:
     cutting = (S.wall((0.5 * R, 0.0), (-1.0, 0.0)),)
-    narrow = {**STRAIGHT, "radius": 0.9 * S.R_O}
     options = {"tolerance": None, "basis": "must be refused", "quick": True}
+    lumens = [("a lumen narrower than the tube", 0.9, "narrower than the tube"),
+              ("a lumen as wide as the tube", 1.0, "leaves the tube no room")]  # fmt: skip
     return [
-        _case(
-            "a wall cutting the clamp",
-            {"wall": "x = R_o / 2"},
-            lambda: S.with_contact(S.magnetic_raw(), walls=cutting),
-            None,
-            REFUSED_BY_READER,
-            expect=refused(says="cuts the clamp"),
-            **options,
-        ),
-        _case(
-            "a lumen narrower than the tube",
-            {"lumen radius / tube radius": 0.9},
-            lambda: S.with_contact(S.magnetic_raw(), lumen=narrow),
-            None,
-            REFUSED_BY_READER,
-            expect=refused(says="narrower than the tube"),
-            **options,
-        ),
-        _case(
-            "a lumen as wide as the tube",
-            {"lumen radius / tube radius": 1.0},
-            lambda: S.with_contact(S.magnetic_raw(), lumen={**STRAIGHT, "radius": S.R_O}),
-            None,
-            REFUSED_BY_READER,
-            expect=refused(says="leaves the tube no room"),
-            **options,
-        ),
-    ]
+        _case("a wall cutting the clamp", {"wall": "x = R_o / 2"},
+              lambda: S.with_contact(S.magnetic_raw(), walls=cutting), None, REFUSED_BY_READER,
+              expect=refused(says="cuts the clamp"), **options),
+        *(_case(name, {"lumen radius / tube radius": k},
+                lambda k=k: S.with_contact(S.magnetic_raw(), lumen={**STRAIGHT, "radius": k * S.R_O}),
+                None, REFUSED_BY_READER, expect=refused(says=says), **options)
+          for name, k, says in lumens),
+    ]  # fmt: skip
