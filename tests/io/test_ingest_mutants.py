@@ -271,3 +271,14 @@ def test_a_tab_before_a_quoted_cell_of_a_space_delimited_row_separates_cells(tmp
     table = read_table(path, "torsion")
     assert np.array_equal(table.columns["torque"], [1.25, 2.25, 3.25, 4.25])
     assert split('1 2\t"a\tb" 3', " ") == ["1", "2", "a\tb", "3"]
+
+
+def test_a_bad_cell_of_a_file_without_a_header_names_the_row_its_data_start_at(tmp_path: Path) -> None:
+    """What the reader saw, in the message of a bad cell: a file with no header row whose data
+    start at its first row says so (a mutant said row -1)."""
+    path = _write(tmp_path, "0\t0\t0\n1\t1.5\t1\n2\tx\t2\n3\t4.5\t3\n")
+    columns, units = {"time": 1, "force": 2, "strain": 3}, {"time": "s", "force": "N", "strain": "%"}
+    with pytest.raises(DataError) as info:
+        read_table(path, "extension", columns=columns, units=units)
+    assert "no header row, data from row 1)" in info.value.detail, info.value.detail
+    assert info.value.row == 3
