@@ -36,6 +36,7 @@ in it is refused rather than deleted.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import errno
 import os
@@ -245,19 +246,10 @@ class Claim:
         """Make the staged and filled folder ``new`` the output in one step; returns the output paths.
         On an error (or an interrupt) ``new`` is removed and the old contents stay."""
         names = list(names)
-        try:
+        with _removed_on_error(new, self.out):
             check_output(self.out, OUTPUT_NAMES | frozenset(names))
             _swap_in(new, self.real, self.fresh)
             os.ftruncate(self.fd, 0)  # the temporary folders are gone: nothing left to list
-        except OSError as exc:
-            shutil.rmtree(new, ignore_errors=True)
-            raise OutputError(
-                f"{self.out}: cannot write the outputs: {exc.strerror or exc}; "
-                "the previous contents of the folder are unchanged"
-            ) from exc
-        except BaseException:
-            shutil.rmtree(new, ignore_errors=True)
-            raise
         return [self.out / name for name in names]
 
     def discard(self, new: Path) -> None:
@@ -271,8 +263,16 @@ class Claim:
 def fill(new: Path, files: Mapping[str, bytes | str], out: Path) -> None:
     """Write ``files`` into the staged folder ``new`` (:meth:`Claim.stage`) of the output ``out``, each
     fsynced, and give it the mode of ``out``. A write error removes ``new`` and raises OutputError."""
-    try:
+    with _removed_on_error(new, out):
         _fill(new, files, mode=_folder_mode(Path(os.path.realpath(out))))
+
+
+@contextlib.contextmanager
+def _removed_on_error(new: Path, out: Path):
+    """Remove the staged folder ``new`` on any error or interrupt; an OSError (a full disk, a
+    read-only folder) becomes the OutputError (exit 4) that says the old contents stay."""
+    try:
+        yield
     except OSError as exc:
         shutil.rmtree(new, ignore_errors=True)
         raise OutputError(
