@@ -15,7 +15,7 @@ from scipy.optimize import nnls
 
 from matid.errors import ConvergenceError
 from matid.rod.newton import NewtonFailure, check_admissible, newton
-from matid.rod.terms.contact import MAX_OUTER, ContactState, contact_of
+from matid.rod.terms.contact import MAX_OUTER, ContactState, contact_of, quadratic_slopes
 
 #: The augmented Lagrangian's k grows x10 (up to K_MAX) when an update shrinks the multipliers'
 #: change (in gap units, change / k) by less than 1/SLOW. Uzawa's rate is ~1/(1 + k sigma), sigma
@@ -287,8 +287,8 @@ def _kinked(system, term, prep, U, f, gaps, touch: tuple) -> tuple:
     bend = 0.0 if H is None else float(d3 @ H[node] @ d3)
     c = np.inf
     for lo in (v - 2, v):  # d3' at the vertex from the element on each side
-        d, x = term.directors(system, prep, U, order[lo : lo + 3]), ss[lo : lo + 3] - at
-        dd3 = np.polyfit(x / (x[2] - x[0]), d, 2)[1] / (x[2] - x[0])  # the quadratic's slope at the vertex
+        d = term.directors(system, prep, U, order[lo : lo + 3])
+        dd3 = quadratic_slopes(ss[lo : lo + 3], d)[v - lo]  # the quadratic's slope at the vertex
         c = min(c, float(grad[node] @ dd3) + bend)
     h = min(at - ss[v - 1], ss[v + 1] - at)  # as far as the next node on either side
     half = sigma / c if sigma < c * h else h

@@ -192,7 +192,7 @@ def test_the_slopes_of_a_quadratic_through_close_nodes_are_exact_and_silent():
     y = a + b * x[:, None] + c * x[:, None] ** 2
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        slopes = C._quadratic_slopes(x, y)
+        slopes = C.quadratic_slopes(x, y)
     assert np.allclose(slopes, b + 2 * c * x[:, None], rtol=0, atol=1e-6)
 
 

@@ -319,7 +319,7 @@ class Contact(Term):
         nodes = order[lo : lo + 3]
         se = ss[lo : lo + 3]
         d3 = self.directors(system, prep, U, nodes)
-        dd3 = _quadratic_slopes(se, d3)
+        dd3 = quadratic_slopes(se, d3)
         _, grad, H = gap
         psi = np.einsum("ij,ij->i", grad[nodes], dd3)
         if H is not None:
@@ -378,7 +378,7 @@ def to_lab(entries: list[dict], e_a, L: float, E_b: float) -> list[dict]:
     ]
 
 
-def _quadratic_slopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+def quadratic_slopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """The slopes at x (3,) of the quadratic through (x, y (3, k)), Lagrange's form in differences
     from the first node (exact however close the nodes: np.polyfit's Vandermonde warned RankWarning
     on the terminal when a contact put thousands of vertices on a rod)."""
