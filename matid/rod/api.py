@@ -27,7 +27,8 @@ from matid.rod.bend import DEFAULT_ELEMENTS as BEND_ELEMENTS
 from matid.rod.bend import BendGeometry, BendModel, BendPath
 from matid.rod.cantilever import Equilibrium, Solution, equilibrium, scene_plane
 from matid.rod.checks import penalty_error, strain_warnings
-from matid.rod.contact_mesh import contact_rounds, stretch_order
+from matid.rod.contact_ends import stretch_order
+from matid.rod.contact_mesh import contact_rounds
 from matid.rod.fem import ELEMENTS
 from matid.rod.models import FULL, PLANAR
 from matid.rod.scenes import MAX_SCENE_ELEMENTS, Scene, load_scene

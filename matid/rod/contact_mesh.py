@@ -1,6 +1,7 @@
 """Mesh vertices at interior contacts (issue 31): the rounds of :func:`contact_rounds` put a vertex
-at every interior point contact and one at each end of a short stretch, and :func:`stretch_order`
-caps the error estimate's order where a stretch leaves its wall inside an element.
+at every interior point contact and one at each end of a short stretch (where each end goes:
+:mod:`matid.rod.contact_ends`, which also caps the error estimate's order where a stretch leaves
+its wall inside an element).
 
 A short stretch: a shearable tube (E_s L^2/E_b ~ 300, the precurved and the tip-twist examples in a
 lumen) lies flat on its wall over a length shorter than the node spacing. There the shear strain
@@ -20,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from matid.errors import ConvergenceError
-from matid.rod.accuracy import P2_ORDER
+from matid.rod.contact_ends import end_secant, known_off, mesh_of, stretch_ends
 
 #: Interior contact points are mesh vertices once the next step would move them less than this
 #: (x L) and less than the scene's tolerance, within at most CONTACT_ROUNDS rounds.
@@ -28,12 +29,6 @@ CONTACT_MOVE = 1e-4
 #: (16: on the magnetic workspace in a bent 0.6 mm lumen, 36 states, the contact set settles in up
 #: to 5 rounds, three stretches and a corner contact, and their ends in up to 8 more.)
 CONTACT_ROUNDS = 16
-#: The order the error estimate may assume at most when a stretch leaves its wall inside the rod.
-STRETCH_ORDER = 1.0
-#: An end of a short stretch is off its vertex when its next estimate is farther from it than this
-#: fraction of the element outside it (as a point contact is off its vertex when another node
-#: carries more).
-OFF_END = 0.25
 #: A point contact is a short stretch between its last two vertices when its next step goes back
 #: to within HOP of the last step of the vertex before, or when it is on its vertex in both rounds
 #: and its secant step is more than HOP times the last (a true touching point: superlinear steps;
@@ -45,12 +40,6 @@ HOP = 0.5
 #: crawling (the corner contact of the workspace in a bent lumen, settled at 0.4992391 L, stepped
 #: 5e-10 then 5e-10 again and became a stretch of no length, whose ends then moved by 1e-3 L).
 SETTLED = 1e-8
-#: A stretch end's secant step is taken up to AHEAD times its plain move (a fixed point that the
-#: plain moves approach at rate rho lies 1 / (1 - rho) moves ahead: rho up to 0.9). At 2 (rho up
-#: to 0.5) the ends of the stretches along a bent 0.6 mm lumen crawled 1e-4 L a round at rate ~0.7
-#: and were still moving after 10 rounds (the magnetic workspace, E_b = 6e-5 N m^2, B along
-#: (10, 0, -17.3) mT).
-AHEAD = 10.0
 #: A short stretch whose ends come closer than this (x L) is a point contact again.
 SHORTEST = 1e-6
 
@@ -59,7 +48,7 @@ def contact_rounds(meshes_at, tolerance: float):
     """(answer, its Estimate, the Estimates of every round, the last step) of ``meshes_at(points,
     enough[, stretches])`` (refine on meshes with a vertex at each scaled s in points, stopping the
     doubling early once ``enough(answer)``; ``stretches``: the (from, to) of short stretches among
-    the points, for :func:`stretch_order`).
+    the points, for :func:`matid.rod.contact_ends.stretch_order`).
 
     First without points, then with a vertex at each interior contact point, all of them together,
     until the points move less than CONTACT_MOVE (a contact on a vertex of every nested mesh left
@@ -85,11 +74,13 @@ def contact_rounds(meshes_at, tolerance: float):
 
     def off_vertex(contacts):
         cut.clear()
-        kinds = []  # the kinds of contact each mesh of the round found
+        kinds, before = [], [None]  # the kinds of contact each mesh of the round found; its last look
 
         def enough(result) -> bool:
             seen = _observe(result, contacts)
             off = seen is None or not all(on for _, on in seen)
+            off = off or known_off(contacts, seen, before[0], min(CONTACT_MOVE, tolerance))
+            before[0] = seen
             kinds.append([c[0] for c in _fresh(result)[0]])
             cut[:] = [off]
             return off and len(kinds) > 1 and kinds[-1] == kinds[-2]
@@ -131,6 +122,8 @@ def contact_rounds(meshes_at, tolerance: float):
         f"{', '.join(f'{s:.6g} L' for s in points)}",
         round=CONTACT_ROUNDS,
     )
+
+
 
 
 def _merged(contacts: list, last: list) -> tuple[list, list]:
@@ -184,7 +177,7 @@ def interior_runs(result, besides=()) -> list[tuple[float, float]]:
 
 def _last(contact: tuple, obs) -> tuple:
     """What the next round's step needs of this one: ("point", vertex, touch) or ("stretch", from,
-    to, next from, next to)."""
+    to, next from, next to, the nodes of the mesh they were read on)."""
     return (*contact, *obs) if contact[0] == "stretch" else (*contact, obs)
 
 
@@ -208,8 +201,10 @@ def _observe(result, contacts) -> list | None:
             out.append((t, _on_vertex(c[1], t)))
         else:
             qa, qb, on = ends[c]
-            out.append(((qa, qb), on))
+            out.append(((qa, qb, mesh_of(result)), on))
     return out
+
+
 
 
 def _part_of(result, touch: tuple, stretch: tuple) -> bool:
@@ -224,10 +219,11 @@ def _next(contact: tuple, obs, last) -> tuple:
     """The next vertices of a contact. A point on its vertex loaded on both sides becomes a short
     stretch from its first to its last loaded node; a stretch whose ends meet, a point."""
     if contact[0] == "stretch":
-        qa, qb = obs
+        qa, qb, mesh = obs
         if last[0] == "stretch":  # a secant on each end's move (rate ~0.05)
-            qa = _end_secant(contact[1], qa, last[1], last[3])
-            qb = _end_secant(contact[2], qb, last[2], last[4])
+            same = last[5:] == (mesh,)
+            qa = end_secant(contact[1], qa, last[1], last[3], same)
+            qb = end_secant(contact[2], qb, last[2], last[4], same)
         return ("point", 0.5 * (qa + qb)) if qb - qa < SHORTEST else ("stretch", qa, qb)
     p = contact[1]
     span = obs[3] if len(obs) > 3 else None
@@ -251,17 +247,6 @@ def _next(contact: tuple, obs, last) -> tuple:
     return ("point", nxt)
 
 
-def _end_secant(x: float, q: float, x0: float, q0: float) -> float:
-    """The zero of the move q - x of a stretch end through its last two rounds (x0 -> q0, x -> q),
-    taken when it lies between 0.5 and AHEAD moves ahead (the fixed point's rate is steady) or
-    when the two moves point at each other (the end lies between x0 and x, and the secant too: an
-    end that alternated 0.687436 <-> 0.688118 L for 12 rounds, the magnetic workspace in a bent
-    lumen at E_b = 1.2e-4 N m^2, B = 20 mT along x); else the move itself."""
-    r, r0 = q - x, q0 - x0
-    if r == 0.0 or r == r0 or x == x0:
-        return q
-    step = -r * (x - x0) / (r - r0)
-    return x + step if 0.5 <= step / r <= AHEAD or r * r0 < 0.0 else q
 
 
 def _kink(contact: tuple, moved: tuple, touch) -> tuple[float, float] | None:
@@ -292,40 +277,8 @@ def _secant(s: float, slope: float, s0: float, slope0: float) -> float:
     return s if slope == slope0 else s - slope * (s - s0) / (slope - slope0)
 
 
-def stretch_ends(result, a: float, b: float) -> tuple[float, float, bool] | None:
-    """(next from, next to, both on their vertices) of a short stretch with mesh vertices at a < b,
-    or None when nothing between them is loaded. Each end moves to the smallest point of the
-    quadratic through the gaps at the three nodes of the element outside it (where the rod, leaving
-    the wall as c (s - end)^2, would touch it); on its vertex when that is within OFF_END of the
-    element."""
-    s, f, _, g = result.contact[3][:4]
-    order = np.argsort(s)
-    ss = s[order]
-    ia, ib = int(np.argmin(np.abs(ss - a))), int(np.argmin(np.abs(ss - b)))
-    F = f[:, order][:, ia : ib + 1].sum(axis=1)
-    if F.max() <= 0.0:
-        return None
-    gb = g[int(np.argmax(F))][order]
-    qa, qb, on = a, b, True
-    if ia >= 2:
-        qa = _smallest_point(ss[ia - 2 : ia + 1], gb[ia - 2 : ia + 1])
-        on = abs(qa - a) <= OFF_END * (ss[ia] - ss[ia - 2])
-    if ib + 2 < ss.size and b < 1.0:
-        qb = _smallest_point(ss[ib : ib + 3], gb[ib : ib + 3])
-        on = on and abs(qb - b) <= OFF_END * (ss[ib + 2] - ss[ib])
-    if qb <= qa:  # the ends crossed: the stretch is a point
-        qa = qb = 0.5 * (qa + qb)
-    return float(qa), float(qb), bool(on)
 
 
-def _smallest_point(s: np.ndarray, g: np.ndarray) -> float:
-    """Where the quadratic through three (s, g) is smallest, within an element beyond them; the
-    node of the smallest g when it is not convex."""
-    A, B, _ = np.polyfit(s - s[0], g, 2)
-    if A <= 0.0:
-        return float(s[int(np.argmin(g))])
-    h = s[2] - s[0]
-    return float(np.clip(s[0] - B / (2.0 * A), s[0] - h, s[2] + h))
 
 
 def _report_ends(result, contacts: list) -> None:
@@ -353,23 +306,3 @@ def interior_contacts(result) -> list[tuple]:
     tip = 1.0 - float(result.disc.vertices[-1] - result.disc.vertices[-2])
     return sorted((t for t in contact[2] if t[1] < tip and t[0] < tip), key=lambda t: (t[0], t[1]))
 
-
-def stretch_order(result, stretches: tuple = ()) -> float:
-    """The highest order the error estimate may assume for a converged cantilever: STRETCH_ORDER
-    when a stretch (a contact over more than three nodes) leaves its wall inside the rod, else
-    P2's. That end lies inside an element and the discrete lift-off hops between nodes as the
-    mesh doubles: the differences of successive meshes then follow no C h^p, and with the observed
-    order (2.3-4) the estimate was 6x below the true tip error (a cantilever pressed on a wall by
-    q L^3/E_b = 100 and pulled off by a tip force P L^2/E_b = 10: 3.9e-7 for 2.4e-6 at 128
-    elements, against tests/rod/contact_reference.lying_on_a_wall). A short stretch with a vertex
-    at each end (``stretches``, its (from, to)) leaves its wall on a vertex: P2's order."""
-    contact = getattr(result, "contact", None)
-    if contact is None or not hasattr(result, "disc"):
-        return P2_ORDER
-    v = result.disc.vertices
-    for c in contact[0]:
-        a, b = c["s"]
-        ours = any(max(a, lo) <= min(b, hi) for lo, hi in stretches)
-        if a != b and (a > v[1] or b < v[-2]) and not ours:
-            return STRETCH_ORDER
-    return P2_ORDER

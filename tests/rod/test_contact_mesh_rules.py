@@ -1,4 +1,5 @@
-"""The rules of matid.rod.contact_mesh on hand-made results, where the answer is known in closed form.
+"""The rules of matid.rod.contact_mesh and contact_ends on hand-made results, where the answer is
+known in closed form.
 
 A result here is what contact_mesh reads of a converged cantilever: ``disc.vertices`` and
 ``contact`` = (contacts with their s range, -, touch points, (s, f, -, g) of the P2 nodes). The
@@ -14,6 +15,7 @@ import numpy as np
 import pytest
 
 from matid.errors import ConvergenceError
+from matid.rod import contact_ends as E
 from matid.rod import contact_mesh as CR
 
 #: 10 elements on [0, 1]: vertices every 0.1, P2 nodes every 0.05
@@ -43,15 +45,15 @@ def _result(a: float, b: float, left: float, right: float, *, touches=(), entrie
 def test_a_stretch_end_moves_to_where_the_gap_beside_it_is_smallest(off, on):
     """The left end of a stretch on 0.5-0.7 L goes to the smallest point 0.5 - off of the gap's
     quadratic; it is on its vertex only within OFF_END (0.25) of the element outside it, 0.025 L."""
-    qa, qb, said = CR.stretch_ends(_result(0.5, 0.7, 0.5 - off, 0.7), 0.5, 0.7)
+    qa, qb, said = E.stretch_ends(_result(0.5, 0.7, 0.5 - off, 0.7), 0.5, 0.7)
     assert qa == pytest.approx(0.5 - off, abs=1e-12) and qb == pytest.approx(0.7, abs=1e-12)
-    assert said is on and (abs(qa - 0.5) <= CR.OFF_END * H) is on
+    assert said is on and (abs(qa - 0.5) <= E.OFF_END * H) is on
 
 
 def test_a_stretch_end_moves_at_most_one_element_beyond_the_nodes_it_is_read_from():
     """The gap beside the left end falling towards 0.75 L (inside the stretch, past the right end)
     moves that end one element beyond the three nodes it is read from (0.4-0.5 L), to 0.6 L."""
-    qa, qb, said = CR.stretch_ends(_result(0.5, 0.7, 0.75, 0.7), 0.5, 0.7)
+    qa, qb, said = E.stretch_ends(_result(0.5, 0.7, 0.75, 0.7), 0.5, 0.7)
     assert qa == pytest.approx(0.5 + H, abs=1e-12) and qb == pytest.approx(0.7, abs=1e-12)
     assert not said
 
@@ -115,3 +117,25 @@ def test_contact_rounds_stop_after_contact_rounds_rounds(monkeypatch):
     assert calls[-1] == pytest.approx(
         (0.4 - 0.01 * (CR.CONTACT_ROUNDS - 1), 0.6 + 0.01 * (CR.CONTACT_ROUNDS - 1))
     )
+
+
+def test_a_stretch_end_extrapolates_only_from_two_rounds_read_on_one_mesh():
+    """Moves of 1e-3 then 5e-4 (rate 0.5) put the end's fixed point two moves ahead, when both were
+    read on one mesh; read on two meshes the moves need not share a rate (the estimate depends on
+    the mesh), and the end takes its plain move. Moves that point at each other bracket the end on
+    any meshes: the secant between them."""
+    x0, q0, x, q = 0.500, 0.501, 0.501, 0.5015
+    assert E.end_secant(x, q, x0, q0, True) == pytest.approx(0.502, abs=1e-12)
+    assert E.end_secant(x, q, x0, q0, False) == q
+    assert E.end_secant(0.501, 0.5004, 0.500, 0.5008, False) == pytest.approx(0.50057142857, abs=1e-9)
+
+
+def test_a_round_stops_doubling_once_a_stretch_end_is_known_off_its_vertex():
+    """An end's estimate 1e-3 from its vertex that changed by 1e-4 since the last mesh is off it;
+    one that changed by 1e-3 (the estimate not yet resolved) or lies within the settling step is not."""
+    stretch = [("stretch", 0.4, 0.6)]
+    now = [((0.4, 0.601, 65), True)]
+    assert E.known_off(stretch, now, [((0.4, 0.6009, 33), True)], 1e-6)
+    assert not E.known_off(stretch, now, [((0.4, 0.6, 33), True)], 1e-6)
+    assert not E.known_off(stretch, [((0.4, 0.6000005, 65), True)], [((0.4, 0.6, 33), True)], 1e-6)
+    assert not E.known_off(stretch, now, None, 1e-6)

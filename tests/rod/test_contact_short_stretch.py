@@ -13,6 +13,7 @@ ends as unknowns (matid's model: extensible, shearable), rotated about the lumen
 from __future__ import annotations
 
 import math
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -112,3 +113,30 @@ def test_the_examples_in_a_straight_lumen_solve_with_a_short_stretch(name, radiu
     side = [c for c in sol.extra["contacts"] if c["s"][1] < 0.9 * L]
     assert len(side) == 1 and 0.5 * L < side[0]["s"][0] < side[0]["s"][1] < 0.7 * L
     assert sol.elements <= 256 and sol.extra["error_estimate"]["order"] > 2
+
+
+def test_no_contact_round_refines_past_the_mesh_its_answer_needs(monkeypatch):
+    """examples/scenes/magnet_direction.toml at 400 mT between two walls, tolerance 1e-7: a stretch
+    on each wall. A round whose stretch end is known off its vertex stops doubling (its meshes
+    cannot settle it): no round goes past the finest mesh of the last one (before, the sixth round
+    went to 2048 elements for an answer on 1024, 3x the CPU). Same tip as every round's answer,
+    within the scene's estimate of the exact one."""
+    import matid.rod.api as api
+
+    largest, refine = [], api.refine
+
+    def recorded(*args, **kwargs):
+        result = refine(*args, **kwargs)
+        largest.append(max(n for n, _ in result[1].history))
+        return result
+
+    monkeypatch.setattr(api, "refine", recorded)
+    raw = tomllib.loads((Path(__file__).parents[2] / "examples/scenes/magnet_direction.toml").read_text())
+    raw["tolerance"], raw["field"]["B"] = 1e-7, ["0 mT", "400 mT", "200 mT"]
+    raw["wall"] = [
+        {"point": ["-2 mm", "0 mm", "0 mm"], "normal": [1, 0, 0]},
+        {"point": ["1.41421356 mm", "0 mm", "1.41421356 mm"], "normal": [-1, 0, -1]},
+    ]
+    sol = api.solve(scene_from_dict(raw))
+    assert sol.converged and len(sol.extra["contacts"]) == 3 and len(largest) > 2
+    assert max(largest) == largest[-1]

@@ -160,12 +160,12 @@ def test_check_names_a_small_reaction_across_an_open_gap(monkeypatch):
     ],
 )
 def test_a_stretch_that_leaves_its_wall_inside_the_rod_caps_the_estimate_s_order(stretch, order):
-    """contact_mesh.stretch_order on hand-made results (8 elements on [0, 1]): an end of a
+    """contact_ends.stretch_order on hand-made results (8 elements on [0, 1]): an end of a
     stretch inside the rod hops between nodes as the mesh doubles, so the order is capped."""
     from types import SimpleNamespace
 
     from matid.rod.accuracy import P2_ORDER
-    from matid.rod.contact_mesh import STRETCH_ORDER, stretch_order
+    from matid.rod.contact_ends import STRETCH_ORDER, stretch_order
 
     result = SimpleNamespace(
         contact=([{"s": stretch}],), disc=SimpleNamespace(vertices=np.linspace(0.0, 1.0, 9))
