@@ -42,6 +42,14 @@ def sweep_json(axes: list[Axis], rows: list[dict]) -> dict:
 
 
 def workspace_png(axes: list[Axis], rows: list[dict], *, name: str = "", dpi: int = 120) -> bytes:
+    buffer = io.BytesIO()
+    workspace_figure(axes, rows, name=name).savefig(buffer, format="png", dpi=dpi)
+    return buffer.getvalue()
+
+
+def workspace_figure(axes: list[Axis], rows: list[dict], *, name: str = "") -> Figure:
+    """The tips and d3 of a sweep's states, one panel per plane (x-z, and y-z when any tip leaves
+    the x-z plane), coloured by the first key, the last key's states joined."""
     first = axes[0]
     colour = np.array(
         [list(first.values).index(v) if first.vector else v for v in _combos(axes, rows, 0)], float
@@ -77,7 +85,7 @@ def workspace_png(axes: list[Axis], rows: list[dict], *, name: str = "", dpi: in
             ax.plot([0], [0], "ks", ms=6)
         ax.set_xlabel(f"tip {'xy'[c]} (mm)")
         ax.set_ylabel("tip z (mm)")
-        ax.set_aspect("equal", adjustable="datalim")
+        _frame(ax, tip[ok][:, [c, 2]], arrow * d3[ok][:, [c, 2]], clamp=not zoom)
         ax.grid(alpha=0.3)
     label = f"{first.key} ({'index in its list' if first.vector else SI_UNITS[first.kind]})"
     fig.colorbar(points, ax=panels, label=label)
@@ -87,9 +95,21 @@ def workspace_png(axes: list[Axis], rows: list[dict], *, name: str = "", dpi: in
     title += "; zoomed on the tips (the clamp, at 0, is outside the view)" if zoom else ""
     title += f"; {failed} failed (not drawn)" if failed else ""
     fig.suptitle(textwrap.fill(title, 60 * len(views)), color="C3" if failed else "k", fontsize=9)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi)
-    return buffer.getvalue()
+    return fig
+
+
+def _frame(ax, tip: np.ndarray, arrow: np.ndarray, *, clamp: bool) -> None:
+    """Equal-aspect limits that hold every tip, the end of every d3 arrow (and the clamp when it is
+    drawn), with a margin: the axes box takes the aspect (with ``adjustable="datalim"`` matplotlib
+    trimmed the x range of a zoomed bent-lumen sweep, tips and arrows cut at the right edge)."""
+    points = np.vstack([tip, tip + arrow] + ([np.zeros((1, 2))] if clamp else []))
+    points = points[np.all(np.isfinite(points), axis=1)]
+    if points.size:
+        lo, hi = points.min(axis=0), points.max(axis=0)
+        pad = 0.05 * max(float(np.max(hi - lo)), 1e-9)
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal", adjustable="box")
 
 
 #: Tips spread over less than this share of their distance from the clamp are drawn zoomed in.

@@ -13,7 +13,7 @@ import pytest
 import matid.rod as R
 from matid.bench import scenes as S
 from matid.errors import DataError
-from matid.rod.sweeps import parse_sweep, states
+from matid.rod.sweeps import Axis, parse_sweep, states
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "sweeps" / "magnetic_workspace.toml"
@@ -123,3 +123,32 @@ def test_tips_gathered_in_a_lumen_are_drawn_zoomed_and_a_free_workspace_is_not()
     free = np.column_stack([18.0 * np.sin(angle), np.zeros(12), 18.0 * np.cos(angle)])
     zoom, arrow = view(free, span_of(free))
     assert not zoom and arrow == pytest.approx(0.08 * 18.0)
+
+
+def test_workspace_panels_hold_every_tip_and_arrow_end_after_drawing():
+    """A zoomed sweep (tips spread over 0.2 mm, 28.6 mm from the clamp, as in a bent lumen): with an
+    equal-aspect 'datalim' view the panels cut the rightmost tips and their d3 arrows. Every tip and
+    arrow end is inside its panel once drawn."""
+    from matid.rod.sweep_output import view, workspace_figure
+
+    field = tuple((0.02 * np.cos(a), 0.0, 0.02 * np.sin(a)) for a in np.arange(12) * np.pi / 6)
+    stiffness = Axis("rod.E_b", "bending_stiffness", False, (6e-5, 9e-5, 1.2e-4))
+    axes = [stiffness, Axis("field.B", "field", True, field)]
+    rng = np.random.default_rng(3)
+    rows = []
+    for _ in range(36):
+        tip = np.array([4.43 + 0.21 * rng.random(), 4.44 + 0.17 * rng.random(), 28.55 + 0.09 * rng.random()])
+        d3 = np.array([0.33, 0.31, 0.89]) / np.linalg.norm([0.33, 0.31, 0.89])
+        rows.append({"converged": True, **{f"tip_{c} [m]": x * 1e-3 for c, x in zip("xyz", tip, strict=True)},
+                     **{f"d3_{c}": x for c, x in zip("xyz", d3, strict=True)}})  # fmt: skip
+    fig = workspace_figure(axes, rows)
+    fig.canvas.draw()
+    tip = np.array([[r[f"tip_{c} [m]"] * 1e3 for c in "xyz"] for r in rows])
+    d3 = np.array([[r[f"d3_{c}"] for c in "xyz"] for r in rows])
+    zoom, arrow = view(tip, float(np.abs(tip).max()))
+    assert zoom
+    for panel, c in zip(fig.axes[:2], (0, 1), strict=True):
+        ends = np.vstack([tip[:, [c, 2]], tip[:, [c, 2]] + arrow * d3[:, [c, 2]]])
+        (x0, x1), (y0, y1) = panel.get_xlim(), panel.get_ylim()
+        assert (ends[:, 0] > x0).all() and (ends[:, 0] < x1).all(), (x0, x1, ends[:, 0].min(), ends[:, 0].max())
+        assert (ends[:, 1] > y0).all() and (ends[:, 1] < y1).all(), (y0, y1, ends[:, 1].min(), ends[:, 1].max())
