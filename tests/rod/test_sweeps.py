@@ -150,5 +150,5 @@ def test_workspace_panels_hold_every_tip_and_arrow_end_after_drawing():
     for panel, c in zip(fig.axes[:2], (0, 1), strict=True):
         ends = np.vstack([tip[:, [c, 2]], tip[:, [c, 2]] + arrow * d3[:, [c, 2]]])
         (x0, x1), (y0, y1) = panel.get_xlim(), panel.get_ylim()
-        assert (ends[:, 0] > x0).all() and (ends[:, 0] < x1).all(), (x0, x1, ends[:, 0].min(), ends[:, 0].max())
-        assert (ends[:, 1] > y0).all() and (ends[:, 1] < y1).all(), (y0, y1, ends[:, 1].min(), ends[:, 1].max())
+        lo, hi = ends.min(axis=0), ends.max(axis=0)
+        assert x0 < lo[0] and hi[0] < x1 and y0 < lo[1] and hi[1] < y1, (x0, x1, y0, y1, lo, hi)
