@@ -95,9 +95,7 @@ def newton(
 
     Converged when the Newton correction is below XTOL (scaled unknowns are
     O(1)), or below the system's round-off floor (``system.roundoff``, eps times
-    the stiffness spread) once it stops shrinking. A system with ``confirms_by_residual`` may
-    have the last correction taken from its residual and the last factorisation
-    (:func:`_confirmed`), on one smooth piece and with the consistent tangent only. Corrections are capped at
+    the stiffness spread) once it stops shrinking. Corrections are capped at
     MAX_STEP (a trust region). No line search, on purpose: on a slender rod
     the first Newton step from a straight state stretches the stiff axis by
     theta^2/2 and raises both the potential and |R| by orders of magnitude, yet
@@ -113,7 +111,6 @@ def newton(
     if mixed is not None:
         system.mixed_begin()
     branch, piece = getattr(system, "branch", None), None
-    confirm = getattr(system, "confirms_by_residual", False)
     for it in range(1, MAX_PIECEWISE_ITER + 1):
         if first is not None and it == 1:
             R, lu = first
@@ -148,30 +145,7 @@ def newton(
         if mixed is not None:  # mixed tangent far from the root, the consistent one near it
             mixed(dx, alpha) if size > MIXED_ABOVE else system.mixed_reset()
         x = x + dx * alpha
-        if confirm and alpha == 1.0 and len(sizes) >= 2 and size**3 <= XTOL * sizes[-2] ** 2:
-            consistent = mixed is None or sizes[-2] <= MIXED_ABOVE  # lu: the true tangent
-            if consistent and (branch is None or all(p is None for p in piece)):  # one smooth piece
-                done = _confirmed(system, x, lam, lu, measure)
-                if done is not None:
-                    return done, it + 1, lu
     raise NewtonFailure(f"no convergence in {it} iterations (correction {size:.3g})")
-
-
-def _confirmed(system: System, x: np.ndarray, lam: float, lu, measure) -> np.ndarray | None:
-    """x plus a simplified Newton correction (the residual at x, the last factorised tangent) when
-    that correction is below XTOL, else None (Newton goes on with a full iteration at x).
-
-    Called once the quadratic model of the last two corrections s1, s2 (the next is s2^3 / s1^2)
-    says the next full iteration would only confirm convergence: this one costs a residual and a
-    back-substitution instead of an assembled tangent and its factorisation (measured, planar:
-    ~22 us against ~52 us at 4-16 elements; full: ~58 against ~140). The factor is then the
-    consistent tangent one correction before the root (s2 <= (XTOL MIXED_ABOVE^2)^(1/3) ~ 2e-6
-    away): the stability test and the continuation's predictor read it as before."""
-    R = system.evaluate(x, lam, tangent=False)[0]
-    if not _finite(R):
-        return None
-    dx = lu.solve(-R)
-    return x + dx if _finite(dx) and measure(dx) <= XTOL else None
 
 
 def _max_abs(d: np.ndarray) -> float:

@@ -58,10 +58,6 @@ class RodSystem:
     banded: bool = False  # tangent in band storage (band.Banded: LAPACK Cholesky/LU) instead of CSR
     mixed: bool = False  # mixed-integration-point tangent in Newton (see mixed_update)
     terms: list[str] = field(init=False)  # the energy terms that run, from the rod, model and loads
-    #: Newton may take its last correction from a residual and the factor one correction earlier
-    #: (matid.rod.newton): the cantilever reads neither last_points nor the factor at the root (the
-    #: bend's BendSystem, whose sensitivities read both, does not offer this)
-    confirms_by_residual = True
 
     def __post_init__(self) -> None:
         self._stress = self._strain = None
