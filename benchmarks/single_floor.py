@@ -26,7 +26,11 @@ the same pass keeps each mesh's system and converged state, on which one Newton 
 evaluation are timed (best of N). ``outside`` = matid's time minus its evaluations at those
 costs; ``need`` = the per-evaluation cost (as a fraction of today's) that would reach each target
 with today's evaluation counts and today's outside time; ``need@oracle`` the same with the
-oracle's counts (negative: out of reach whatever an evaluation costs).
+oracle's counts (negative: out of reach whatever an evaluation costs); ``us/eval`` = (matid -
+oracle) / (its evaluations - the oracle's): what one evaluation costs in the solve with all it
+brings along (Newton's bookkeeping, the mixed stress update, predictor, probes); ``allowed`` = the
+evaluations (tangent and residual-only) each target allows at that cost, today's outside time and
+today's per-evaluation cost (``evals``: today's count).
 """
 
 from __future__ import annotations
@@ -166,6 +170,8 @@ def summary(name, t, tips, ref, live, floor, cost) -> dict:
     outside, outside_floor = t["matid"] - newton, t["oracle"] - newton_floor
     spare = sum((row[0] - 1) * cost[n][0] for n, row in floor.items())  # beyond 1 per mesh
     goal = t["bvp"] / TARGETS[name]  # the matid time the target allows
+    count, count_floor = (sum(row[0] + row[1] for row in rows.values()) for rows in (live, floor))
+    per_eval = (t["matid"] - t["oracle"]) / (count - count_floor)  # in the solve, all it brings along
     return {
         "problem": name,
         "target": TARGETS[name],
@@ -184,6 +190,9 @@ def summary(name, t, tips, ref, live, floor, cost) -> dict:
         "oracle_outside_ms": 1e3 * outside_floor,
         "goal_ms": 1e3 * goal,
         "need": (goal - outside) / newton,
+        "evaluation_in_solve_us": 1e6 * per_eval,
+        "evaluations_now": count,
+        "evaluations_allowed": count_floor + (goal - t["oracle"]) / per_eval,
         "need@oracle": (goal - outside_floor) / newton_floor,
         "tip_error": {who: float(np.max(np.abs(tips[who] - ref))) for who in tips},
     }
@@ -192,7 +201,7 @@ def summary(name, t, tips, ref, live, floor, cost) -> dict:
 def table(rows: list[dict]) -> str:
     lines = [
         "problem       target bvp/matid bvp/oracle oracle1  bvp ms matid ms oracle ms  goal ms  "
-        "newton ms outside ms oracle-out ms  need need@oracle"
+        "newton ms outside ms oracle-out ms  need need@oracle evals allowed us/eval"
     ]
     for r in rows:
         lines.append(
@@ -200,7 +209,8 @@ def table(rows: list[dict]) -> str:
             f"{r['bvp/oracle1']:7.2f} "
             f"{r['bvp_ms']:7.3f} {r['matid_ms']:8.3f} {r['oracle_ms']:9.3f} {r['goal_ms']:8.3f} "
             f"{r['newton_ms']:10.3f} {r['outside_ms']:10.3f} {r['oracle_outside_ms']:13.3f} "
-            f"{r['need']:5.2f} {r['need@oracle']:11.2f}"
+            f"{r['need']:5.2f} {r['need@oracle']:11.2f} {r['evaluations_now']:5d} "
+            f"{r['evaluations_allowed']:7.1f} {r['evaluation_in_solve_us']:6.0f}"
         )
     lines.append("")
     for r in rows:
