@@ -55,6 +55,8 @@ def contact_keys(raw: dict) -> dict:
         if not isinstance(points, list) or len(points) < 2:
             raise DataError("[lumen].centreline: need a list of at least two points [x, y, z]")
         line = tuple(_point(p, f"[lumen].centreline #{i + 1}") for i, p in enumerate(points))
+        for p in line:  # 1e300 mm: the gaps' round-off ~1e281 m, rounds that never settle
+            schema.check("lumen", "centreline", p, "[lumen]")
         radius = quantity(t, "radius", "length", "[lumen]")
         corner = quantity(t, "corner_radius", "length", "[lumen]", CORNER_RADII * radius)
         schema.check("lumen", "radius", radius, "[lumen]")

@@ -295,7 +295,7 @@ TABLES: tuple[Table, ...] = (
         "examples/scenes/advance_lumen.toml)",
         (
             Key("centreline", "points", "the centreline's corners [x, y, z] (lab frame), at least two",
-                '[["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "40 mm"]]', "length"),
+                '[["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", "40 mm"]]', "length", (0.0, POSITION[1])),
             _q("radius", "length", DIAMETER,
                "inner radius (wider than the tube: its clearance above the contact tolerance)", '"3 mm"',
                open_low=True),
@@ -360,7 +360,7 @@ def check(table: str, name: str, value, where: str) -> None:
         return
     low, high = spec.bounds
     unit = f" {spec.unit}" if spec.unit else ""
-    if spec.type == "vector":
+    if spec.type in ("vector", "points"):  # a vector, or one point of a list
         big = max(abs(c) for c in value)
         if not big <= high:
             raise DataError(f"{where}.{name}: each component must be at most {high:g}{unit} in magnitude, "

@@ -68,6 +68,16 @@ def test_a_rod_size_or_stiffness_out_of_bounds_is_refused(tmp_path, old, new, ke
     refused(tmp_path, ROD.replace(old, new), key)
 
 
+@pytest.mark.parametrize("far", ['"1e300 mm"', '"101 m"', "1e10"])
+def test_a_lumen_centreline_point_too_far_for_its_gaps_is_refused(tmp_path, far):
+    """The scene fuzz (wall_tip.toml with a lumen from z = -1e300 to 1e300 mm and [advance]) ran past
+    300 s: the gaps to a segment 2e297 m long carry a round-off of ~1e281 m. Lumen points are bounded
+    as wall points are (100 m per component)."""
+    line = f'[["0 mm", "0 mm", "-10 mm"], ["0 mm", "0 mm", {far}]]'
+    lumen = f'[lumen]\ncentreline = {line}\nradius = "3 mm"\n'
+    refused(tmp_path, ROD + lumen, "[lumen].centreline", "100 m")
+
+
 def test_a_tiny_span_is_refused_not_a_crash(tmp_path, capsys):
     path = scene(tmp_path, 'scene = "three_point_bend"\n' + ROD + BEND.replace('span = "10 mm"', 'span = "1e-300 m"'))
     assert main(["solve", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
