@@ -57,6 +57,7 @@ def refine(
     fixed: int | None = None,
     enough: Callable[[object], bool] | None = None,
     cap: Callable[[object], float] | None = None,
+    more: Callable[[object], bool] | None = None,
 ) -> tuple[object, Estimate]:
     """Solve on doubling meshes until the estimated relative error is below ``tolerance``.
 
@@ -64,7 +65,7 @@ def refine(
     ``fixed`` elements, solve there and at half of it, only to report the error.
     ``enough(solution)``: stop the doubling early once it is true (from the second mesh on).
     ``cap(solution)``: the highest order the estimate may assume for the finest solution (default
-    P2_ORDER).
+    P2_ORDER). ``more(solution)``: go on doubling while it is true, below the tolerance too.
     """
     if fixed is not None:
         levels = [max(fixed // 2, 1), fixed] if fixed > 1 else [1, 2]
@@ -81,7 +82,8 @@ def refine(
             if len(results) >= 2:
                 error, order = richardson([r[1] for r in results], _cap(cap, results[-1][0]))
                 early = enough is not None and enough(results[-1][0])
-                if error <= tolerance or 2 * n > MAX_ELEMENTS or early:
+                done = error <= tolerance and not (more is not None and more(results[-1][0]))
+                if done or 2 * n > MAX_ELEMENTS or early:
                     break
             n *= 2
     history = tuple((n, r[2]) for n, r in zip(levels, results, strict=True))

@@ -115,11 +115,11 @@ def _solve_forward(scene: Scene, *, elements, model, variant, element, start=Non
         force = np.asarray(sol.three_point_bend["force"])
         return sol, force / bend_force_scale(scene), sol.runtime_s
 
-    def meshes_at(points: tuple[float, ...], enough=None, stretches=()):
+    def meshes_at(points: tuple[float, ...], enough=None, stretches=(), more=None):
         nonlocal contact_at
         contact_at = points
         cap = lambda result: stretch_order(result, stretches)  # noqa: E731
-        return refine(at, tolerance=scene.tolerance, fixed=fixed, enough=enough, cap=cap)
+        return refine(at, tolerance=scene.tolerance, fixed=fixed, enough=enough, cap=cap, more=more)
 
     fixed = elements or scene.elements
     result, est, rounds, moved = contact_rounds(meshes_at, scene.tolerance)

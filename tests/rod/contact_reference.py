@@ -816,7 +816,9 @@ def _nx_on_wall(th: float, nz: float, es: float, ee: float) -> float:
     return -(sn + nz * c * sn * (1.0 / ee - 1.0 / es)) / (sn * sn / ee + c * c / es)
 
 
-def _rhs_shear(s, y, nx, nz, es, ee, k0, on_wall):
+def _rhs_shear(s, y, nx, nz, es, ee, k0, on_wall, ml=(0.0, 0.0)):
+    """``ml``: a magnetisation per length along d3 times the in-plane field (scaled): the couple per
+    length (d3 x B).e2 = ml_x cos theta - ml_z sin theta, which m' = -c adds to (m(L) = the tip's)."""
     th, m = y[2], y[3]
     sn, c = math.sin(th), math.cos(th)
     if on_wall:
@@ -824,10 +826,10 @@ def _rhs_shear(s, y, nx, nz, es, ee, k0, on_wall):
     n3, n1 = nx * sn + nz * c, nx * c - nz * sn
     xp = (1.0 + n3 / ee) * sn + (n1 / es) * c
     zp = (1.0 + n3 / ee) * c - (n1 / es) * sn
-    return [xp, zp, m + k0, -(zp * nx - xp * nz)]
+    return [xp, zp, m + k0, -(zp * nx - xp * nz) - (ml[0] * c - ml[1] * sn)]
 
 
-def shear_stretch_in_lumen(L, EI, E_s, E_e, w, B, m, guess, kappa0=0.0, samples=400) -> dict:
+def shear_stretch_in_lumen(L, EI, E_s, E_e, w, B, m, guess, kappa0=0.0, samples=400, per_length=0.0) -> dict:
     """A planar Reissner rod (extensible E_e, shearable E_s; nu1 = n1/E_s, nu3 = 1 + n3/E_e) clamped
     at the origin along +z between the walls x = -w and x = +w (a straight lumen's section through
     its axis, w = lumen radius - outer radius), with a tip magnet m along d3 in the in-plane field
@@ -837,21 +839,23 @@ def shear_stretch_in_lumen(L, EI, E_s, E_e, w, B, m, guess, kappa0=0.0, samples=
     stretch, is -n_x'. The rod leaves the wall smoothly at both ends (no point force: n_x
     continuous, so x' = 0 there too). Unknowns m(0), n_x before the stretch, a, b; equations
     x(a) = -w, n_x(a) = n_x(theta(a)), the tip couple m(L) = m (d3 x B).e2 and x(L) = w; n_z = 0
-    (no axial load). ``guess``: (m0 [N m], n_x [N], a [m], b [m]). Returns tip (x, z), a, b, the
+    (no axial load). ``per_length``: a magnetisation per length (A) along d3 over the whole rod
+    in the same field. ``guess``: (m0 [N m], n_x [N], a [m], b [m]). Returns tip (x, z), a, b, the
     stretch's resultant (N, along +x), the tip's reaction (N, along -x), residual and admissible
     (reactions >= 0 along the stretch and at the tip, gaps >= 0 sampled)."""
     fs, ms = EI / L**2, EI / L
     es, ee = E_s / fs, E_e / fs
     wl, k0 = w / L, kappa0 * L
     mB = m * np.asarray(B, float) / ms
+    ml = tuple(per_length * np.asarray(B, float) / fs)  # couple per scaled length, in E_b / L^2
 
     def shoot(u, dense=False):
         m0, nx0, a, b = u
         opts = dict(method="DOP853", rtol=RTOL, atol=ATOL, dense_output=dense)
-        p1 = solve_ivp(_rhs_shear, (0.0, a), [0.0, 0.0, 0.0, m0], args=(nx0, 0.0, es, ee, k0, False), **opts)
-        p2 = solve_ivp(_rhs_shear, (a, b), p1.y[:, -1], args=(0.0, 0.0, es, ee, k0, True), **opts)
+        p1 = solve_ivp(_rhs_shear, (0.0, a), [0.0, 0.0, 0.0, m0], args=(nx0, 0.0, es, ee, k0, False, ml), **opts)
+        p2 = solve_ivp(_rhs_shear, (a, b), p1.y[:, -1], args=(0.0, 0.0, es, ee, k0, True, ml), **opts)
         nxb = _nx_on_wall(p2.y[2, -1], 0.0, es, ee)
-        p3 = solve_ivp(_rhs_shear, (b, 1.0), p2.y[:, -1], args=(nxb, 0.0, es, ee, k0, False), **opts)
+        p3 = solve_ivp(_rhs_shear, (b, 1.0), p2.y[:, -1], args=(nxb, 0.0, es, ee, k0, False, ml), **opts)
         return p1, p2, p3, nxb
 
     def residual(u):

@@ -263,7 +263,7 @@ def _rounds_with(slope, monkeypatch, ends=None):
 
     given = []
 
-    def meshes_at(points, enough=None, stretches=()):
+    def meshes_at(points, enough=None, stretches=(), more=None):
         given.append((points, stretches))
         return (points, stretches), object()
 

@@ -58,6 +58,66 @@ def test_a_stretch_end_moves_at_most_one_element_beyond_the_nodes_it_is_read_fro
     assert not said
 
 
+@pytest.mark.parametrize("shift", [0.0, 0.01])
+def test_a_stretch_end_is_read_where_a_cubic_gap_beside_it_is_smallest(shift):
+    """The gap beside each end of a stretch on 0.5-0.7 L is c2 d^2 + c3 d^3 from where the rod
+    leaves its wall, at the vertices (shift 0) or 0.01 L inside them, with c3 h = 1.2 c2 (the
+    workspace in a straight lumen 1 % wider than the tube: c2 = 5e-3, c3 ~ 0.06 at 0.054 L
+    elements). Each end is read there; the quadratic of the element outside it read 0.0107 L off."""
+    left, right = 0.5 + shift, 0.7 - shift
+    d = np.where(NODES < left, left - NODES, np.where(NODES > right, NODES - right, 0.0))
+    gap = 5e-3 * d**2 + 0.06 * d**3
+    force = np.where((NODES >= 0.5 - 1e-12) & (NODES <= 0.7 + 1e-12), 1.0, 0.0)
+    result = _result(0.5, 0.7, 0.5, 0.7)
+    result.contact = (result.contact[0], None, [], (NODES, force[None, :], None, gap[None, :]))
+    qa, qb, on = E.stretch_ends(result, 0.5, 0.7)
+    assert qa == pytest.approx(left, abs=1e-9) and qb == pytest.approx(right, abs=1e-9) and on
+
+
+def test_a_stretch_end_inside_the_loaded_nodes_moves_to_the_last_of_them():
+    """A vertex at 0.5 L with the rod loaded from 0.35 L (the stretch reaches past it): the end
+    moves out to where the gap beside 0.35 L is smallest, not to a reading of the zero gaps of the
+    loaded nodes beside the vertex (0.4 L)."""
+    qa, qb, on = E.stretch_ends(_result(0.35, 0.7, 0.35, 0.7), 0.5, 0.7)
+    assert qa == pytest.approx(0.35, abs=1e-9) and qb == pytest.approx(0.7, abs=1e-9) and not on
+
+
+def test_round_off_reactions_and_gaps_beside_a_stretch_end_leave_it_where_it_is():
+    """A rod lying straight along its wall, loaded at 0.5-0.7 L: the nodes beyond carry reactions
+    of 2e-14 (below LOADED of the largest) and gaps of 7e-18 (below FLAT). The ends stay on their
+    vertices (they walked 0.95 -> 0.62 L in 16 rounds on such a rod pressed at its tip)."""
+    result = _result(0.5, 0.7, 0.5, 0.7)
+    force = np.where((NODES >= 0.5 - 1e-12) & (NODES <= 0.7 + 1e-12), 1.0, 0.0)
+    force[[4, 7, 16]] = 2e-14
+    gap = np.full(NODES.size, 7e-18)
+    result.contact = (result.contact[0], None, [], (NODES, force[None, :], None, gap[None, :]))
+    qa, qb, on = E.stretch_ends(result, 0.5, 0.7)
+    assert qa == pytest.approx(0.5, abs=1e-12) and qb == pytest.approx(0.7, abs=1e-12) and on
+
+
+def test_a_point_whose_gap_slopes_are_level_is_a_short_stretch_between_its_nodes():
+    """A point on its vertex 0.234375 L whose gap slope there and at its last most loaded node
+    0.25 L are 0.0019587 and 0.0019958 (the workspace in a 1 % wider lumen, E_b = 9e-5 N m^2, B =
+    (10, 0, 17.3) mT): their secant's zero is at -0.59 L, outside the rod; the rod lies along its
+    wall there, a short stretch. Slopes of opposite signs keep the secant: a touching point."""
+    p, node = 0.234375, 0.25
+    level = CR._next(("point", p), (0.2493, p, 0.0019587, None), ("point", p, (p, node, 0.0019958, None)))
+    assert level == ("stretch", p, node)
+    crossing = CR._next(("point", p), (0.2493, p, 0.001, None), ("point", p, (p, node, -0.001, None)))
+    assert crossing == ("point", pytest.approx(0.5 * (p + node), abs=1e-12))
+
+
+def test_a_round_goes_on_doubling_until_its_stretch_ends_agree_on_two_meshes():
+    """unsettled: reads 2e-4 L apart on the last two meshes go on, 5e-5 L apart stop; with
+    ``short`` only a stretch shorter than an element beside it counts (0.2 L against 0.1 L: not)."""
+    result, stretch = _result(0.5, 0.7, 0.5, 0.7), [("stretch", 0.5, 0.7)]
+    now = [((0.5002, 0.7, 41), True)]
+    assert E.unsettled(result, stretch, now, [((0.5, 0.7, 21), True)], 1e-4)
+    assert not E.unsettled(result, stretch, now, [((0.50015, 0.7, 21), True)], 1e-4)
+    assert not E.unsettled(result, stretch, now, [((0.5, 0.7, 21), True)], 1e-4, short=True)
+    assert not E.unsettled(result, stretch, [((0.5002, 0.7, 41), False)], [((0.5, 0.7, 21), True)], 1e-4)
+
+
 @pytest.mark.parametrize(
     ("node", "part"), [(0.3, False), (0.4, True), (0.6, True), (0.8, True), (0.9, False)]
 )
@@ -81,7 +141,7 @@ def _solver(results):
     with what it was asked for."""
     given = []
 
-    def meshes_at(points, enough=None, stretches=()):
+    def meshes_at(points, enough=None, stretches=(), more=None):
         given.append((points, stretches))
         return results[min(len(given) - 1, len(results) - 1)], object()
 
@@ -106,7 +166,7 @@ def test_contact_rounds_stop_after_contact_rounds_rounds(monkeypatch):
     CONTACT_ROUNDS rounds, then a ConvergenceError naming the round."""
     calls = []
 
-    def meshes_at(points, enough=None, stretches=()):
+    def meshes_at(points, enough=None, stretches=(), more=None):
         calls.append(points)
         return _result(0.4, 0.6, 0.4, 0.6), object()
 
