@@ -27,6 +27,13 @@ SLOW, K_MAX = 0.25, 1e8
 #: The multipliers' complementarity problem (_multiplier_newton) is solved up to this many loaded
 #: nodes (S dense: one back-substitution per node), Uzawa's steps beyond.
 MAX_DUAL = 2000
+#: S = G K^-1 G^T is built from back-substitutions on this many columns at a time. At 256 the
+#: solves' threaded BLAS made examples/scenes/point_load.toml against one wall (tolerance 1e-8, up
+#: to 512 elements, full model) take 34 s CPU and 135 s wall on 2 shared cores (load 6, OpenBLAS
+#: 0.3.31 with 2 threads; 2.7 s CPU with one thread): the scene fuzz counted such scenes as hangs.
+#: At 16, measured alternately in one run: 3.8-5.6 s CPU and 12-24 s wall with 2 threads, 2.3 s with
+#: one (1: 7.6, 8: 7.3, 32: 4.5 s CPU), the same tip to 1e-17 m.
+COLUMNS = 16
 #: Multiplier updates before giving up (the penalty has terms.contact.MAX_OUTER increases): plain
 #: Uzawa, when a stiffer k fails Newton, converges at its own rate (0.7 per update, measured).
 MAX_UPDATES = 80
@@ -152,7 +159,7 @@ def _multiplier_newton(system, prep, X: np.ndarray, f: np.ndarray, gaps: list) -
     except RuntimeError:  # singular tangent
         return None
     Gt = G.T.tocsc()
-    S = np.hstack([G @ lu.solve(Gt[:, j : j + 256].toarray()) for j in range(0, Gt.shape[1], 256)])
+    S = np.hstack([G @ lu.solve(Gt[:, j : j + COLUMNS].toarray()) for j in range(0, Gt.shape[1], COLUMNS)])
     S = 0.5 * (S + S.T)
     b, i = active[keep].T
     now = prep["state"].mu[b, i]
