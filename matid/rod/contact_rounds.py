@@ -153,7 +153,7 @@ def _multiplier_newton(system, prep, X: np.ndarray, f: np.ndarray, gaps: list) -
         return None
     G = sp.csr_matrix((vals, (rows, cols)), shape=(len(active), X.size))[keep]
     K = system.evaluate(X, 1.0)[1]
-    K = sp.csc_matrix(K.tocsr() if hasattr(K, "tocsr") else K)
+    K = sp.csc_matrix(K.tocsr())  # banded (matid.rod.band) or CSR: RodSystem.evaluate
     try:
         lu = spla.splu(K)
     except RuntimeError:  # singular tangent
