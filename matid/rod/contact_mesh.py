@@ -112,8 +112,6 @@ def contact_rounds(meshes_at, tolerance: float):
     )
 
 
-
-
 def _stops(contacts: list, tolerance: float, cut: list):
     """(enough, more) of a round meshed at ``contacts`` for :func:`matid.rod.accuracy.refine`:
     stop its doubling early once a contact is off its vertex (recorded in ``cut``); go on doubling
@@ -219,8 +217,6 @@ def _observe(result, contacts) -> list | None:
     return out
 
 
-
-
 def _part_of(result, touch: tuple, stretch: tuple) -> bool:
     """Whether a point touch lies on a stretch's elements or the ones beside them (a coarse mesh
     loads only a stretch's two vertices and its mid-point: a point contact by its nodes)."""
@@ -266,8 +262,6 @@ def _next(contact: tuple, obs, last) -> tuple:
     return ("point", nxt)
 
 
-
-
 def _kink(contact: tuple, moved: tuple, touch) -> tuple[float, float] | None:
     """The short stretch (from, to) a point contact that stays one needs for its shear kink (its
     touch's fifth item, from :func:`matid.rod.contact_rounds.report`), or None. Measured on the
@@ -294,10 +288,6 @@ def _on_vertex(p: float, touch: tuple) -> bool:
 def _secant(s: float, slope: float, s0: float, slope0: float) -> float:
     """The zero of the line through (s0, slope0), (s, slope) (s0 != s); s itself when level."""
     return s if slope == slope0 else s - slope * (s - s0) / (slope - slope0)
-
-
-
-
 
 
 def _report_ends(result, contacts: list) -> None:
