@@ -250,12 +250,16 @@ class Equilibrium:
         return replace(self, U=U, info=info, runtime_s=runtime, stress=stress, pending=None)
 
     def stress_at(self, disc: Discretisation) -> np.ndarray | None:
-        """The point stresses recovered at another mesh's quadrature points: linear through the
-        two Gauss points of the element of this mesh holding each point (where P2 stresses are
-        accurate). Only the first Newton tangent of a warm start uses them (see equilibrium)."""
+        """The point stresses recovered at another mesh's quadrature points: through the two Gauss
+        points of the element of this mesh holding each point (where P2 stresses are accurate) and,
+        without contact, the nearest of each neighbour not across a break (transfer.stress_recovery).
+        Only the first Newton tangent of a warm start uses them (see equilibrium)."""
         if self.stress is None or self.disc.element != "P2" or self.stress.shape[1] != 2:
             return None
-        R = stress_recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
+        smooth = self.scene is not None and self.contact is None  # contact forces kink the stresses
+        jumps = np.asarray(breaks(self.scene), float).tobytes() if smooth else None
+        meshes = (self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
+        R = stress_recovery(*meshes, jumps)
         ns = self.stress.shape[-1]
         return (R @ self.stress.reshape(-1, ns)).reshape(disc.s_quad.shape + (ns,))
 
