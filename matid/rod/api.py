@@ -107,9 +107,8 @@ def _solve_forward(scene: Scene, *, elements, model, variant, element, start=Non
     def at(n: int):
         nonlocal last
         if scene.kind == "cantilever":  # presented as a Solution only if it is the answer
-            last = equilibrium(
-                scene, elements=n, model=chosen, variant=variant, element=element, start=last, contact_at=contact_at
-            )
+            options = {"variant": variant, "element": element, "start": last, "contact_at": contact_at}
+            last = equilibrium(scene, elements=n, model=chosen, confirm=False, **options)
             return last, last.quantities(), last.runtime_s
         sol = solve_bend(scene, elements=n)
         force = np.asarray(sol.three_point_bend["force"])
@@ -133,6 +132,7 @@ def _solve_forward(scene: Scene, *, elements, model, variant, element, start=Non
     if len(rounds) > 1:  # interior contacts moved onto vertices (issue 31): their last step counts
         estimate["contact_rounds"], estimate["contact_step"] = len(rounds) - 1, moved
     if isinstance(result, Equilibrium):  # the Solution is built once, with its estimate
+        result = result.confirmed()  # the answer's last Newton evaluation, deferred (equilibrium)
         error = est.error + moved
         if variant == kin.RAW:  # the paper's penalty has an error of its own (~1/c_u): included
             estimate["penalty_error"] = penalty_error(result)

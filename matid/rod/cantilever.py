@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -20,10 +20,11 @@ from matid.rod.arc import arc
 from matid.rod.contact_rounds import carry, report, reset, settle
 from matid.rod.fem import Discretisation, graded_vertices
 from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
-from matid.rod.newton import NewtonFailure, NewtonInfo, check_admissible, follow, newton
+from matid.rod.newton import XTOL, NewtonFailure, NewtonInfo, check_admissible, follow, newton
 from matid.rod.scenes import Scene, plane_of
 from matid.rod.system import RodSystem
 from matid.rod.terms import Scale, Term, loads_of
+from matid.rod.terms.contact import contact_of
 from matid.rod.transfer import interpolate_p2, stress_recovery
 
 #: A rigid segment: bending and twist RIGID_FACTOR times the rod's, shear and
@@ -140,6 +141,7 @@ def equilibrium(
     intorder: int | None = None,
     start: tuple[np.ndarray, np.ndarray] | None = None,
     contact_at: tuple[float, ...] = (),
+    confirm: bool = True,
 ) -> Equilibrium:
     """The converged scaled state of a cantilever (raises ConvergenceError, never returns a failed state).
 
@@ -147,8 +149,13 @@ def equilibrium(
     Newton runs at the full load from its interpolant (measured: 3-6 iterations from the
     half mesh); the load continuation from the straight rod is the fallback when that fails.
     ``contact_at``: scaled arc lengths of interior contact points, mesh vertices too (issue 31).
+    ``confirm=False`` (a mesh of the error estimate that may be no answer; not with walls): Newton
+    may stop once its quadratic model forecasts the next correction below XTOL, and the confirming
+    evaluation waits for :meth:`Equilibrium.confirmed` (one per mesh saved on the coarser meshes).
     """
     t0 = time.perf_counter()
+    again = dict(elements=elements, model=model, variant=variant, c_u=c_u, element=element)
+    again.update(intorder=intorder, start=start, contact_at=contact_at)
     chosen, e_a, rod, loads, at = prepare_scene(scene, model)
     ne = elements or scene.elements or DEFAULT_ELEMENTS
     order = intorder or INTORDER[element]
@@ -165,27 +172,28 @@ def equilibrium(
         banded=True,
         mixed=True,  # the mixed-integration-point Newton (RodSystem.mixed_update)
     )
+    provisional = not confirm and contact_of(system) is None
     if isinstance(start, Equilibrium):
         system.stress_start = start.stress_at(disc)
         carry(system, start)  # the contact multipliers (contact_rounds)
         start = start.state()
-    X = _warm(system, start) if start is not None and element == "P2" else None
+    X = _warm(system, start, provisional) if start is not None and element == "P2" else None
     if X is None and start is None and element == "P2" and (bent := arc(system)) is not None:
-        X = _full_load(system, bent)
+        X = _full_load(system, bent, provisional)
     if X is None:
         system.stress_start = None  # the continuation starts from the straight rod
         reset(system)
         x0, probe = system.reduce(system.reference()), probe_start(rod, loads, chosen)
-        X, info = follow(system, x0, [1.0], definite_start=probe)
+        X, info = follow(system, x0, [1.0], definite_start=probe, provisional=provisional)
     else:
         X, info = X
     X = settle(system, X, info)  # walls and lumen (contact_rounds)
     U = system.expand(X).reshape(disc.nscalar, disc.nf)
     runtime = time.perf_counter() - t0
     contact = report(system, X)
-    return Equilibrium(
-        scene, chosen, disc, U, e_a, info, runtime, tuple(system.terms), system.converged_stress(), contact
-    )
+    pending = None if info.confirmed else (system, X, lambda: equilibrium(scene, **again))
+    state = (U, e_a, info, runtime, tuple(system.terms), system.converged_stress(), contact, pending)
+    return Equilibrium(scene, chosen, disc, *state)
 
 
 def probe_start(rod: ScaledRod, loads: tuple[Term, ...], model: str) -> bool:
@@ -221,14 +229,37 @@ class Equilibrium:
     terms: tuple[str, ...]
     stress: np.ndarray | None = None  # C e(u) at the quadrature points (ne, nq, ns), mixed Newton
     contact: tuple | None = None  # contact_rounds.report (scaled); None: no walls
+    pending: tuple | None = field(default=None, repr=False)  # (system, X, redo): not yet confirmed
+
+    def confirmed(self) -> Equilibrium:
+        """This state after Newton's confirming evaluation (``equilibrium(confirm=False)``): the
+        same last iteration, consistent tangent and stability test at the root as a confirmed
+        solve; if it fails, the mesh is solved again confirmed (``redo``)."""
+        if self.pending is None:
+            return self
+        t0, (system, X, redo) = time.perf_counter(), self.pending
+        system.stress_start = None  # the consistent tangent, as the iteration it stands for
+        try:
+            X, its, lu = newton(system, X, 1.0)
+            check_admissible(system, X, 1.0, lu)
+        except NewtonFailure:
+            return redo()
+        info = NewtonInfo(self.info.iterations + its, self.info.steps, self.info.rejected, lu)
+        U, stress = system.expand(X).reshape(self.U.shape), system.converged_stress()
+        runtime = self.runtime_s + time.perf_counter() - t0
+        return replace(self, U=U, info=info, runtime_s=runtime, stress=stress, pending=None)
 
     def stress_at(self, disc: Discretisation) -> np.ndarray | None:
-        """The point stresses recovered at another mesh's quadrature points: linear through the
-        two Gauss points of the element of this mesh holding each point (where P2 stresses are
-        accurate). Only the first Newton tangent of a warm start uses them (see equilibrium)."""
+        """The point stresses recovered at another mesh's quadrature points: through the two Gauss
+        points of the element of this mesh holding each point (where P2 stresses are accurate) and,
+        without contact, the nearest of each neighbour not across a break (transfer.stress_recovery).
+        Only the first Newton tangent of a warm start uses them (see equilibrium)."""
         if self.stress is None or self.disc.element != "P2" or self.stress.shape[1] != 2:
             return None
-        R = stress_recovery(self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
+        smooth = self.scene is not None and self.contact is None  # contact forces kink the stresses
+        jumps = np.asarray(breaks(self.scene), float).tobytes() if smooth else None
+        meshes = (self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
+        R = stress_recovery(*meshes, jumps)
         ns = self.stress.shape[-1]
         return (R @ self.stress.reshape(-1, ns)).reshape(disc.s_quad.shape + (ns,))
 
@@ -327,22 +358,25 @@ def mesh(elements: int, at: tuple[float, ...], nf: int, element: str, intorder: 
     return Discretisation(graded_vertices(1.0, elements, breaks=at), nf, element=element, intorder=intorder)
 
 
-def _warm(system: RodSystem, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, NewtonInfo] | None:
+def _warm(system: RodSystem, start: tuple, provisional: bool) -> tuple[np.ndarray, NewtonInfo] | None:
     """Newton at the full load from the P2 interpolant of a state on another mesh; None if it fails."""
     U0 = interpolate_p2(*start, system.disc.s_dof)
     if system.model == FULL:
         U0[:, 3:] /= np.linalg.norm(U0[:, 3:], axis=1, keepdims=True)
-    return _full_load(system, U0)
+    return _full_load(system, U0, provisional)
 
 
-def _full_load(system: RodSystem, U0: np.ndarray) -> tuple[np.ndarray, NewtonInfo] | None:
-    """Newton at the full load from nodal values U0 (nscalar, nf); None if it fails or is inadmissible."""
+def _full_load(system: RodSystem, U0: np.ndarray, provisional: bool) -> tuple[np.ndarray, NewtonInfo] | None:
+    """Newton at the full load from nodal values U0 (nscalar, nf); None if it fails or is inadmissible
+    (``provisional``: see :func:`equilibrium`'s ``confirm``)."""
+    info = NewtonInfo(steps=1)
     try:
-        X, its, lu = newton(system, system.reduce(U0.ravel()), 1.0)
-        check_admissible(system, X, 1.0, lu)
+        x0, accept = system.reduce(U0.ravel()), XTOL if provisional else 0.0
+        X, info.iterations, info.lu = newton(system, x0, 1.0, accept=accept, info=info)
+        check_admissible(system, X, 1.0, info.lu)
     except NewtonFailure:
         return None
-    return X, NewtonInfo(iterations=its, steps=1, lu=lu)
+    return X, info
 
 
 def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -37,6 +37,7 @@ class NewtonInfo:
     steps: int = 0  # accepted load steps
     rejected: int = 0  # load steps halved after a Newton failure
     lu: object | None = field(default=None, repr=False)  # factorised tangent at the last solution
+    confirmed: bool = True  # False: the last Newton ended on ``accept`` without its confirming evaluation
 
 
 class NewtonFailure(Exception):
@@ -86,12 +87,22 @@ def roundoff_floor(stiffest):
 
 
 def newton(
-    system: System, x0: np.ndarray, lam: float, *, first: tuple[np.ndarray, object] | None = None
+    system: System,
+    x0: np.ndarray,
+    lam: float,
+    *,
+    first: tuple[np.ndarray, object] | None = None,
+    accept: float = 0.0,
+    info: NewtonInfo | None = None,
 ) -> tuple[np.ndarray, int, object]:
     """Solve R(x; lam) = 0 from x0 by pure Newton. Returns (x, iterations, factorised tangent).
 
     ``first``: (R, factorised tangent) at (x0, lam) already evaluated (a stability probe of
     :func:`definite`): the first iteration uses them instead of evaluating again.
+    ``accept``: stop without the confirming evaluation once the quadratic model of the last two
+    corrections (s^3 / s_prev^2) puts the next one below ``accept`` and this one is below
+    MIXED_ABOVE (the next iteration would use the consistent tangent); then ``info.confirmed`` is
+    set False and the factor returned is the one a correction (<= MIXED_ABOVE) before the root.
 
     Converged when the Newton correction is below XTOL (scaled unknowns are
     O(1)), or below the system's round-off floor (``system.roundoff``, eps times
@@ -129,6 +140,11 @@ def newton(
             raise NewtonFailure("Newton correction is not finite")
         size = measure(dx)
         if size <= XTOL or (size <= floor and sizes and size > 0.1 * sizes[-1]):
+            return x + dx, it, lu
+        if sizes and size**3 <= accept * sizes[-1] ** 2 and size <= MIXED_ABOVE:
+            if info is not None:
+                info.confirmed = False
+            getattr(system, "settle_stress", lambda d: None)(dx)
             return x + dx, it, lu
         if len(sizes) >= 3 and size > sizes[-1] and size > sizes[-3]:
             if size < 1e-3 and max(sizes[-3:]) < 10 * min(sizes[-3:]) and size < 1e-2 * sizes[0]:
@@ -256,8 +272,14 @@ def follow(
     first_step: float = 1.0,
     info: NewtonInfo | None = None,
     definite_start: bool = False,
+    provisional: bool = False,
 ) -> tuple[np.ndarray, NewtonInfo]:
     """Continue from (x, lam0) through each load factor in ``targets`` (increasing or not).
+
+    ``provisional``: each Newton stops once the next correction is forecast below XTOL, without
+    the evaluation that would confirm it (see :func:`newton`'s ``accept``): a load step short of
+    the last target is only the next one's start, and the last one's is left to the caller to
+    confirm (``info.confirmed`` False; :meth:`cantilever.Equilibrium.confirmed`).
 
     ``definite_start``: the first step is halved (before any Newton) until the tangent at the
     start x is positive definite at its load (see :func:`definite_step`).
@@ -275,8 +297,10 @@ def follow(
             guess = x if slope is None else x + slope * (lam_try - lam)
             first = probe[1:] if probe is not None and probe[0] == lam_try and slope is None else None
             probe = None  # the probe was at the start: only the first attempt may use it
+            accept = XTOL if provisional else 0.0
+            info.confirmed = True
             try:
-                x_new, its, lu = newton(system, guess, lam_try, first=first)
+                x_new, its, lu = newton(system, guess, lam_try, first=first, accept=accept, info=info)
                 check_admissible(system, x_new, lam_try, lu)
             except RoundoffStagnation as exc:
                 raise ConvergenceError(str(exc), load_factor=lam) from exc
@@ -301,6 +325,7 @@ def follow(
             # the next step's first mixed tangent starts from these stresses
             getattr(system, "hold_stress", lambda: None)()
             slope = tangent(system, x, lam, lu) if lam != targets[-1] else None
-            if its <= 2 * FAST:  # grow with the observed effort: x2 when easy, x1.5 when moderate
-                step = min((2.0 if its <= FAST else 1.5) * step, MAX_LOAD_STEP)
+            effort = its + (not info.confirmed)  # a skipped confirmation counts: the same steps
+            if effort <= 2 * FAST:  # grow with the observed effort: x2 when easy, x1.5 when moderate
+                step = min((2.0 if effort <= FAST else 1.5) * step, MAX_LOAD_STEP)
     return x, info

@@ -197,13 +197,24 @@ class RodSystem:
         """
         if not self.mixed or self._strain is None:
             return
+        target = self._linearised(dx)
+        old = self._strain[0] if self._stress is None else self._stress
+        self._stress = old + alpha * (target - old)
+
+    def settle_stress(self, dx: np.ndarray) -> None:
+        """Newton stopped at X + dx without evaluating there (newton's ``accept``): the point stresses
+        :meth:`converged_stress` hands on become C (e(u) + J du), the strain linearised at the last
+        evaluation (off by O(|dx|^2) times the stiffness, not O(|dx|) as those of the last evaluation)."""
+        if self.mixed and self._strain is not None:
+            self._strain = (self._linearised(dx), self._strain[1])
+
+    def _linearised(self, dx: np.ndarray) -> np.ndarray:
+        """C (e(u) + J du) at the points: the stresses after the free-dof correction dx, linearised."""
         sigma_u, CJ = self._strain
         dU = np.zeros(self.disc.n)
         dU[self.disc.free] = dx
         dz = self.disc.point_values(dU)  # P + (2 nf,)
-        target = sigma_u + np.matmul(CJ, dz[..., None])[..., 0]
-        old = sigma_u if self._stress is None else self._stress
-        self._stress = old + alpha * (target - old)
+        return sigma_u + np.matmul(CJ, dz[..., None])[..., 0]
 
     @functools.cached_property
     def roundoff(self) -> float:

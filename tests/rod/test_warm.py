@@ -7,6 +7,7 @@ import pytest
 from matid.bench import scenes as S
 from matid.bench.peers import precurved_3d
 from matid.rod.cantilever import Equilibrium, equilibrium, mesh
+from matid.rod.transfer import stress_recovery
 
 SCENES = {
     "magnetic": lambda: S.magnetic(6.4, 120.0),
@@ -68,3 +69,19 @@ def test_a_segment_edited_in_place_is_solved_again():
     ).position[-1]
     assert soft[0] > 2 * stiff[0]
     np.testing.assert_allclose(soft, fresh, rtol=1e-12)
+
+
+def test_stress_recovery_in_a_piece_is_exact_for_quadratics_and_never_reaches_across_a_break():
+    """With the breaks: Lagrange through the element's two Gauss points and the nearest one of each
+    neighbour in the same piece (cubic inside it, quadratic in its end elements), so a stress that
+    jumps at a break is recovered on each side from that side only."""
+    coarse_mesh, fine_mesh = mesh(8, (0.5,), 3, "P2", 2), mesh(16, (0.5,), 3, "P2", 2)
+    s, t = coarse_mesh.s_quad.ravel(), fine_mesh.s_quad.ravel()
+    quadratic = lambda x: 1.0 - 2.0 * x + 3.0 * x**2  # noqa: E731
+    jump = lambda x: quadratic(x) + (x > 0.5)  # noqa: E731
+    args = (coarse_mesh.vertices.tobytes(), s.tobytes(), t.tobytes())
+    R = stress_recovery(*args, np.array([0.0, 0.5, 1.0]).tobytes())
+    assert np.allclose(R @ quadratic(s), quadratic(t), rtol=0, atol=1e-12)
+    assert np.allclose(R @ jump(s), jump(t), rtol=0, atol=1e-12)
+    linear = stress_recovery(*args)
+    assert np.abs(linear @ quadratic(s) - quadratic(t)).max() > 1e-4  # the linear one is not: it can tell
