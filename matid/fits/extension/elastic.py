@@ -178,15 +178,16 @@ _RAMP_LINE = (
 )
 
 
-def ramp_line(e_e: Estimate, runs) -> Estimate:
-    """E_e as the slope of the force over the used rows of single-ramp runs whose SLS resolves no
-    relaxation: there k1 lies anywhere along a valley of k1 + k2 (a slow arm is a spring over
-    the ramp), while the slope is what the record determines (:func:`line`)."""
+def ramp_line(e_e: Estimate, runs) -> tuple[Estimate, Line | None]:
+    """(E_e as the slope of the force over the used rows of single-ramp runs whose SLS resolves no
+    relaxation, the line): there k1 lies anywhere along a valley of k1 + k2 (a slow arm is a spring
+    over the ramp), while the slope is what the record determines (:func:`line`). (e_e, None) when
+    the rows cannot give the line."""
     try:
         fit = line(runs, single=True)
     except (ValueError, np.linalg.LinAlgError):
-        return e_e
-    return _line_estimate(e_e, fit, "ramp-line", (_RAMP_LINE,))
+        return e_e, None
+    return _line_estimate(e_e, fit, "ramp-line", (_RAMP_LINE,)), fit
 
 
 def _line_estimate(e_e: Estimate, fit: Line, method: str, warnings) -> Estimate:
@@ -249,16 +250,24 @@ def _elastic_line(e_e: Estimate, runs, sigma, compared: tuple[str, np.ndarray, i
     return out, fit
 
 
-def choose(e_e: Estimate, runs, sigma, unresolved: bool, compared) -> tuple[Estimate, Line | None]:
-    """(E_e, the line of :func:`_elastic_line` or None): the ramp's line for single ramps whose SLS
-    resolves no relaxation (``unresolved``); for runs that unload or hold (:func:`cycled`), the
-    line where the relaxing model does not describe them better than it; else E_e as the relaxing
-    model gave it."""
+def choose(
+    e_e: Estimate, runs, sigma, unresolved: bool, compared
+) -> tuple[Estimate, Line | None, tuple[float, ...] | None]:
+    """(E_e, the line of :func:`_elastic_line` or None, the force offsets of the line that gave E_e
+    or None): the ramp's line for single ramps whose SLS resolves no relaxation (``unresolved``);
+    for runs that unload or hold (:func:`cycled`), the line where the relaxing model does not
+    describe them better than it; else E_e as the relaxing model gave it. A line's offsets are
+    those E_e's warnings state (the unresolved SLS's move with where along its valley it landed:
+    -0.0002 to -0.116 N on a single ramp with a slack toe, tests/fits/extension/test_gaps.py)."""
     if single_ramps(runs):
-        return (ramp_line(e_e, runs) if unresolved else e_e), None
+        if not unresolved:
+            return e_e, None, None
+        e_e, ramp = ramp_line(e_e, runs)
+        return e_e, None, (ramp.offsets if ramp is not None else None)
     if cycled(runs):
-        return _elastic_line(e_e, runs, sigma, compared)
-    return e_e, None
+        e_e, fit = _elastic_line(e_e, runs, sigma, compared)
+        return e_e, fit, (fit.offsets if fit is not None else None)
+    return e_e, None, None
 
 
 def unresolved_arm(est: Estimate) -> Estimate:

@@ -261,7 +261,7 @@ def fit_extension(
     dof = cov.dof if cov is not None else result.nfree
     ci = _intervals(minimizer, result, ref, se, profile=not reasons and not correlated, dof=dof)
     n = sum(int(run.used.sum()) for run in runs)
-    lof, misfit = _misfit(result, runs, sigma, ref, cov)
+    lof, misfit = _misfit(result, runs, ref, cov, bool(reasons))
     choice, prony_estimates, prony_e_e, prony_sls = _prony(runs, sigma, k, fixed_k)
     why = [f"k2 and eta are not identifiable from the rates given: {'; '.join(reasons)}"] if reasons else []
     sls_warn = [w for w in (misfit, prony_sls) if w]
@@ -278,8 +278,8 @@ def fit_extension(
     if "k1" not in fixed_k:
         noise = [run.noise for run in runs]  # model-free: the line must not move with where the fit landed
         compared = _relaxing(result, runs, sigma, ref, best, noise)
-        e_e, line = elastic.choose(e_e, runs, noise, bool(reasons), compared)
-        offsets = list(line.offsets) if line is not None else offsets  # those of the model giving E_e
+        e_e, line, given = elastic.choose(e_e, runs, noise, bool(reasons), compared)
+        offsets = list(given) if given is not None else offsets  # those of the model giving E_e
         e_e = _below_hold(_nonlinear(e_e, runs, k, best, line), runs, offsets)
     e_e = _started(e_e, runs, offsets)
     if line is not None:  # the line describes the runs as well: the SLS's k2 and eta are not resolved

@@ -105,7 +105,7 @@ def test_a_single_ramp_is_the_plain_line_through_its_used_rows(tmp_path):
     (m,) = load_measurements(load_study(study(tmp_path, (t, eps, force))))
     run = _run(m)
     placeholder = Estimate("E_e", 1.0, None, None, int(run.used.sum()), "sls")
-    e_e = elastic.ramp_line(placeholder, [run])
+    e_e, _ = elastic.ramp_line(placeholder, [run])
     slope = np.polyfit(run.eps[run.used], run.force[run.used], 1)[0]
     assert e_e.method == "ramp-line"
     assert e_e.value == pytest.approx(slope, rel=1e-9)

@@ -35,11 +35,13 @@ HOLD = 30.0  # s
 DT = 0.1  # s
 
 
-def sls_record(rate: float, tau: float = TAU) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(t, strain, force) of a ramp to STRAIN at ``rate`` then a hold, from the ODE
-    f2' = k2 eps' - f2 / tau, F = k1 eps + f2, integrated piecewise (eps' jumps)."""
+def sls_record(
+    rate: float, tau: float = TAU, hold: float = HOLD
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t, strain, force) of a ramp to STRAIN at ``rate`` then a hold of ``hold`` s (at least one
+    sample), from the ODE f2' = k2 eps' - f2 / tau, F = k1 eps + f2, integrated piecewise (eps' jumps)."""
     t_ramp = STRAIN / rate
-    t = np.arange(0.0, t_ramp + HOLD + DT / 2, DT)
+    t = np.arange(0.0, t_ramp + hold + DT / 2, DT)
     ramp = t <= t_ramp
     opts = dict(method="DOP853", rtol=1e-11, atol=1e-13)
     up = solve_ivp(
@@ -83,14 +85,16 @@ def make_study(
     tau: float = TAU,
     phi: float = 0.8,
     quantum: float = 0.0,
+    rates: tuple[float, ...] = RATES,
+    hold: float = HOLD,
 ) -> Path:
-    """Two ramp-and-hold runs of one tube; ``tare`` [N] adds to every force, ``toe`` [m] of
+    """Ramp-and-hold runs of one tube, one per rate; ``tare`` [N] adds to every force, ``toe`` [m] of
     crosshead travel comes before the strip is taut (force 0 there, strain from its end)."""
     rng = np.random.default_rng(seed)
     folder.mkdir(parents=True, exist_ok=True)
     tests = []
-    for i, rate in enumerate(RATES, 1):
-        t, eps, force = sls_record(rate, tau)
+    for i, rate in enumerate(rates, 1):
+        t, eps, force = sls_record(rate, tau, hold)
         elongation = eps * GAUGE
         if toe:
             n_toe = int(round(toe / (rate * GAUGE) / DT))
@@ -226,27 +230,76 @@ def test_every_warning_is_the_same_wherever_along_its_flat_valley_the_sls_lands(
     stacks; the last bits of one call and the next in one process can differ the same way). No
     warning of any estimate may move with it: the flaky outputs test above compared the warnings
     of two such calls (2026-11-28: tau 4.29e3 against 4.4e3 s printed, and the SLS's equilibrium
-    stiffness 4.736 against 5.989 N, before the digits went)."""
+    stiffness 4.736 against 5.989 N, before the digits went).
+
+    Starts along the valley (k1 + k2 = 64.85 N, tau 1e4 s) land elsewhere again. From k1 = 60 N
+    the first least squares ends at its evaluation limit, far off, and the residual noise it
+    weights the next fit with (1.72 and 1.81 N, in another ratio than the runs' 4.2 and 3.7 mN)
+    moves the landing and so the final weights by 0.26 % on one run: the misfit warning, then on
+    those weights, printed reduced chi2 7.03 where every other landing printed 7.07 (the one start
+    of 263 tried whose warnings differed; the failure of this test in a suite run at load 6,
+    2026-11-28, had two landings whose warnings differed). The misfit is now judged on each run's
+    model-free noise."""
     from matid.fits.extension import lsq
 
     study = make_study(tmp_path / "study", seed=13, tau=2000.0)
     starts = lsq._starts
     landed, said, e_e = set(), set(), set()
     # k1 lands at 4.736, 5.99, 5.989, 9.12 N (at the lowest pins: 5.99, 4.736, 4.736, 9.12)
-    for rel in (0.0, -1e-15, 1e-13, 1e-5):
-        monkeypatch.setattr(
-            lsq, "_starts", lambda *a, rel=rel: [{k: v * (1 + rel) for k, v in s.items()} for s in starts(*a)]
-        )
+    shifted = [
+        lambda *a, rel=rel: [{k: v * (1 + rel) for k, v in s.items()} for s in starts(*a)]
+        for rel in (0.0, -1e-15, 1e-13, 1e-5)
+    ]
+    # and from these at 0.94, 4.15, 9.71, 6.43, 6.83 (the reweighting above), 8.68, 9.02, 4.59 N
+    along = [
+        lambda *a, k1=k1: [{"k1": k1, "k2": 64.85 - k1, "eta": (64.85 - k1) * 1e4}]
+        for k1 in (1.0, 20.0, 40.0, 58.0, 60.0, 61.0, 62.0, 64.0)
+    ]
+    for pinned in shifted + along:
+        monkeypatch.setattr(lsq, "_starts", pinned)
         (ext,) = run_study(load_study(study)).fits
         landed.add(round(ext.estimate("sls_k1").value, 1))
         said.add(tuple((e.parameter, e.warnings) for e in ext.estimates) + (ext.warnings,))
         e_e.add(ext.estimate("E_e").value)
-    assert len(landed) > 1, landed  # the starts did land apart
+    assert len(landed) > 4, landed  # the starts did land apart
     assert len(said) == 1, said
     # the elastic line is weighted by each run's model-free noise, not by the landed fit's residual
     # noise: E_e is the same to the last bit (was 64.84447772686316 against 64.84447687148294 N,
     # whose printed digits could straddle a rounding step: the flaky outputs test)
     assert len(e_e) == 1, e_e
+
+
+@pytest.mark.parametrize(
+    ("rates", "toe"),
+    [((0.005,), 2e-4), ((0.005, 0.02), 0.0)],
+    ids=["one ramp after a slack toe", "ramps at two rates"],
+)
+def test_the_warnings_of_ramps_are_the_same_wherever_along_its_flat_valley_the_sls_lands(
+    tmp_path, monkeypatch, rates, toe
+):
+    """tau 2000 s beyond ramps of 8 s (and 2 s) that hold for 0.15 s: k1 lands anywhere between
+    0.9 and 30 N from starts along the valley. One ramp: E_e is the ramp's line, and its warning
+    on the slack toe stated the force offset of the landed SLS (-0.0002 to -0.116 N, at 7 of 7
+    landings), now the ramp line's. Two rates: the SLS misfit warning stated its intervals'
+    widening from the landed Jacobian (3.0x at one landing, 3.1x at others), now left out where
+    k2 and eta are not identifiable. (There E_e is still the landed SLS's k1, which moves: no line
+    is fitted to ramps at several rates without a hold or an unloading.)"""
+    from matid.fits.extension import lsq
+
+    study = make_study(tmp_path / "study", seed=13, tau=2000.0, rates=rates, hold=0.15, toe=toe)
+    starts = lsq._starts
+    landed, said = set(), set()
+    for k1 in (None, 1.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0):
+        along = [{"k1": k1, "k2": 64.85 - k1, "eta": (64.85 - k1) * 1e4}] if k1 else None
+        monkeypatch.setattr(lsq, "_starts", (lambda *a, along=along: along) if along else starts)
+        (ext,) = run_study(load_study(study)).fits
+        landed.add(round(ext.estimate("sls_k1").value, 1))
+        said.add(tuple((e.parameter, e.warnings) for e in ext.estimates) + (ext.warnings,))
+    assert len(landed) > 4, landed
+    assert len(said) == 1, said
+    (warnings,) = said
+    assert any("not identifiable" in w for _, ws in warnings[:-1] for w in ws), warnings
+    assert not toe or any("force offset" in w for w in dict(warnings[:-1])["E_e"]), warnings
 
 
 def test_k2_and_eta_of_a_relaxation_beyond_the_runs_send_the_reader_to_e_e(tmp_path):
