@@ -261,7 +261,7 @@ def fit_extension(
     dof = cov.dof if cov is not None else result.nfree
     ci = _intervals(minimizer, result, ref, se, profile=not reasons and not correlated, dof=dof)
     n = sum(int(run.used.sum()) for run in runs)
-    lof, misfit = _misfit(result, runs, ref, cov, bool(reasons))
+    lof, misfit = _misfit(result, runs, ref, cov, unresolved=bool(reasons))
     choice, prony_estimates, prony_e_e, prony_sls = _prony(runs, sigma, k, fixed_k)
     why = [f"k2 and eta are not identifiable from the rates given: {'; '.join(reasons)}"] if reasons else []
     sls_warn = [w for w in (misfit, prony_sls) if w]

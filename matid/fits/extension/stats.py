@@ -138,7 +138,7 @@ _ADVICE = (
 )
 
 
-def _misfit(result, runs, ref, cov, unresolved: bool = False) -> tuple[stats.LackOfFit, str | None]:
+def _misfit(result, runs, ref, cov, *, unresolved: bool) -> tuple[stats.LackOfFit, str | None]:
     """Lack of fit of the SLS on the residuals of the used rows, and its warning (None if it fits).
 
     The residuals are weighted by each run's model-free noise (``run.noise``), not by the residual
