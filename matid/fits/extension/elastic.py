@@ -258,7 +258,7 @@ def choose(
     for runs that unload or hold (:func:`cycled`), the line where the relaxing model does not
     describe them better than it; else E_e as the relaxing model gave it. A line's offsets are
     those E_e's warnings state (the unresolved SLS's move with where along its valley it landed:
-    -0.0002 to -0.116 N on a single ramp with a slack toe, tests/fits/extension/test_gaps.py)."""
+    -0.0002 to -0.116 N on a single ramp with a slack toe, tests/fits/extension/test_sls_independent.py)."""
     if single_ramps(runs):
         if not unresolved:
             return e_e, None, None
