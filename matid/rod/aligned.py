@@ -50,12 +50,16 @@ _GAUSS = np.polynomial.legendre.leggauss(5)
 
 
 def aligned(system) -> tuple[np.ndarray, np.ndarray] | None:
-    """(the rod turned into the field at every dof (nscalar, 3), zero point stresses (ne, nq, 2)),
-    or None where the start does not apply (module docstring): not planar, segments or
-    precurvature, any load but one magnetisation along d3 over the whole rod, a field the
+    """:func:`turned` of a system (a :class:`matid.rod.system.RodSystem`)."""
+    return turned(system.model, system.rod, system.loads, system.disc)
+
+
+def turned(model: str, rod, loads, disc) -> tuple[np.ndarray, np.ndarray] | None:
+    """(the rod turned into the field at every dof of ``disc`` (nscalar, 3), zero point stresses
+    (ne, nq, 2)), or None where the start does not apply (module docstring): not planar, segments
+    or precurvature, any load but one magnetisation along d3 over the whole rod, a field the
     straight rod does not buckle in or within NEAR_REVERSAL of reversed."""
-    rod, loads = system.rod, system.loads
-    if system.model != PLANAR or rod.segments or any(rod.kappa_ref) or len(loads) != 1:
+    if model != PLANAR or rod.segments or any(rod.kappa_ref) or len(loads) != 1:
         return None
     term = loads[0]
     if not isinstance(term, Magnetisation) or term.directed or len(term.along_d3) != 1:
@@ -66,8 +70,8 @@ def aligned(system) -> tuple[np.ndarray, np.ndarray] | None:
     if start > 0.0 or end < 1.0 or -bz <= BUCKLING or math.pi - abs(psi) < NEAR_REVERSAL:
         return None
     k, tan4 = math.sqrt(math.hypot(bx, bz)), math.tan(psi / 4.0)
-    order = np.argsort(system.disc.s_dof, kind="stable")
-    s = system.disc.s_dof[order]
+    order = np.argsort(disc.s_dof, kind="stable")
+    s = disc.s_dof[order]
     h = np.diff(s)
     x, w = _GAUSS
     points = np.concatenate([s, (s[:-1, None] + (0.5 * h)[:, None] * (x + 1.0)).ravel()])
@@ -78,4 +82,4 @@ def aligned(system) -> tuple[np.ndarray, np.ndarray] | None:
     U[order[1:], 0] = np.cumsum(0.5 * h * (np.sin(inner) @ w))
     U[order[1:], 1] = np.cumsum(0.5 * h * (np.cos(inner) @ w))
     U[order, 2] = theta[: s.size]
-    return U, np.zeros(system.disc.s_quad.shape + (2,))
+    return U, np.zeros(disc.s_quad.shape + (2,))

@@ -167,3 +167,27 @@ def test_no_start_where_it_does_not_apply(name):
 
 def test_no_start_in_3d():
     assert aligned(_system(S.magnetic(6.4, 120.0), model="full")) is None
+
+
+def test_the_stack_starts_there_too(monkeypatch):
+    """solve_many's first mesh (rod.many): the scenes with the start leave the continuation, the
+    rest follow it as before; the answers are solve()'s. 4 elements: 10 stacked evaluations (4 for
+    the two started scenes, 6 for the third alone; d2e7e0f: 59, the three continued together)."""
+    from matid.rod import batch
+    from matid.rod.api import solve
+    from matid.rod.many import solve_many
+
+    scenes = [S.magnetic(6.4, 120.0), S.magnetic(20.0, 150.0), S.magnetic(2.0, 30.0)]
+    calls, original = [], batch.Stack.evaluate
+
+    def evaluate(self, *args, **kw):
+        calls.append(self.disc.ne)
+        return original(self, *args, **kw)
+
+    monkeypatch.setattr(batch.Stack, "evaluate", evaluate)
+    many = solve_many(scenes, elements=8)
+    assert calls.count(4) <= 10
+    for scene, got in zip(scenes, many, strict=True):
+        want = solve(scene, elements=8)
+        assert np.max(np.abs(got.position - want.position)) / S.L < 1e-9
+        assert np.max(np.abs(got.d3 - want.d3)) < 1e-9
