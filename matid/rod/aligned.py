@@ -11,8 +11,11 @@ tan(phi / 4) = tan(psi / 4) e^{-k s}; the free tip is its image about s = 1:
     tan(phi / 4) = tan(psi / 4) cosh(k (1 - s)) / cosh(k),
 
 exact at both ends, in the linear limit (phi = psi cosh(k (1 - s)) / cosh(k)) and as k grows.
-Positions integrate (sin theta, cos theta) (no shear, no extension); the internal force is zero
-(the field only turns the rod), so the mixed Newton's first tangent starts from zero stresses.
+In between, k is replaced by the kappa that makes it satisfy the equation's first integral
+between the ends, phi'(0)^2 = 2 k^2 (cos phi(1) - cos psi) (:func:`_fitted`: a few secant steps
+in floats). Positions integrate (sin theta, cos theta) (no shear, no extension); the internal
+force is zero (the field only turns the rod), so the mixed Newton's first tangent starts from
+zero stresses.
 
 Only where the straight rod is buckled by the field (the axial part -mu B_3 beyond the straight
 rod's buckling load (pi / 2)^2, where the continuation's definite probe fails at the full load,
@@ -20,11 +23,13 @@ rod's buckling load (pi / 2)^2, where the continuation's definite probe fails at
 (there the straight rod is at or near a bifurcation: the side is no longer the torque's to
 choose). :func:`matid.rod.cantilever.equilibrium` runs Newton at the full load from this start,
 with the continuation from the straight rod as the fallback when it fails or is rejected.
-Measured: theta within 8.9e-3 rad of the elastica at q = |mu B| = 6.4, 120 deg (1.5e-4 at q = 20,
-2.4e-9 at 100; the linearised phi = psi cosh(k (1 - s)) / cosh(k): 8.5e-2, 7.8e-2, 7.8e-2); P1's
-4-element mesh (q = 6.4, 120 deg) from it: corrections 9.1e-3, 3.1e-5, 4.3e-10, 3 evaluations
-against 13 for the probe and the continuation (4 with the displacements' stresses in the first
-tangent: second correction 9e-3).
+
+Measured against scipy's elastica, largest error in theta (rad), fitted / with k / linearised:
+q = |mu B| = 6.4 at 120 deg 1.1e-3 / 8.9e-3 / 8.5e-2; q = 20 at 150 deg 6.3e-5 / 3.7e-4 / 1.6e-1;
+at q = 4, 170 deg kappa = 0.88 k is beyond KAPPA_SPREAD and k stays (1.6e-1). P1's 4-element mesh (q = 6.4,
+120 deg) from it: corrections 1.0e-3, 3.9e-7, 2 evaluations (with k: 9.1e-3, 3.1e-5, 4.3e-10, 3;
+with the displacements' stresses in the first tangent, 4), against 13 for the probe and the
+continuation.
 """
 
 from __future__ import annotations
@@ -45,6 +50,10 @@ BUCKLING = (math.pi / 2.0) ** 2
 #: straight rod an equilibrium, buckled beyond the bifurcation) it must fail: the bench's
 #: "field reversal" case.
 NEAR_REVERSAL = math.radians(1.0)
+#: The first integral's kappa is used within this fraction of k (:func:`_fitted`). Measured
+#: (P1's rod, field 90..179.5 deg, q 0.5..50): beyond it, near buckling and reversal (176 deg,
+#: q = 2.8; 177 deg, q = 3), Newton failed from the fitted start where it converged from k.
+KAPPA_SPREAD = 0.05
 #: Gauss-Legendre rule integrating (sin theta, cos theta) between neighbouring dofs.
 _GAUSS = np.polynomial.legendre.leggauss(5)
 
@@ -69,7 +78,8 @@ def turned(model: str, rod, loads, disc) -> tuple[np.ndarray, np.ndarray] | None
     psi = math.atan2(bx, bz)
     if start > 0.0 or end < 1.0 or -bz <= BUCKLING or math.pi - abs(psi) < NEAR_REVERSAL:
         return None
-    k, tan4 = math.sqrt(math.hypot(bx, bz)), math.tan(psi / 4.0)
+    tan4 = math.tan(psi / 4.0)
+    k = _fitted(math.sqrt(math.hypot(bx, bz)), tan4, psi)
     order = np.argsort(disc.s_dof, kind="stable")
     s = disc.s_dof[order]
     h = np.diff(s)
@@ -83,3 +93,26 @@ def turned(model: str, rod, loads, disc) -> tuple[np.ndarray, np.ndarray] | None
     U[order[1:], 1] = np.cumsum(0.5 * h * (np.cos(inner) @ w))
     U[order, 2] = theta[: s.size]
     return U, np.zeros(disc.s_quad.shape + (2,))
+
+
+def _fitted(k: float, t: float, psi: float) -> float:
+    """kappa for tan(phi / 4) = t cosh(kappa (1 - s)) / cosh(kappa), t = tan(psi / 4), such that
+    the first integral of phi'' = k^2 sin(phi), phi'(0)^2 = 2 k^2 (cos phi(1) - cos psi), holds
+    (secant iterations from kappa = k); k when they find none within KAPPA_SPREAD of it."""
+
+    def gap(kappa):
+        slope = 4.0 * t * kappa * math.tanh(kappa) / (1.0 + t * t)  # -phi'(0)
+        return slope * slope - 2.0 * k * k * (math.cos(4.0 * math.atan(t / math.cosh(kappa))) - math.cos(psi))
+
+    a, b = k, (1.0 - KAPPA_SPREAD) * k
+    fa, fb = gap(a), gap(b)
+    for _ in range(12):
+        if fb == fa:
+            break
+        a, b, fa = b, b - fb * (b - a) / (fb - fa), fb
+        if abs(b - k) > KAPPA_SPREAD * k:
+            break
+        fb = gap(b)
+        if abs(b - a) < 1e-12 * k:
+            return b
+    return k

@@ -64,12 +64,13 @@ def _elastica(q: float, psi: float):
 
 @pytest.mark.parametrize(
     "q, psi_deg, tol",  # q = mu B L^2/E_b (signed mu), the field at psi_deg from +z towards +x
-    [(6.4, 120.0, 0.015), (20.0, 170.0, 1.5e-3), (6.4, -150.0, 0.035), (-6.4, 60.0, 0.015)],
+    [(6.4, 120.0, 2e-3), (20.0, 170.0, 3e-4), (6.4, -150.0, 1e-2), (-6.4, 60.0, 2e-3)],
 )
 def test_the_start_is_near_the_elastica(q, psi_deg, tol):
-    """Within the measured error of the closed form (max over s: 8.9e-3 at q = 6.4, 120 deg; 6.4e-4
-    at 20, 170 deg; 2.2e-2 at 6.4, 150 deg) of scipy's elastica, the short way round: mu < 0 lines
-    d3 up against B (60 deg -> -120 deg). A linearised start is 0.085 / 0.24 / 0.18 off."""
+    """Within twice the measured error of the start (max over the dofs of 16 elements: 1.1e-3 at
+    q = 6.4, 120 deg; 1.5e-4 at 20, 170 deg; 5.1e-3 at 6.4, 150 deg) of scipy's elastica, the short
+    way round: mu < 0 lines d3 up against B (60 deg -> -120 deg). With kappa = k (no fit) it is
+    8.9e-3 / 6.4e-4 / 2.2e-2 off, linearised 0.085 / 0.24 / 0.18."""
     system = _system(S.magnetic(q, psi_deg), elements=16)
     e_a = prepare_scene(S.magnetic(q, psi_deg), "auto")[1]
     psi = math.radians(psi_deg if q > 0 else psi_deg - 180.0)
@@ -83,12 +84,12 @@ def test_the_start_is_near_the_elastica(q, psi_deg, tol):
 
 def test_p1s_coarse_mesh_needs_no_continuation(monkeypatch):
     """P1 of the peers bench (q = 6.4, 120 deg), its error estimate's 4-element mesh as solve asks
-    for it: 3 Newton evaluations in one load step (d2e7e0f: 13, a definite probe, Newton at 0.5
+    for it: 2 Newton evaluations in one load step (d2e7e0f: 13, a definite probe, Newton at 0.5
     from the straight rod, 2 predictor residuals, Newton at 1), the continuation's state."""
     scene = S.magnetic(6.4, 120.0)
     calls = _counted(monkeypatch)
     eq = equilibrium(scene, elements=4, confirm=False)
-    assert len(calls) <= 3 and eq.info.steps == 1
+    assert len(calls) <= 2 and eq.info.steps == 1
     system = _system(scene)
     X, info = follow(system, system.reduce(system.reference()), [1.0], definite_start=True)
     assert info.steps >= 2
@@ -171,8 +172,9 @@ def test_no_start_in_3d():
 
 def test_the_stack_starts_there_too(monkeypatch):
     """solve_many's first mesh (rod.many): the scenes with the start leave the continuation, the
-    rest follow it as before; the answers are solve()'s. 4 elements: 10 stacked evaluations (4 for
-    the two started scenes, 6 for the third alone; d2e7e0f: 59, the three continued together)."""
+    rest follow it as before; the answers are solve()'s. 4 elements: 9 stacked evaluations (the two
+    started scenes' Newton, then the third's continuation alone; d2e7e0f: 59, the three continued
+    together)."""
     from matid.rod import batch
     from matid.rod.api import solve
     from matid.rod.many import solve_many
@@ -186,7 +188,7 @@ def test_the_stack_starts_there_too(monkeypatch):
 
     monkeypatch.setattr(batch.Stack, "evaluate", evaluate)
     many = solve_many(scenes, elements=8)
-    assert calls.count(4) <= 10
+    assert calls.count(4) <= 9
     for scene, got in zip(scenes, many, strict=True):
         want = solve(scene, elements=8)
         assert np.max(np.abs(got.position - want.position)) / S.L < 1e-9
