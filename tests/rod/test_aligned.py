@@ -158,6 +158,9 @@ NOT_APPLICABLE = {
     "a segment": scene_from_dict(_raw(segment=[{"from": 0.0, "to": S.L / 2, "E_b": 2 * S.E_B}])),
     "a tip force": scene_from_dict(_raw(tip={"force": [1e-3, 0.0, 0.0]})),
     "precurved": scene_from_dict(_raw(rod=_rod(precurvature=[0.0, 1.0 / S.L, 0.0]))),
+    "beyond MAX_Q": scene_from_dict(
+        _raw(field={"B": S.field(120.0, 1.0)}, magnetization=[{"from": 0.0, "to": S.L, "per_length": 2e5}])
+    ),
 }
 
 
@@ -172,9 +175,10 @@ def test_no_start_in_3d():
 
 def test_the_stack_starts_there_too(monkeypatch):
     """solve_many's first mesh (rod.many): the scenes with the start leave the continuation, the
-    rest follow it as before; the answers are solve()'s. 4 elements: 9 stacked evaluations (the two
-    started scenes' Newton, then the third's continuation alone; d2e7e0f: 59, the three continued
-    together)."""
+    rest follow it as before; the answers are solve()'s. 4 elements: 9-10 stacked evaluations (the
+    two started scenes' Newton, 4; the stack's admissibility test evaluates a tangent again when the
+    last factorisation is not the definite one, which round-off in the start decides; then the
+    third's continuation alone, 5; d2e7e0f: 59, the three continued together)."""
     from matid.rod import batch
     from matid.rod.api import solve
     from matid.rod.many import solve_many
@@ -188,7 +192,7 @@ def test_the_stack_starts_there_too(monkeypatch):
 
     monkeypatch.setattr(batch.Stack, "evaluate", evaluate)
     many = solve_many(scenes, elements=8)
-    assert calls.count(4) <= 9
+    assert calls.count(4) <= 10
     for scene, got in zip(scenes, many, strict=True):
         want = solve(scene, elements=8)
         assert np.max(np.abs(got.position - want.position)) / S.L < 1e-9
