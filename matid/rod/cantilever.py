@@ -16,12 +16,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from matid.physics import kinematics as kin
-from matid.rod.arc import arc
 from matid.rod.contact_rounds import carry, report, reset, settle
 from matid.rod.fem import Discretisation, graded_vertices
 from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
 from matid.rod.newton import XTOL, NewtonFailure, NewtonInfo, check_admissible, follow, newton
 from matid.rod.scenes import Scene, plane_of
+from matid.rod.starts import cold_start
 from matid.rod.system import RodSystem
 from matid.rod.terms import Scale, Term, loads_of
 from matid.rod.terms.contact import contact_of
@@ -148,6 +148,7 @@ def equilibrium(
     ``start``: a state of the same scene on another mesh (P2, :meth:`Equilibrium.state`).
     Newton runs at the full load from its interpolant (measured: 3-6 iterations from the
     half mesh); the load continuation from the straight rod is the fallback when that fails.
+    Without ``start``, Newton at the full load from the scene's cold start first (rod.starts).
     ``contact_at``: scaled arc lengths of interior contact points, mesh vertices too (issue 31).
     ``confirm=False`` (a mesh of the error estimate that may be no answer; not with walls): Newton
     may stop once its quadratic model forecasts the next correction below XTOL, and the confirming
@@ -178,8 +179,9 @@ def equilibrium(
         carry(system, start)  # the contact multipliers (contact_rounds)
         start = start.state()
     X = _warm(system, start, provisional) if start is not None and element == "P2" else None
-    if X is None and start is None and element == "P2" and (bent := arc(system)) is not None:
-        X = _full_load(system, bent, provisional)
+    if X is None and start is None and element == "P2" and (cold := cold_start(system)) is not None:
+        system.stress_start = cold[1]
+        X = _full_load(system, cold[0], provisional)
     if X is None:
         system.stress_start = None  # the continuation starts from the straight rod
         reset(system)

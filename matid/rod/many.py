@@ -4,7 +4,9 @@ Planar cantilever scenes that share a mesh (the same breaks and element count) a
 stack (:mod:`matid.rod.batch`) through the error estimate's meshes of
 :func:`matid.rod.accuracy.refine`: each scene leaves the doubling when its own estimate meets its
 tolerance, every finer mesh starts from the coarser state (Newton at the full load; the
-continuation from the straight rod where that fails), as :func:`matid.rod.api.solve` does for one.
+continuation from the straight rod where that fails), and the first from the rod turned into a
+field beyond buckling where that applies (:mod:`matid.rod.aligned`), as :func:`matid.rod.api.solve`
+does for one.
 Any other scene (full model, three-point bend, ``[aim]``, a term the stack does not evaluate) runs
 alone through :func:`matid.rod.api.solve`. A scene that fails is a :class:`Failure` with its
 reason; never a non-converged state.
@@ -20,6 +22,7 @@ import numpy as np
 from matid.errors import MatidError
 from matid.rod import accuracy
 from matid.rod import batch as B
+from matid.rod.aligned import turned
 from matid.rod.api import solve
 from matid.rod.cantilever import (
     INTORDER,
@@ -198,27 +201,37 @@ def _tips(level: Level, plane: np.ndarray) -> np.ndarray:
 
 
 def _level(prepared, n: int, at: tuple, coarse: Level | None, probe: np.ndarray) -> Level:
-    """The scenes on the mesh of n elements, one stack: from the coarser mesh's states (Newton at
-    the full load; the continuation from the straight rod where that fails) or from the straight rod."""
+    """The scenes on the mesh of n elements, one stack: Newton at the full load from the coarser
+    mesh's states, or on the first mesh from a cold start where a scene has one (rod.aligned); the
+    continuation from the straight rod where that fails or there is none."""
     t0 = time.perf_counter()
     disc = mesh(n, at, 3, "P2", INTORDER["P2"])
     stack = B.Stack(disc, [(p[2], p[3]) for p in prepared], probe)
     N = len(prepared)
     X, info, stress = np.zeros((N, stack.n)), np.zeros((N, 3), int), None
-    todo = np.arange(N)
+    todo = tried = np.arange(N)
     if coarse is not None:  # Newton at the full load from the coarser state
         cd = coarse.disc
         vals = coarse.U.reshape(N, cd.nscalar, 3)[:, cd.value_dofs]  # (N, m, 3)
         m = vals.shape[1]
         U0 = interpolate_p2(cd.vertices, vals.transpose(1, 0, 2).reshape(m, -1), disc.s_dof)
         X0 = U0.reshape(disc.nscalar, N, 3).transpose(1, 0, 2).reshape(N, -1)[:, disc.free]
-        Xw, k, pd, sw, why, _ = B.newton(stack, X0, np.ones(N), _stresses(coarse, disc))
+        S0 = _stresses(coarse, disc)
+    else:  # the cold starts of cantilever.equilibrium (rod.starts) the stack has: rod.aligned
+        cold = [turned(PLANAR, p[2], p[3], disc) for p in prepared]
+        tried = np.array([i for i, c in enumerate(cold) if c is not None], int)
+        X0 = np.array([cold[i][0].ravel()[disc.free] for i in tried]).reshape(tried.size, stack.n)
+        S0 = np.array([cold[i][1] for i in tried]).reshape((tried.size,) + disc.s_quad.shape + (2,))
+    if tried.size:
+        sub = stack if tried.size == N else stack.take(tried)
+        Xw, k, pd, sw, why, _ = B.newton(sub, X0, np.ones(tried.size), S0)
         ok = np.array([w is None for w in why])
-        ok[ok] = B.admissible(stack.take(np.flatnonzero(ok)), Xw[ok], np.ones(int(ok.sum())), pd[ok])
-        X[ok], info[ok, 0], info[ok, 1] = Xw[ok], k[ok], 1
+        ok[ok] = B.admissible(sub.take(np.flatnonzero(ok)), Xw[ok], np.ones(int(ok.sum())), pd[ok])
+        done = tried[ok]
+        X[done], info[done, 0], info[done, 1] = Xw[ok], k[ok], 1
         stress = np.full((N,) + sw.shape[1:], np.nan)
-        stress[ok] = sw[ok]
-        todo = np.flatnonzero(~ok)
+        stress[done] = sw[ok]
+        todo = np.setdiff1d(np.arange(N), done)
     reasons: list = [None] * N
     if todo.size:
         sub = stack.take(todo)

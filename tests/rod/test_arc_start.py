@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from matid.bench.peers import precurved_3d
-from matid.rod import cantilever
+from matid.rod import starts
 from matid.rod.arc import arc
 from matid.rod.cantilever import default_penalty, equilibrium, mesh, prepare_scene
 from matid.rod.models import PLANAR
@@ -50,7 +50,7 @@ def test_no_arc_for_a_straight_rod():
 def test_the_arc_start_gives_the_continuations_answer(monkeypatch):
     scene = precurved_3d()
     from_arc = equilibrium(scene, elements=8)
-    monkeypatch.setattr(cantilever, "arc", lambda system: None)
+    monkeypatch.setattr(starts, "arc", lambda system: None)
     continued = equilibrium(scene, elements=8)
     assert np.allclose(from_arc.U, continued.U, rtol=0, atol=1e-9)
     assert from_arc.info.iterations < continued.info.iterations
