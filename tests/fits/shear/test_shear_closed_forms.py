@@ -94,7 +94,9 @@ def reference(kGA: float) -> dict[str, Estimate]:
     """E_s_torsion with a +-1 % interval: the reference k G A range (lo, hi)."""
     return {
         "E_b": Estimate("E_b", 6.5e-5, 0.0, None, 0, "linear"),
-        "E_s_torsion": Estimate("E_s_torsion", kGA, 0.005 * kGA, (0.99 * kGA, 1.01 * kGA), 9, "shear-coefficient"),
+        "E_s_torsion": Estimate(
+            "E_s_torsion", kGA, 0.005 * kGA, (0.99 * kGA, 1.01 * kGA), 9, "shear-coefficient"
+        ),
     }
 
 

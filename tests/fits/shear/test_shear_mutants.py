@@ -304,7 +304,9 @@ def test_a_fit_that_needs_more_than_its_evaluations_gives_up():
     from matid.fits.shear.lsq import MAX_EVALUATIONS, least_squares
 
     k = 26
-    stand = _Stand(lambda x: (np.full(3, (x[0] - 1) ** k), np.full((3, 1), k * (x[0] - 1) ** (k - 1))), rows=3)
+    stand = _Stand(
+        lambda x: (np.full(3, (x[0] - 1) ** k), np.full((3, 1), k * (x[0] - 1) ** (k - 1))), rows=3
+    )
     with pytest.raises(FitError, match=f"did not converge in {MAX_EVALUATIONS} evaluations"):
         least_squares(stand, np.array([10.0]))
     assert stand.evaluations <= 2 * MAX_EVALUATIONS
