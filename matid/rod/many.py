@@ -5,8 +5,8 @@ stack (:mod:`matid.rod.batch`) through the error estimate's meshes of
 :func:`matid.rod.accuracy.refine`: each scene leaves the doubling when its own estimate meets its
 tolerance, every finer mesh starts from the coarser state (Newton at the full load; the
 continuation from the straight rod where that fails), and the first from the rod turned into a
-field beyond buckling where that applies (:mod:`matid.rod.aligned`), as :func:`matid.rod.api.solve`
-does for one.
+field beyond buckling or by a dead tip force where that applies (:mod:`matid.rod.aligned`), as
+:func:`matid.rod.api.solve` does for one.
 Any other scene (full model, three-point bend, ``[aim]``, a term the stack does not evaluate) runs
 alone through :func:`matid.rod.api.solve`. A scene that fails is a :class:`Failure` with its
 reason; never a non-converged state.

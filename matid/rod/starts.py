@@ -1,6 +1,6 @@
 """Newton's cold starts at the full load, for a mesh with no converged state of the scene to start
-from: the unloaded arc of a precurved rod (:mod:`matid.rod.arc`), the magnetised rod turned into a
-field beyond buckling (:mod:`matid.rod.aligned`). :func:`matid.rod.cantilever.equilibrium` falls
+from: the unloaded arc of a precurved rod (:mod:`matid.rod.arc`), the rod turned into a field beyond
+buckling or by a dead tip force (:mod:`matid.rod.aligned`). :func:`matid.rod.cantilever.equilibrium` falls
 back on the load continuation from the straight rod when there is none, or Newton fails from it.
 """
 
