@@ -190,3 +190,46 @@ def test_a_moved_mesh_has_the_tables_of_one_built_on_its_vertices() -> None:
     fresh = Discretisation(vertices, 3, element="P2", intorder=INTORDER["P2"])
     for name in ("dx", "dphi", "s_quad", "s_dof", "weighted", "both", "element_tables", "point_table"):
         assert np.allclose(getattr(moved, name), getattr(fresh, name), rtol=1e-12, atol=1e-12), name
+
+
+def test_a_stack_of_cantilevers_is_in_equilibrium_at_every_dof_but_the_clamp() -> None:
+    """The stacked residual at the converged states holds the free dofs only: it vanishes there,
+    while the whole residual keeps the clamp's reaction, the tip force (statics, not the code)."""
+    from matid.rod import batch
+
+    F = 2.0 * ROD["E_b"] / 0.03**2  # a tip force across the rod: 2 E_b / L^2
+    scenes = [scene_from_dict({"rod": ROD, "tip": {"force": [f, 0, 0]}}) for f in (F, -0.5 * F)]
+    parts = [prepare_scene(scene, PLANAR)[2:4] for scene in scenes]
+    disc = mesh(8, (1.0,), 3, "P2", INTORDER["P2"])
+    stack = batch.Stack(disc, parts)
+    X, _, _, reasons = batch.follow(stack, stack.reference())
+    assert reasons == [None, None]
+    R = stack.evaluate(X, np.ones(2), tangent=False)[0]
+    whole = stack.residual(np.zeros((2, disc.ne, disc.s_quad.shape[1], 6)), np.ones(2))  # the loads alone
+    tip = np.abs(whole).max(axis=1)  # the scaled tip force of each scene
+    assert np.all(tip > 0.1)
+    assert np.abs(R).max(axis=1) == pytest.approx([0.0, 0.0], abs=1e-8 * tip.max())
+
+
+def test_a_table_a_mesh_does_not_have_is_named_in_the_error() -> None:
+    disc = mesh(4, (1.0,), 3, "P2", INTORDER["P2"])
+    with pytest.raises(AttributeError, match="'Discretisation' object has no attribute 'tip_table'"):
+        disc.tip_table  # noqa: B018
+
+
+def test_the_first_step_s_stability_probe_does_not_depend_on_a_failed_newton_before_it() -> None:
+    """equilibrium starts the continuation from the straight rod after a warm Newton failed: the
+    probe of the straight rod must see its own tangent, not the failed solve's point stresses."""
+    from matid.bench import scenes as S
+    from matid.rod import newton as nw
+
+    chosen, _, rod, loads, at = prepare_scene(S.magnetic(6.4, 120.0), PLANAR)
+    disc = mesh(8, at, 3, "P2", INTORDER["P2"])
+    fresh = RodSystem(disc, rod, loads, model=chosen, banded=True, mixed=True)
+    used = RodSystem(disc, rod, loads, model=chosen, banded=True, mixed=True)
+    x0 = fresh.reduce(fresh.reference())
+    with pytest.raises(nw.NewtonFailure):  # a wild guess at the full load: Newton gives up
+        nw.newton(used, x0 + np.random.default_rng(0).normal(0.0, 1.0, x0.size), 1.0)
+    want = nw.definite_step(fresh, x0, 0.0, 1.0, 1.0, nw.MIN_STEP)
+    assert want < 1.0  # beyond buckling at the full load: the probe halves (the test can tell)
+    assert nw.definite_step(used, x0, 0.0, 1.0, 1.0, nw.MIN_STEP) == want
