@@ -282,3 +282,13 @@ def test_a_bad_cell_of_a_file_without_a_header_names_the_row_its_data_start_at(t
         read_table(path, "extension", columns=columns, units=units)
     assert "no header row, data from row 1)" in info.value.detail, info.value.detail
     assert info.value.row == 3
+
+
+def test_a_mapped_name_that_is_the_start_of_a_header_cell_is_suggested(tmp_path: Path) -> None:
+    """columns.force = 'Load' where the header says 'Loadcell_1': not a column, but the message
+    offers the cell (a name cut short is the usual slip; 'Load' is 8/14 of their joint length)."""
+    rows = ["time [s],Loadcell_1,strain [%]"] + [f"{i},{0.5 * i},{i}" for i in range(6)]
+    path = _write(tmp_path, "\n".join(rows) + "\n")
+    with pytest.raises(DataError, match=r"columns\.force = 'Load' is not a column") as info:
+        read_table(path, "extension", columns={"force": "Load"}, units={"force": "N"})
+    assert "did you mean 'Loadcell_1'?" in str(info.value)

@@ -62,3 +62,32 @@ def test_a_slow_unloading_that_never_pushes_keeps_all_its_rows() -> None:
     fit = fit_extension([slow, *ramps([10 * TAU, TAU, 0.1 * TAU], rng)], specimen="T1")
     assert fit.series[0].used.all()
     assert "slow.csv" not in fit.info["left_out"]
+
+
+def test_the_plotted_bin_means_are_the_means_of_the_used_rows_of_each_bin() -> None:
+    """Reduction.means (what a long record's plot draws): each bin's plain mean, by hand here."""
+    from matid.fits.extension.reduce import Reduction
+
+    used = np.ones(12, dtype=bool)
+    used[[0, 5]] = False  # rows not used are in no bin
+    starts = np.array([0, 1, 4])  # bins of the used rows: [0], [1, 2, 3], [4 .. 9]
+    values = np.arange(12.0) ** 2
+    kept = values[used]
+    want = [kept[0], kept[1:4].mean(), kept[4:].mean()]
+    assert Reduction(used, starts).means(values) == pytest.approx(want, rel=1e-15)
+
+
+def test_the_preferred_prony_estimates_carry_their_interval_method_and_the_slow_arm_warning() -> None:
+    """Two arms (tau 0.5 s and 30 s) fitted on runs of at most 500 s: told the longest run was 5 s,
+    the 30 s arm is slower than 5 x 5 s, and only prony_k0 warns of it; every interval is t-log."""
+    from matid.fits.extension import prony
+    from tests.fits.extension.test_prony import data
+
+    rng = np.random.default_rng(3)
+    choice = prony.choose(data(lambda t, e: prony.prony_force(t, e, 50.0, [30.0, 40.0], [0.5, 30.0]), rng))
+    estimates = prony.preferred(choice, sls_k1=61.0, longest_run=5.0)[0]
+    by_name = {e.parameter: e for e in estimates}
+    (warning,) = by_name["prony_k0"].warnings
+    assert "tau = 30" in warning and "longer than 5x the longest run (5 s)" in warning
+    assert all(e.warnings == () for name, e in by_name.items() if name != "prony_k0")
+    assert all(e.extra["ci_method"] == "t-log" and e.ci95 is not None for e in estimates)
