@@ -292,3 +292,24 @@ def test_a_mapped_name_that_is_the_start_of_a_header_cell_is_suggested(tmp_path:
     with pytest.raises(DataError, match=r"columns\.force = 'Load' is not a column") as info:
         read_table(path, "extension", columns={"force": "Load"}, units={"force": "N"})
     assert "did you mean 'Loadcell_1'?" in str(info.value)
+
+
+def test_a_study_s_encoding_is_the_one_its_record_is_read_in(tmp_path: Path) -> None:
+    """An EBCDIC (cp500) record that detection cannot read (it finds no header): the study's
+    encoding = "cp500" reads it, every value as written."""
+    from matid.io.ingest.read import load_measurements
+    from matid.io.study import load_study
+
+    rows = ["time [s],force [N],strain [%]"] + [f"{i},{0.5 + i},{i}" for i in range(6)]
+    (tmp_path / "ebcdic.csv").write_bytes(("\n".join(rows) + "\n").encode("cp500"))
+    study = tmp_path / "study.toml"
+    study.write_text(
+        '[study]\nname = "e"\n\n[[specimen]]\nid = "T1"\nouter_diameter = "2 mm"\n\n'
+        '[[test]]\nkind = "extension"\nspecimen = "T1"\nfile = "ebcdic.csv"\ngauge_length = "50 mm"\n'
+        'encoding = "cp500"\n',
+        encoding="utf-8",
+    )
+    (measurement,) = load_measurements(load_study(study))
+    assert measurement.table.columns["force"] == pytest.approx([0.5 + i for i in range(6)])
+    with pytest.raises(DataError, match="no header row"):  # without it (the test can tell)
+        read_table(tmp_path / "ebcdic.csv", "extension")

@@ -233,3 +233,16 @@ def test_the_first_step_s_stability_probe_does_not_depend_on_a_failed_newton_bef
     want = nw.definite_step(fresh, x0, 0.0, 1.0, 1.0, nw.MIN_STEP)
     assert want < 1.0  # beyond buckling at the full load: the probe halves (the test can tell)
     assert nw.definite_step(used, x0, 0.0, 1.0, 1.0, nw.MIN_STEP) == want
+
+
+def test_p2_interpolation_reproduces_a_quadratic_from_integer_positions() -> None:
+    """interpolate_p2 is exact on a quadratic, also when the vertices and points are integers."""
+    from matid.rod.transfer import interpolate_p2
+
+    def f(s):
+        return 3.0 - 2.0 * s + 0.5 * s**2
+
+    nodes = np.arange(5)  # vertex, mid-point, vertex, ... of the mesh 0, 2, 4
+    s = np.array([0, 1, 3, 4])
+    got = interpolate_p2(np.array([0, 2, 4]), f(nodes)[:, None].astype(float), s)
+    assert got[:, 0] == pytest.approx(f(s), abs=1e-12)
