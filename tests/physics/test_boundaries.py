@@ -25,7 +25,8 @@ def _fd_hessian(f, r: np.ndarray, h: float = 1e-5) -> np.ndarray:
     E = np.eye(3) * h
     for i in range(3):
         for j in range(3):
-            H[i, j] = (f(r + E[i] + E[j]) - f(r + E[i] - E[j]) - f(r - E[i] + E[j]) + f(r - E[i] - E[j])) / (4 * h * h)
+            up, down = f(r + E[i] + E[j]) - f(r + E[i] - E[j]), f(r - E[i] + E[j]) - f(r - E[i] - E[j])
+            H[i, j] = (up - down) / (4 * h * h)
     return H
 
 

@@ -91,3 +91,22 @@ def test_the_preferred_prony_estimates_carry_their_interval_method_and_the_slow_
     assert "tau = 30" in warning and "longer than 5x the longest run (5 s)" in warning
     assert all(e.warnings == () for name, e in by_name.items() if name != "prony_k0")
     assert all(e.extra["ci_method"] == "t-log" and e.ci95 is not None for e in estimates)
+
+
+def test_a_run_with_too_few_used_rows_does_not_hide_the_cycles_of_the_next() -> None:
+    """checks.cycled asks whether *some* run unloads or holds: a run left with two used rows (after
+    its slack rows are dropped, lsq._slack keeps no minimum) says nothing, the next one still counts."""
+    from types import SimpleNamespace
+
+    from matid.fits.extension.checks import cycled
+
+    def run(eps, force):
+        eps, force = np.asarray(eps, float), np.asarray(force, float)
+        return SimpleNamespace(eps=eps, force=force, used=np.ones(eps.size, bool))
+
+    up = np.linspace(0.0, 0.05, 20)
+    eps = np.concatenate([up, up[::-1][1:]])  # a load and an unload of equal length
+    unloading = run(eps, 40.0 * eps + 0.2 * np.sin(30 * eps))
+    short = run([0.0, 0.01], [0.0, 0.4])
+    assert cycled([unloading])
+    assert cycled([short, unloading])
