@@ -246,3 +246,37 @@ def test_p2_interpolation_reproduces_a_quadratic_from_integer_positions() -> Non
     s = np.array([0, 1, 3, 4])
     got = interpolate_p2(np.array([0, 2, 4]), f(nodes)[:, None].astype(float), s)
     assert got[:, 0] == pytest.approx(f(s), abs=1e-12)
+
+
+def _tip_force_system() -> RodSystem:
+    return _system({"rod": ROD, "tip": {"force": [0.5 * ROD["E_b"] / 0.03**2, 0, 0]}}, elements=4)
+
+
+def test_a_continuation_back_down_the_load_reaches_the_state_of_the_lower_load(monkeypatch) -> None:
+    """follow through load factors 2 then 0.5 (back down by more than one step) ends where a
+    continuation straight to 0.5 does: the equilibrium of a stable cantilever is unique. (A budget
+    of 100 Newton iterations, 19 used: a continuation that walks away from 0.5 stops early.)"""
+    from matid.rod import newton as nw
+
+    monkeypatch.setattr(nw, "MIN_ITERATIONS", 100)
+    monkeypatch.setattr(nw, "WORK_BUDGET", 1.0)
+    system = _tip_force_system()
+    x0 = system.reduce(system.reference())
+    down, _ = nw.follow(system, x0, [2.0, 0.5])
+    direct, _ = nw.follow(system, x0, [0.5])
+    assert np.abs(down - direct).max() < 1e-8
+
+
+def test_a_continuation_that_gives_up_for_its_effort_says_how_far_it_got(monkeypatch) -> None:
+    """With a work budget of one Newton iteration, the first load step (0.25 of the load) already
+    exceeds it: the error names the load factor reached."""
+    from matid.errors import ConvergenceError
+    from matid.rod import newton as nw
+
+    monkeypatch.setattr(nw, "MIN_ITERATIONS", 1)
+    monkeypatch.setattr(nw, "WORK_BUDGET", 1.0)
+    system = _tip_force_system()
+    with pytest.raises(ConvergenceError, match="too little progress") as info:
+        nw.follow(system, system.reduce(system.reference()), [1.0], first_step=0.25)
+    assert info.value.load_factor == 0.25
+    assert "last converged load factor 0.25" in str(info.value)
