@@ -110,3 +110,58 @@ def test_a_run_with_too_few_used_rows_does_not_hide_the_cycles_of_the_next() -> 
     short = run([0.0, 0.01], [0.0, 0.4])
     assert cycled([unloading])
     assert cycled([short, unloading])
+
+
+def _e_e(t, eps, force):
+    from tests.fits.extension.test_no_relaxation import measurement
+
+    return fit_extension([measurement(t, eps, force)], specimen="T1").estimate("E_e")
+
+
+def _ramp(force_of):
+    """A ramp at 2e-5 /s over 20 s, force_of(t, eps) plus noise of 5 N."""
+    t = np.arange(0.0, 20.0, 0.02)
+    eps = 2e-5 * t
+    return t, eps, force_of(t, eps) + np.random.default_rng(7).normal(0.0, 5.0, t.size)
+
+
+def test_a_single_elastic_ramp_that_stiffens_widens_its_line_s_e_e_over_the_tangents() -> None:
+    """A ramp of F = K eps (1 + eps / 2 eps_max), no relaxation: E_e is the ramp's line, and the
+    tangent K (1 + eps / eps_max) runs from K to 2 K: the warning names the force's own tangent and
+    the interval spans the tangents at the 2nd and 98th percentile of strain."""
+    K = 1.1e7
+    t, eps, force = _ramp(lambda t, e: K * e * (1.0 + 0.5 * e / 4e-4))
+    e_e = _e_e(t, eps, force)
+    assert e_e.method == "ramp-line"
+    assert any(
+        "the force is not linear in strain" in w and "the force's own tangent" in w for w in e_e.warnings
+    )
+    lo, hi = np.percentile(eps, [2.0, 98.0])
+    assert e_e.ci95[0] <= 1.01 * K * (1 + lo / 4e-4) and e_e.ci95[1] >= 0.99 * K * (1 + hi / 4e-4), e_e.ci95
+
+
+def test_an_elastic_line_that_stiffens_is_judged_on_the_force_less_its_dashpot_and_drift() -> None:
+    """The cycles of test_no_relaxation with F = tare + K eps (1 + 0.3 eps / eps_max): E_e is the
+    elastic line, and the warning says what its tangent is the tangent of."""
+    from tests.fits.extension.test_no_relaxation import EPS_MAX, F_TARE, wavematrix_strain
+
+    K = 1.13e7
+    t, eps = wavematrix_strain()
+    force = F_TARE * (eps > 0) + K * eps * (1 + 0.3 * eps / EPS_MAX)
+    e_e = _e_e(t, eps, force + np.random.default_rng(1).normal(0.0, 28.0, t.size))
+    assert e_e.method == "elastic-line"
+    (warning,) = [w for w in e_e.warnings if "the force is not linear in strain" in w]
+    assert "the force less the line's dashpot and drift is" in warning
+
+
+def test_a_single_ramp_of_a_relaxing_solid_is_checked_on_its_own_tangent_too() -> None:
+    """A ramp of a standard linear solid (k1 1.1e7 N, k2 5e6 N, tau 2 s over 20 s): the SLS gives
+    E_e = k1, and the force's own tangent falls from k1 + k2 to k1, which a single ramp cannot
+    tell from an elastic curve: the warning says so."""
+    k1, k2, tau, rate = 1.1e7, 5e6, 2.0, 2e-5
+    t, eps, force = _ramp(lambda t, e: k1 * e + k2 * rate * tau * (1.0 - np.exp(-t / tau)))
+    e_e = _e_e(t, eps, force)
+    assert e_e.method == "sls" and e_e.value == pytest.approx(k1, rel=0.01)
+    assert any(
+        "a single ramp at one rate cannot tell relaxation from an elastic curve" in w for w in e_e.warnings
+    )
