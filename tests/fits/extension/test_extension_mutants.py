@@ -165,3 +165,15 @@ def test_a_single_ramp_of_a_relaxing_solid_is_checked_on_its_own_tangent_too() -
     assert any(
         "a single ramp at one rate cannot tell relaxation from an elastic curve" in w for w in e_e.warnings
     )
+
+
+@pytest.mark.parametrize(("fixed", "free"), [("sls_k2", "sls_eta"), ("sls_eta", "sls_k2")])
+def test_with_one_of_k2_and_eta_fixed_the_other_is_still_judged(fixed: str, free: str) -> None:
+    """One ramp 1000 tau long (an SLS of tau 10 s): its relaxation is over within the first 0.1 %
+    of the ramp, so whichever of k2 and eta is left free is not determined by it (its relative
+    standard error above 50 %), though the other is given."""
+    runs = ramps([1000 * TAU], np.random.default_rng(3), noise=0.01)
+    fit = fit_extension(runs, specimen="T1", fixed={fixed: {"sls_k2": K2, "sls_eta": ETA}[fixed]})
+    (why,) = [w for w in fit.estimate(free).warnings if "not identifiable" in w]
+    assert f"{free} relative standard error above 50%" in why
+    assert fit.estimate(fixed).method == "fixed"
