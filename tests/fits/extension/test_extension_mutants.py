@@ -177,3 +177,30 @@ def test_with_one_of_k2_and_eta_fixed_the_other_is_still_judged(fixed: str, free
     (why,) = [w for w in fit.estimate(free).warnings if "not identifiable" in w]
     assert f"{free} relative standard error above 50%" in why
     assert fit.estimate(fixed).method == "fixed"
+
+
+def test_a_relaxation_slower_than_the_runs_tells_the_reader_what_e_e_includes_and_what_to_add() -> None:
+    """Ramps of 0.1 s and 0.2 s of an SLS of tau 10 s: no relaxation within them, and E_e's
+    warning says it is the stiffness on that time scale and what would confirm it."""
+    fit = fit_extension(ramps([0.1, 0.2], np.random.default_rng(3), noise=0.01), specimen="T1")
+    (caution,) = [w for w in fit.estimate("E_e").warnings if w.startswith("no relaxation is resolved")]
+    assert "E_e is the stiffness on that time scale and includes any slower-relaxing part" in caution
+    assert caution.endswith("add a slower run or a hold to confirm it")
+
+
+def test_the_end_of_hold_warning_states_the_hold_s_length_to_a_sample() -> None:
+    """A ramp to strain 0.5 at 0.1 /s (it arrives at 5.0 s), held to 9.9 s, sampled every 0.1 s:
+    E_e = 10 N lies above force / strain at the end, and the warning says after how long a hold,
+    4.9 s, to the sample interval (the hold began between the last row that moved and the next)."""
+    import re
+
+    from matid.fits.extension.checks import end_of_hold
+    from matid.fits.extension.runs import _run
+    from tests.fits.extension.test_no_relaxation import measurement as strain_measurement
+    from tests.fits.extension.test_reduced_misfit import power_law_record
+
+    t, eps, force = power_law_record(100, 0.1)
+    run = _run(strain_measurement(t, eps, force + np.random.default_rng(3).normal(0.0, 0.002, t.size)))
+    warning, _ = end_of_hold([run], 10.0, 0.01)
+    after = float(re.search(r"after ([0-9.]+) s", warning).group(1))
+    assert abs(after - 4.9) <= 0.1 + 1e-9, warning
