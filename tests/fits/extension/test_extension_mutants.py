@@ -204,3 +204,23 @@ def test_the_end_of_hold_warning_states_the_hold_s_length_to_a_sample() -> None:
     warning, _ = end_of_hold([run], 10.0, 0.01)
     after = float(re.search(r"after ([0-9.]+) s", warning).group(1))
     assert abs(after - 4.9) <= 0.1 + 1e-9, warning
+
+
+def test_the_end_of_hold_warning_states_the_fall_per_decade_of_a_logarithmic_relaxation() -> None:
+    """A ramp to 0.01 in 1 s, then a hold to 101 s whose force / strain is A - beta ln(s), s the
+    time since the hold began: it falls by beta ln 10 per decade of time, as the warning says."""
+    import re
+
+    from matid.fits.extension.checks import end_of_hold
+    from matid.fits.extension.runs import _run
+    from tests.fits.extension.test_no_relaxation import measurement as strain_measurement
+
+    A, beta, eps0, dt = 100.0, 4.0, 0.01, 0.1
+    t = np.arange(0.0, 101.0 + dt / 2, dt)
+    eps = np.minimum(t, 1.0) * eps0
+    s = np.maximum(t - 1.0, dt)
+    force = np.where(t < 1.0, A * eps, eps0 * (A - beta * np.log(s)))
+    run = _run(strain_measurement(t, eps, force + np.random.default_rng(2).normal(0.0, 1e-4, t.size)))
+    warning, _ = end_of_hold([run], 1e3, 0.01)
+    fall = float(re.search(r"still falls by ([0-9.]+) N per decade", warning).group(1))
+    assert fall == pytest.approx(beta * np.log(10.0), rel=0.01), warning
