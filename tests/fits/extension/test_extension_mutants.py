@@ -224,3 +224,33 @@ def test_the_end_of_hold_warning_states_the_fall_per_decade_of_a_logarithmic_rel
     warning, _ = end_of_hold([run], 1e3, 0.01)
     fall = float(re.search(r"still falls by ([0-9.]+) N per decade", warning).group(1))
     assert fall == pytest.approx(beta * np.log(10.0), rel=0.01), warning
+
+
+def _line_plus_square(q: float, seed: int):
+    """200 rows of strain 0 to 1e-3 and force 1e4 eps + q u^2 + noise of 0.05 N (u: strain scaled
+    to 0..1 between its 2nd and 98th percentiles); the t-statistics of a cubic's u^2 and u^3 terms
+    by numpy.polyfit's covariance."""
+    from types import SimpleNamespace
+
+    eps = np.linspace(0.0, 1e-3, 200)
+    lo, hi = np.percentile(eps, [2.0, 98.0])
+    u = (eps - lo) / (hi - lo)
+    force = 1e4 * eps + q * u**2 + np.random.default_rng(seed).normal(0.0, 0.05, eps.size)
+    coef, cov = np.polyfit(u, force, 3, cov=True)
+    t = np.abs(coef[:2]) / np.sqrt(np.diag(cov)[:2])  # cubic, square
+    run = SimpleNamespace(eps=eps, force=force, used=np.ones(eps.size, bool), t=np.arange(eps.size) * 1.0)
+    return run, t, lo
+
+
+@pytest.mark.parametrize(("q", "significant"), [(0.3, False), (1.0, True)])
+def test_the_tangents_differ_only_where_a_curvature_term_is_three_of_its_own_standard_errors(q, significant):
+    """checks.nonlinear judges the u^2 and u^3 terms each by its own standard error: a square term
+    of 2.6 (the cubic 1.4) of them is no finding, one of 3 or more is, and the warning gives the
+    tangents at the 2nd and 98th percentile of strain."""
+    from matid.fits.extension.checks import nonlinear
+
+    run, t, lo = _line_plus_square(q, seed=13)
+    found = nonlinear([run], [np.zeros(run.eps.size)], 1e4)
+    assert (found is not None) == significant == bool(np.any(t > 3.0)), t
+    if significant:
+        assert f"at strain {lo:.3g} and" in found[0]
