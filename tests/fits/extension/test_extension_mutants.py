@@ -254,3 +254,39 @@ def test_the_tangents_differ_only_where_a_curvature_term_is_three_of_its_own_sta
     assert (found is not None) == significant == bool(np.any(t > 3.0)), t
     if significant:
         assert f"at strain {lo:.3g} and" in found[0]
+
+
+def test_a_long_hold_is_fitted_on_log_spaced_bins() -> None:
+    """A ramp of 10 s and a hold to 2000 s sampled every 0.1 s (20 001 rows): the residuals are bin
+    means on a logarithmic time axis after each kink (module docstring of reduce): about
+    ln(1 + span / w0) / ln(1 + c) bins per stretch (w0 = dt / c), a few hundred, not a row each."""
+    from matid.fits.extension import reduce
+
+    dt, c = 0.1, reduce.GROWTH
+    t = np.arange(20001) * dt
+    eps = 0.05 * np.minimum(t / 10.0, 1.0)
+    red = reduce.reduction(t, eps, np.ones(t.size, bool), 0.005)
+    w0 = dt / c
+    expected = sum(np.log1p(span / w0) / np.log1p(c) for span in (10.0, 1990.0))
+    assert abs(red.size - expected) < 10, (red.size, expected)
+    means = red.means(t)
+    assert np.all(np.diff(means) > 0)  # bins in time order, none crossing another
+
+
+def test_an_sls_fit_the_optimiser_did_not_finish_is_refused(monkeypatch) -> None:
+    """When lmfit reports no success (its evaluations ran out) the fit says it did not converge,
+    though the residuals it stopped at are finite numbers."""
+    import lmfit
+
+    from matid.errors import FitError
+
+    minimize = lmfit.Minimizer.minimize
+
+    def unfinished(self, *args, **kwargs):
+        result = minimize(self, *args, **kwargs)
+        result.success, result.message = False, "too many function evaluations (the test's stand-in)"
+        return result
+
+    monkeypatch.setattr(lmfit.Minimizer, "minimize", unfinished)
+    with pytest.raises(FitError, match="did not converge: too many function evaluations"):
+        fit_extension(ramps([TAU, 3 * TAU], np.random.default_rng(2)), specimen="T1")
