@@ -290,3 +290,35 @@ def test_an_sls_fit_the_optimiser_did_not_finish_is_refused(monkeypatch) -> None
     monkeypatch.setattr(lmfit.Minimizer, "minimize", unfinished)
     with pytest.raises(FitError, match="did not converge: too many function evaluations"):
         fit_extension(ramps([TAU, 3 * TAU], np.random.default_rng(2)), specimen="T1")
+
+
+def _prony_data(seed: int, noise: float = 0.02, arms: tuple = ([30.0], [5.0])):
+    from matid.fits.extension import prony
+    from tests.fits.extension.test_prony import data
+
+    return data(lambda t, e: prony.prony_force(t, e, 50.0, *arms), np.random.default_rng(seed), noise=noise)
+
+
+def test_the_prony_errors_do_not_depend_on_the_order_of_the_runs() -> None:
+    """Runs are a set: the same three runs in reverse order give the same standard errors (the
+    AR(1) sandwich's noise correlation does not run across from one run into the next). Two arms
+    (tau 0.5 s and 30 s): the one-arm fit misses them, and its residuals run in long stretches."""
+    from matid.fits.extension import prony
+
+    runs = _prony_data(1, arms=([30.0, 40.0], [0.5, 30.0]))
+    for n, fit in prony.choose(runs).fits.items():
+        again = prony.choose(runs[::-1]).fits[n].stderr()
+        for name, se in fit.stderr().items():
+            assert again[name] == pytest.approx(se, rel=1e-6), (n, name)
+
+
+def test_runs_ten_times_noisier_do_not_widen_the_prony_errors() -> None:
+    """Three runs at noise 0.02 N, then the same three shapes at 0.2 N added (each run weighted
+    by its own noise): they carry 1/100 of the weight, so the errors shrink a little, never grow."""
+    from matid.fits.extension import prony
+
+    quiet = _prony_data(2)
+    alone = prony.choose(quiet).fits[1].stderr()
+    both = prony.choose(quiet + _prony_data(4, noise=0.2)).fits[1].stderr()
+    for name, se in alone.items():
+        assert both[name] <= 1.001 * se, (name, both[name], se)
