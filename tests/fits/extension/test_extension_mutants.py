@@ -322,3 +322,77 @@ def test_runs_ten_times_noisier_do_not_widen_the_prony_errors() -> None:
     both = prony.choose(quiet + _prony_data(4, noise=0.2)).fits[1].stderr()
     for name, se in alone.items():
         assert both[name] <= 1.001 * se, (name, both[name], se)
+
+
+def _table_run(columns: dict, window: dict | None = None):
+    """An extension Measurement of hand-made columns (SI), as ingest would deliver it."""
+    from pathlib import Path
+
+    from matid.model import study
+    from matid.model.measurement import Measurement, Table
+
+    test = study.Test("extension", "T1", Path("r.csv"), {"gauge_length": 0.05}, window=window or {})
+    return Measurement(test, Table(Path("r.csv"), columns, {}, {}, ""))
+
+
+def _ramp_columns(n: int = 20) -> dict:
+    t = np.arange(n, dtype=float)
+    return {"time": t, "strain": 1e-3 * t, "force": 2.0 * t + 0.1 * np.sin(t)}
+
+
+@pytest.mark.parametrize(
+    ("change", "error", "message"),
+    [
+        ({"force": None}, "DataError", "extension test needs a 'force' column"),
+        ({"force": np.r_[0.0, np.nan, np.arange(2.0, 20.0)]}, "DataError", "must be finite in every row"),
+        (
+            {"time": np.arange(3.0), "strain": [0.0, 1e-3, 2e-3], "force": [0.0, 1.0, 2.0]},
+            "FitError",
+            "only 3 samples",
+        ),
+    ],
+)
+def test_a_run_that_cannot_be_fitted_says_why(change: dict, error: str, message: str) -> None:
+    """Runs refused by extension.runs, each with its reason: a column missing, a NaN force (with
+    finite time and strain), three samples."""
+    from matid import errors
+    from matid.fits.extension.runs import _run
+
+    columns = {k: v for k, v in {**_ramp_columns(), **change}.items() if v is not None}
+    columns = {k: np.asarray(v, float) for k, v in columns.items()}
+    with pytest.raises(getattr(errors, error), match=message):
+        _run(_table_run(columns))
+
+
+def test_a_window_with_too_few_rows_says_how_many_it_holds() -> None:
+    from matid.errors import DataError
+    from matid.fits.extension.runs import _run
+
+    with pytest.raises(DataError, match="only 3 rows inside the window; a fit needs 5"):
+        _run(_table_run(_ramp_columns(), window={"strain": (0.0, 2e-3)}))
+
+
+def test_a_record_of_five_rows_whose_time_repeats_is_refused_for_its_time() -> None:
+    """Times 0, 1, 1, 2 and a last row 0, 0, 0: not a test stage's end-of-test row (time did not
+    increase strictly before it), so the record keeps five rows and is refused where time repeats."""
+    from matid.errors import DataError
+    from matid.fits.extension.runs import _run
+
+    columns = {
+        "time": [0.0, 1.0, 1.0, 2.0, 0.0],
+        "strain": [1e-3, 2e-3, 3e-3, 4e-3, 0.0],
+        "force": [1.0, 2, 3, 4, 0],
+    }
+    with pytest.raises(DataError, match="time must increase strictly"):
+        _run(_table_run({k: np.asarray(v, float) for k, v in columns.items()}))
+
+
+def test_a_noise_free_ramp_keeps_every_row() -> None:
+    """A ramp whose force is exactly linear (0.5 N per s, 100 rows): its second differences, the
+    noise estimate, are 0, and no row is near zero force but the first ones, so none is left out
+    as slack."""
+    from matid.fits.extension.runs import _run
+
+    t = np.arange(100.0)
+    run = _run(_table_run({"time": t, "strain": 1e-4 * t, "force": 0.5 * t}))
+    assert run.left_out == {} and int(run.used.sum()) == 100
