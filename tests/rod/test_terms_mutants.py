@@ -280,3 +280,17 @@ def test_a_continuation_that_gives_up_for_its_effort_says_how_far_it_got(monkeyp
         nw.follow(system, system.reduce(system.reference()), [1.0], first_step=0.25)
     assert info.value.load_factor == 0.25
     assert "last converged load factor 0.25" in str(info.value)
+
+
+def test_newton_on_an_exactly_singular_banded_tangent_says_so() -> None:
+    """A stand-in system whose banded tangent is all zeros: Newton fails, naming the singular tangent."""
+    from matid.rod import newton as nw
+    from matid.rod.band import Banded
+
+    class Singular:
+        def evaluate(self, x, lam, *, tangent=True):
+            K = Banded(np.zeros((3, 4)), 1, np.arange(4), np.arange(4), True)
+            return np.ones(4), K
+
+    with pytest.raises(nw.NewtonFailure, match="singular tangent"):
+        nw.newton(Singular(), np.zeros(4), 1.0)
