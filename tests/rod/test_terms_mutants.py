@@ -294,3 +294,17 @@ def test_newton_on_an_exactly_singular_banded_tangent_says_so() -> None:
 
     with pytest.raises(nw.NewtonFailure, match="singular tangent"):
         nw.newton(Singular(), np.zeros(4), 1.0)
+
+
+def test_a_segment_s_precurvature_is_kept_whole_beside_a_rod_s_given_in_integers() -> None:
+    """kappa_ref_at on a rod whose own precurvature is written (0, 0, 0): the segment's 0.25 and
+    1.5 are read as they are, not cut to integers; the rod's zeros hold outside it."""
+    rod = ScaledRod(
+        E_t=1.0,
+        E_s=1e3,
+        E_e=1e3,
+        kappa_ref=(0, 0, 0),
+        segments=(Segment(0.5, 1.0, 1, 1, 1, 1, (0.25, 1.5, 0.0)),),
+    )
+    got = rod.kappa_ref_at(np.array([0.25, 0.75]))
+    assert got.tolist() == [[0.0, 0.0, 0.0], [0.25, 1.5, 0.0]]
