@@ -73,7 +73,7 @@ class Centreline:
         ends.append(P[-1])
         if np.any(used > lengths * (1 + 1e-12)):
             raise ValueError("corner_radius too large: the rounded corners of the centreline overlap")
-        return cls(tuple(zip(starts, ends, strict=True)), tuple(arcs))
+        return cls(_pieces(starts, ends, lengths - used <= MEET * lengths, legs), tuple(arcs))
 
     def closest(self, r: np.ndarray):
         """(c*, kappa_c t t^T) at points r (n, 3): the closest centreline point and its Jacobian."""
@@ -109,6 +109,27 @@ class Centreline:
             J = np.where(inside[:, None, None], bend, 0.0)
             best, c_best, J_best = _keep(r, c, J, best, c_best, J_best)
         return c_best, J_best
+
+
+#: Where the arcs at a leg's two ends leave less than this fraction of it straight, they meet: the
+#: piece between is round-off long (or 0), so b - a has no direction. It is dropped, or at an open
+#: end, whose continuation beyond the polyline it carries, rebuilt along its leg.
+MEET = 1e-9
+
+
+def _pieces(starts: list, ends: list, meet: np.ndarray, legs: np.ndarray) -> tuple:
+    """The straight pieces (a, b), one per leg (``legs``: its vectors), but where the arcs meet
+    (:data:`MEET`); the first and last are always kept, as the leg's line up to or from its arc."""
+    last = len(starts) - 1
+    pieces = []
+    for i, (a, b) in enumerate(zip(starts, ends, strict=True)):
+        if not meet[i]:
+            pieces.append((a, b))
+        elif i == 0:
+            pieces.append((b - legs[0], b))
+        elif i == last:
+            pieces.append((a, a + legs[-1]))
+    return tuple(pieces)
 
 
 def _keep(r, c, J, best, c_best, J_best):

@@ -282,3 +282,34 @@ def test_a_bad_cell_of_a_file_without_a_header_names_the_row_its_data_start_at(t
         read_table(path, "extension", columns=columns, units=units)
     assert "no header row, data from row 1)" in info.value.detail, info.value.detail
     assert info.value.row == 3
+
+
+def test_a_mapped_name_that_is_the_start_of_a_header_cell_is_suggested(tmp_path: Path) -> None:
+    """columns.force = 'Load' where the header says 'Loadcell_1': not a column, but the message
+    offers the cell (a name cut short is the usual slip; 'Load' is 8/14 of their joint length)."""
+    rows = ["time [s],Loadcell_1,strain [%]"] + [f"{i},{0.5 * i},{i}" for i in range(6)]
+    path = _write(tmp_path, "\n".join(rows) + "\n")
+    with pytest.raises(DataError, match=r"columns\.force = 'Load' is not a column") as info:
+        read_table(path, "extension", columns={"force": "Load"}, units={"force": "N"})
+    assert "did you mean 'Loadcell_1'?" in str(info.value)
+
+
+def test_a_study_s_encoding_is_the_one_its_record_is_read_in(tmp_path: Path) -> None:
+    """An EBCDIC (cp500) record that detection cannot read (it finds no header): the study's
+    encoding = "cp500" reads it, every value as written."""
+    from matid.io.ingest.read import load_measurements
+    from matid.io.study import load_study
+
+    rows = ["time [s],force [N],strain [%]"] + [f"{i},{0.5 + i},{i}" for i in range(6)]
+    (tmp_path / "ebcdic.csv").write_bytes(("\n".join(rows) + "\n").encode("cp500"))
+    study = tmp_path / "study.toml"
+    study.write_text(
+        '[study]\nname = "e"\n\n[[specimen]]\nid = "T1"\nouter_diameter = "2 mm"\n\n'
+        '[[test]]\nkind = "extension"\nspecimen = "T1"\nfile = "ebcdic.csv"\ngauge_length = "50 mm"\n'
+        'encoding = "cp500"\n',
+        encoding="utf-8",
+    )
+    (measurement,) = load_measurements(load_study(study))
+    assert measurement.table.columns["force"] == pytest.approx([0.5 + i for i in range(6)])
+    with pytest.raises(DataError, match="no header row"):  # without it (the test can tell)
+        read_table(tmp_path / "ebcdic.csv", "extension")

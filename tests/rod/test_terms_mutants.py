@@ -190,3 +190,121 @@ def test_a_moved_mesh_has_the_tables_of_one_built_on_its_vertices() -> None:
     fresh = Discretisation(vertices, 3, element="P2", intorder=INTORDER["P2"])
     for name in ("dx", "dphi", "s_quad", "s_dof", "weighted", "both", "element_tables", "point_table"):
         assert np.allclose(getattr(moved, name), getattr(fresh, name), rtol=1e-12, atol=1e-12), name
+
+
+def test_a_stack_of_cantilevers_is_in_equilibrium_at_every_dof_but_the_clamp() -> None:
+    """The stacked residual at the converged states holds the free dofs only: it vanishes there,
+    while the whole residual keeps the clamp's reaction, the tip force (statics, not the code)."""
+    from matid.rod import batch
+
+    F = 2.0 * ROD["E_b"] / 0.03**2  # a tip force across the rod: 2 E_b / L^2
+    scenes = [scene_from_dict({"rod": ROD, "tip": {"force": [f, 0, 0]}}) for f in (F, -0.5 * F)]
+    parts = [prepare_scene(scene, PLANAR)[2:4] for scene in scenes]
+    disc = mesh(8, (1.0,), 3, "P2", INTORDER["P2"])
+    stack = batch.Stack(disc, parts)
+    X, _, _, reasons = batch.follow(stack, stack.reference())
+    assert reasons == [None, None]
+    R = stack.evaluate(X, np.ones(2), tangent=False)[0]
+    whole = stack.residual(np.zeros((2, disc.ne, disc.s_quad.shape[1], 6)), np.ones(2))  # the loads alone
+    tip = np.abs(whole).max(axis=1)  # the scaled tip force of each scene
+    assert np.all(tip > 0.1)
+    assert np.abs(R).max(axis=1) == pytest.approx([0.0, 0.0], abs=1e-8 * tip.max())
+
+
+def test_a_table_a_mesh_does_not_have_is_named_in_the_error() -> None:
+    disc = mesh(4, (1.0,), 3, "P2", INTORDER["P2"])
+    with pytest.raises(AttributeError, match="'Discretisation' object has no attribute 'tip_table'"):
+        disc.tip_table  # noqa: B018
+
+
+def test_the_first_step_s_stability_probe_does_not_depend_on_a_failed_newton_before_it() -> None:
+    """equilibrium starts the continuation from the straight rod after a warm Newton failed: the
+    probe of the straight rod must see its own tangent, not the failed solve's point stresses."""
+    from matid.bench import scenes as S
+    from matid.rod import newton as nw
+
+    chosen, _, rod, loads, at = prepare_scene(S.magnetic(6.4, 120.0), PLANAR)
+    disc = mesh(8, at, 3, "P2", INTORDER["P2"])
+    fresh = RodSystem(disc, rod, loads, model=chosen, banded=True, mixed=True)
+    used = RodSystem(disc, rod, loads, model=chosen, banded=True, mixed=True)
+    x0 = fresh.reduce(fresh.reference())
+    with pytest.raises(nw.NewtonFailure):  # a wild guess at the full load: Newton gives up
+        nw.newton(used, x0 + np.random.default_rng(0).normal(0.0, 1.0, x0.size), 1.0)
+    want = nw.definite_step(fresh, x0, 0.0, 1.0, 1.0, nw.MIN_STEP)
+    assert want < 1.0  # beyond buckling at the full load: the probe halves (the test can tell)
+    assert nw.definite_step(used, x0, 0.0, 1.0, 1.0, nw.MIN_STEP) == want
+
+
+def test_p2_interpolation_reproduces_a_quadratic_from_integer_positions() -> None:
+    """interpolate_p2 is exact on a quadratic, also when the vertices and points are integers."""
+    from matid.rod.transfer import interpolate_p2
+
+    def f(s):
+        return 3.0 - 2.0 * s + 0.5 * s**2
+
+    nodes = np.arange(5)  # vertex, mid-point, vertex, ... of the mesh 0, 2, 4
+    s = np.array([0, 1, 3, 4])
+    got = interpolate_p2(np.array([0, 2, 4]), f(nodes)[:, None].astype(float), s)
+    assert got[:, 0] == pytest.approx(f(s), abs=1e-12)
+
+
+def _tip_force_system() -> RodSystem:
+    return _system({"rod": ROD, "tip": {"force": [0.5 * ROD["E_b"] / 0.03**2, 0, 0]}}, elements=4)
+
+
+def test_a_continuation_back_down_the_load_reaches_the_state_of_the_lower_load(monkeypatch) -> None:
+    """follow through load factors 2 then 0.5 (back down by more than one step) ends where a
+    continuation straight to 0.5 does: the equilibrium of a stable cantilever is unique. (A budget
+    of 100 Newton iterations, 19 used: a continuation that walks away from 0.5 stops early.)"""
+    from matid.rod import newton as nw
+
+    monkeypatch.setattr(nw, "MIN_ITERATIONS", 100)
+    monkeypatch.setattr(nw, "WORK_BUDGET", 1.0)
+    system = _tip_force_system()
+    x0 = system.reduce(system.reference())
+    down, _ = nw.follow(system, x0, [2.0, 0.5])
+    direct, _ = nw.follow(system, x0, [0.5])
+    assert np.abs(down - direct).max() < 1e-8
+
+
+def test_a_continuation_that_gives_up_for_its_effort_says_how_far_it_got(monkeypatch) -> None:
+    """With a work budget of one Newton iteration, the first load step (0.25 of the load) already
+    exceeds it: the error names the load factor reached."""
+    from matid.errors import ConvergenceError
+    from matid.rod import newton as nw
+
+    monkeypatch.setattr(nw, "MIN_ITERATIONS", 1)
+    monkeypatch.setattr(nw, "WORK_BUDGET", 1.0)
+    system = _tip_force_system()
+    with pytest.raises(ConvergenceError, match="too little progress") as info:
+        nw.follow(system, system.reduce(system.reference()), [1.0], first_step=0.25)
+    assert info.value.load_factor == 0.25
+    assert "last converged load factor 0.25" in str(info.value)
+
+
+def test_newton_on_an_exactly_singular_banded_tangent_says_so() -> None:
+    """A stand-in system whose banded tangent is all zeros: Newton fails, naming the singular tangent."""
+    from matid.rod import newton as nw
+    from matid.rod.band import Banded
+
+    class Singular:
+        def evaluate(self, x, lam, *, tangent=True):
+            K = Banded(np.zeros((3, 4)), 1, np.arange(4), np.arange(4), True)
+            return np.ones(4), K
+
+    with pytest.raises(nw.NewtonFailure, match="singular tangent"):
+        nw.newton(Singular(), np.zeros(4), 1.0)
+
+
+def test_a_segment_s_precurvature_is_kept_whole_beside_a_rod_s_given_in_integers() -> None:
+    """kappa_ref_at on a rod whose own precurvature is written (0, 0, 0): the segment's 0.25 and
+    1.5 are read as they are, not cut to integers; the rod's zeros hold outside it."""
+    rod = ScaledRod(
+        E_t=1.0,
+        E_s=1e3,
+        E_e=1e3,
+        kappa_ref=(0, 0, 0),
+        segments=(Segment(0.5, 1.0, 1, 1, 1, 1, (0.25, 1.5, 0.0)),),
+    )
+    got = rod.kappa_ref_at(np.array([0.25, 0.75]))
+    assert got.tolist() == [[0.0, 0.0, 0.0], [0.25, 1.5, 0.0]]
