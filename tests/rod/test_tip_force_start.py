@@ -11,14 +11,12 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from matid.bench import scenes as S
-from matid.physics import kinematics as kin
 from matid.rod import starts
-from matid.rod import system as rod_system
 from matid.rod.aligned import BUCKLING, aligned
-from matid.rod.cantilever import default_penalty, equilibrium, mesh, prepare_scene
+from matid.rod.cantilever import equilibrium, prepare_scene
 from matid.rod.newton import follow
 from matid.rod.scenes import scene_from_dict
-from matid.rod.system import RodSystem
+from tests.rod.test_aligned import _counted, _system  # the same 4-element system and counter
 
 
 def _scene(alpha: float, beta_deg: float, **tip) -> object:
@@ -26,25 +24,6 @@ def _scene(alpha: float, beta_deg: float, **tip) -> object:
     beta, F = math.radians(beta_deg), alpha * S.E_B / S.L**2
     raw = {"rod": S._rod(), "tip": {"force": [F * math.sin(beta), 0.0, F * math.cos(beta)], **tip}}
     return scene_from_dict(raw)
-
-
-def _system(scene, elements: int = 4, model: str = "auto") -> RodSystem:
-    chosen, _, rod, loads, at = prepare_scene(scene, model)
-    disc = mesh(elements, at, 3 if chosen == "planar" else 7, "P2", 2)
-    c_u = default_penalty(rod, kin.NORMALISED)
-    return RodSystem(disc, rod, loads, model=chosen, c_u=c_u, banded=True, mixed=True)
-
-
-def _counted(monkeypatch) -> list:
-    """Every RodSystem.evaluate from now on appends its load factor to the list returned."""
-    calls, original = [], rod_system.RodSystem.evaluate
-
-    def evaluate(self, X, lam, **kw):
-        calls.append(lam)
-        return original(self, X, lam, **kw)
-
-    monkeypatch.setattr(rod_system.RodSystem, "evaluate", evaluate)
-    return calls
 
 
 def _shot(alpha: float, beta: float):
@@ -180,7 +159,10 @@ NOT_APPLICABLE = {
         }
     ),
     "precurved": scene_from_dict(
-        {"rod": S._rod(precurvature=[0.0, 1.0 / S.L, 0.0]), "tip": {"force": [5.0 * S.E_B / S.L**2, 0.0, 0.0]}}
+        {
+            "rod": S._rod(precurvature=[0.0, 1.0 / S.L, 0.0]),
+            "tip": {"force": [5.0 * S.E_B / S.L**2, 0.0, 0.0]},
+        }
     ),
 }
 
