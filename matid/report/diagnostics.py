@@ -64,7 +64,8 @@ def lack_of_fit_table(lof: Mapping) -> Nested | None:
     if misfit != both:  # the fit could not decide (too few residuals)
         reasons = f"fewer than {MIN_POINTS} residuals: not decided"
     rows = [
-        ("reduced χ²", fmt(chi2, 3), f"above {MISFIT_CHI2:g}: residuals larger than the noise"),
+        ("reduced χ² against the residuals' point-to-point noise", fmt(chi2, 3),
+         f"above {MISFIT_CHI2:g}: residuals larger than the noise"),
         ("runs of one sign, observed / expected", f"{int(lof['runs'])} / {float(lof['runs_expected']):.0f}",
          "fewer than expected: residuals run in stretches"),
         ("p-value of the runs test", fmt(p, 2), f"below {MISFIT_RUNS_P:g}: the stretches are systematic"),
