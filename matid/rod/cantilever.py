@@ -18,14 +18,22 @@ import numpy as np
 from matid.physics import kinematics as kin
 from matid.rod.contact_rounds import carry, report, reset, settle
 from matid.rod.fem import Discretisation, graded_vertices
-from matid.rod.models import FULL, PLANAR, ScaledRod, Segment
-from matid.rod.newton import XTOL, NewtonFailure, NewtonInfo, check_admissible, follow, newton
+from matid.rod.models import FULL, PLANAR, ScaledRod, Segment, lab_frames
+from matid.rod.newton import (
+    XTOL,
+    NewtonFailure,
+    NewtonInfo,
+    check_admissible,
+    confirm_by_residual,
+    follow,
+    newton,
+)
 from matid.rod.scenes import Scene, plane_of
 from matid.rod.starts import cold_start
 from matid.rod.system import RodSystem
 from matid.rod.terms import Scale, Term, loads_of
 from matid.rod.terms.contact import contact_of
-from matid.rod.transfer import interpolate_p2, stress_recovery
+from matid.rod.transfer import interpolate_warm, stress_recovery
 
 #: A rigid segment: bending and twist RIGID_FACTOR times the rod's, shear and
 #: extension at least RIGID_FACTOR (scaled by E_b/L^2). Its share of the rod's
@@ -173,12 +181,12 @@ def equilibrium(
         banded=True,
         mixed=True,  # the mixed-integration-point Newton (RodSystem.mixed_update)
     )
-    provisional = not confirm and contact_of(system) is None
+    provisional, kinks = not confirm and contact_of(system) is None, None
     if isinstance(start, Equilibrium):
         system.stress_start = start.stress_at(disc)
         carry(system, start)  # the contact multipliers (contact_rounds)
-        start = start.state()
-    X = _warm(system, start, provisional) if start is not None and element == "P2" else None
+        start, kinks = start.state(), start.kinks()
+    X = _warm(system, start, provisional, kinks) if start is not None and element == "P2" else None
     if X is None and start is None and element == "P2" and (cold := cold_start(system)) is not None:
         system.stress_start = cold[1]
         X = _full_load(system, cold[0], provisional)
@@ -234,15 +242,17 @@ class Equilibrium:
     pending: tuple | None = field(default=None, repr=False)  # (system, X, redo): not yet confirmed
 
     def confirmed(self) -> Equilibrium:
-        """This state after Newton's confirming evaluation (``equilibrium(confirm=False)``): the
-        same last iteration, consistent tangent and stability test at the root as a confirmed
-        solve; if it fails, the mesh is solved again confirmed (``redo``)."""
+        """This state after Newton's confirming evaluation (``equilibrium(confirm=False)``): from its
+        residual and the last factor (newton.confirm_by_residual) or a full iteration, the same
+        test of convergence and the stability test as a confirmed solve; if it fails, the mesh is
+        solved again confirmed (``redo``)."""
         if self.pending is None:
             return self
         t0, (system, X, redo) = time.perf_counter(), self.pending
+        chord, its, lu = confirm_by_residual(system, X, 1.0, self.info), 1, self.info.lu
         system.stress_start = None  # the consistent tangent, as the iteration it stands for
         try:
-            X, its, lu = newton(system, X, 1.0)
+            X, its, lu = (chord, its, lu) if chord is not None else newton(system, X, 1.0)
             check_admissible(system, X, 1.0, lu)
         except NewtonFailure:
             return redo()
@@ -258,17 +268,21 @@ class Equilibrium:
         Only the first Newton tangent of a warm start uses them (see equilibrium)."""
         if self.stress is None or self.disc.element != "P2" or self.stress.shape[1] != 2:
             return None
-        smooth = self.scene is not None and self.contact is None  # contact forces kink the stresses
-        jumps = np.asarray(breaks(self.scene), float).tobytes() if smooth else None
         meshes = (self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
-        R = stress_recovery(*meshes, jumps)
+        R = stress_recovery(*meshes, self.kinks())
         ns = self.stress.shape[-1]
         return (R @ self.stress.reshape(-1, ns)).reshape(disc.s_quad.shape + (ns,))
+
+    def kinks(self) -> bytes | None:
+        """Where this state's fields may kink: its scene's breaks (bytes), None with contact (its
+        forces kink them anywhere) or without a scene."""
+        smooth = self.scene is not None and self.contact is None
+        return np.asarray(breaks(self.scene), float).tobytes() if smooth else None
 
     def solution(self, **fields) -> Solution:
         """The state presented (SI, lab frame); ``fields``: further Solution fields (the estimate)."""
         L, disc, order = self.scene.rod.length, self.disc, self.disc.value_dofs
-        position, d1, d3 = _frames(self.model, self.U[order], self.e_a, L)
+        position, d1, d3 = lab_frames(self.U[order], self.e_a, L)
         if not (np.isfinite(position).all() and np.isfinite(d1).all()):
             raise FloatingPointError("non-finite solution")  # unreachable: Newton rejects NaN
         return Solution(
@@ -307,12 +321,12 @@ class Equilibrium:
     def tip(self) -> np.ndarray:
         """(tip position / L, tip d3): the Solution's last row (to round-off), without building it."""
         row = self.U[self.disc.vertex_dof(self.disc.vertices.size - 1)].tolist()  # the tip's values
-        if self.model == PLANAR:  # _frames of one row, in floats (numpy costs ~1 us per operation)
+        if self.model == PLANAR:  # lab_frames of one row, in floats (numpy costs ~1 us per operation)
             a0, a1 = float(self.e_a[0]), float(self.e_a[1])
             x, z, th = row[:3]
             s, c = math.sin(th), math.cos(th)
             return np.array([x * a0, x * a1, z, a0 * s, a1 * s, c])
-        return np.array(row[:3] + kin.d3(row[3:7]))  # d3 of q/|q|, as _frames
+        return np.array(row[:3] + kin.d3(row[3:7]))  # d3 of q/|q|, as lab_frames
 
 
 #: The last scene's plane and its prepared (model, plane, scaled rod, breaks) per model asked.
@@ -360,9 +374,10 @@ def mesh(elements: int, at: tuple[float, ...], nf: int, element: str, intorder: 
     return Discretisation(graded_vertices(1.0, elements, breaks=at), nf, element=element, intorder=intorder)
 
 
-def _warm(system: RodSystem, start: tuple, provisional: bool) -> tuple[np.ndarray, NewtonInfo] | None:
-    """Newton at the full load from the P2 interpolant of a state on another mesh; None if it fails."""
-    U0 = interpolate_p2(*start, system.disc.s_dof)
+def _warm(system: RodSystem, start: tuple, provisional: bool, kinks) -> tuple[np.ndarray, NewtonInfo] | None:
+    """Newton at the full load from a state on another mesh (transfer.interpolate_warm with the
+    state's ``kinks``); None if it fails."""
+    U0 = interpolate_warm(*start, system.disc.s_dof, kinks)
     if system.model == FULL:
         U0[:, 3:] /= np.linalg.norm(U0[:, 3:], axis=1, keepdims=True)
     return _full_load(system, U0, provisional)
@@ -379,21 +394,3 @@ def _full_load(system: RodSystem, U0: np.ndarray, provisional: bool) -> tuple[np
     except NewtonFailure:
         return None
     return X, info
-
-
-def _frames(chosen: str, U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(position, d1, d3) in the lab frame (metres) of nodal rows U."""
-    if chosen == PLANAR:  # rotation by theta about n = e3 x e_a = (-a1, a0, 0) (Rodrigues)
-        a0, a1 = float(e_a[0]), float(e_a[1])
-        x, z, c, s = U[:, 0], U[:, 1], np.cos(U[:, 2]), np.sin(U[:, 2])
-        one_c = 1.0 - c
-        position, d1, d3 = (np.empty((U.shape[0], 3)) for _ in range(3))  # column writes: np.stack ~5 us
-        position[:, 0], position[:, 1], position[:, 2] = x * a0, x * a1, z
-        position *= L
-        d1[:, 0], d1[:, 1], d1[:, 2] = c + a1 * a1 * one_c, -a0 * a1 * one_c, -a0 * s  # R e1
-        d3[:, 0], d3[:, 1], d3[:, 2] = a0 * s, a1 * s, c  # d3 = R e3 = c e3 + s e_a
-        return position, d1, d3
-    position = U[:, :3] * L
-    q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
-    R = np.array(kin.directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
-    return position, R[:, :, 0], R[:, :, 2]

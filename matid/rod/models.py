@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from matid.physics.kinematics import directors
+
 PLANAR, FULL = "planar", "full"
 
 
@@ -71,3 +73,22 @@ class ScaledRod:
             for name in out:
                 out[name] = np.where(inside, getattr(seg, name), out[name])
         return out
+
+
+def lab_frames(U: np.ndarray, e_a, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(position, d1, d3) in the lab frame (metres) of nodal rows U: planar (x, z, theta) in the plane
+    of e_a (3,), or full (r, q) when e_a is None."""
+    if e_a is not None:  # rotation by theta about n = e3 x e_a = (-a1, a0, 0) (Rodrigues)
+        a0, a1 = float(e_a[0]), float(e_a[1])
+        x, z, c, s = U[:, 0], U[:, 1], np.cos(U[:, 2]), np.sin(U[:, 2])
+        one_c = 1.0 - c
+        position, d1, d3 = (np.empty((U.shape[0], 3)) for _ in range(3))  # column writes: np.stack ~5 us
+        position[:, 0], position[:, 1], position[:, 2] = x * a0, x * a1, z
+        position *= L
+        d1[:, 0], d1[:, 1], d1[:, 2] = c + a1 * a1 * one_c, -a0 * a1 * one_c, -a0 * s  # R e1
+        d3[:, 0], d3[:, 1], d3[:, 2] = a0 * s, a1 * s, c  # d3 = R e3 = c e3 + s e_a
+        return position, d1, d3
+    position = U[:, :3] * L
+    q = U[:, 3:] / np.linalg.norm(U[:, 3:], axis=1, keepdims=True)
+    R = np.array(directors(q.T)).transpose(2, 0, 1)  # (n, 3, 3)
+    return position, R[:, :, 0], R[:, :, 2]
