@@ -148,6 +148,10 @@ class Stack:
     def reference(self) -> np.ndarray:
         return np.broadcast_to(self.ref[self.disc.free], (self.N, self.n)).copy()
 
+    def project(self, X: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """:meth:`matid.rod.system.RodSystem.project` of the states X[rows]: planar, X unchanged."""
+        return X
+
     def point_values(self, U: np.ndarray) -> np.ndarray:
         d = self.disc
         Ue = U.reshape(-1, d.nscalar, d.nf)[:, d.edofs.T]  # (N, ne, nloc, nf)
@@ -306,6 +310,7 @@ def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray, f
         S = stack.stress_step(strain, dx, alpha, S)
         S[size <= nw.MIXED_ABOVE] = np.nan
         x = x + dx * alpha[:, None]
+        x = stack.project(x, size > nw.PROJECT_ABOVE)
     return X, its, pd, out_stress, reason, factors
 
 

@@ -131,6 +131,14 @@ class FullStack(Stack):
         if self.lumped[:, self.chain.mids].any():  # never: magnets sit on vertices (nearest_vertex_dof)
             raise ValueError("a lumped magnet off the mesh vertices")
 
+    def project(self, X: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """:meth:`matid.rod.system.RodSystem.project` of the states X[rows]: each node's q on |q| = 1."""
+        if rows.any():
+            U = self.expand(X[rows]).reshape(int(rows.sum()), -1, NF)
+            U[..., 3:] /= np.linalg.norm(U[..., 3:], axis=2, keepdims=True)
+            X[rows] = U.reshape(U.shape[0], -1)[:, self.disc.free]
+        return X
+
     def evaluate(self, X, lam, *, tangent=True, stress=None, want_strain=False):
         """(R (N, n free), block-tridiagonal tangent or None, strain) at states X, load factors lam (N,)."""
         d, N = self.disc, X.shape[0]

@@ -325,3 +325,20 @@ class RodSystem:
 
     def reduce(self, U: np.ndarray) -> np.ndarray:
         return U[self.disc.free].copy()
+
+    def project(self, X: np.ndarray) -> np.ndarray:
+        """X with each node's q put back on |q| = 1 (newton, after a correction above PROJECT_ABOVE).
+
+        In the normalised full model no energy depends on |q| (the directors are those of q/|q|):
+        at the nodes the projection changes no director, only the gauge the unity penalty holds,
+        which an additive step of size h leaves off by O(h^2) (Newton's next step would spend
+        itself on pulling it back). Other models, the raw variant and a piecewise residual (a
+        contact's active set: there the projection made the set cycle, a tube on its lumen's wall
+        in tests/rod/test_contact_short_stretch.py): X unchanged."""
+        smooth = all(term.branch(prep) is None for term, prep in self.nodal)
+        if self.model != FULL or self.variant != kin.NORMALISED or not smooth:
+            return X
+        U = self.expand(X).reshape(self.disc.nscalar, self.disc.nf)
+        q = U[self.disc.value_dofs, 3:7]  # the point values (the Hermite's slopes keep theirs)
+        U[self.disc.value_dofs, 3:7] = q / np.linalg.norm(q, axis=1, keepdims=True)
+        return self.reduce(U.ravel())
