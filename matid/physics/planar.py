@@ -48,7 +48,7 @@ def derivatives(z, lam, props, kappa_ref, tangent, *, stress, want_strain, compa
     Es, Ee, Eb = props["E_s"].ravel(), props["E_e"].ravel(), props["E_b"].ravel()
     n1, n3 = Es * nu1, Ee * (nu3 - 1.0)
     g = np.empty((n, 6))
-    g[:, 0], g[:, 1] = 0.0, 0.0  # no elastic force on r itself (dead loads: their terms)
+    g[:, :2] = 0.0  # no elastic force on r itself (dead loads: their terms)
     g[:, 2] = n3 * nu1 - n1 * nu3
     g[:, 3] = n1 * c + n3 * s
     g[:, 4] = n3 * c - n1 * s
@@ -68,11 +68,15 @@ def derivatives(z, lam, props, kappa_ref, tangent, *, stress, want_strain, compa
         strain = (nn.reshape(shape + (2,)), CJ.reshape(shape + (2, 6)))
     if stress is not None:  # NaN rows: the displacements' stress (a stack of mixed and consistent)
         stress = stress.reshape(n, 2)
-        n1 = np.where(np.isnan(stress[:, 0]), n1, stress[:, 0])
-        n3 = np.where(np.isnan(stress[:, 1]), n3, stress[:, 1])
-    tt = b * nu1 - a * nu3 - n1 * nu1 - n3 * nu3
-    tx, tz = a * c + b * s - n1 * s + n3 * c, b * c - a * s - n1 * c - n3 * s
-    xx, xz, zz = Esc * c + Ees * s, Ees * c - Ess * c, Ess * s + Eec * c
+        nan = np.isnan(stress)
+        if nan.any():
+            n1, n3 = np.where(nan[:, 0], n1, stress[:, 0]), np.where(nan[:, 1], n3, stress[:, 1])
+        else:  # one scene's mixed Newton: every point has its own
+            n1, n3 = stress[:, 0], stress[:, 1]
+    # tt = b nu1 - a nu3 - n.nu, tx = a c + b s - n1 s + n3 c, tz = b c - a s - n1 c - n3 s, grouped
+    p, r = a + n3, b - n1
+    tt, tx, tz = r * nu1 - p * nu3, p * c + r * s, r * c - p * s
+    xx, xz, zz = Esc * c + Ees * s, (Ees - Ess) * c, Ess * s + Eec * c
     if compact:  # the entries that can be non-zero, in the order of COMPACT
         H = np.stack([tt, tx, tz, xx, xz, zz, Eb])
         return g.reshape(shape + (6,)), H.reshape((7,) + shape), strain

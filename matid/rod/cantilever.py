@@ -185,7 +185,7 @@ def equilibrium(
     if isinstance(start, Equilibrium):
         system.stress_start = start.stress_at(disc)
         carry(system, start)  # the contact multipliers (contact_rounds)
-        start, kinks = start.state(), start.kinks()
+        start, kinks = start.state(), start.kinks
     X = _warm(system, start, provisional, kinks) if start is not None and element == "P2" else None
     if X is None and start is None and element == "P2" and (cold := cold_start(system)) is not None:
         system.stress_start = cold[1]
@@ -269,13 +269,14 @@ class Equilibrium:
         if self.stress is None or self.disc.element != "P2" or self.stress.shape[1] != 2:
             return None
         meshes = (self.disc.vertices.tobytes(), self.disc.s_quad.tobytes(), disc.s_quad.tobytes())
-        R = stress_recovery(*meshes, self.kinks())
+        R = stress_recovery(*meshes, self.kinks)
         ns = self.stress.shape[-1]
         return (R @ self.stress.reshape(-1, ns)).reshape(disc.s_quad.shape + (ns,))
 
+    @functools.cached_property
     def kinks(self) -> bytes | None:
         """Where this state's fields may kink: its scene's breaks (bytes), None with contact (its
-        forces kink them anywhere) or without a scene."""
+        forces kink them anywhere) or without a scene (read by both transfers of a warm start)."""
         smooth = self.scene is not None and self.contact is None
         return np.asarray(breaks(self.scene), float).tobytes() if smooth else None
 
