@@ -121,7 +121,11 @@ def _solve_forward(scene: Scene, *, elements, model, variant, element, start=Non
         return refine(at, tolerance=scene.tolerance, fixed=fixed, enough=enough, cap=cap, more=more)
 
     fixed = elements or scene.elements
-    result, est, rounds, moved = contact_rounds(meshes_at, scene.tolerance)
+    if scene.walls or scene.lumen is not None:
+        result, est, rounds, moved = contact_rounds(meshes_at, scene.tolerance)
+    else:  # nothing to touch: contact_rounds' first round is the answer, without its bookkeeping
+        result, est = meshes_at(())
+        rounds, moved = [est], 0.0
     estimate = {
         "method": "richardson",
         "order": est.order,
