@@ -333,7 +333,7 @@ def follow(
             first = probe[1:] if probe is not None and probe[0] == lam_try and slope is None else None
             probe = None  # the probe was at the start: only the first attempt may use it
             accept = XTOL if provisional else 0.0
-            info.confirmed = True
+            info.confirmed, info.last = True, float("inf")
             try:
                 x_new, its, lu = newton(system, guess, lam_try, first=first, accept=accept, info=info)
                 check_admissible(system, x_new, lam_try, lu)
