@@ -310,7 +310,7 @@ def newton(stack: Stack, X0: np.ndarray, lam: np.ndarray, stress0: np.ndarray, f
         S = stack.stress_step(strain, dx, alpha, S)
         S[size <= nw.MIXED_ABOVE] = np.nan
         x = x + dx * alpha[:, None]
-        x = stack.project(x, size > nw.PROJECT_ABOVE)
+        x = stack.project(x, (size > nw.PROJECT_ABOVE) & (size <= nw.MAX_STEP))
     return X, its, pd, out_stress, reason, factors
 
 

@@ -329,10 +329,11 @@ class RodSystem:
     def project(self, X: np.ndarray) -> np.ndarray:
         """X with each node's q put back on |q| = 1 (newton, after a correction above PROJECT_ABOVE).
 
-        In the normalised full model no energy depends on |q| (the directors are those of q/|q|):
-        at the nodes the projection changes no director, only the gauge the unity penalty holds,
-        which an additive step of size h leaves off by O(h^2) (Newton's next step would spend
-        itself on pulling it back). Other models, the raw variant and a piecewise residual (a
+        In the normalised full model the directors are those of q/|q|: at the nodes the projection
+        changes no director, only the gauge the unity penalty holds, which an additive step of
+        size h leaves off by O(h^2) (Newton's next step would spend itself on pulling it back).
+        Between the nodes q is interpolated, so the directors at the points move by O(h^2) too:
+        no converged state is projected. Other models, the raw variant and a piecewise residual (a
         contact's active set: there the projection made the set cycle, a tube on its lumen's wall
         in tests/rod/test_contact_short_stretch.py): X unchanged."""
         smooth = all(term.branch(prep) is None for term, prep in self.nodal)
