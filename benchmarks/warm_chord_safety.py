@@ -60,6 +60,12 @@ TIMEOUT_S = 60.0
 UNPROJECTED = "WARM_CHORD_UNPROJECTED"
 #: set in a worker's environment: every stability verdict also taken afresh (--audit)
 AUDIT = "WARM_CHORD_AUDIT"
+#: set in a worker's environment: no cold start, every load step at most PATH_STEP (--paths)
+PATH = "WARM_CHORD_PATH"
+PATH_STEP = 0.02
+#: --paths: scenes whose outcomes differ or whose tips are this far apart (/ L) are solved again along
+#: the quasi-static path, and a tree is "on it" when its tip is this close to that one's
+PATH_APART = 1e-3
 #: scenes per family in the full run (--quick: about a tenth)
 COUNTS = {"magnetic": 380, "tip_force": 220, "planar_mix": 330, "spatial": 170, "contact": 90,
           "advance_aim": 12, "fixed_elements": 280}  # fmt: skip
@@ -344,12 +350,23 @@ def worker(scene_file: Path, out_file: Path) -> None:
 
     RodSystem.evaluate, cantilever.equilibrium = counted, redo
     audits = []  # (verdict from Newton's factor, verdict from the consistent tangent at the state)
-    if os.environ.get(AUDIT):
+    if os.environ.get(AUDIT):  # the confirmations' and warm starts' verdicts, and the continuation's
+        import matid.rod.newton as nw
+
         cantilever.check_admissible = _audited(cantilever.check_admissible, counts, audits)
+        nw.check_admissible = _audited(nw.check_admissible, counts, audits)
     if os.environ.get(UNPROJECTED):  # the branch without 338edff's gauge projection (attribution)
         import matid.rod.newton as nw
 
         nw.PROJECT_ABOVE = math.inf
+    if os.environ.get(PATH):  # the quasi-static path: small load steps from the unloaded rod only
+        import functools
+
+        import matid.rod.newton as nw
+
+        nw.MAX_LOAD_STEP = PATH_STEP
+        cantilever.cold_start = lambda system: None
+        cantilever.follow = functools.partial(nw.follow, first_step=PATH_STEP)
     signal.signal(signal.SIGPROF, _on_alarm)
     with open(out_file, "w") as out:
         out.write(json.dumps({"matid": matid.__file__}) + "\n")
@@ -491,6 +508,31 @@ def _run(scene_list: list[dict], runs: dict[str, tuple[Path, dict]]) -> tuple[di
     return records, trees
 
 
+def on_path(scene_list: list[dict], findings: list[dict], tree: Path) -> None:
+    """Each finding whose outcomes differ or whose tips are PATH_APART apart (no walls, [advance] or
+    [aim]) gets "path": the outcome and tip of ``tree`` solving it along the quasi-static path (the
+    worker's PATH), and for each side whether its answer is on it (tip within PATH_APART)."""
+    by_id = {s["id"]: s for s in scene_list}
+
+    def wanted(f):
+        a, b, raw = f["main"], f["branch"], by_id[f["id"]].get("raw", {})
+        if {"wall", "lumen", "advance", "aim"} & set(raw) or "tip" not in a:
+            return False
+        apart = a["tip"] and b["tip"] and math.dist(a["tip"], b["tip"]) > PATH_APART
+        return a["outcome"] != b["outcome"] or apart
+
+    chosen = [f for f in findings if wanted(f)]
+    if not chosen:
+        return
+    records, _ = _run([by_id[f["id"]] for f in chosen], {"path": (tree, {PATH: "1"})})
+    for f in chosen:
+        r = records["path"][f["id"]]
+        near = {w: r["outcome"] == "solved" and f[w]["outcome"] == "solved"
+                and math.dist(r["tip"], f[w]["tip"]) < PATH_APART for w in ("main", "branch")}  # fmt: skip
+        f["path"] = {"outcome": r["outcome"], "tip": r.get("tip"), "main_on_it": near["main"],
+                     "branch_on_it": near["branch"]}  # fmt: skip
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="about a tenth of the scenes (< 2 min)")
@@ -503,6 +545,9 @@ def main() -> int:
     p.add_argument("--audit", action="store_true",
                    help="every stability verdict of cantilever's check_admissible also taken with the "
                    "consistent tangent at the state (both trees; the disagreements listed)")  # fmt: skip
+    p.add_argument("--paths", action="store_true",
+                   help="solve each scene whose outcomes differ or whose tips are far apart again "
+                   "along the quasi-static path (load steps <= PATH_STEP from the unloaded rod)")  # fmt: skip
     p.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
     p.add_argument("--scenes", type=Path, help=argparse.SUPPRESS)
     p.add_argument("--out", type=Path, help=argparse.SUPPRESS)
@@ -527,6 +572,8 @@ def main() -> int:
     out = {"trees": trees, "scenes": scene_list, "records": records}
     for name in [n for n in runs if n != "main"]:
         rows, findings = compare(scene_list, records["main"], records[name])
+        if args.paths:
+            on_path(scene_list, findings, args.before)
         print(f"## main -> {name}\n\n{table(rows)}\n\n{len(findings)} scenes differ:")
         for f in findings:
             print(json.dumps(f))
