@@ -1,7 +1,7 @@
 """Same answers as another tree? Every scene of a seeded list solved by two matid trees, compared.
 
     python benchmarks/warm_chord_safety.py [--quick] [--seed N] [--json OUT] [--before /work/wt/final]
-                                           [--unprojected] [--audit]
+                                           [--unprojected] [--audit] [--paths]
 
 (issue 32: the quartic warm starts, the chord confirmation, the gauge projection and the skipped
 contact rounds, against main.) The script writes the scenes to a file and runs itself twice as a
@@ -24,14 +24,19 @@ load factor it reached (FOLD_SHORT), where the stability test's tangent is nearl
 
 ``--unprojected`` adds a third run, this tree with newton.PROJECT_ABOVE = inf (338edff's gauge
 projection off), to tell its effects from the others'. ``--audit`` takes every stability verdict of
-cantilever.check_admissible twice, with Newton's factor (the chord confirmation's: one correction
-before the state) and afresh with the consistent tangent at the state, and counts disagreements.
+check_admissible (cantilever's: confirmations and warm starts; newton.follow's: each load step)
+twice, with Newton's factor (one correction before the state) and afresh with the consistent tangent
+at the state, and counts disagreements. ``--paths`` solves each scene whose trees disagree (outcome,
+or tips PATH_APART apart) again along the quasi-static path, and says whose answer is on it.
 
-Measured (issue 32, main 22fbcf1 against da72bb7, 16 seeds, 26071 scenes, 2026-11-29): the branch
-without the projection gives main's outcome in all but 5 scenes (round-off of the regrouped
-planar.derivatives sends a continuation near a bifurcation onto the other branch: 1 new failure, 4 new
-solves), tips within 6e-12 L on the same meshes; with it, 9 new failures and 63 new solves, all in
-the full model; the chord's verdict never differs from the fresh one where main's does not.
+Measured (issue 32, main 22fbcf1 against da72bb7, seeds 32-47, 26211 scenes, 2026-11-29): without
+the projection, main's outcome in all but 5 scenes and tips within 6.3e-12 L (5.1e-10 with fixed
+coarse meshes) on the same meshes (the 5:
+round-off of the regrouped planar.derivatives at a bifurcation, where the continuation accepts an
+unstable state: tests/rod/test_continuation_stability.py); with it, 8 more new failures and 59 more
+new solves, all full-model, 50 of the 63 new solves where load steps of 0.02 fail as well (--paths),
+and 3 answers on another branch (main's the one off the small-step path in 2). The confirmations'
+verdicts (--audit) differ from the fresh ones in the same scenes as main's.
 """
 
 from __future__ import annotations
