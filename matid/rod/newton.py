@@ -17,6 +17,7 @@ failure, never a value.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -211,8 +212,9 @@ def _max_abs(d: np.ndarray) -> float:
 
 
 def _finite(v: np.ndarray) -> bool:
-    """No NaN or infinity in v (one dot product: any NaN, infinity or overflow makes it non-finite)."""
-    return bool(np.isfinite(v @ v))
+    """No NaN or infinity in v (one dot product: any NaN, infinity or overflow makes it non-finite;
+    math.isfinite on the scalar: np.isfinite's ufunc call costs ~0.5 us more, 14 times a solve)."""
+    return math.isfinite(v @ v)
 
 
 def _factor(K) -> object:
