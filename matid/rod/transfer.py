@@ -78,14 +78,7 @@ def _p4_operator(vertices: bytes, points: bytes, breaks: bytes):
     cols = np.minimum(first[:, None] + np.arange(5), nodes.size - 1)
     use = np.ones(cols.shape, bool)
     use[:, 3:] = (left | right)[:, None]
-    x = nodes[cols]
-    weights = np.ones(cols.shape)
-    for k in range(5):  # Lagrange weight of stencil node k over the nodes in use
-        for m in range(5):
-            if m != k:
-                both = use[:, m] & use[:, k]
-                weights[:, k] *= np.where(both, (s - x[:, m]) / np.where(both, x[:, k] - x[:, m], 1.0), 1.0)
-    return _operator(cols, np.where(use, weights, 0.0), nodes.size)
+    return _operator(cols, _lagrange(nodes[cols], use, s), nodes.size)
 
 
 @functools.lru_cache(maxsize=64)
@@ -108,11 +101,16 @@ def stress_recovery(vertices: bytes, coarse: bytes, points: bytes, breaks: bytes
     cols = np.stack([2 * e - 1, 2 * e, 2 * e + 1, 2 * e + 2], axis=1)
     use = np.stack([left, np.ones_like(left), np.ones_like(left), right], axis=1)
     cols = np.clip(cols, 0, q.size - 1)
-    x = q.ravel()[cols]
-    weights = np.ones(cols.shape)
-    for k in range(4):  # Lagrange weight of stencil point k over the points in use
-        for m in range(4):
+    return _operator(cols, _lagrange(q.ravel()[cols], use, s), q.size)
+
+
+def _lagrange(x: np.ndarray, use: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Lagrange weights (n, k) at the points s (n,) of their stencils' nodes x (n, k), over the
+    nodes in ``use`` (n, k) (zero at the others)."""
+    weights = np.ones(x.shape)
+    for k in range(x.shape[1]):  # the weight of stencil node k
+        for m in range(x.shape[1]):
             if m != k:
                 both = use[:, m] & use[:, k]
                 weights[:, k] *= np.where(both, (s - x[:, m]) / np.where(both, x[:, k] - x[:, m], 1.0), 1.0)
-    return _operator(cols, np.where(use, weights, 0.0), q.size)
+    return np.where(use, weights, 0.0)

@@ -16,12 +16,12 @@ from matid.bench import peers
 from matid.bench import scenes as S
 from matid.physics import kinematics as kin
 from matid.rod import batch
-from matid.rod import system as rod_system
 from matid.rod.batch_full import FullStack
 from matid.rod.cantilever import INTORDER, default_penalty, equilibrium, mesh, prepare_scene
 from matid.rod.models import FULL, PLANAR
 from matid.rod.scenes import scene_from_dict
 from matid.rod.system import RodSystem
+from tests.rod.test_aligned import _counted  # the same counter of RodSystem.evaluate
 
 SCALE = S.E_B / S.L**2
 #: stacked evaluations (rows) allowed for three 3D bends at 4 elements (measured: 24 with the
@@ -106,17 +106,6 @@ def test_full_stack_projects_the_rows_asked_as_rod_system_does_and_no_other():
     for i, system in enumerate(systems):
         expected = system.project(X[i]) if rows[i] else X[i]
         assert np.array_equal(Y[i], expected), i
-
-
-def _counted(monkeypatch) -> list:
-    calls, original = [], rod_system.RodSystem.evaluate
-
-    def evaluate(self, X, lam, **kw):
-        calls.append(lam)
-        return original(self, X, lam, **kw)
-
-    monkeypatch.setattr(rod_system.RodSystem, "evaluate", evaluate)
-    return calls
 
 
 def test_the_peers_3d_bend_takes_fewer_evaluations_with_the_projection_to_the_same_tip(monkeypatch):
