@@ -106,11 +106,9 @@ def stress_recovery(vertices: bytes, coarse: bytes, points: bytes, breaks: bytes
 
 def _lagrange(x: np.ndarray, use: np.ndarray, s: np.ndarray) -> np.ndarray:
     """Lagrange weights (n, k) at the points s (n,) of their stencils' nodes x (n, k), over the
-    nodes in ``use`` (n, k) (zero at the others)."""
-    weights = np.ones(x.shape)
-    for k in range(x.shape[1]):  # the weight of stencil node k
-        for m in range(x.shape[1]):
-            if m != k:
-                both = use[:, m] & use[:, k]
-                weights[:, k] *= np.where(both, (s - x[:, m]) / np.where(both, x[:, k] - x[:, m], 1.0), 1.0)
-    return np.where(use, weights, 0.0)
+    nodes in ``use`` (n, k) (zero at the others): every factor (s - x_m) / (x_k - x_m) at once."""
+    k = x.shape[1]
+    both = use[:, :, None] & use[:, None, :] & ~np.eye(k, dtype=bool)  # [point, node k, node m]
+    gap = np.where(both, x[:, :, None] - x[:, None, :], 1.0)
+    factors = np.where(both, (s[:, None, None] - x[:, None, :]) / gap, 1.0)
+    return np.where(use, factors.prod(axis=2), 0.0)
