@@ -249,10 +249,13 @@ class Equilibrium:
         if self.pending is None:
             return self
         t0, (system, X, redo) = time.perf_counter(), self.pending
-        chord, its, lu = confirm_by_residual(system, X, 1.0, self.info), 1, self.info.lu
-        system.stress_start = None  # the consistent tangent, as the iteration it stands for
         try:
-            X, its, lu = (chord, its, lu) if chord is not None else newton(system, X, 1.0)
+            chord = confirm_by_residual(system, X, 1.0, self.info)
+            if chord is not None:
+                X, its, lu = chord, 1, self.info.lu
+            else:
+                system.stress_start = None  # the consistent tangent, as the iteration it stands for
+                X, its, lu = newton(system, X, 1.0)
             check_admissible(system, X, 1.0, lu)
         except NewtonFailure:
             return redo()

@@ -69,9 +69,7 @@ def _p4_operator(vertices: bytes, points: bytes, breaks: bytes):
     nodes = np.empty(2 * v.size - 1)
     nodes[::2], nodes[1::2] = v, 0.5 * (v[1:] + v[:-1])
     e = np.clip(np.searchsorted(v, s, side="right") - 1, 0, v.size - 2)
-    jumps = np.frombuffer(breaks)
-    inner = ~np.isclose(v[:, None], jumps[None, :], rtol=0.0, atol=1e-12).any(axis=1)
-    left, right = (e > 0) & inner[e], (e < v.size - 2) & inner[np.minimum(e + 1, v.size - 1)]
+    left, right = _neighbours(v, e, breaks)
     near_left = s - v[e] < v[e + 1] - s
     left, right = left & (near_left | ~right), right & ~(left & near_left)
     first = np.where(left, 2 * e - 2, 2 * e)  # the stencil: 5 nodes from here, or the element's 3
@@ -95,13 +93,18 @@ def stress_recovery(vertices: bytes, coarse: bytes, points: bytes, breaks: bytes
     if breaks is None:
         t = (s - q[e, 0]) / (q[e, 1] - q[e, 0])
         return _operator(np.stack([2 * e, 2 * e + 1], axis=1), np.stack([1.0 - t, t], axis=1), q.size)
-    jumps = np.frombuffer(breaks)
-    inner = ~np.isclose(v[:, None], jumps[None, :], rtol=0.0, atol=1e-12).any(axis=1)
-    left, right = (e > 0) & inner[e], (e < v.size - 2) & inner[np.minimum(e + 1, v.size - 1)]
+    left, right = _neighbours(v, e, breaks)
     cols = np.stack([2 * e - 1, 2 * e, 2 * e + 1, 2 * e + 2], axis=1)
     use = np.stack([left, np.ones_like(left), np.ones_like(left), right], axis=1)
     cols = np.clip(cols, 0, q.size - 1)
     return _operator(cols, _lagrange(q.ravel()[cols], use, s), q.size)
+
+
+def _neighbours(v: np.ndarray, e: np.ndarray, breaks: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """Whether element e's left and right neighbours (of the mesh with vertices v) are in its piece:
+    there is one, and the vertex between is none of ``breaks`` (bytes)."""
+    inner = ~np.isclose(v[:, None], np.frombuffer(breaks)[None, :], rtol=0.0, atol=1e-12).any(axis=1)
+    return (e > 0) & inner[e], (e < v.size - 2) & inner[np.minimum(e + 1, v.size - 1)]
 
 
 def _lagrange(x: np.ndarray, use: np.ndarray, s: np.ndarray) -> np.ndarray:

@@ -47,10 +47,7 @@ class Magnetisation(Term):
         """The signed moment per length along d3 at points s."""
         out = np.zeros_like(s)
         for start, end, value in self.along_d3:
-            if start <= 0.0 and end >= 1.0:  # the whole rod (scaled s in [0, 1]): no comparisons
-                out += value
-            else:
-                out += np.where((s >= start) & (s <= end), value, 0.0)
+            out += np.where((s >= start) & (s <= end), value, 0.0)
         return out
 
     def directed_at(self, s: np.ndarray) -> np.ndarray | None:
